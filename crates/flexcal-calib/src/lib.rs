@@ -1,0 +1,1 @@
+//! flexcal-calib: see the crate description. Under construction.

@@ -1,0 +1,1 @@
+//! flexcal-compensate: see the crate description. Under construction.

@@ -1,0 +1,1 @@
+//! flexcal-elastic: see the crate description. Under construction.

@@ -1,0 +1,1 @@
+//! flexcal-fem: see the crate description. Under construction.

@@ -1,0 +1,1 @@
+//! flexcal-fuzzy: see the crate description. Under construction.

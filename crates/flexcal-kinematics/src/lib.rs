@@ -1,0 +1,1 @@
+//! flexcal-kinematics: see the crate description. Under construction.

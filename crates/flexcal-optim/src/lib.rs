@@ -1,0 +1,3 @@
+//! flexcal-optim: robot-agnostic numerics (under construction).
+
+pub mod solis_wets;

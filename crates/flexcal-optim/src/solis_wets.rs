@@ -1,0 +1,1 @@
+//! Solis-Wets random search (under construction).

@@ -1,0 +1,1 @@
+//! flexcal-twin: see the crate description. Under construction.
