@@ -1,0 +1,177 @@
+//! `flexcal bench`: times the core operations on this machine, so a user can
+//! see whether model-based compensation fits a controller cycle.
+//!
+//! Each operation runs in batches after a warm-up; the figure is the median
+//! over batches of the time per operation. The operations and fixtures are
+//! the ones of the criterion benchmarks (`cargo bench`), which give the same
+//! figures with confidence intervals.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use flexcal_compensate::compensation::{Cell, ConstantCompliance, ElastoGeometricModel};
+use flexcal_fuzzy::{FuzzyModel, FuzzyStructure, Partition};
+use flexcal_kinematics::{Data, RobotDescription, forward_pose, param_jacobian_into};
+use nalgebra::{DMatrix, Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
+use serde::Serialize;
+
+/// Arguments of `flexcal bench`.
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// Print JSON (`{"operations": [{"name", "ns_per_op", "iterations"}]}`).
+    #[arg(long)]
+    pub json: bool,
+    /// Time budget per operation [ms].
+    #[arg(long, default_value_t = 300)]
+    pub budget_ms: u64,
+}
+
+/// One timed operation.
+#[derive(Debug, Serialize)]
+pub struct Timing {
+    /// What was timed.
+    pub name: String,
+    /// Median time per operation [ns].
+    pub ns_per_op: f64,
+    /// Operations run in total.
+    pub iterations: u64,
+}
+
+/// Times `op` (which performs `per_call` operations per call).
+fn time(name: &str, budget: Duration, per_call: u64, mut op: impl FnMut()) -> Timing {
+    // Warm up and size the batches to ~1/10 of the budget.
+    let start = Instant::now();
+    let mut calls = 0u64;
+    while start.elapsed() < budget / 20 || calls < 3 {
+        op();
+        calls += 1;
+    }
+    let per_call_time = start.elapsed().as_secs_f64() / calls as f64;
+    let batch = ((budget.as_secs_f64() / 10.0) / per_call_time).max(1.0) as u64;
+    let mut samples = Vec::new();
+    let mut total = 0;
+    for _ in 0..9 {
+        let t = Instant::now();
+        for _ in 0..batch {
+            op();
+        }
+        samples.push(t.elapsed().as_secs_f64() / (batch * per_call) as f64);
+        total += batch * per_call;
+    }
+    samples.sort_by(f64::total_cmp);
+    Timing {
+        name: name.to_string(),
+        ns_per_op: samples[samples.len() / 2] * 1e9,
+        iterations: total,
+    }
+}
+
+/// A 2-input model with 4 x 3 = 12 rules, like the paper's compliance models.
+pub fn twelve_rule_model() -> anyhow::Result<FuzzyModel> {
+    let structure = FuzzyStructure::new(
+        vec!["theta2".into(), "theta8".into()],
+        vec![
+            Partition::new(vec![-1.0, -0.4, 0.1, 0.6])?,
+            Partition::new(vec![0.5, 0.8, 1.1])?,
+        ],
+    )?;
+    let conclusions: Vec<f64> = (0..12).map(|i| 1e-6 * (1.0 + 0.1 * i as f64)).collect();
+    Ok(FuzzyModel::new(structure, "C_xx".into(), conclusions)?)
+}
+
+/// Runs `flexcal bench`.
+pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    let budget = Duration::from_millis(args.budget_ms.max(10));
+    let mut timings = Vec::new();
+    for robot in ["ur10", "ir663"] {
+        let model = RobotDescription::builtin(robot)?.build()?;
+        let mut data = Data::new(&model);
+        let xi = model.nominal_params().to_vec();
+        // A reachable configuration in the middle of the limits.
+        let q: Vec<f64> = model
+            .actuated_limits()
+            .iter()
+            .map(|(lo, hi)| lo + 0.45 * (hi - lo))
+            .collect();
+        forward_pose(&model, &mut data, &q, &xi)?;
+        timings.push(time(&format!("{robot}: forward model"), budget, 1, || {
+            black_box(forward_pose(&model, &mut data, black_box(&q), &xi).ok());
+        }));
+        let mut jac = DMatrix::zeros(6, model.n_params());
+        timings.push(time(
+            &format!("{robot}: forward model + parameter Jacobian (6 x {})", model.n_params()),
+            budget,
+            1,
+            || {
+                black_box(param_jacobian_into(&model, &mut data, black_box(&q), &xi, &mut jac).ok());
+            },
+        ));
+    }
+    let fuzzy = twelve_rule_model()?;
+    let n = 4096;
+    let inputs: Vec<f64> = (0..n)
+        .flat_map(|i| {
+            let t = i as f64 / n as f64;
+            [-1.0 + 1.6 * t, 0.5 + 0.6 * ((7.0 * t) % 1.0)]
+        })
+        .collect();
+    let mut outputs = vec![0.0; n];
+    timings.push(time(
+        "fuzzy model, 2 inputs, 12 rules: one evaluation",
+        budget,
+        n as u64,
+        || {
+            fuzzy
+                .evaluate_batch(black_box(&inputs), &mut outputs)
+                .expect("inputs are finite");
+            black_box(&outputs);
+        },
+    ));
+    // Compensation of one path point (payload only) with a constant compliance.
+    let model = RobotDescription::builtin("ur10")?.build()?;
+    let mut data = Data::new(&model);
+    let elastic = ConstantCompliance {
+        compliance: Matrix6::from_diagonal(&Vector6::new(1.5e-6, 1.5e-6, 1.5e-6, 2e-7, 2e-7, 2e-7)),
+    };
+    let egm = ElastoGeometricModel {
+        model: &model,
+        xi: model.nominal_params().to_vec(),
+        elastic: &elastic,
+        process: None,
+        cell: Cell {
+            x_base_part: Isometry3::identity(),
+            payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
+        },
+    };
+    let target = Isometry3::from_parts(
+        Translation3::new(0.6, 0.3, 0.4),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+    );
+    let seed = egm
+        .compensate_pose(&mut data, &target, &[0.3, -1.2, 1.5, -1.9, -1.57, 0.0], &Vector3::zeros(), &Default::default())?
+        .q_uncompensated;
+    let options = Default::default();
+    timings.push(time(
+        "ur10: compensation of one path point (constant compliance, 920 N)",
+        budget,
+        1,
+        || {
+            black_box(
+                egm.compensate_pose(&mut data, &target, &seed, &Vector3::zeros(), &options)
+                    .ok(),
+            );
+        },
+    ));
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({ "operations": timings }))?
+        );
+    } else {
+        println!("{:<72} {:>12}", "operation", "ns/op");
+        for t in &timings {
+            println!("{:<72} {:>12.1}", t.name, t.ns_per_op);
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,726 @@
+//! The elasto-geometrical model (39)-(40) and the computation of commanded
+//! poses ("fake poses") that bring the deflected robot onto a target path.
+//!
+//! # The model
+//! For actuated coordinates `q`, the tool lands at
+//! `S(q) = f(q, xi) (+) h(q, W)`: the geometric forward model followed by the
+//! elastic TCP displacement `h = [dp; dphi]` under the wrench `W` on the tool.
+//! `W` is the payload (a constant wrench in the base frame, e.g. the 920 N
+//! dead weight of the paper's experiment) plus the process wrench, which
+//! depends on where the tool actually is. The actual pose is therefore the
+//! fixed point `S = f (+) h(q, W(S))`, found by fixed-point iteration (the
+//! coupling `|dh/dS| = (process stiffness) x (robot compliance)` is small,
+//! about 0.05 for the forming beam) with a Newton fallback on the position.
+//!
+//! # Compensation
+//! Find `q` such that `S(q) = target`. Starting from the inverse geometric
+//! model of the target (which gives the predicted uncompensated error), each
+//! fixed-point step corrects the command by the remaining error through the
+//! joint Jacobian: `q <- q - J(q)^-1 (S(q) (-) target)`. It converges
+//! linearly at the rate of the neglected `dh/dq`; when it stalls, Newton on
+//! the coupled system with the full Jacobian of `S(q)` (elastic and process
+//! terms included, by central differences) takes over.
+
+use flexcal_kinematics::{
+    Data, InverseOptions, KinematicsError, Model, inverse_pose, joint_jacobian_into,
+};
+use nalgebra::{
+    Isometry3, Matrix3, Matrix6xX, SVector, Translation3, UnitQuaternion, Vector3, Vector6,
+};
+
+use crate::path::PathPoint;
+use crate::process::{ProcessError, ProcessModel, ToolState};
+
+/// Error of an elastic model evaluation, as reported by its implementation.
+pub type ElasticEvalError = Box<dyn std::error::Error + Send + Sync>;
+
+/// An elastic model of a robot, seen from its TCP: the FE beam model, a
+/// joint-compliance model or the fuzzy compliance model all implement it.
+pub trait ElasticModel: Send + Sync {
+    /// A short description for reports.
+    fn describe(&self) -> String;
+
+    /// Elastic displacement `[dp; dphi]` of the TCP (m, rad), in the robot
+    /// base frame, for actuated coordinates `q` under the wrench
+    /// `wrench_base` `[f; m]` (N, N.m) applied at the TCP and expressed in the
+    /// base frame. Models that include the robot's own weight add its effect.
+    fn tcp_displacement(
+        &self,
+        q: &[f64],
+        wrench_base: &Vector6<f64>,
+    ) -> Result<Vector6<f64>, ElasticEvalError>;
+}
+
+/// An elastic model with a configuration-independent compliance matrix
+/// (6 x 6, SI units, base frame): a simple stand-in and a test fixture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConstantCompliance {
+    /// Compliance `C` such that `dS = C W` (m/N, rad/(N.m), ...).
+    pub compliance: nalgebra::Matrix6<f64>,
+}
+
+impl ElasticModel for ConstantCompliance {
+    fn describe(&self) -> String {
+        "constant compliance".into()
+    }
+
+    fn tcp_displacement(
+        &self,
+        _q: &[f64],
+        wrench_base: &Vector6<f64>,
+    ) -> Result<Vector6<f64>, ElasticEvalError> {
+        Ok(self.compliance * wrench_base)
+    }
+}
+
+/// Errors of the elasto-geometrical model and of compensation.
+#[derive(Debug, thiserror::Error)]
+pub enum CompensationError {
+    /// The geometric model failed (loop cannot close, wrong lengths...).
+    #[error(transparent)]
+    Kinematics(#[from] KinematicsError),
+    /// The process model failed.
+    #[error(transparent)]
+    Process(#[from] ProcessError),
+    /// The elastic model failed.
+    #[error("elastic model: {0}")]
+    Elastic(String),
+    /// The robot and the process found no common equilibrium.
+    #[error(
+        "robot and process found no common equilibrium in {iterations} iterations (last change {last_change_m:.3e} m)"
+    )]
+    CouplingDiverged {
+        /// Iterations spent.
+        iterations: usize,
+        /// Size of the last position change [m].
+        last_change_m: f64,
+    },
+    /// The commanded pose iteration did not reach the tolerance.
+    #[error(
+        "compensation did not converge: residual {residual_m:.3e} m / {residual_rad:.3e} rad after {iterations} iterations"
+    )]
+    NotConverged {
+        /// Remaining position error [m].
+        residual_m: f64,
+        /// Remaining orientation error [rad].
+        residual_rad: f64,
+        /// Iterations spent (fixed point and Newton).
+        iterations: usize,
+    },
+    /// The joint Jacobian is singular at the commanded configuration.
+    #[error("the robot is at a singular configuration: the correction cannot be solved")]
+    Singular,
+}
+
+/// The robot's cell and load: where the part is and what the tool carries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cell {
+    /// Pose of the part frame R_p in the robot base frame R_0.
+    pub x_base_part: Isometry3<f64>,
+    /// Constant wrench on the tool (payload, dead weight), base frame [N, N.m].
+    pub payload_base: Vector6<f64>,
+}
+
+/// Settings of the solvers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensationOptions {
+    /// Position tolerance on the compensated pose [m] (default 1e-9).
+    pub position_tolerance_m: f64,
+    /// Orientation tolerance [rad] (default 1e-9).
+    pub orientation_tolerance_rad: f64,
+    /// Fixed-point iterations before Newton takes over (default 30).
+    pub max_fixed_point_iterations: usize,
+    /// Newton iterations (default 20).
+    pub max_newton_iterations: usize,
+    /// Iterations of the robot-process equilibrium (default 100).
+    pub max_coupling_iterations: usize,
+    /// Inverse-model settings for the uncompensated command.
+    pub inverse: InverseOptions,
+}
+
+impl Default for CompensationOptions {
+    fn default() -> Self {
+        Self {
+            position_tolerance_m: 1e-9,
+            orientation_tolerance_rad: 1e-9,
+            max_fixed_point_iterations: 30,
+            max_newton_iterations: 20,
+            max_coupling_iterations: 100,
+            inverse: InverseOptions::default(),
+        }
+    }
+}
+
+/// The elasto-geometrical model of a robot in its cell: geometry (model and
+/// identified parameters xi), elasticity, payload and process.
+pub struct ElastoGeometricModel<'a> {
+    /// Geometric model.
+    pub model: &'a Model,
+    /// Geometric parameters xi (SI).
+    pub xi: Vec<f64>,
+    /// Elastic model.
+    pub elastic: &'a dyn ElasticModel,
+    /// Process model (None: payload only).
+    pub process: Option<&'a dyn ProcessModel>,
+    /// Cell and payload.
+    pub cell: Cell,
+}
+
+/// The pose the robot actually reaches for a command.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActualPose {
+    /// Reached TCP pose in the base frame.
+    pub x_base_tcp: Isometry3<f64>,
+    /// Geometric (unloaded) TCP pose in the base frame.
+    pub x_base_geometric: Isometry3<f64>,
+    /// Total wrench on the tool at equilibrium, base frame [N, N.m].
+    pub wrench_base: Vector6<f64>,
+    /// Elastic displacement at equilibrium [m, rad].
+    pub deflection: Vector6<f64>,
+    /// Iterations of the robot-process equilibrium.
+    pub coupling_iterations: usize,
+}
+
+/// Applies a small displacement `[dp; dphi]` to a pose: translation added,
+/// rotation `exp([dphi]x) R`.
+pub fn displace(x: &Isometry3<f64>, d: &Vector6<f64>) -> Isometry3<f64> {
+    let dp = Vector3::new(d[0], d[1], d[2]);
+    let dphi = Vector3::new(d[3], d[4], d[5]);
+    Isometry3::from_parts(
+        Translation3::from(x.translation.vector + dp),
+        UnitQuaternion::from_scaled_axis(dphi) * x.rotation,
+    )
+}
+
+/// Pose difference `[p_a - p_b; phi]` with `R_a = exp([phi]x) R_b`.
+pub fn pose_difference(a: &Isometry3<f64>, b: &Isometry3<f64>) -> Vector6<f64> {
+    let dp = a.translation.vector - b.translation.vector;
+    let phi = (a.rotation * b.rotation.inverse()).scaled_axis();
+    Vector6::new(dp.x, dp.y, dp.z, phi.x, phi.y, phi.z)
+}
+
+impl ElastoGeometricModel<'_> {
+    fn total_wrench(
+        &self,
+        tcp_base: &Vector3<f64>,
+        motion_base: &Vector3<f64>,
+    ) -> Result<Vector6<f64>, CompensationError> {
+        let mut w = self.cell.payload_base;
+        if let Some(process) = self.process {
+            let x_part_base = self.cell.x_base_part.inverse();
+            let tool = ToolState {
+                position: x_part_base.transform_point(&(*tcp_base).into()).coords,
+                motion: x_part_base.rotation * motion_base,
+            };
+            let wp = process.wrench_on_tool(&tool)?;
+            let r = self.cell.x_base_part.rotation;
+            let f = r * Vector3::new(wp[0], wp[1], wp[2]);
+            let m = r * Vector3::new(wp[3], wp[4], wp[5]);
+            w += Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z);
+        }
+        Ok(w)
+    }
+
+    fn deflection(
+        &self,
+        q: &[f64],
+        wrench: &Vector6<f64>,
+    ) -> Result<Vector6<f64>, CompensationError> {
+        self.elastic
+            .tcp_displacement(q, wrench)
+            .map_err(|e| CompensationError::Elastic(e.to_string()))
+    }
+
+    /// The pose actually reached when commanding `q` (equation (39)/(40)),
+    /// robot and process solved together. `motion_base` is the direction of
+    /// travel of the tool (for friction; zero at rest).
+    pub fn actual_pose(
+        &self,
+        data: &mut Data,
+        q: &[f64],
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+    ) -> Result<ActualPose, CompensationError> {
+        let geometric = flexcal_kinematics::forward_pose(self.model, data, q, &self.xi)?;
+        self.actual_from_geometric(q, geometric, motion_base, options)
+    }
+
+    fn actual_from_geometric(
+        &self,
+        q: &[f64],
+        geometric: Isometry3<f64>,
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+    ) -> Result<ActualPose, CompensationError> {
+        let p0 = geometric.translation.vector;
+        // g(p) = position reached when the process sees the tool at p.
+        let reached =
+            |p: &Vector3<f64>| -> Result<(Vector6<f64>, Vector6<f64>), CompensationError> {
+                let w = self.total_wrench(p, motion_base)?;
+                let d = self.deflection(q, &w)?;
+                Ok((w, d))
+            };
+        let (mut w, mut d) = reached(&p0)?;
+        let mut p = p0 + d.fixed_rows::<3>(0);
+        let mut iterations = 1;
+        let mut last_change = f64::INFINITY;
+        let tolerance = options.position_tolerance_m * 1e-2;
+        if self.process.is_some() {
+            let mut converged = false;
+            while iterations < options.max_coupling_iterations {
+                let (w_new, d_new) = reached(&p)?;
+                let p_new = p0 + d_new.fixed_rows::<3>(0);
+                last_change = (p_new - p).norm();
+                w = w_new;
+                d = d_new;
+                p = p_new;
+                iterations += 1;
+                if last_change <= tolerance {
+                    converged = true;
+                    break;
+                }
+                if iterations > 8 && !last_change.is_finite() {
+                    break;
+                }
+            }
+            if !converged {
+                // Newton on r(p) = p - p0 - dp(W(p)) with a central-difference Jacobian.
+                p = p0 + d.fixed_rows::<3>(0);
+                for _ in 0..options.max_newton_iterations {
+                    let r = |p: &Vector3<f64>| -> Result<Vector3<f64>, CompensationError> {
+                        let (_, d) = reached(p)?;
+                        Ok(p - p0 - d.fixed_rows::<3>(0))
+                    };
+                    let r0 = r(&p)?;
+                    if r0.norm() <= tolerance {
+                        let (w_n, d_n) = reached(&p)?;
+                        w = w_n;
+                        d = d_n;
+                        converged = true;
+                        break;
+                    }
+                    let mut jac = Matrix3::zeros();
+                    let h = 1e-7;
+                    for j in 0..3 {
+                        let mut pp = p;
+                        let mut pm = p;
+                        pp[j] += h;
+                        pm[j] -= h;
+                        let col = (r(&pp)? - r(&pm)?) / (2.0 * h);
+                        jac.set_column(j, &col);
+                    }
+                    let step = jac.lu().solve(&(-r0)).ok_or(CompensationError::Singular)?;
+                    last_change = step.norm();
+                    p += step;
+                    iterations += 1;
+                }
+                if !converged {
+                    return Err(CompensationError::CouplingDiverged {
+                        iterations,
+                        last_change_m: last_change,
+                    });
+                }
+            }
+        }
+        Ok(ActualPose {
+            x_base_tcp: displace(&geometric, &d),
+            x_base_geometric: geometric,
+            wrench_base: w,
+            deflection: d,
+            coupling_iterations: iterations,
+        })
+    }
+}
+
+/// How the commanded pose of a point was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Fixed-point iteration converged.
+    FixedPoint,
+    /// Newton on the coupled system was needed.
+    Newton,
+}
+
+/// Result of compensating one path point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensatedPoint {
+    /// Target TCP pose in the base frame.
+    pub target_base: Isometry3<f64>,
+    /// Command without compensation: the inverse geometric model of the target.
+    pub q_uncompensated: Vec<f64>,
+    /// Pose reached with that command: error = reached (-) target [m, rad].
+    pub uncompensated_error: Vector6<f64>,
+    /// Compensated command (actuated coordinates).
+    pub q_commanded: Vec<f64>,
+    /// Commanded TCP pose (the "fake pose"), base frame: the geometric pose of
+    /// `q_commanded`.
+    pub commanded_base: Isometry3<f64>,
+    /// Remaining error after compensation [m, rad].
+    pub residual: Vector6<f64>,
+    /// Wrench on the tool at the compensated equilibrium, base frame.
+    pub wrench_base: Vector6<f64>,
+    /// Iterations (fixed point plus Newton).
+    pub iterations: usize,
+    /// Which solver finished.
+    pub method: Method,
+}
+
+/// Outcome of one path point: its 1-based line in the path file and the
+/// result or the reason it failed.
+#[derive(Debug)]
+pub struct PointOutcome {
+    /// Line of the point in its file (0 for points built in memory).
+    pub line: usize,
+    /// The result.
+    pub result: Result<CompensatedPoint, CompensationError>,
+}
+
+fn converged(e: &Vector6<f64>, options: &CompensationOptions) -> bool {
+    e.fixed_rows::<3>(0).norm() <= options.position_tolerance_m
+        && e.fixed_rows::<3>(3).norm() <= options.orientation_tolerance_rad
+}
+
+fn solve_square(jac: &Matrix6xX<f64>, rhs: &Vector6<f64>) -> Option<nalgebra::DVector<f64>> {
+    let n = jac.ncols();
+    if n == 6 {
+        let m: nalgebra::Matrix6<f64> = jac.fixed_columns::<6>(0).into_owned();
+        m.lu()
+            .solve(rhs)
+            .map(|v| nalgebra::DVector::from_column_slice(v.as_slice()))
+    } else {
+        // Redundant or deficient robots: least squares by SVD.
+        let dj = nalgebra::DMatrix::from_column_slice(6, n, jac.as_slice());
+        let svd = dj.svd(true, true);
+        let rhs = nalgebra::DVector::from_column_slice(rhs.as_slice());
+        svd.solve(&rhs, 1e-12).ok()
+    }
+}
+
+impl ElastoGeometricModel<'_> {
+    /// Compensates one target pose (base frame), starting the inverse model
+    /// from `seed`. `motion_base` is the direction of travel (for friction).
+    pub fn compensate_pose(
+        &self,
+        data: &mut Data,
+        target_base: &Isometry3<f64>,
+        seed: &[f64],
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+    ) -> Result<CompensatedPoint, CompensationError> {
+        let model = self.model;
+        let uncompensated =
+            inverse_pose(model, data, target_base, seed, &self.xi, &options.inverse)?;
+        let q0 = uncompensated.q.clone();
+        let actual0 = self.actual_from_geometric(&q0, uncompensated.pose, motion_base, options)?;
+        let uncompensated_error = pose_difference(&actual0.x_base_tcp, target_base);
+
+        let na = model.n_actuated();
+        let mut jac = Matrix6xX::zeros(na);
+        let mut q = q0.clone();
+        let mut error = uncompensated_error;
+        let mut actual = actual0;
+        let mut iterations = 0;
+        let mut method = Method::FixedPoint;
+        let limits = model.actuated_limits().to_vec();
+        let clamp = |q: &mut Vec<f64>| {
+            for (v, &(lo, hi)) in q.iter_mut().zip(&limits) {
+                *v = v.clamp(lo, hi);
+            }
+        };
+        // Fixed point: correct the command by the remaining error.
+        let mut previous = f64::INFINITY;
+        while !converged(&error, options) && iterations < options.max_fixed_point_iterations {
+            joint_jacobian_into(model, data, &q, &self.xi, &mut jac)?;
+            let step = solve_square(&jac, &error).ok_or(CompensationError::Singular)?;
+            for (v, s) in q.iter_mut().zip(step.iter()) {
+                *v -= s;
+            }
+            clamp(&mut q);
+            actual = self.actual_pose(data, &q, motion_base, options)?;
+            error = pose_difference(&actual.x_base_tcp, target_base);
+            iterations += 1;
+            let size = error.norm();
+            // Stalled or growing: hand over to Newton.
+            if size > 0.9 * previous && iterations > 3 {
+                break;
+            }
+            previous = size;
+        }
+        if !converged(&error, options) {
+            method = Method::Newton;
+            let mut newton_iterations = 0;
+            while !converged(&error, options) && newton_iterations < options.max_newton_iterations {
+                // Full Jacobian of the reached pose w.r.t. q by central differences.
+                let mut full = Matrix6xX::zeros(na);
+                for j in 0..na {
+                    let h = 1e-6 * (1.0 + q[j].abs());
+                    let mut qp = q.clone();
+                    let mut qm = q.clone();
+                    qp[j] += h;
+                    qm[j] -= h;
+                    let sp = self.actual_pose(data, &qp, motion_base, options)?;
+                    let sm = self.actual_pose(data, &qm, motion_base, options)?;
+                    let col = pose_difference(&sp.x_base_tcp, &sm.x_base_tcp) / (2.0 * h);
+                    full.set_column(j, &col);
+                }
+                let step = solve_square(&full, &error).ok_or(CompensationError::Singular)?;
+                for (v, s) in q.iter_mut().zip(step.iter()) {
+                    *v -= s;
+                }
+                clamp(&mut q);
+                actual = self.actual_pose(data, &q, motion_base, options)?;
+                error = pose_difference(&actual.x_base_tcp, target_base);
+                newton_iterations += 1;
+            }
+            iterations += newton_iterations;
+            if !converged(&error, options) {
+                return Err(CompensationError::NotConverged {
+                    residual_m: error.fixed_rows::<3>(0).norm(),
+                    residual_rad: error.fixed_rows::<3>(3).norm(),
+                    iterations,
+                });
+            }
+        }
+        Ok(CompensatedPoint {
+            target_base: *target_base,
+            q_uncompensated: q0,
+            uncompensated_error,
+            q_commanded: q,
+            commanded_base: actual.x_base_geometric,
+            residual: error,
+            wrench_base: actual.wrench_base,
+            iterations,
+            method,
+        })
+    }
+
+    /// Compensates a whole path given in the part frame. Each point starts
+    /// from the previous point's command (so the path stays on one branch);
+    /// the first from `seed`. Every point is reported, failed ones with their
+    /// reason, so a caller can list all bad points at once.
+    pub fn compensate_path(
+        &self,
+        data: &mut Data,
+        path: &[PathPoint],
+        seed: &[f64],
+        options: &CompensationOptions,
+    ) -> Vec<PointOutcome> {
+        let mut seed = seed.to_vec();
+        let targets: Vec<Isometry3<f64>> = path
+            .iter()
+            .map(|p| self.cell.x_base_part * p.x_part_tcp)
+            .collect();
+        let mut outcomes = Vec::with_capacity(path.len());
+        for (i, (point, target)) in path.iter().zip(&targets).enumerate() {
+            let next = targets
+                .get(i + 1)
+                .or_else(|| i.checked_sub(1).map(|j| &targets[j]));
+            let motion = match next {
+                Some(n) if i + 1 < targets.len() => {
+                    n.translation.vector - target.translation.vector
+                }
+                Some(p) => target.translation.vector - p.translation.vector,
+                None => Vector3::zeros(),
+            };
+            let result = self.compensate_pose(data, target, &seed, &motion, options);
+            if let Ok(c) = &result {
+                seed.clone_from(&c.q_commanded);
+            }
+            outcomes.push(PointOutcome {
+                line: point.line,
+                result,
+            });
+        }
+        outcomes
+    }
+}
+
+/// Size of the position part of an error vector [m].
+pub fn position_norm(e: &SVector<f64, 6>) -> f64 {
+    e.fixed_rows::<3>(0).norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::process::{BeamTheory, CantileverBeam, ConstantWrench};
+    use flexcal_kinematics::RobotDescription;
+    use nalgebra::Matrix6;
+
+    fn compliance() -> ConstantCompliance {
+        // ~1.5e-3 mm/N in translation, like the paper's robot, slightly coupled.
+        let mut c = Matrix6::from_diagonal(&Vector6::new(1.5e-6, 1.2e-6, 1.5e-6, 2e-7, 2e-7, 2e-7));
+        c[(0, 2)] = 3e-7;
+        c[(2, 0)] = 3e-7;
+        ConstantCompliance { compliance: c }
+    }
+
+    fn tool_down_at(p: Vector3<f64>) -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::from(p),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+        )
+    }
+
+    #[test]
+    fn zero_load_compensation_is_the_inverse_model() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: None,
+            cell: Cell {
+                x_base_part: Isometry3::identity(),
+                payload_base: Vector6::zeros(),
+            },
+        };
+        let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
+        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
+        let c = egm
+            .compensate_pose(
+                &mut data,
+                &target,
+                &seed,
+                &Vector3::zeros(),
+                &Default::default(),
+            )
+            .unwrap();
+        assert_eq!(c.iterations, 0);
+        assert_eq!(c.q_commanded, c.q_uncompensated);
+        assert!(position_norm(&c.uncompensated_error) < 1e-9);
+    }
+
+    #[test]
+    fn payload_is_compensated_to_solver_tolerance() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: None,
+            cell: Cell {
+                x_base_part: Isometry3::identity(),
+                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
+            },
+        };
+        let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
+        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
+        let c = egm
+            .compensate_pose(
+                &mut data,
+                &target,
+                &seed,
+                &Vector3::zeros(),
+                &Default::default(),
+            )
+            .unwrap();
+        // Uncompensated: 920 N x 1.5e-3 mm/N ~ 1.4 mm down.
+        assert!((c.uncompensated_error[2] + 920.0 * 1.5e-6).abs() < 1e-9);
+        assert!(position_norm(&c.residual) <= 1e-9);
+        // The fake pose sits above the target by the deflection.
+        let lift = c.commanded_base.translation.vector.z - target.translation.vector.z;
+        assert!((lift - 920.0 * 1.5e-6).abs() < 1e-6, "{lift}");
+    }
+
+    #[test]
+    fn forming_beam_and_robot_are_solved_together() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let beam = CantileverBeam::reference(BeamTheory::LargeDeflection);
+        // Beam along base x, clamp at x = 0.3, top surface at z = 0.2.
+        let x_base_part = Isometry3::translation(0.3, 0.25, 0.2);
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: Some(&beam),
+            cell: Cell {
+                x_base_part,
+                payload_base: Vector6::zeros(),
+            },
+        };
+        let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+        let path: Vec<PathPoint> = (0..5)
+            .map(|i| PathPoint {
+                line: i + 2,
+                x_part_tcp: Isometry3::from_parts(
+                    Translation3::new(0.58 - 0.05 * i as f64, 0.0, -0.025),
+                    down,
+                ),
+            })
+            .collect();
+        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
+        let outcomes = egm.compensate_path(&mut data, &path, &seed, &Default::default());
+        let mut previous_error = 0.0;
+        for o in &outcomes {
+            let c = o.result.as_ref().unwrap();
+            // The beam pushes the tool up: the uncompensated tool sits above
+            // the target, by more as the tool nears the clamp (stiffer beam).
+            assert!(c.uncompensated_error[2] > 0.0);
+            assert!(c.uncompensated_error[2] > previous_error);
+            previous_error = c.uncompensated_error[2];
+            assert!(position_norm(&c.residual) <= 1e-9);
+            // At equilibrium the wrench equals the beam's reaction at the reached point.
+            let reached = displace(
+                &c.commanded_base,
+                &elastic
+                    .tcp_displacement(&c.q_commanded, &c.wrench_base)
+                    .unwrap(),
+            );
+            let in_part = x_base_part.inverse() * reached;
+            let w = beam
+                .wrench_on_tool(&ToolState::at(in_part.translation.vector))
+                .unwrap();
+            assert!((w[2] - c.wrench_base[2]).abs() < 1e-3 * w[2].abs());
+        }
+    }
+
+    #[test]
+    fn unreachable_points_are_reported_per_point() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let constant = ConstantWrench {
+            wrench: Vector6::new(0.0, 0.0, 100.0, 0.0, 0.0, 0.0),
+        };
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: Some(&constant),
+            cell: Cell {
+                x_base_part: Isometry3::identity(),
+                payload_base: Vector6::zeros(),
+            },
+        };
+        let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+        let path = vec![
+            PathPoint {
+                line: 2,
+                x_part_tcp: Isometry3::from_parts(Translation3::new(0.6, 0.3, 0.4), down),
+            },
+            PathPoint {
+                line: 3,
+                x_part_tcp: Isometry3::from_parts(Translation3::new(4.0, 0.0, 0.0), down),
+            },
+        ];
+        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
+        let outcomes = egm.compensate_path(&mut data, &path, &seed, &Default::default());
+        assert!(outcomes[0].result.is_ok());
+        let err = outcomes[1].result.as_ref().unwrap_err();
+        assert_eq!(outcomes[1].line, 3);
+        assert!(
+            matches!(
+                err,
+                CompensationError::Kinematics(KinematicsError::Unreachable { .. })
+            ),
+            "{err}"
+        );
+    }
+}

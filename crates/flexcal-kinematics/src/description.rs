@@ -1,0 +1,374 @@
+//! The robot description: what a user writes in a TOML file (mm and degrees),
+//! before it is validated and frozen into a [`Model`].
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use serde::{Deserialize, Serialize};
+
+use crate::KinematicsError;
+use crate::Model;
+
+/// Kind of the joint at the origin of a frame (the KK symbol sigma).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JointType {
+    /// Rotation about z by theta (sigma = 0).
+    Revolute,
+    /// Translation along z by r (sigma = 1).
+    Prismatic,
+    /// No joint: theta and r are constant (sigma = 2).
+    Fixed,
+}
+
+/// A rigid transform in a description file: translation in mm, rotation as
+/// roll, pitch, yaw in degrees with `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDescription {
+    /// Translation (mm).
+    #[serde(default)]
+    pub translation_mm: [f64; 3],
+    /// Roll, pitch, yaw (deg): `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+}
+
+impl TransformDescription {
+    /// True when both translation and rotation are exactly zero.
+    pub fn is_identity(&self) -> bool {
+        self.translation_mm == [0.0; 3] && self.rpy_deg == [0.0; 3]
+    }
+
+    /// The transform in SI units.
+    pub fn to_isometry(&self) -> Isometry3<f64> {
+        let t = self.translation_mm;
+        let r = self.rpy_deg;
+        Isometry3::from_parts(
+            Translation3::new(t[0] / 1000.0, t[1] / 1000.0, t[2] / 1000.0),
+            UnitQuaternion::from_euler_angles(
+                r[0].to_radians(),
+                r[1].to_radians(),
+                r[2].to_radians(),
+            ),
+        )
+    }
+
+    /// The description of an SI transform (mm, degrees).
+    pub fn from_isometry(x: &Isometry3<f64>) -> Self {
+        let (roll, pitch, yaw) = x.rotation.euler_angles();
+        let t = x.translation.vector * 1000.0;
+        Self {
+            translation_mm: [t.x, t.y, t.z],
+            rpy_deg: [roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()],
+        }
+    }
+}
+
+/// A slider-crank (ball screw) actuator driving a revolute joint: the
+/// actuated coordinate is the screw length r'.
+///
+/// The screw joins a pivot A on the driven body, at distance `l1` from the
+/// joint axis and at angle `kappa` from its x axis, to a pivot B on the
+/// antecedent body, at distance `l3` from the axis and angle `lambda` from the
+/// antecedent's x axis (after the constant part of theta). The law of cosines
+/// (the relation V of the paper's Appendix A, written with r'^2) gives
+/// `theta_joint = lambda - kappa + branch * acos((l1^2 + l3^2 - r'^2) / (2 l1 l3))`
+/// with `r' = q + screw_offset`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SliderCrankDescription {
+    /// Offset added to the actuated screw length (mm) (default 0; the parameter `r{frame}p`).
+    #[serde(default)]
+    pub screw_offset_mm: f64,
+    /// Angle of the driven pivot A from the frame's x axis (deg) (`kappa{frame}`).
+    pub kappa_deg: f64,
+    /// Angle of the ground pivot B from the antecedent's x axis (deg) (`lambda{frame}`).
+    pub lambda_deg: f64,
+    /// Distance of pivot A from the joint axis (mm) (`l1{frame}`).
+    pub l1_mm: f64,
+    /// Distance of pivot B from the joint axis (mm) (`l3{frame}`).
+    pub l3_mm: f64,
+    /// Assembly branch, +1 or -1 (default +1): sign in front of the acos.
+    #[serde(default = "default_branch")]
+    pub branch: i8,
+}
+
+fn default_branch() -> i8 {
+    1
+}
+
+/// One term of a linear joint coupling.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingTerm {
+    /// Frame whose joint drives this one.
+    pub frame: String,
+    /// Ratio (dimensionless when both joints are of the same kind).
+    pub ratio: f64,
+}
+
+/// A frame (body and the joint at its origin) in Khalil-Kleinfinger notation:
+/// `a(i)T_i = rot(z,gamma) trans(z,b) rot(x,alpha) trans(x,d) rot(y,beta) rot(z,theta) trans(z,r)`.
+///
+/// The Hayati angle beta, when declared, sits after `trans(x,d)` and before
+/// `rot(z,theta)`: it tilts the joint axis about the common normal's
+/// perpendicular, for axes (nearly) parallel to the antecedent's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrameDescription {
+    /// Frame name, unique ("1", "E", "wrist").
+    pub name: String,
+    /// Name of the antecedent frame a(i); "0" (the default) is the base frame R0.
+    #[serde(default = "base_name")]
+    pub antecedent: String,
+    /// Joint kind (sigma).
+    pub joint: JointType,
+    /// True when the joint is motorised (mu = 1): its value (or its screw
+    /// length, with `slider_crank`) is an entry of q.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub actuated: bool,
+    /// Name of the actuated coordinate (default `theta{name}`, `r{name}` or `r{name}p`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actuated_name: Option<String>,
+    /// gamma (deg).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gamma_deg: f64,
+    /// b (mm).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub b_mm: f64,
+    /// alpha (deg).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub alpha_deg: f64,
+    /// d (mm).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub d_mm: f64,
+    /// Hayati beta (deg); declaring it (even as 0) makes it a parameter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beta_deg: Option<f64>,
+    /// theta (deg): constant offset added to the joint value for revolute joints.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub theta_deg: f64,
+    /// r (mm): constant offset added to the joint value for prismatic joints.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub r_mm: f64,
+    /// Limits of the actuated coordinate of a revolute joint (deg).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits_deg: Option<[f64; 2]>,
+    /// Limits of the actuated coordinate of a prismatic joint or screw (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits_mm: Option<[f64; 2]>,
+    /// Quantities (`gamma`, `b`, `alpha`, `d`, `beta`, `theta`, `r`) taken
+    /// from another frame, e.g. `{ alpha = "2" }` for a joint coaxial with joint 2.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub same_as: BTreeMap<String, String>,
+    /// Parameters added to a quantity, e.g. `{ r = ["d10"] }` for `r = r4 + d10`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub plus: BTreeMap<String, Vec<String>>,
+    /// Slider-crank actuator (needs `actuated = true`, `joint = "revolute"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slider_crank: Option<SliderCrankDescription>,
+    /// Linear coupling: joint value = sum of ratio times the other frames'
+    /// total theta (or r), e.g. theta6 = -theta5.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub coupled_to: Vec<CouplingTerm>,
+    /// Initial guess of a passive loop joint (deg) (revolute) — the assembly seed.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub seed_deg: f64,
+    /// Initial guess of a passive loop joint (mm) (prismatic).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub seed_mm: f64,
+}
+
+fn base_name() -> String {
+    "0".to_string()
+}
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+impl FrameDescription {
+    /// A frame with every quantity zero.
+    pub fn new(name: &str, antecedent: &str, joint: JointType) -> Self {
+        Self {
+            name: name.to_string(),
+            antecedent: antecedent.to_string(),
+            joint,
+            actuated: false,
+            actuated_name: None,
+            gamma_deg: 0.0,
+            b_mm: 0.0,
+            alpha_deg: 0.0,
+            d_mm: 0.0,
+            beta_deg: None,
+            theta_deg: 0.0,
+            r_mm: 0.0,
+            limits_deg: None,
+            limits_mm: None,
+            same_as: BTreeMap::new(),
+            plus: BTreeMap::new(),
+            slider_crank: None,
+            coupled_to: Vec::new(),
+            seed_deg: 0.0,
+            seed_mm: 0.0,
+        }
+    }
+}
+
+/// Which components of the cut-joint error a loop closes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LoopConstraint {
+    /// All six components (position and orientation): the cut frames coincide.
+    #[default]
+    Full,
+    /// In-plane position (x, y) and rotation about z of the first cut frame:
+    /// a planar loop whose out-of-plane errors are taken by the mechanism's clearances.
+    Planar,
+}
+
+/// How a loop is assembled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LoopSolver {
+    /// Gauss-Newton least squares on the cut-joint constraint, seeded from
+    /// the previous solution kept in [`crate::Data`].
+    #[default]
+    Newton,
+    /// Closed form for a planar four-bar (two circles), then Newton polish.
+    FourBar,
+}
+
+/// A closed loop: cut at a joint, the two frames `cut` must coincide.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoopDescription {
+    /// Loop name used in messages.
+    pub name: String,
+    /// The two frames that must coincide (the cut joint's two halves).
+    pub cut: [String; 2],
+    /// Components closed (default `full`).
+    #[serde(default)]
+    pub constraint: LoopConstraint,
+    /// Solver (default `newton`).
+    #[serde(default)]
+    pub solver: LoopSolver,
+    /// Assembly branch for the closed form, +1 or -1 (default +1).
+    #[serde(default = "default_branch")]
+    pub branch: i8,
+}
+
+/// A robot as written in a description file (lengths in mm, angles in
+/// degrees); [`RobotDescription::build`] validates it into a [`Model`].
+///
+/// ```toml
+/// name = "two-link"
+/// [[frame]]
+/// name = "1"
+/// joint = "revolute"
+/// actuated = true
+/// limits_deg = [-170, 170]
+/// [[frame]]
+/// name = "2"
+/// antecedent = "1"
+/// joint = "revolute"
+/// actuated = true
+/// d_mm = 400
+/// [[frame]]
+/// name = "E"
+/// antecedent = "2"
+/// joint = "fixed"
+/// d_mm = 300
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotDescription {
+    /// Robot name.
+    pub name: String,
+    /// Free text: origin of the values, conventions.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub notes: String,
+    /// Frame carrying the tool transform (default: the last frame declared).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_frame: Option<String>,
+    /// Names of the parameters forming xi, in order. Default rule when absent,
+    /// frame by frame: gamma and b when non-zero; alpha; d; beta when declared;
+    /// theta for directly actuated revolute joints (the joint offset), for
+    /// prismatic joints and for fixed frames (not for passive, coupled or
+    /// crank-driven joints, whose offset is not separable); r unless beta is
+    /// declared (for parallel axes the z offsets of consecutive frames are one
+    /// and the same translation); then the five slider-crank parameters
+    /// `r{f}p kappa{f} lambda{f} l1{f} l3{f}`. Quantities taken `same_as`
+    /// another frame are never parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parameters: Option<Vec<String>>,
+    /// Names of the actuated coordinates in the order of q (default: the
+    /// order of the actuated frames).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actuated_order: Option<Vec<String>>,
+    /// Cell R-1 to base R0 (not in xi).
+    #[serde(default, skip_serializing_if = "TransformDescription::is_identity")]
+    pub base: TransformDescription,
+    /// End frame to TCP (not in xi).
+    #[serde(default, skip_serializing_if = "TransformDescription::is_identity")]
+    pub tool: TransformDescription,
+    /// Frames, each after its antecedent.
+    #[serde(rename = "frame")]
+    pub frames: Vec<FrameDescription>,
+    /// Closed loops.
+    #[serde(default, rename = "loop", skip_serializing_if = "Vec::is_empty")]
+    pub loops: Vec<LoopDescription>,
+}
+
+impl RobotDescription {
+    /// Parses a description from TOML text; `source` names the text in errors
+    /// (usually the file name). Errors carry the 1-based line.
+    pub fn from_toml_str(text: &str, source: &str) -> Result<Self, KinematicsError> {
+        toml::from_str::<RobotDescription>(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
+                .unwrap_or(0);
+            KinematicsError::Toml {
+                source_name: source.to_string(),
+                line,
+                message: e.message().to_string(),
+            }
+        })
+    }
+
+    /// Reads a description file.
+    pub fn from_toml_file(path: &Path) -> Result<Self, KinematicsError> {
+        let text = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// The description as TOML text; [`RobotDescription::from_toml_str`] reads it back identically.
+    pub fn to_toml_string(&self) -> String {
+        // Serialising plain data structures to TOML cannot fail: every field is
+        // a string, number, array or table with string keys.
+        toml::to_string(self).unwrap_or_else(|e| format!("# serialisation failed: {e}\n"))
+    }
+
+    /// A built-in robot by name (see [`builtin_robot_names`]).
+    pub fn builtin(name: &str) -> Result<Self, KinematicsError> {
+        crate::builtin::builtin(name)
+    }
+
+    /// Validates the description and freezes it into a [`Model`].
+    pub fn build(&self) -> Result<Model, KinematicsError> {
+        crate::model::build(self)
+    }
+}
+
+/// Names accepted by [`RobotDescription::builtin`].
+pub fn builtin_robot_names() -> &'static [&'static str] {
+    crate::builtin::NAMES
+}

@@ -1,0 +1,944 @@
+//! Forward model, loop closure, joint and parameter Jacobians.
+
+use nalgebra::{
+    DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion, Vector3,
+};
+
+use crate::KinematicsError;
+use crate::description::{JointType, LoopSolver};
+use crate::model::{JointSource, LoopModel, Model};
+
+/// `a * v` for a 3x3 matrix, written out: the generic product of the linear
+/// algebra crate does not unroll as well for these tiny sizes.
+#[inline(always)]
+fn mat_vec(a: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    // Column-major storage: a[column][row].
+    [
+        a[0][0] * v[0] + a[1][0] * v[1] + a[2][0] * v[2],
+        a[0][1] * v[0] + a[1][1] * v[1] + a[2][1] * v[2],
+        a[0][2] * v[0] + a[1][2] * v[1] + a[2][2] * v[2],
+    ]
+}
+
+/// Rigid transform as a rotation matrix and a translation: cheaper to compose
+/// than a quaternion when axes are read back for the Jacobians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Pose {
+    pub r: Matrix3<f64>,
+    pub p: Vector3<f64>,
+}
+
+impl Pose {
+    pub const IDENTITY: Pose = Pose {
+        r: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        p: Vector3::new(0.0, 0.0, 0.0),
+    };
+
+    #[inline]
+    pub fn compose(&self, other: &Pose) -> Pose {
+        Pose {
+            r: self.r * other.r,
+            p: self.p + self.r * other.p,
+        }
+    }
+
+    pub fn from_isometry(x: &Isometry3<f64>) -> Pose {
+        Pose {
+            r: *x.rotation.to_rotation_matrix().matrix(),
+            p: x.translation.vector,
+        }
+    }
+
+    pub fn to_isometry(self) -> Isometry3<f64> {
+        let rotation =
+            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(self.r));
+        Isometry3::from_parts(Translation3::from(self.p), rotation)
+    }
+}
+
+/// Per-thread workspace of a [`Model`]: the frame poses of the last call,
+/// the joint and passive values, derivative buffers and a cache of the
+/// per-frame constant transforms keyed on xi.
+#[derive(Debug, Clone)]
+pub struct Data {
+    pub(crate) poses: Vec<Pose>,
+    pub(crate) joint: Vec<f64>,
+    pub(crate) passive: Vec<f64>,
+    cached_xi: Vec<f64>,
+    cache_valid: bool,
+    pre: Vec<Pose>,
+    x1: Vec<Vector3<f64>>,
+    y2: Vec<Vector3<f64>>,
+    b_value: Vec<f64>,
+    theta_const: Vec<f64>,
+    r_const: Vec<f64>,
+    crank_values: Vec<[f64; 5]>,
+    /// d joint / d xi, one row of n_params per frame.
+    djoint_dxi: Vec<f64>,
+    /// d joint / d q, one row of n_actuated per frame.
+    djoint_dq: Vec<f64>,
+    pub(crate) tcp: Pose,
+}
+
+impl Data {
+    /// A workspace for `model`, with passive joints at their seeds.
+    pub fn new(model: &Model) -> Self {
+        let n = model.frames.len();
+        let mut joint = vec![0.0; n];
+        for (i, f) in model.frames.iter().enumerate() {
+            if let JointSource::Passive(_) = f.source {
+                joint[i] = f.seed;
+            }
+        }
+        let mut data = Data {
+            poses: vec![Pose::IDENTITY; n],
+            joint,
+            passive: vec![0.0; model.passive_names.len()],
+            cached_xi: vec![f64::NAN; model.n_params()],
+            cache_valid: false,
+            pre: vec![Pose::IDENTITY; n],
+            x1: vec![Vector3::x(); n],
+            y2: vec![Vector3::y(); n],
+            b_value: vec![0.0; n],
+            theta_const: vec![0.0; n],
+            r_const: vec![0.0; n],
+            crank_values: vec![[0.0; 5]; model.cranks.len()],
+            djoint_dxi: vec![0.0; n * model.n_params()],
+            djoint_dq: vec![0.0; n * model.n_actuated()],
+            tcp: Pose::IDENTITY,
+        };
+        data.collect_passive(model);
+        data
+    }
+
+    /// Pose `x_base_frame` of frame `i` (base R0 to frame i) from the last
+    /// forward call, or `None` for an index out of range.
+    pub fn frame_pose(&self, i: usize) -> Option<Isometry3<f64>> {
+        self.poses.get(i).map(|p| p.to_isometry())
+    }
+
+    /// Origin of frame `i` in the base frame (m) from the last forward call.
+    pub fn frame_origin(&self, i: usize) -> Option<Vector3<f64>> {
+        self.poses.get(i).map(|p| p.p)
+    }
+
+    /// Values of the passive loop joints (rad or m) from the last forward
+    /// call, in the order of [`Model::passive_names`].
+    pub fn passive_values(&self) -> &[f64] {
+        &self.passive
+    }
+
+    /// Seeds the passive loop joints (rad or m, order of
+    /// [`Model::passive_names`]): the next forward call assembles the loops
+    /// from these values, which selects the assembly branch the Newton
+    /// solver follows.
+    pub fn set_passive_values(
+        &mut self,
+        model: &Model,
+        values: &[f64],
+    ) -> Result<(), KinematicsError> {
+        check_vector("passive values", values, model.passive_names.len())?;
+        if self.joint.len() != model.frames.len() {
+            return Err(KinematicsError::WrongLength {
+                what: format!("Data (frames) used with model `{}`", model.name),
+                expected: model.frames.len(),
+                found: self.joint.len(),
+            });
+        }
+        let mut k = 0;
+        for l in &model.loops {
+            for &f in &l.passive {
+                self.joint[f] = values[k];
+                k += 1;
+            }
+        }
+        self.passive.copy_from_slice(values);
+        Ok(())
+    }
+
+    /// Joint variable of every frame (rad or m) (0 for fixed frames), the
+    /// value added to the constant theta (revolute) or r (prismatic).
+    pub fn joint_values(&self) -> &[f64] {
+        &self.joint
+    }
+
+    fn collect_passive(&mut self, model: &Model) {
+        let mut k = 0;
+        for l in &model.loops {
+            for &f in &l.passive {
+                self.passive[k] = self.joint[f];
+                k += 1;
+            }
+        }
+    }
+
+    fn update_cache(&mut self, model: &Model, xi: &[f64]) {
+        if self.cache_valid && self.cached_xi.as_slice() == xi {
+            return;
+        }
+        for (i, f) in model.frames.iter().enumerate() {
+            let [gamma, b, alpha, d, beta, theta, r] =
+                [0, 1, 2, 3, 4, 5, 6].map(|k| f.quantity[k].eval(xi));
+            let (sg, cg) = gamma.sin_cos();
+            let (sa, ca) = alpha.sin_cos();
+            let (sb, cb) = beta.sin_cos();
+            // Rz(gamma) Rx(alpha) Ry(beta), then the translation of
+            // Rz(gamma) Tz(b) Rx(alpha) Tx(d).
+            let rz = Matrix3::new(cg, -sg, 0.0, sg, cg, 0.0, 0.0, 0.0, 1.0);
+            let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, -sa, 0.0, sa, ca);
+            let ry = Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
+            let x1 = Vector3::new(cg, sg, 0.0);
+            self.pre[i] = Pose {
+                r: rz * rx * ry,
+                p: Vector3::new(0.0, 0.0, b) + d * x1,
+            };
+            self.x1[i] = x1;
+            self.y2[i] = rz * Vector3::new(0.0, ca, sa);
+            self.b_value[i] = b;
+            self.theta_const[i] = theta;
+            self.r_const[i] = r;
+        }
+        for (c, crank) in model.cranks.iter().enumerate() {
+            self.crank_values[c] = [
+                crank.screw_offset.eval(xi),
+                crank.kappa.eval(xi),
+                crank.lambda.eval(xi),
+                crank.l1.eval(xi),
+                crank.l3.eval(xi),
+            ];
+        }
+        self.cached_xi.copy_from_slice(xi);
+        self.cache_valid = true;
+    }
+
+    fn compute_poses(&mut self, model: &Model) {
+        for (i, f) in model.frames.iter().enumerate() {
+            let (theta, r) = match f.joint {
+                JointType::Revolute => (self.theta_const[i] + self.joint[i], self.r_const[i]),
+                JointType::Prismatic => (self.theta_const[i], self.r_const[i] + self.joint[i]),
+                JointType::Fixed => (self.theta_const[i], self.r_const[i]),
+            };
+            let (s, c) = theta.sin_cos();
+            let pre = &self.pre[i];
+            let m = &pre.r.data.0;
+            // Columns of R_pre Rz(theta): only the first two mix.
+            let c0 = [
+                c * m[0][0] + s * m[1][0],
+                c * m[0][1] + s * m[1][1],
+                c * m[0][2] + s * m[1][2],
+            ];
+            let c1 = [
+                c * m[1][0] - s * m[0][0],
+                c * m[1][1] - s * m[0][1],
+                c * m[1][2] - s * m[0][2],
+            ];
+            let c2 = m[2];
+            let p_local = [
+                pre.p.x + r * c2[0],
+                pre.p.y + r * c2[1],
+                pre.p.z + r * c2[2],
+            ];
+            let (n0, n1, n2, p) = match f.parent {
+                Some(parent) => {
+                    let parent = &self.poses[parent];
+                    let a = &parent.r.data.0;
+                    let t = mat_vec(a, p_local);
+                    (
+                        mat_vec(a, c0),
+                        mat_vec(a, c1),
+                        mat_vec(a, c2),
+                        [parent.p.x + t[0], parent.p.y + t[1], parent.p.z + t[2]],
+                    )
+                }
+                None => (c0, c1, c2, p_local),
+            };
+            let pose = &mut self.poses[i];
+            pose.r.data.0 = [n0, n1, n2];
+            pose.p = Vector3::new(p[0], p[1], p[2]);
+        }
+    }
+
+    /// Unit rate twist of quantity `k` of frame `f`: axis `u` and, for a
+    /// rotation, a point `o` on the axis (None: a translation along `u`).
+    #[inline]
+    fn quantity_axis(
+        &self,
+        model: &Model,
+        f: usize,
+        k: usize,
+    ) -> (Vector3<f64>, Option<Vector3<f64>>) {
+        if k >= 5 {
+            let pose = &self.poses[f];
+            let z = pose.r.column(2).into_owned();
+            return (z, if k == 5 { Some(pose.p) } else { None });
+        }
+        let parent = match model.frames[f].parent {
+            Some(p) => &self.poses[p],
+            None => &Pose::IDENTITY,
+        };
+        match k {
+            0 => (parent.r.column(2).into_owned(), Some(parent.p)),
+            1 => (parent.r.column(2).into_owned(), None),
+            2 => (
+                parent.r * self.x1[f],
+                Some(parent.p + self.b_value[f] * parent.r.column(2)),
+            ),
+            3 => (parent.r * self.x1[f], None),
+            _ => (
+                parent.r * self.y2[f],
+                Some(parent.p + parent.r * self.pre[f].p),
+            ),
+        }
+    }
+}
+
+#[inline]
+fn twist_at(u: &Vector3<f64>, o: &Option<Vector3<f64>>, point: &Vector3<f64>) -> [f64; 6] {
+    match o {
+        Some(o) => {
+            let v = u.cross(&(point - o));
+            [v.x, v.y, v.z, u.x, u.y, u.z]
+        }
+        None => [u.x, u.y, u.z, 0.0, 0.0, 0.0],
+    }
+}
+
+pub(crate) fn check_vector(what: &str, v: &[f64], expected: usize) -> Result<(), KinematicsError> {
+    if v.len() != expected {
+        return Err(KinematicsError::WrongLength {
+            what: what.to_string(),
+            expected,
+            found: v.len(),
+        });
+    }
+    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+        return Err(KinematicsError::NotFinite {
+            what: format!("{what}[{k}]"),
+        });
+    }
+    Ok(())
+}
+
+const LOOP_TOLERANCE: f64 = 1e-9;
+const NEWTON_STOP: f64 = 1e-13;
+const NEWTON_MAX_ITERATIONS: usize = 50;
+
+/// Residual components of a loop: [p_rel; e_rot] in the first cut frame.
+fn loop_residual(data: &Data, l: &LoopModel) -> ([f64; 6], Matrix3<f64>, Matrix3<f64>) {
+    let a = &data.poses[l.cut_a];
+    let b = &data.poses[l.cut_b];
+    let p_rel = a.r.transpose() * (b.p - a.p);
+    let r_rel = a.r.transpose() * b.r;
+    let e = [
+        p_rel.x,
+        p_rel.y,
+        p_rel.z,
+        0.5 * (r_rel[(2, 1)] - r_rel[(1, 2)]),
+        0.5 * (r_rel[(0, 2)] - r_rel[(2, 0)]),
+        0.5 * (r_rel[(1, 0)] - r_rel[(0, 1)]),
+    ];
+    (e, a.r, r_rel)
+}
+
+/// Derivative of the residual for a unit twist (axis `u`, point `o`) on the
+/// side with sign `s` (+1: path to cut b, -1: path to cut a).
+#[inline]
+fn residual_derivative(
+    u: &Vector3<f64>,
+    o: &Option<Vector3<f64>>,
+    s: f64,
+    p_b: &Vector3<f64>,
+    r_a: &Matrix3<f64>,
+    r_rel: &Matrix3<f64>,
+) -> [f64; 6] {
+    let t = twist_at(u, o, p_b);
+    let lin = s * (r_a.transpose() * Vector3::new(t[0], t[1], t[2]));
+    let delta = s * (r_a.transpose() * Vector3::new(t[3], t[4], t[5]));
+    let dr = delta.cross_matrix() * r_rel;
+    [
+        lin.x,
+        lin.y,
+        lin.z,
+        0.5 * (dr[(2, 1)] - dr[(1, 2)]),
+        0.5 * (dr[(0, 2)] - dr[(2, 0)]),
+        0.5 * (dr[(1, 0)] - dr[(0, 1)]),
+    ]
+}
+
+fn loop_cannot_close(l: &LoopModel, q: &[f64], residual: f64) -> KinematicsError {
+    KinematicsError::LoopCannotClose {
+        loop_name: l.name.clone(),
+        q: q.to_vec(),
+        residual,
+    }
+}
+
+fn selected_norm(e: &[f64; 6], selection: &[usize]) -> f64 {
+    selection.iter().map(|&k| e[k] * e[k]).sum::<f64>().sqrt()
+}
+
+/// Solves the least-squares system `g x = rhs` (columns of `rhs` at once).
+fn least_squares(
+    g: DMatrix<f64>,
+    rhs: &DMatrix<f64>,
+    what: &str,
+) -> Result<DMatrix<f64>, KinematicsError> {
+    let needed = g.ncols();
+    let svd = g.svd(true, true);
+    let smax = svd.singular_values.max();
+    let tol = smax * 1e-12;
+    let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
+    if rank < needed || smax == 0.0 {
+        return Err(KinematicsError::Singular {
+            what: what.to_string(),
+            rank,
+            needed,
+        });
+    }
+    svd.solve(rhs, tol).map_err(|_| KinematicsError::Singular {
+        what: what.to_string(),
+        rank,
+        needed,
+    })
+}
+
+/// Passive-joint Jacobian of the selected residual components.
+fn passive_jacobian(model: &Model, data: &Data, l: &LoopModel) -> DMatrix<f64> {
+    let (_, r_a, r_rel) = loop_residual(data, l);
+    let p_b = data.poses[l.cut_b].p;
+    let m = l.selection.len();
+    let mut g = DMatrix::zeros(m, l.passive.len());
+    for (c, &f) in l.passive.iter().enumerate() {
+        let k = model.frames[f].joint_quantity().unwrap_or(5);
+        let (u, o) = data.quantity_axis(model, f, k);
+        let s = if l.path_b.contains(&f) { 1.0 } else { -1.0 };
+        let d = residual_derivative(&u, &o, s, &p_b, &r_a, &r_rel);
+        for (row, &comp) in l.selection.iter().enumerate() {
+            g[(row, c)] = d[comp];
+        }
+    }
+    g
+}
+
+fn newton(model: &Model, data: &mut Data, l: &LoopModel, q: &[f64]) -> Result<(), KinematicsError> {
+    let mut norm = f64::INFINITY;
+    for _ in 0..NEWTON_MAX_ITERATIONS {
+        data.compute_poses(model);
+        let (e, _, _) = loop_residual(data, l);
+        norm = selected_norm(&e, &l.selection);
+        if norm < NEWTON_STOP {
+            break;
+        }
+        let g = passive_jacobian(model, data, l);
+        let rhs = DMatrix::from_iterator(l.selection.len(), 1, l.selection.iter().map(|&k| -e[k]));
+        let step = least_squares(g, &rhs, &format!("loop `{}`", l.name))
+            .map_err(|_| loop_cannot_close(l, q, norm))?;
+        let mut step_norm = 0.0f64;
+        for (c, &f) in l.passive.iter().enumerate() {
+            data.joint[f] += step[c];
+            step_norm = step_norm.max(step[c].abs());
+        }
+        if step_norm < 1e-15 {
+            data.compute_poses(model);
+            let (e, _, _) = loop_residual(data, l);
+            norm = selected_norm(&e, &l.selection);
+            break;
+        }
+    }
+    if norm.is_nan() || norm > LOOP_TOLERANCE {
+        return Err(loop_cannot_close(l, q, norm));
+    }
+    Ok(())
+}
+
+fn four_bar_closed_form(
+    model: &Model,
+    data: &mut Data,
+    l: &LoopModel,
+    q: &[f64],
+) -> Result<(), KinematicsError> {
+    let Some(fb) = l.four_bar else {
+        return Ok(());
+    };
+    data.compute_poses(model);
+    let pa = data.poses[fb.joint_a];
+    let pb = data.poses[fb.joint_b];
+    let (side_a_cut, side_b_cut) = (l.cut_a, l.cut_b);
+    // joint_a lies on path a by construction; joint_b on path b.
+    let u_a = pa.r.transpose() * (data.poses[side_a_cut].p - pa.p);
+    let u_b = pb.r.transpose() * (data.poses[side_b_cut].p - pb.p);
+    let c2 = pa.r.transpose() * (pb.p - pa.p);
+    let m = pa.r.transpose() * pb.r;
+    let rho_a = u_a.x.hypot(u_a.y);
+    let rho_b = u_b.x.hypot(u_b.y);
+    let dist = c2.x.hypot(c2.y);
+    // The residual reported is how far the two circles miss each other.
+    let gap = (dist - (rho_a + rho_b)).max((rho_a - rho_b).abs() - dist);
+    if dist < 1e-12 || gap > 0.0 {
+        return Err(loop_cannot_close(l, q, gap.max(0.0)));
+    }
+    let along = (rho_a * rho_a - rho_b * rho_b + dist * dist) / (2.0 * dist);
+    let h = (rho_a * rho_a - along * along).max(0.0).sqrt();
+    let (ex, ey) = (c2.x / dist, c2.y / dist);
+    let px = along * ex - l.branch * h * ey;
+    let py = along * ey + l.branch * h * ex;
+    let delta_a = py.atan2(px) - u_a.y.atan2(u_a.x);
+    let w = m.transpose() * Vector3::new(px - c2.x, py - c2.y, 0.0);
+    let delta_b = w.y.atan2(w.x) - u_b.y.atan2(u_b.x);
+    data.joint[fb.joint_a] = wrap_near(data.joint[fb.joint_a] + delta_a, data.joint[fb.joint_a]);
+    data.joint[fb.joint_b] = wrap_near(data.joint[fb.joint_b] + delta_b, data.joint[fb.joint_b]);
+    data.compute_poses(model);
+    let (_, _, r_rel) = loop_residual(data, l);
+    let psi = r_rel[(1, 0)].atan2(r_rel[(0, 0)]);
+    let cut = fb.joint_cut;
+    data.joint[cut] += if fb.cut_on_a { psi } else { -psi };
+    Ok(())
+}
+
+/// Wraps `value` to within pi of `reference`.
+fn wrap_near(value: f64, reference: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    value - tau * ((value - reference) / tau).round()
+}
+
+/// Slider-crank relation V: joint angle and its derivatives
+/// (d/d screw length, d/d kappa, d/d lambda, d/d l1, d/d l3).
+pub(crate) fn slider_crank_angle(
+    name: &str,
+    screw_length: f64,
+    kappa: f64,
+    lambda: f64,
+    l1: f64,
+    l3: f64,
+    branch: f64,
+) -> Result<(f64, [f64; 5]), KinematicsError> {
+    let cosine = (l1 * l1 + l3 * l3 - screw_length * screw_length) / (2.0 * l1 * l3);
+    if cosine.is_nan() || cosine.abs() >= 1.0 - 1e-12 || screw_length <= 0.0 {
+        return Err(KinematicsError::SliderCrankOutOfRange {
+            joint: name.to_string(),
+            screw_length,
+            cosine,
+        });
+    }
+    let phi = cosine.acos();
+    let sin_phi = phi.sin();
+    let dphi_dc = -1.0 / sin_phi;
+    let dc_dr = -screw_length / (l1 * l3);
+    let dc_dl1 = (l1 * l1 - l3 * l3 + screw_length * screw_length) / (2.0 * l1 * l1 * l3);
+    let dc_dl3 = (l3 * l3 - l1 * l1 + screw_length * screw_length) / (2.0 * l1 * l3 * l3);
+    let angle = lambda - kappa + branch * phi;
+    Ok((
+        angle,
+        [
+            branch * dphi_dc * dc_dr,
+            -1.0,
+            1.0,
+            branch * dphi_dc * dc_dl1,
+            branch * dphi_dc * dc_dl3,
+        ],
+    ))
+}
+
+/// Joint values of the non-passive joints, optionally with their derivatives.
+fn evaluate_joints(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    derivatives: bool,
+) -> Result<(), KinematicsError> {
+    let np = model.n_params();
+    let na = model.n_actuated();
+    for (i, f) in model.frames.iter().enumerate() {
+        match f.source {
+            JointSource::Fixed | JointSource::Passive(_) => {}
+            JointSource::Actuated(k) => {
+                data.joint[i] = q[k];
+                if derivatives {
+                    data.djoint_dq[i * na..(i + 1) * na].fill(0.0);
+                    data.djoint_dq[i * na + k] = 1.0;
+                }
+            }
+            JointSource::SliderCrank(c) => {
+                let crank = &model.cranks[c];
+                let [offset, kappa, lambda, l1, l3] = data.crank_values[c];
+                let (angle, d) = slider_crank_angle(
+                    &f.name,
+                    q[crank.actuated] + offset,
+                    kappa,
+                    lambda,
+                    l1,
+                    l3,
+                    crank.branch,
+                )?;
+                data.joint[i] = angle;
+                if derivatives {
+                    let row = &mut data.djoint_dq[i * na..(i + 1) * na];
+                    row.fill(0.0);
+                    row[crank.actuated] = d[0];
+                    let row = &mut data.djoint_dxi[i * np..(i + 1) * np];
+                    row.fill(0.0);
+                    for (affine, dv) in [
+                        (&crank.screw_offset, d[0]),
+                        (&crank.kappa, d[1]),
+                        (&crank.lambda, d[2]),
+                        (&crank.l1, d[3]),
+                        (&crank.l3, d[4]),
+                    ] {
+                        for &(j, coef) in &affine.terms {
+                            row[j] += coef * dv;
+                        }
+                    }
+                }
+            }
+            JointSource::Coupled(c) => {
+                let coupling = &model.couplings[c];
+                let mut value = 0.0;
+                for &(src, ratio) in &coupling.terms {
+                    let total = match model.frames[src].joint {
+                        JointType::Prismatic => data.r_const[src],
+                        _ => data.theta_const[src],
+                    } + data.joint[src];
+                    value += ratio * total;
+                }
+                data.joint[i] = value;
+                if derivatives {
+                    data.djoint_dq[i * na..(i + 1) * na].fill(0.0);
+                    data.djoint_dxi[i * np..(i + 1) * np].fill(0.0);
+                    for &(src, ratio) in &coupling.terms {
+                        for k in 0..na {
+                            data.djoint_dq[i * na + k] += ratio * data.djoint_dq[src * na + k];
+                        }
+                        if joint_depends_on_xi(model, src) {
+                            for j in 0..np {
+                                data.djoint_dxi[i * np + j] +=
+                                    ratio * data.djoint_dxi[src * np + j];
+                            }
+                        }
+                        let kq = model.frames[src].joint_quantity().unwrap_or(5);
+                        for &(j, coef) in &model.frames[src].quantity[kq].terms {
+                            data.djoint_dxi[i * np + j] += ratio * coef;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+#[inline]
+fn joint_depends_on_xi(model: &Model, f: usize) -> bool {
+    matches!(
+        model.frames[f].source,
+        JointSource::SliderCrank(_) | JointSource::Coupled(_) | JointSource::Passive(_)
+    )
+}
+
+/// Implicit differentiation of a closed loop (the a3..e3 coefficients of (51)).
+fn loop_derivatives(model: &Model, data: &mut Data, l: &LoopModel) -> Result<(), KinematicsError> {
+    let np = model.n_params();
+    let na = model.n_actuated();
+    let m = l.selection.len();
+    let (_, r_a, r_rel) = loop_residual(data, l);
+    let p_b = data.poses[l.cut_b].p;
+    let g_p = passive_jacobian(model, data, l);
+    let mut rhs = DMatrix::<f64>::zeros(m, np + na);
+    for (s, path) in [(-1.0, &l.path_a), (1.0, &l.path_b)] {
+        for &f in path.iter() {
+            let frame = &model.frames[f];
+            let jq = frame.joint_quantity();
+            for k in 0..7 {
+                let has_terms = !frame.quantity[k].terms.is_empty();
+                let is_joint = jq == Some(k);
+                if !has_terms && !is_joint {
+                    continue;
+                }
+                let (u, o) = data.quantity_axis(model, f, k);
+                let d = residual_derivative(&u, &o, s, &p_b, &r_a, &r_rel);
+                for &(j, coef) in &frame.quantity[k].terms {
+                    for (row, &comp) in l.selection.iter().enumerate() {
+                        rhs[(row, j)] -= coef * d[comp];
+                    }
+                }
+                if is_joint && !l.passive.contains(&f) && frame.source != JointSource::Fixed {
+                    for (row, &comp) in l.selection.iter().enumerate() {
+                        if joint_depends_on_xi(model, f) {
+                            for j in 0..np {
+                                rhs[(row, j)] -= d[comp] * data.djoint_dxi[f * np + j];
+                            }
+                        }
+                        for k2 in 0..na {
+                            rhs[(row, np + k2)] -= d[comp] * data.djoint_dq[f * na + k2];
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let sol = least_squares(g_p, &rhs, &format!("closure of loop `{}`", l.name))?;
+    for (c, &f) in l.passive.iter().enumerate() {
+        for j in 0..np {
+            data.djoint_dxi[f * np + j] = sol[(c, j)];
+        }
+        for k in 0..na {
+            data.djoint_dq[f * na + k] = sol[(c, np + k)];
+        }
+    }
+    Ok(())
+}
+
+fn run_forward(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    derivatives: bool,
+) -> Result<(), KinematicsError> {
+    check_vector("q", q, model.n_actuated())?;
+    // A cache hit means xi was checked when it was cached.
+    if !(data.cache_valid && data.cached_xi.as_slice() == xi) {
+        check_vector("xi", xi, model.n_params())?;
+    }
+    if data.joint.len() != model.frames.len() || data.cached_xi.len() != xi.len() {
+        return Err(KinematicsError::WrongLength {
+            what: format!(
+                "Data (frames) used with model `{}`: it was built for another model",
+                model.name
+            ),
+            expected: model.frames.len(),
+            found: data.joint.len(),
+        });
+    }
+    data.update_cache(model, xi);
+    evaluate_joints(model, data, q, derivatives)?;
+    if model.loops.is_empty() {
+        data.compute_poses(model);
+    } else {
+        let saved: Vec<f64> = data.joint.clone();
+        let result = (|| {
+            for l in &model.loops {
+                if l.solver == LoopSolver::FourBar {
+                    four_bar_closed_form(model, data, l, q)?;
+                }
+                newton(model, data, l, q)?;
+            }
+            Ok(())
+        })();
+        if let Err(e) = result {
+            // Keep the previous (assembled) branch as the seed of the next call.
+            data.joint = saved;
+            data.compute_poses(model);
+            return Err(e);
+        }
+        data.collect_passive(model);
+        if derivatives {
+            for l in &model.loops {
+                loop_derivatives(model, data, l)?;
+            }
+        }
+    }
+    data.tcp = data.poses[model.end_frame].compose(&model.tool_pose);
+    Ok(())
+}
+
+/// Pose `x_base_tcp` of the TCP in the robot base frame R0 (tool transform
+/// included, base transform not): the forward model (1), (42).
+///
+/// `q` holds the actuated coordinates (rad, m), `xi` the geometric parameters.
+pub fn forward_pose(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+) -> Result<Isometry3<f64>, KinematicsError> {
+    run_forward(model, data, q, xi, false)?;
+    Ok(data.tcp.to_isometry())
+}
+
+/// Poses of all frames; afterwards [`Data::frame_pose`] gives `x_base_frame`
+/// and [`Data::passive_values`] the assembled loop joints.
+pub fn forward_frames(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+) -> Result<(), KinematicsError> {
+    run_forward(model, data, q, xi, false)
+}
+
+/// Joint Jacobian into `out` (6 x n_actuated, rows `[linear; angular]` in the
+/// base frame, linear part at the TCP point); returns the TCP pose.
+pub fn joint_jacobian_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    out: &mut Matrix6xX<f64>,
+) -> Result<Isometry3<f64>, KinematicsError> {
+    let na = model.n_actuated();
+    if out.ncols() != na {
+        return Err(KinematicsError::WrongLength {
+            what: "joint Jacobian columns".into(),
+            expected: na,
+            found: out.ncols(),
+        });
+    }
+    run_forward(model, data, q, xi, true)?;
+    out.fill(0.0);
+    let point = data.tcp.p;
+    for &f in &model.tcp_path {
+        let Some(k) = model.frames[f].joint_quantity() else {
+            continue;
+        };
+        if model.frames[f].source == JointSource::Fixed {
+            continue;
+        }
+        let (u, o) = data.quantity_axis(model, f, k);
+        let t = twist_at(&u, &o, &point);
+        for c in 0..na {
+            let w = data.djoint_dq[f * na + c];
+            if w != 0.0 {
+                for r in 0..6 {
+                    out[(r, c)] += w * t[r];
+                }
+            }
+        }
+    }
+    Ok(data.tcp.to_isometry())
+}
+
+/// Joint Jacobian (6 x n_actuated): column k = d[p_tcp; phi]/d q_k, rows
+/// `[linear; angular]` in the base frame, phi the small rotation vector with
+/// `R(q + dq) = exp([dphi]x) R(q)`.
+pub fn joint_jacobian(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+) -> Result<Matrix6xX<f64>, KinematicsError> {
+    let mut out = Matrix6xX::zeros(model.n_actuated());
+    joint_jacobian_into(model, data, q, xi, &mut out)?;
+    Ok(out)
+}
+
+/// Parameter Jacobian (equations (49)-(52)) into `out` (6 x n_params): column
+/// j = d[p_tcp; phi]/d xi_j, rows `[linear; angular]` in the base frame, with
+/// `R(xi + dxi) = exp([dphi]x) R(xi)`. Returns the TCP pose `x_base_tcp`.
+///
+/// Passive loop joints enter through implicit differentiation of the
+/// closure, slider cranks through the derivatives of V, couplings through
+/// their ratios (Appendix B).
+pub fn param_jacobian_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    out: &mut DMatrix<f64>,
+) -> Result<Isometry3<f64>, KinematicsError> {
+    let np = model.n_params();
+    if out.nrows() != 6 || out.ncols() != np {
+        return Err(KinematicsError::WrongLength {
+            what: "parameter Jacobian (6 x n_params) columns".into(),
+            expected: np,
+            found: if out.nrows() == 6 {
+                out.ncols()
+            } else {
+                out.len()
+            },
+        });
+    }
+    run_forward(model, data, q, xi, true)?;
+    let point = data.tcp.p;
+    let jac = out.as_mut_slice();
+    jac.fill(0.0);
+    // Terms come grouped by (frame, quantity): one twist per group.
+    let mut group = (usize::MAX, usize::MAX);
+    let mut t = [0.0; 6];
+    for &(f, k, j, coef) in &model.tcp_terms {
+        if (f, k) != group {
+            let (u, o) = data.quantity_axis(model, f, k);
+            t = twist_at(&u, &o, &point);
+            group = (f, k);
+        }
+        let col = &mut jac[6 * j..6 * j + 6];
+        for r in 0..6 {
+            col[r] += coef * t[r];
+        }
+    }
+    for &f in &model.tcp_xi_joints {
+        let k = model.frames[f].joint_quantity().unwrap_or(5);
+        let (u, o) = data.quantity_axis(model, f, k);
+        let t = twist_at(&u, &o, &point);
+        let row = &data.djoint_dxi[f * np..(f + 1) * np];
+        for (j, &w) in row.iter().enumerate() {
+            if w != 0.0 {
+                let col = &mut jac[6 * j..6 * j + 6];
+                for r in 0..6 {
+                    col[r] += w * t[r];
+                }
+            }
+        }
+    }
+    Ok(data.tcp.to_isometry())
+}
+
+/// Allocating twin of [`param_jacobian_into`]: the TCP pose and the 6 x
+/// n_params parameter Jacobian.
+pub fn param_jacobian(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+) -> Result<(Isometry3<f64>, DMatrix<f64>), KinematicsError> {
+    let mut out = DMatrix::zeros(6, model.n_params());
+    let pose = param_jacobian_into(model, data, q, xi, &mut out)?;
+    Ok((pose, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{slider_crank_angle, wrap_near};
+    use crate::KinematicsError;
+
+    #[test]
+    fn slider_crank_derivatives_match_central_differences() {
+        let base = [0.9, 0.1, -1.2, 0.35, 0.85];
+        let angle = |x: &[f64; 5]| {
+            slider_crank_angle("2", x[0], x[1], x[2], x[3], x[4], -1.0)
+                .map(|(a, _)| a)
+                .unwrap_or(f64::NAN)
+        };
+        let (_, analytic) = slider_crank_angle("2", 0.9, 0.1, -1.2, 0.35, 0.85, -1.0).unwrap();
+        let h = 1e-6;
+        for k in 0..5 {
+            let (mut plus, mut minus) = (base, base);
+            plus[k] += h;
+            minus[k] -= h;
+            let numeric = (angle(&plus) - angle(&minus)) / (2.0 * h);
+            assert!(
+                (numeric - analytic[k]).abs() < 1e-7 * analytic[k].abs().max(1.0),
+                "component {k}: {numeric} vs {}",
+                analytic[k]
+            );
+        }
+    }
+
+    #[test]
+    fn slider_crank_law_of_cosines_uses_the_squared_screw_length() {
+        // Right angle between the pivots: r'^2 = l1^2 + l3^2.
+        let (l1, l3) = (0.3, 0.4);
+        let (angle, _) = slider_crank_angle("8", 0.5, 0.0, 0.0, l1, l3, 1.0).unwrap();
+        assert!((angle - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        let err = slider_crank_angle("8", 0.75, 0.0, 0.0, l1, l3, 1.0).unwrap_err();
+        assert!(
+            matches!(err, KinematicsError::SliderCrankOutOfRange { ref joint, .. } if joint == "8")
+        );
+    }
+
+    #[test]
+    fn wrapping_keeps_the_value_within_half_a_turn_of_the_reference() {
+        let tau = std::f64::consts::TAU;
+        assert!((wrap_near(0.1 + 3.0 * tau, 0.0) - 0.1).abs() < 1e-12);
+        assert!((wrap_near(-3.0, 3.0) - (tau - 3.0)).abs() < 1e-12);
+    }
+}
