@@ -1,0 +1,92 @@
+//! `flexcal demo` end to end: the files it promises, the summary's keys, a
+//! self-contained report, and figures equal to those of the individual
+//! commands run on the demo's own files.
+
+use std::process::Command;
+
+fn flexcal(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_flexcal"))
+        .args(args)
+        .output()
+        .expect("the flexcal binary runs")
+}
+
+#[test]
+fn demo_writes_its_folder_and_matches_the_individual_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let out_str = out.to_str().unwrap();
+    let o = flexcal(&["demo", "--out", out_str, "--seed", "7"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for file in [
+        "summary.json",
+        "report.html",
+        "geometric/identification.csv",
+        "geometric/validation.csv",
+        "geometric/truth.toml",
+        "geometric/calibrated.toml",
+        "geometric/report.json",
+    ] {
+        assert!(out.join(file).is_file(), "missing {file}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["seed"], 7);
+    assert!(summary["runtime_s"].as_f64().unwrap() > 0.0);
+    let g = &summary["geometric"];
+    for key in ["rank", "parameters", "non_identifiable", "validation_before", "validation_after"] {
+        assert!(!g[key].is_null(), "geometric.{key} missing");
+    }
+    for key in ["position_mean_mm", "position_max_mm", "orientation_mean_deg", "orientation_max_deg"] {
+        assert!(g["validation_after"][key].as_f64().unwrap().is_finite(), "{key}");
+    }
+    assert_eq!(g["parameters"], 43);
+    // Calibration helps a lot on the twin.
+    let before = g["validation_before"]["position_mean_mm"].as_f64().unwrap();
+    let after = g["validation_after"]["position_mean_mm"].as_f64().unwrap();
+    assert!(after < 0.2 * before, "{before} -> {after}");
+
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.matches("<svg").count() >= 4);
+    assert!(!html.contains("<script src") && !html.contains("<link") && !html.contains("<img"));
+
+    // The same step with the individual command, on the demo's own files.
+    let geo = out.join("geometric");
+    let report = dir.path().join("again.json");
+    let o = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ir663",
+        "--data",
+        geo.join("identification.csv").to_str().unwrap(),
+        "--validate",
+        geo.join("validation.csv").to_str().unwrap(),
+        "--fixed-frame",
+        "--fixed-target",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let demo_report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(geo.join("report.json")).unwrap()).unwrap();
+    assert_eq!(again["validation"], demo_report["validation"]);
+    assert_eq!(again["identification"], demo_report["identification"]);
+}
+
+#[test]
+fn demo_is_deterministic_for_a_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str| {
+        let out = dir.path().join(name);
+        let o = flexcal(&["demo", "--out", out.to_str().unwrap(), "--seed", "3"]);
+        assert!(o.status.success());
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        v["runtime_s"] = serde_json::Value::Null;
+        v
+    };
+    assert_eq!(run("a"), run("b"));
+}
