@@ -99,11 +99,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         }));
         let mut jac = DMatrix::zeros(6, model.n_params());
         timings.push(time(
-            &format!("{robot}: forward model + parameter Jacobian (6 x {})", model.n_params()),
+            &format!(
+                "{robot}: forward model + parameter Jacobian (6 x {})",
+                model.n_params()
+            ),
             budget,
             1,
             || {
-                black_box(param_jacobian_into(&model, &mut data, black_box(&q), &xi, &mut jac).ok());
+                black_box(
+                    param_jacobian_into(&model, &mut data, black_box(&q), &xi, &mut jac).ok(),
+                );
             },
         ));
     }
@@ -133,22 +138,24 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let elastic = ConstantCompliance {
         compliance: Matrix6::from_diagonal(&Vector6::new(1.5e-6, 1.5e-6, 1.5e-6, 2e-7, 2e-7, 2e-7)),
     };
-    let egm = ElastoGeometricModel {
-        model: &model,
-        xi: model.nominal_params().to_vec(),
-        elastic: &elastic,
-        process: None,
-        cell: Cell {
-            x_base_part: Isometry3::identity(),
-            payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
-        },
-    };
+    let egm = ElastoGeometricModel::with_nominal_geometry(
+        &model,
+        &elastic,
+        None,
+        Cell::payload_only(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
+    );
     let target = Isometry3::from_parts(
         Translation3::new(0.6, 0.3, 0.4),
         UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
     );
     let seed = egm
-        .compensate_pose(&mut data, &target, &[0.3, -1.2, 1.5, -1.9, -1.57, 0.0], &Vector3::zeros(), &Default::default())?
+        .compensate_pose(
+            &mut data,
+            &target,
+            &[0.3, -1.2, 1.5, -1.9, -1.57, 0.0],
+            &Vector3::zeros(),
+            &Default::default(),
+        )?
         .q_uncompensated;
     let options = Default::default();
     timings.push(time(

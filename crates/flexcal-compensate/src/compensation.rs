@@ -199,6 +199,35 @@ pub fn pose_difference(a: &Isometry3<f64>, b: &Isometry3<f64>) -> Vector6<f64> {
     Vector6::new(dp.x, dp.y, dp.z, phi.x, phi.y, phi.z)
 }
 
+impl<'a> ElastoGeometricModel<'a> {
+    /// The model with the robot's nominal geometric parameters.
+    pub fn with_nominal_geometry(
+        model: &'a Model,
+        elastic: &'a dyn ElasticModel,
+        process: Option<&'a dyn ProcessModel>,
+        cell: Cell,
+    ) -> Self {
+        Self {
+            model,
+            xi: model.nominal_params().to_vec(),
+            elastic,
+            process,
+            cell,
+        }
+    }
+}
+
+impl Cell {
+    /// A cell whose part frame is the robot base frame, with a payload
+    /// wrench (base frame, N and N.m).
+    pub fn payload_only(payload_base: Vector6<f64>) -> Self {
+        Self {
+            x_base_part: Isometry3::identity(),
+            payload_base,
+        }
+    }
+}
+
 impl ElastoGeometricModel<'_> {
     fn total_wrench(
         &self,
@@ -562,32 +591,31 @@ mod tests {
         )
     }
 
+    /// A configuration near the targets of these tests (elbow up, tool down).
+    const SEED: [f64; 6] = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
+
+    fn compensate_at_rest(
+        egm: &ElastoGeometricModel<'_>,
+        data: &mut Data,
+        target: &Isometry3<f64>,
+    ) -> CompensatedPoint {
+        egm.compensate_pose(data, target, &SEED, &Vector3::zeros(), &Default::default())
+            .unwrap()
+    }
+
     #[test]
     fn zero_load_compensation_is_the_inverse_model() {
         let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
         let mut data = Data::new(&model);
         let elastic = compliance();
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: None,
-            cell: Cell {
-                x_base_part: Isometry3::identity(),
-                payload_base: Vector6::zeros(),
-            },
-        };
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &model,
+            &elastic,
+            None,
+            Cell::payload_only(Vector6::zeros()),
+        );
         let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
-        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
-        let c = egm
-            .compensate_pose(
-                &mut data,
-                &target,
-                &seed,
-                &Vector3::zeros(),
-                &Default::default(),
-            )
-            .unwrap();
+        let c = compensate_at_rest(&egm, &mut data, &target);
         assert_eq!(c.iterations, 0);
         assert_eq!(c.q_commanded, c.q_uncompensated);
         assert!(position_norm(&c.uncompensated_error) < 1e-9);
@@ -598,27 +626,14 @@ mod tests {
         let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
         let mut data = Data::new(&model);
         let elastic = compliance();
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: None,
-            cell: Cell {
-                x_base_part: Isometry3::identity(),
-                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
-            },
-        };
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &model,
+            &elastic,
+            None,
+            Cell::payload_only(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
+        );
         let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
-        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
-        let c = egm
-            .compensate_pose(
-                &mut data,
-                &target,
-                &seed,
-                &Vector3::zeros(),
-                &Default::default(),
-            )
-            .unwrap();
+        let c = compensate_at_rest(&egm, &mut data, &target);
         // Uncompensated: 920 N x 1.5e-3 mm/N ~ 1.4 mm down.
         assert!((c.uncompensated_error[2] + 920.0 * 1.5e-6).abs() < 1e-9);
         assert!(position_norm(&c.residual) <= 1e-9);
@@ -655,8 +670,7 @@ mod tests {
                 ),
             })
             .collect();
-        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
-        let outcomes = egm.compensate_path(&mut data, &path, &seed, &Default::default());
+        let outcomes = egm.compensate_path(&mut data, &path, &SEED, &Default::default());
         let mut previous_error = 0.0;
         for o in &outcomes {
             let c = o.result.as_ref().unwrap();
@@ -689,16 +703,12 @@ mod tests {
         let constant = ConstantWrench {
             wrench: Vector6::new(0.0, 0.0, 100.0, 0.0, 0.0, 0.0),
         };
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: Some(&constant),
-            cell: Cell {
-                x_base_part: Isometry3::identity(),
-                payload_base: Vector6::zeros(),
-            },
-        };
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &model,
+            &elastic,
+            Some(&constant),
+            Cell::payload_only(Vector6::zeros()),
+        );
         let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
         let path = vec![
             PathPoint {
@@ -710,8 +720,7 @@ mod tests {
                 x_part_tcp: Isometry3::from_parts(Translation3::new(4.0, 0.0, 0.0), down),
             },
         ];
-        let seed = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
-        let outcomes = egm.compensate_path(&mut data, &path, &seed, &Default::default());
+        let outcomes = egm.compensate_path(&mut data, &path, &SEED, &Default::default());
         assert!(outcomes[0].result.is_ok());
         let err = outcomes[1].result.as_ref().unwrap_err();
         assert_eq!(outcomes[1].line, 3);
