@@ -21,7 +21,7 @@ pub struct BenchArgs {
     /// Print JSON (`{"operations": [{"name", "ns_per_op", "iterations"}]}`).
     #[arg(long)]
     pub json: bool,
-    /// Time budget per operation [ms].
+    /// Time budget per operation (ms).
     #[arg(long, default_value_t = 300)]
     pub budget_ms: u64,
 }
@@ -31,7 +31,7 @@ pub struct BenchArgs {
 pub struct Timing {
     /// What was timed.
     pub name: String,
-    /// Median time per operation [ns].
+    /// Median time per operation (ns).
     pub ns_per_op: f64,
     /// Operations run in total.
     pub iterations: u64,

@@ -107,8 +107,7 @@ fn format_row(out: &mut String, values: impl IntoIterator<Item = f64>) {
 pub fn run_fk(args: FkArgs) -> anyhow::Result<()> {
     let model = load_model(&args.robot)?;
     let n = model.n_actuated();
-    let (configurations, lines): (Vec<Vec<f64>>, Vec<String>) = match (&args.joints, &args.input)
-    {
+    let (configurations, lines): (Vec<Vec<f64>>, Vec<String>) = match (&args.joints, &args.input) {
         (Some(text), None) => (
             vec![parse_joint_list(text, &model).context("--joints")?],
             vec!["--joints".into()],

@@ -70,11 +70,11 @@ pub fn run(command: RobotCommand) -> anyhow::Result<()> {
             if !model.passive_names().is_empty() {
                 println!("passive joints: {}", model.passive_names().join(", "));
             }
+            println!("\nparameter vector xi ({} parameters):", model.n_params());
             println!(
-                "\nparameter vector xi ({} parameters):",
-                model.n_params()
+                "  {:>3}  {:<10} {:<6} {:>14}  unit",
+                "#", "name", "frame", "nominal"
             );
-            println!("  {:>3}  {:<10} {:<6} {:>14}  unit", "#", "name", "frame", "nominal");
             for (i, (p, v)) in model
                 .params()
                 .iter()

@@ -9,7 +9,18 @@ use std::process::ExitCode;
 
 // Each subcommand lives in its own module with a clap `Args`/`Subcommand`
 // type and a `run` function returning `anyhow::Result<()>`.
+mod cmd_bench;
+mod cmd_calibrate;
 mod cmd_demo;
+mod cmd_fem;
+mod cmd_fk;
+mod cmd_fuzzy;
+mod cmd_identify;
+mod cmd_poses;
+mod cmd_robot;
+mod cmd_twin;
+mod report;
+mod robot_arg;
 
 /// flexcal: elasto-geometrical calibration and compensation of industrial robots.
 #[derive(Parser, Debug)]
@@ -23,6 +34,32 @@ struct Cli {
 enum Command {
     /// Run the reference study end to end on built-in data and write a report.
     Demo(cmd_demo::DemoArgs),
+    /// Frame finite elements: solve a structure file or condense it onto a node.
+    #[command(subcommand)]
+    Fem(cmd_fem::FemCommand),
+    /// Built-in robots and robot description files.
+    #[command(subcommand)]
+    Robot(cmd_robot::RobotCommand),
+    /// Forward model: TCP poses (and passive joints) of configurations.
+    Fk(cmd_fk::FkArgs),
+    /// Inverse model: configurations reaching TCP poses.
+    Ik(cmd_fk::IkArgs),
+    /// Fuzzy models: fit from CSV data, evaluate, export to `.fis`.
+    #[command(subcommand)]
+    Fuzzy(cmd_fuzzy::FuzzyCommand),
+    /// Time the core operations on this machine (ns per operation).
+    Bench(cmd_bench::BenchArgs),
+    /// Geometric calibration from measurements (identifiability, identification, validation).
+    Calibrate(cmd_calibrate::CalibrateArgs),
+    /// Measurement poses: choose a well-conditioned set from candidates.
+    #[command(subcommand)]
+    Poses(cmd_poses::PosesCommand),
+    /// Virtual robots: write the files of the paper's campaigns.
+    #[command(subcommand)]
+    Twin(cmd_twin::TwinCommand),
+    /// Elastic identification: stiffness of a robot's beam model from measured deflections.
+    #[command(subcommand)]
+    Identify(cmd_identify::IdentifyCommand),
     // <wire: new subcommand variants go above this line>
 }
 
@@ -30,6 +67,16 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd_demo::run(args),
+        Command::Fem(command) => cmd_fem::run(command),
+        Command::Robot(command) => cmd_robot::run(command),
+        Command::Fk(args) => cmd_fk::run_fk(args),
+        Command::Ik(args) => cmd_fk::run_ik(args),
+        Command::Fuzzy(command) => cmd_fuzzy::run(command),
+        Command::Bench(args) => cmd_bench::run(args),
+        Command::Calibrate(args) => cmd_calibrate::run(args),
+        Command::Poses(command) => cmd_poses::run(command),
+        Command::Twin(command) => cmd_twin::run(command),
+        Command::Identify(command) => cmd_identify::run(command),
         // <wire: new match arms go above this line>
     };
     match result {

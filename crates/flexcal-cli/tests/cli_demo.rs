@@ -26,6 +26,11 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
         "geometric/truth.toml",
         "geometric/calibrated.toml",
         "geometric/report.json",
+        "elastic/elastic_z_1100N.csv",
+        "elastic/stiffness_report.json",
+        "elastic/fuzzy_compliance.toml",
+        "forming/target_path.csv",
+        "forming/forming_result.json",
     ] {
         assert!(out.join(file).is_file(), "missing {file}");
     }
@@ -34,11 +39,25 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
     assert_eq!(summary["seed"], 7);
     assert!(summary["runtime_s"].as_f64().unwrap() > 0.0);
     let g = &summary["geometric"];
-    for key in ["rank", "parameters", "non_identifiable", "validation_before", "validation_after"] {
+    for key in [
+        "rank",
+        "parameters",
+        "non_identifiable",
+        "validation_before",
+        "validation_after",
+    ] {
         assert!(!g[key].is_null(), "geometric.{key} missing");
     }
-    for key in ["position_mean_mm", "position_max_mm", "orientation_mean_deg", "orientation_max_deg"] {
-        assert!(g["validation_after"][key].as_f64().unwrap().is_finite(), "{key}");
+    for key in [
+        "position_mean_mm",
+        "position_max_mm",
+        "orientation_mean_deg",
+        "orientation_max_deg",
+    ] {
+        assert!(
+            g["validation_after"][key].as_f64().unwrap().is_finite(),
+            "{key}"
+        );
     }
     assert_eq!(g["parameters"], 43);
     // Calibration helps a lot on the twin.
@@ -46,8 +65,32 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
     let after = g["validation_after"]["position_mean_mm"].as_f64().unwrap();
     assert!(after < 0.2 * before, "{before} -> {after}");
 
+    let e = &summary["elastic"];
+    for model in ["parametric", "fuzzy"] {
+        for load in ["300", "600", "900", "1100"] {
+            for key in ["rms_mm", "max_norm_mm", "max_x_mm", "max_z_mm"] {
+                let v = e[model][load][key].as_f64();
+                assert!(
+                    v.is_some_and(|v| v.is_finite() && v >= 0.0),
+                    "elastic.{model}.{load}.{key}"
+                );
+            }
+        }
+        assert!(e[model]["all"]["rms_mm"].as_f64().unwrap() > 0.0);
+    }
+    assert!(
+        e["stiffness_non_identifiable"]
+            .as_array()
+            .is_some_and(|a| !a.is_empty())
+    );
+    let f = &summary["forming"];
+    let before = f["max_deviation_uncompensated_mm"].as_f64().unwrap();
+    let after = f["max_deviation_compensated_mm"].as_f64().unwrap();
+    assert!(before > 0.4 && after < before, "{before} -> {after}");
+    assert!(f["improvement_percent"].as_f64().unwrap() > 50.0);
+
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    assert!(html.matches("<svg").count() >= 4);
+    assert!(html.matches("<svg").count() >= 8);
     assert!(!html.contains("<script src") && !html.contains("<link") && !html.contains("<img"));
 
     // The same step with the individual command, on the demo's own files.

@@ -63,15 +63,28 @@ fn fk_then_ik_round_trips_a_batch() {
     }
     std::fs::write(&joints, &text).unwrap();
     let fk = flexcal(&[
-        "fk", "--robot", "ur10", "--input", path_str(&joints), "--output", path_str(&poses),
+        "fk",
+        "--robot",
+        "ur10",
+        "--input",
+        path_str(&joints),
+        "--output",
+        path_str(&poses),
     ]);
     assert!(fk.status.success(), "{}", stderr(&fk));
     let pose_text = std::fs::read_to_string(&poses).unwrap();
     assert!(pose_text.starts_with("x_m,y_m,z_m,qw,qx,qy,qz\n"));
     assert_eq!(pose_text.lines().count(), 21);
     let ik = flexcal(&[
-        "ik", "--robot", "ur10", "--input", path_str(&poses), "--output", path_str(&back),
-        "--seed", "0.1,-1.2,1.0,-0.5,1.3,0.2",
+        "ik",
+        "--robot",
+        "ur10",
+        "--input",
+        path_str(&poses),
+        "--output",
+        path_str(&back),
+        "--seed",
+        "0.1,-1.2,1.0,-0.5,1.3,0.2",
     ]);
     assert!(ik.status.success(), "{}", stderr(&ik));
     let parse = |s: &str| -> Vec<Vec<f64>> {
@@ -110,12 +123,64 @@ fn bad_input_gives_one_line_errors_and_failure() {
         let bad_toml = dir.path().join("bad.toml");
         std::fs::write(&bad_toml, "name = \"x\"\n[[frames]\nname = 1\n").unwrap();
         vec![
-            (vec!["fk".into(), "--robot".into(), "nope".into(), "--joints".into(), "0".into()], "unknown robot"),
-            (vec!["fk".into(), "--robot".into(), "ur10".into(), "--joints".into(), "0,1".into()], "6 actuated"),
-            (vec!["fk".into(), "--robot".into(), "ur10".into(), "--joints".into(), "0,1,2,3,4,nan".into()], "not a finite number"),
-            (vec!["fk".into(), "--robot".into(), "ur10".into(), "--input".into(), nan.display().to_string()], "nan.csv:3"),
-            (vec!["fk".into(), "--robot".into(), "ur10".into(), "--input".into(), missing.display().to_string()], "missing column 'q4'"),
-            (vec!["robot".into(), "show".into(), bad_toml.display().to_string()], "bad.toml"),
+            (
+                vec![
+                    "fk".into(),
+                    "--robot".into(),
+                    "nope".into(),
+                    "--joints".into(),
+                    "0".into(),
+                ],
+                "unknown robot",
+            ),
+            (
+                vec![
+                    "fk".into(),
+                    "--robot".into(),
+                    "ur10".into(),
+                    "--joints".into(),
+                    "0,1".into(),
+                ],
+                "6 actuated",
+            ),
+            (
+                vec![
+                    "fk".into(),
+                    "--robot".into(),
+                    "ur10".into(),
+                    "--joints".into(),
+                    "0,1,2,3,4,nan".into(),
+                ],
+                "not a finite number",
+            ),
+            (
+                vec![
+                    "fk".into(),
+                    "--robot".into(),
+                    "ur10".into(),
+                    "--input".into(),
+                    nan.display().to_string(),
+                ],
+                "nan.csv:3",
+            ),
+            (
+                vec![
+                    "fk".into(),
+                    "--robot".into(),
+                    "ur10".into(),
+                    "--input".into(),
+                    missing.display().to_string(),
+                ],
+                "missing column 'q4'",
+            ),
+            (
+                vec![
+                    "robot".into(),
+                    "show".into(),
+                    bad_toml.display().to_string(),
+                ],
+                "bad.toml",
+            ),
         ]
     };
     for (args, expected) in cases {
@@ -137,9 +202,18 @@ fn unreachable_ik_target_is_an_error_and_writes_nothing() {
     std::fs::write(&out, "previous contents\n").unwrap();
     std::fs::write(&poses, "x_m,y_m,z_m,qw,qx,qy,qz\n5.0,0,0,1,0,0,0\n").unwrap();
     let o = flexcal(&[
-        "ik", "--robot", "ur10", "--input", path_str(&poses), "--output", path_str(&out),
+        "ik",
+        "--robot",
+        "ur10",
+        "--input",
+        path_str(&poses),
+        "--output",
+        path_str(&out),
     ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("far.csv:2"), "{}", stderr(&o));
-    assert_eq!(std::fs::read_to_string(&out).unwrap(), "previous contents\n");
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        "previous contents\n"
+    );
 }

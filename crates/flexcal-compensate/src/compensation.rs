@@ -92,7 +92,7 @@ pub enum CompensationError {
     CouplingDiverged {
         /// Iterations spent.
         iterations: usize,
-        /// Size of the last position change [m].
+        /// Size of the last position change (m).
         last_change_m: f64,
     },
     /// The commanded pose iteration did not reach the tolerance.
@@ -100,9 +100,9 @@ pub enum CompensationError {
         "compensation did not converge: residual {residual_m:.3e} m / {residual_rad:.3e} rad after {iterations} iterations"
     )]
     NotConverged {
-        /// Remaining position error [m].
+        /// Remaining position error (m).
         residual_m: f64,
-        /// Remaining orientation error [rad].
+        /// Remaining orientation error (rad).
         residual_rad: f64,
         /// Iterations spent (fixed point and Newton).
         iterations: usize,
@@ -124,9 +124,9 @@ pub struct Cell {
 /// Settings of the solvers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CompensationOptions {
-    /// Position tolerance on the compensated pose [m] (default 1e-9).
+    /// Position tolerance on the compensated pose (m) (default 1e-9).
     pub position_tolerance_m: f64,
-    /// Orientation tolerance [rad] (default 1e-9).
+    /// Orientation tolerance (rad) (default 1e-9).
     pub orientation_tolerance_rad: f64,
     /// Fixed-point iterations before Newton takes over (default 30).
     pub max_fixed_point_iterations: usize,
@@ -564,7 +564,7 @@ impl ElastoGeometricModel<'_> {
     }
 }
 
-/// Size of the position part of an error vector [m].
+/// Size of the position part of an error vector (m).
 pub fn position_norm(e: &SVector<f64, 6>) -> f64 {
     e.fixed_rows::<3>(0).norm()
 }

@@ -60,7 +60,7 @@ pub fn rotation_from_abc(a: f64, b: f64, c: f64) -> UnitQuaternion<f64> {
     UnitQuaternion::from_euler_angles(c, b, a)
 }
 
-/// KUKA A, B, C angles [rad] of a rotation (inverse of [`rotation_from_abc`]).
+/// KUKA A, B, C angles (rad) of a rotation (inverse of [`rotation_from_abc`]).
 pub fn abc_from_rotation(rotation: &UnitQuaternion<f64>) -> (f64, f64, f64) {
     let (roll, pitch, yaw) = rotation.euler_angles();
     (yaw, pitch, roll)
@@ -167,7 +167,7 @@ pub fn target_path_to_csv(points: &[PathPoint]) -> String {
 pub struct KrlOptions {
     /// Program name (the `DEF` name; letters, digits and `_`, at most 24 characters).
     pub program_name: String,
-    /// Cartesian velocity of the LIN moves [m/s].
+    /// Cartesian velocity of the LIN moves (m/s).
     pub velocity_m_s: f64,
     /// Use approximate positioning (`C_DIS`) between points.
     pub blend: bool,

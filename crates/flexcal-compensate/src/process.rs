@@ -42,9 +42,9 @@ pub enum ProcessError {
         "cantilever beam: no equilibrium found with the tool at x = {x_mm:.3} mm, z = {z_mm:.3} mm ({why})"
     )]
     NoEquilibrium {
-        /// Tool tip x in the part frame [mm].
+        /// Tool tip x in the part frame (mm).
         x_mm: f64,
-        /// Tool tip z in the part frame [mm].
+        /// Tool tip z in the part frame (mm).
         z_mm: f64,
         /// Why the solver gave up.
         why: &'static str,
@@ -57,7 +57,7 @@ pub enum ProcessError {
 /// Where the tool is and where it is going, in the part frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToolState {
-    /// Tool tip position in the part frame [m].
+    /// Tool tip position in the part frame (m).
     pub position: Vector3<f64>,
     /// Direction of motion of the tool tip (any length; zero when at rest),
     /// used for friction.
@@ -65,7 +65,7 @@ pub struct ToolState {
 }
 
 impl ToolState {
-    /// A tool at rest at `position` [m].
+    /// A tool at rest at `position` (m).
     pub fn at(position: Vector3<f64>) -> Self {
         Self {
             position,
@@ -115,11 +115,11 @@ impl ProcessModel for ConstantWrench {
 pub struct Material {
     /// Name as accepted on the command line.
     pub name: &'static str,
-    /// Young's modulus [Pa].
+    /// Young's modulus (Pa).
     pub youngs_modulus_pa: f64,
 }
 
-/// Nominal handbook Young's moduli of common sheet and bar materials [Pa].
+/// Nominal handbook Young's moduli of common sheet and bar materials (Pa).
 /// Real batches vary by a few percent; give the modulus explicitly when it
 /// was measured.
 pub const MATERIALS: &[Material] = &[
@@ -177,13 +177,13 @@ pub enum BeamTheory {
 /// section 4: Al-5005, 585 x 50 x 14 mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CantileverBeam {
-    /// Free length from the clamp to the free end [m] (paper: 0.585).
+    /// Free length from the clamp to the free end (m) (paper: 0.585).
     pub length_m: f64,
-    /// Width along y [m] (paper: 0.050).
+    /// Width along y (m) (paper: 0.050).
     pub width_m: f64,
-    /// Thickness along z [m] (paper: 0.014).
+    /// Thickness along z (m) (paper: 0.014).
     pub thickness_m: f64,
-    /// Young's modulus [Pa] (Al-5005: 68.9e9).
+    /// Young's modulus (Pa) (Al-5005: 68.9e9).
     pub youngs_modulus_pa: f64,
     /// Coulomb friction coefficient between tool and beam (default 0: the
     /// paper neglects it and names it as its remaining error).
@@ -241,13 +241,13 @@ impl CantileverBeam {
         self.width_m * self.thickness_m.powi(3) / 12.0
     }
 
-    /// Bending stiffness `E I` [N.m^2].
+    /// Bending stiffness `E I` (N.m^2).
     pub fn bending_stiffness(&self) -> f64 {
         self.youngs_modulus_pa * self.second_moment_m4()
     }
 
-    /// Small-deflection contact force magnitude [N] for a deflection `w` [m]
-    /// at distance `a` [m] from the clamp: `3 E I w / a^3`.
+    /// Small-deflection contact force magnitude (N) for a deflection `w` (m)
+    /// at distance `a` (m) from the clamp: `3 E I w / a^3`.
     pub fn small_deflection_force(&self, a: f64, w: f64) -> f64 {
         3.0 * self.bending_stiffness() * w / a.powi(3)
     }

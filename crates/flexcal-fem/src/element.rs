@@ -335,7 +335,7 @@ pub fn element_matrix(structure: &Structure, element: ElementId) -> Result<Eleme
 }
 
 /// Consistent equivalent nodal loads of a beam's own weight under `gravity`
-/// [m/s^2], global axes (`[node i wrench; node j wrench]`, N and N.m).
+/// (m/s^2), global axes (`[node i wrench; node j wrench]`, N and N.m).
 ///
 /// With w = mass_per_length * gravity in local axes: axial w_x L / 2 per end;
 /// transverse w L / 2 per end with end moments +-w L^2 / 12 (the fixed-end

@@ -103,23 +103,23 @@ pub struct BeamRecord {
     pub E: f64,
     /// Shear modulus (Pa).
     pub G: f64,
-    /// Area [m^2].
+    /// Area (m^2).
     pub A: f64,
-    /// Second moment about local y [m^4].
+    /// Second moment about local y (m^4).
     pub Iy: f64,
-    /// Second moment about local z [m^4].
+    /// Second moment about local z (m^4).
     pub Iz: f64,
-    /// Torsion constant [m^4].
+    /// Torsion constant (m^4).
     pub J: f64,
     /// Vector in the local x-z plane (3 values, global axes).
     pub vecxz: Vec<f64>,
-    /// Shear area along local y [m^2] (Timoshenko in the x-y plane).
+    /// Shear area along local y (m^2) (Timoshenko in the x-y plane).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub Avy: Option<f64>,
-    /// Shear area along local z [m^2] (Timoshenko in the x-z plane).
+    /// Shear area along local z (m^2) (Timoshenko in the x-z plane).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub Avz: Option<f64>,
-    /// Mass per length [kg/m] for own weight.
+    /// Mass per length (kg/m) for own weight.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mass_per_length: Option<f64>,
     /// 12 end releases, local order `u1 v1 w1 rx1 ry1 rz1 u2 v2 w2 rx2 ry2 rz2`.
@@ -156,7 +156,7 @@ pub struct SpringRecord {
     pub i: String,
     /// Second node's name.
     pub j: String,
-    /// Stiffness along i->j [N/m].
+    /// Stiffness along i->j (N/m).
     pub k: f64,
 }
 
@@ -166,7 +166,7 @@ pub struct SpringRecord {
 pub struct LoadCaseRecord {
     /// Load case name.
     pub name: String,
-    /// Gravity [m/s^2] (3 values), acting on beams with a mass per length.
+    /// Gravity (m/s^2) (3 values), acting on beams with a mass per length.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity: Option<Vec<f64>>,
     /// Nodal wrenches `[fx, fy, fz, mx, my, mz]` [N, N.m] by node name.

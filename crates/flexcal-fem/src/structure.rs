@@ -15,20 +15,20 @@ pub struct Section {
     pub youngs_modulus: f64,
     /// Shear modulus G (Pa); > 0.
     pub shear_modulus: f64,
-    /// Area A [m^2]; > 0.
+    /// Area A (m^2); > 0.
     pub area: f64,
-    /// Second moment of area about local y, Iy [m^4]; > 0. Governs bending in
+    /// Second moment of area about local y, Iy (m^4); > 0. Governs bending in
     /// the local x-z plane (deflection along local z).
     pub iy: f64,
-    /// Second moment of area about local z, Iz [m^4]; > 0. Governs bending in
+    /// Second moment of area about local z, Iz (m^4); > 0. Governs bending in
     /// the local x-y plane (deflection along local y).
     pub iz: f64,
-    /// Torsion constant J [m^4]; > 0.
+    /// Torsion constant J (m^4); > 0.
     pub torsion_constant: f64,
-    /// Shear area for shear along local y, Avy [m^2]; `Some` (> 0) makes the
+    /// Shear area for shear along local y, Avy (m^2); `Some` (> 0) makes the
     /// x-y bending Timoshenko, `None` keeps it Euler-Bernoulli.
     pub shear_area_y: Option<f64>,
-    /// Shear area for shear along local z, Avz [m^2]; as `shear_area_y`.
+    /// Shear area for shear along local z, Avz (m^2); as `shear_area_y`.
     pub shear_area_z: Option<f64>,
 }
 
@@ -52,7 +52,7 @@ pub struct Beam {
     /// `true` = released (the element transmits no force on that local
     /// degree of freedom; it is condensed out at element level).
     pub releases: [bool; 12],
-    /// Mass per unit length [kg/m]; >= 0. Only used for own-weight loads.
+    /// Mass per unit length (kg/m); >= 0. Only used for own-weight loads.
     pub mass_per_length: f64,
 }
 
@@ -78,12 +78,12 @@ pub struct Joint {
     /// any perpendicular is used, which requires equal radial stiffnesses.
     pub local_y: Option<Vector3<f64>>,
     /// `[Ka, Kr, Kr, Kar, Krr, Krr]`: translational stiffnesses along local
-    /// x, y, z [N/m] then rotational stiffnesses about local x, y, z
-    /// [N.m/rad]; each >= 0, 0 meaning free.
+    /// x, y, z (N/m) then rotational stiffnesses about local x, y, z
+    /// (N.m/rad); each >= 0, 0 meaning free.
     pub stiffness: [f64; 6],
 }
 
-/// An axial spring of stiffness `k` [N/m] along the line from node `i` to node `j`.
+/// An axial spring of stiffness `k` (N/m) along the line from node `i` to node `j`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spring {
     /// Name used in messages.
@@ -92,7 +92,7 @@ pub struct Spring {
     pub i: NodeId,
     /// Second node.
     pub j: NodeId,
-    /// Stiffness [N/m]; >= 0.
+    /// Stiffness (N/m); >= 0.
     pub k: f64,
 }
 
@@ -112,7 +112,7 @@ pub enum ElementId {
 pub struct LoadCase {
     /// Name used in output.
     pub name: String,
-    /// Gravity acceleration [m/s^2], global axes; acts on beams with a mass
+    /// Gravity acceleration (m/s^2), global axes; acts on beams with a mass
     /// per length, as consistent equivalent nodal loads.
     pub gravity: Vector3<f64>,
     /// Nodal wrenches `[fx, fy, fz, mx, my, mz]` [N, N.m], global axes.

@@ -37,7 +37,7 @@ impl FuzzyModel {
     /// version = 1
     /// output = "y"
     /// conclusions = [0.0, 1.0, 1.0, 2.0]  # rule order: last input fastest
-    /// [[inputs]]
+    /// [(inputs)]
     /// name = "a"
     /// modal_values = [0.0, 1.0]
     /// ```

@@ -267,18 +267,18 @@ pub struct LoopDescription {
 ///
 /// ```toml
 /// name = "two-link"
-/// [[frame]]
+/// [(frame)]
 /// name = "1"
 /// joint = "revolute"
 /// actuated = true
 /// limits_deg = [-170, 170]
-/// [[frame]]
+/// [(frame)]
 /// name = "2"
 /// antecedent = "1"
 /// joint = "revolute"
 /// actuated = true
 /// d_mm = 400
-/// [[frame]]
+/// [(frame)]
 /// name = "E"
 /// antecedent = "2"
 /// joint = "fixed"

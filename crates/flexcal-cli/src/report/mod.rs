@@ -148,7 +148,10 @@ impl Report {
                         header,
                         rows,
                     } => {
-                        html.push_str(&format!("<table><caption>{}</caption><tr>", escape(caption)));
+                        html.push_str(&format!(
+                            "<table><caption>{}</caption><tr>",
+                            escape(caption)
+                        ));
                         for h in header {
                             html.push_str(&format!("<th>{}</th>", escape(h)));
                         }
@@ -186,9 +189,19 @@ mod tests {
         let mut r = Report::new("T <1>", "sub");
         let mut s = Section::new("Geometry");
         s.paragraph("a & b")
-            .table("t", &["name", "value"], vec![vec!["d3".into(), "1.0".into()]])
+            .table(
+                "t",
+                &["name", "value"],
+                vec![vec!["d3".into(), "1.0".into()]],
+            )
             .figure(
-                svg::line_chart("c", "x", "y", &[svg::Series::new("s", vec![(0.0, 1.0)])], false),
+                svg::line_chart(
+                    "c",
+                    "x",
+                    "y",
+                    &[svg::Series::new("s", vec![(0.0, 1.0)])],
+                    false,
+                ),
                 "cap",
             )
             .code("flexcal fk --robot ur10");
@@ -196,7 +209,11 @@ mod tests {
         let html = r.to_html();
         assert_eq!(r.figure_count(), 1);
         assert!(html.contains("T &lt;1&gt;") && html.contains("a &amp; b"));
-        assert!(!html.contains("http://") || html.matches("http://").count() == html.matches("xmlns=\"http://www.w3.org/2000/svg\"").count());
+        assert!(
+            !html.contains("http://")
+                || html.matches("http://").count()
+                    == html.matches("xmlns=\"http://www.w3.org/2000/svg\"").count()
+        );
         assert!(!html.contains("<script src") && !html.contains("<link"));
     }
 }

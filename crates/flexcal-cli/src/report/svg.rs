@@ -52,12 +52,6 @@ impl Series {
         self.markers = false;
         self
     }
-
-    /// The same series without markers.
-    pub fn without_markers(mut self) -> Self {
-        self.markers = false;
-        self
-    }
 }
 
 /// Escapes text for inclusion in SVG/HTML.
@@ -125,7 +119,11 @@ fn padded_range(values: impl Iterator<Item = f64>, include_zero: bool) -> (f64, 
     }
     let pad = 0.05 * (hi - lo);
     (
-        if include_zero && lo == 0.0 { 0.0 } else { lo - pad },
+        if include_zero && lo == 0.0 {
+            0.0
+        } else {
+            lo - pad
+        },
         hi + pad,
     )
 }
@@ -245,7 +243,11 @@ pub fn line_chart(
     log_y: bool,
 ) -> String {
     let usable = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite() && (!log_y || y > 0.0);
-    let all = || series.iter().flat_map(|s| s.points.iter().copied().filter(usable));
+    let all = || {
+        series
+            .iter()
+            .flat_map(|s| s.points.iter().copied().filter(usable))
+    };
     let (x_lo, x_hi) = padded_range(all().map(|p| p.0), false);
     let (y_lo, y_hi) = if log_y {
         let (lo, hi) = padded_range(all().map(|p| p.1.log10()), false);

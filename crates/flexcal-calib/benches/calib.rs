@@ -1,0 +1,37 @@
+//! Full iterative identification of the UR10 from the 2 773 poses of IPA
+//! series C (goal <= 50 ms). Skipped with a message when the data is absent.
+
+use std::path::PathBuf;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use flexcal_calib::{CalibrationOptions, MeasurementSet, Weighting, calibrate};
+use flexcal_kinematics::RobotDescription;
+
+fn series_c() -> Option<PathBuf> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/datasets/ipa-ur10/Series_C/measurements_random_poses.csv");
+    path.exists().then_some(path)
+}
+
+fn bench(c: &mut Criterion) {
+    let Some(path) = series_c() else {
+        eprintln!("IPA UR10 data absent: calibration benchmark skipped");
+        return;
+    };
+    let model = RobotDescription::builtin("ur10")
+        .and_then(|d| d.build())
+        .expect("built-in ur10");
+    let set = MeasurementSet::read_ipa(&path).expect("series C reads");
+    let mut options = CalibrationOptions::for_model(&model);
+    options.use_orientation = Some(false);
+    options.weighting = Weighting::Uniform;
+    let mut group = c.benchmark_group("calibrate");
+    group.sample_size(10);
+    group.bench_function("ur10_series_c_2773_poses", |b| {
+        b.iter(|| calibrate(&model, &set, &options).expect("calibration succeeds"))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

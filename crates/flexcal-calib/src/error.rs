@@ -1,0 +1,129 @@
+//! The error type of the crate.
+
+use flexcal_io::IoError;
+use flexcal_kinematics::KinematicsError;
+use flexcal_optim::OptimError;
+use thiserror::Error;
+
+/// Everything that can go wrong while reading measurements, identifying a
+/// robot or validating it. Each variant names the file, pose, parameter or
+/// step concerned so that the message can be shown to a user as it is.
+#[derive(Debug, Error)]
+pub enum CalibError {
+    /// A file could not be read or written, or a CSV cell is malformed (the
+    /// error names the file, line and column).
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// A measurement file has consistent syntax but unusable contents.
+    #[error("{source_name}:{line}: {what}")]
+    BadMeasurement {
+        /// File (or other source) of the measurements.
+        source_name: String,
+        /// 1-based line in the file (0 when not from a file).
+        line: usize,
+        /// What is wrong.
+        what: String,
+    },
+    /// The measurement set and the robot disagree on the number of actuated
+    /// coordinates.
+    #[error(
+        "{source_name}: the measurements have {found} actuated coordinates, robot `{robot}` has {expected}"
+    )]
+    ActuatedCountMismatch {
+        /// File of the measurements.
+        source_name: String,
+        /// Robot name.
+        robot: String,
+        /// Number of actuated coordinates of the robot.
+        expected: usize,
+        /// Number found in the measurements.
+        found: usize,
+    },
+    /// Fewer measurement rows than unknowns: the problem cannot be determined.
+    #[error(
+        "too few measurements: {poses} poses give {rows} equations for {unknowns} free unknowns; measure more poses or fix parameters"
+    )]
+    TooFewPoses {
+        /// Number of poses.
+        poses: usize,
+        /// Number of scalar equations (3 or 6 per pose).
+        rows: usize,
+        /// Number of free unknowns.
+        unknowns: usize,
+    },
+    /// A parameter name given by the user is unknown.
+    #[error("unknown parameter `{name}` (known: {known})")]
+    UnknownParameter {
+        /// The name given.
+        name: String,
+        /// Known names, comma-separated.
+        known: String,
+    },
+    /// The problem is rank deficient and the caller asked for full rank.
+    #[error(
+        "rank-deficient problem: rank {rank} of {unknowns} free unknowns; not identifiable: {non_identifiable:?}; fix them (--fix) or measure other poses"
+    )]
+    RankDeficient {
+        /// Numerical rank of the scaled stacked Jacobian.
+        rank: usize,
+        /// Number of free unknowns.
+        unknowns: usize,
+        /// Names of the non-identifiable unknowns.
+        non_identifiable: Vec<String>,
+    },
+    /// Nothing is left to identify (every unknown fixed or non-identifiable).
+    #[error("nothing to identify: every unknown is fixed or non-identifiable")]
+    NothingToIdentify,
+    /// The closed-form registration of the measurement frame is impossible
+    /// (the measured points are collinear or coincide).
+    #[error("cannot register the measurement frame: {what}")]
+    DegenerateRegistration {
+        /// Why.
+        what: String,
+    },
+    /// The robot model failed at a pose.
+    #[error("robot model at pose {pose} ({pose_id}): {source}")]
+    Kinematics {
+        /// 0-based pose index.
+        pose: usize,
+        /// The pose identifier of the file, or its index.
+        pose_id: String,
+        /// The model's error.
+        #[source]
+        source: KinematicsError,
+    },
+    /// The robot description could not be built or written.
+    #[error("robot description: {0}")]
+    Description(#[source] KinematicsError),
+    /// The least-squares machinery failed (naming the step).
+    #[error("{step}: {source}")]
+    Optim {
+        /// Which step (identification, validation re-fit, pose selection).
+        step: &'static str,
+        /// The solver's error.
+        #[source]
+        source: OptimError,
+    },
+    /// An option is outside its valid range.
+    #[error("invalid option `{name}`: {reason}")]
+    InvalidOption {
+        /// Option name.
+        name: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A report could not be serialised.
+    #[error("cannot serialise {what}: {message}")]
+    Serialise {
+        /// What was being serialised.
+        what: &'static str,
+        /// The serialiser's message.
+        message: String,
+    },
+}
+
+impl CalibError {
+    pub(crate) fn optim(step: &'static str) -> impl FnOnce(OptimError) -> CalibError {
+        move |source| CalibError::Optim { step, source }
+    }
+}

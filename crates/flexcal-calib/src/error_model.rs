@@ -1,0 +1,368 @@
+//! The stacked geometric error model (7)-(10), (49)-(52), extended with the
+//! measurement frame and the target offset.
+
+use std::cell::{Cell, RefCell};
+
+use faer::MatMut;
+use flexcal_kinematics::{Data, Model, ParamKind, forward_pose, param_jacobian_into};
+use flexcal_optim::{Jacobian, ProblemError, Residuals};
+use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Translation3, Vector3};
+
+use crate::geometry::{
+    left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
+};
+use crate::{CalibError, MeasurementSet};
+
+/// Names of the six unknowns of the measurement frame `x_meas_base`: a
+/// translation (m) added to the starting estimate and a rotation vector (rad)
+/// applied on the left of the starting rotation.
+pub const FRAME_PARAMETER_NAMES: [&str; 6] = [
+    "frame_x", "frame_y", "frame_z", "frame_rx", "frame_ry", "frame_rz",
+];
+
+/// Names of the six unknowns of the target offset `x_tcp_target`: a
+/// translation (m) added to the starting offset and a rotation vector (rad)
+/// applied on the right of the starting rotation (used only when orientations
+/// are measured).
+pub const TARGET_PARAMETER_NAMES: [&str; 6] = [
+    "target_x",
+    "target_y",
+    "target_z",
+    "target_rx",
+    "target_ry",
+    "target_rz",
+];
+
+/// Kind of an unknown of the extended vector `[xi; frame; target]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UnknownKind {
+    /// m.
+    Length,
+    /// rad.
+    Angle,
+}
+
+/// The measurement model of one pose k,
+/// `x_meas_target = x_meas_base(tau) * FK(q_k, xi) * x_tcp_target(t)`,
+/// stacked over a measurement set, as a least-squares problem in the
+/// unknowns `x = [xi; tau; t]` (n_params + 6 + 6).
+///
+/// Residual rows per pose: `predicted - measured` position (m), then, when
+/// orientations are used, the rotation vector `log(R_pred R_meas^T)` (rad).
+/// The Jacobian is exact: the robot part is the parameter Jacobian of
+/// `flexcal-kinematics` carried to the target point and into the measurement
+/// frame; the frame parts use the SO(3) left Jacobian.
+pub struct GeometricErrorModel<'a> {
+    model: &'a Model,
+    set: &'a MeasurementSet,
+    use_orientation: bool,
+    x_meas_base0: Isometry3<f64>,
+    x_tcp_target0: Isometry3<f64>,
+    names: Vec<String>,
+    data: RefCell<Data>,
+    pose_jacobian: RefCell<DMatrix<f64>>,
+    robot_columns: Cell<bool>,
+}
+
+impl<'a> GeometricErrorModel<'a> {
+    /// The model of `set` measured on `model`, linearised around the starting
+    /// frame estimates `x_meas_base0` and `x_tcp_target0`.
+    ///
+    /// # Errors
+    /// [`CalibError::ActuatedCountMismatch`]; [`CalibError::BadMeasurement`]
+    /// when orientations are asked for but not measured.
+    pub fn new(
+        model: &'a Model,
+        set: &'a MeasurementSet,
+        use_orientation: bool,
+        x_meas_base0: Isometry3<f64>,
+        x_tcp_target0: Isometry3<f64>,
+    ) -> Result<Self, CalibError> {
+        if set.n_actuated() != model.n_actuated() {
+            return Err(CalibError::ActuatedCountMismatch {
+                source_name: set.source.clone(),
+                robot: model.name().to_string(),
+                expected: model.n_actuated(),
+                found: set.n_actuated(),
+            });
+        }
+        if use_orientation && !set.has_orientation() {
+            return Err(CalibError::BadMeasurement {
+                source_name: set.source.clone(),
+                line: 0,
+                what: "orientation asked for but the file has no rx_deg, ry_deg, rz_deg columns"
+                    .into(),
+            });
+        }
+        let mut names: Vec<String> = model.params().iter().map(|p| p.name.clone()).collect();
+        names.extend(FRAME_PARAMETER_NAMES.iter().map(|s| s.to_string()));
+        names.extend(TARGET_PARAMETER_NAMES.iter().map(|s| s.to_string()));
+        Ok(Self {
+            model,
+            set,
+            use_orientation,
+            x_meas_base0,
+            x_tcp_target0,
+            names,
+            data: RefCell::new(Data::new(model)),
+            pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
+            robot_columns: Cell::new(true),
+        })
+    }
+
+    /// Whether [`Jacobian::jacobian`] computes the robot-parameter columns
+    /// (default true). With `false` they are written as zeros and only the
+    /// forward model runs per pose: for fits of the frames alone, where the
+    /// parameter Jacobian would be most of the cost.
+    pub fn set_robot_columns(&self, on: bool) {
+        self.robot_columns.set(on);
+    }
+
+    /// Number of unknowns `n_params + 12`.
+    pub fn n_unknowns(&self) -> usize {
+        self.names.len()
+    }
+    /// Index of the first measurement-frame unknown (the first 6 after xi).
+    pub fn frame_offset(&self) -> usize {
+        self.model.n_params()
+    }
+    /// Index of the first target unknown.
+    pub fn target_offset(&self) -> usize {
+        self.model.n_params() + 6
+    }
+    /// Names of all unknowns.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+    /// Length or angle, per unknown.
+    pub fn kinds(&self) -> Vec<UnknownKind> {
+        let mut kinds: Vec<UnknownKind> = self
+            .model
+            .params()
+            .iter()
+            .map(|p| match p.kind {
+                ParamKind::Length => UnknownKind::Length,
+                ParamKind::Angle => UnknownKind::Angle,
+            })
+            .collect();
+        for _ in 0..2 {
+            kinds.extend([UnknownKind::Length; 3]);
+            kinds.extend([UnknownKind::Angle; 3]);
+        }
+        kinds
+    }
+    /// Rows per pose: 3 (position) or 6 (position and orientation).
+    pub fn rows_per_pose(&self) -> usize {
+        if self.use_orientation { 6 } else { 3 }
+    }
+    /// The starting vector: nominal xi, zero frame and target increments.
+    pub fn initial_unknowns(&self) -> Vec<f64> {
+        let mut x = self.model.nominal_params().to_vec();
+        x.extend([0.0; 12]);
+        x
+    }
+
+    /// The measurement frame `x_meas_base` and target offset `x_tcp_target` at `x`.
+    pub fn frames(&self, x: &[f64]) -> (Isometry3<f64>, Isometry3<f64>) {
+        let f = self.frame_offset();
+        let t = self.target_offset();
+        let x_meas_base = Isometry3::from_parts(
+            Translation3::from(
+                self.x_meas_base0.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2]),
+            ),
+            rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5]))
+                * self.x_meas_base0.rotation,
+        );
+        let x_tcp_target = Isometry3::from_parts(
+            Translation3::from(
+                self.x_tcp_target0.translation.vector + Vector3::new(x[t], x[t + 1], x[t + 2]),
+            ),
+            self.x_tcp_target0.rotation
+                * rotation_from_vector(&Vector3::new(x[t + 3], x[t + 4], x[t + 5])),
+        );
+        (x_meas_base, x_tcp_target)
+    }
+
+    /// Predicted target pose `x_meas_target` of pose `k` at unknowns `x`.
+    ///
+    /// # Errors
+    /// [`CalibError::Kinematics`] naming the pose.
+    pub fn predict(&self, x: &[f64], k: usize) -> Result<Isometry3<f64>, CalibError> {
+        let (x_meas_base, x_tcp_target) = self.frames(x);
+        let m = &self.set.measurements()[k];
+        let xi = &x[..self.model.n_params()];
+        let x_base_tcp =
+            forward_pose(self.model, &mut self.data.borrow_mut(), &m.q, xi).map_err(|source| {
+                CalibError::Kinematics {
+                    pose: k,
+                    pose_id: m.label(k),
+                    source,
+                }
+            })?;
+        Ok(x_meas_base * x_base_tcp * x_tcp_target)
+    }
+
+    fn write_residual(&self, k: usize, predicted: &Isometry3<f64>, out: &mut [f64]) {
+        let m = &self.set.measurements()[k];
+        let dp = predicted.translation.vector - m.position;
+        out[..3].copy_from_slice(dp.as_slice());
+        if self.use_orientation {
+            let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
+            let dr = vector_from_rotation(&(predicted.rotation * measured.inverse()));
+            out[3..6].copy_from_slice(dr.as_slice());
+        }
+    }
+}
+
+impl Residuals for GeometricErrorModel<'_> {
+    fn n_residuals(&self) -> usize {
+        self.set.len() * self.rows_per_pose()
+    }
+    fn n_params(&self) -> usize {
+        self.names.len()
+    }
+    fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
+        let rows = self.rows_per_pose();
+        for k in 0..self.set.len() {
+            let predicted = self.predict(x, k)?;
+            self.write_residual(k, &predicted, &mut out[k * rows..(k + 1) * rows]);
+        }
+        Ok(())
+    }
+    fn parameter_name(&self, j: usize) -> String {
+        self.names[j].clone()
+    }
+}
+
+impl Jacobian for GeometricErrorModel<'_> {
+    fn jacobian(&self, x: &[f64], mut out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+        let np = self.model.n_params();
+        let xi = &x[..np];
+        let (x_meas_base, x_tcp_target) = self.frames(x);
+        let fo = self.frame_offset();
+        let to = self.target_offset();
+        let phi = Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]);
+        let psi = Vector3::new(x[to + 3], x[to + 4], x[to + 5]);
+        let jl_phi = left_jacobian(&phi);
+        let jr_psi = left_jacobian(&psi).transpose();
+        let r_mb = x_meas_base.rotation.to_rotation_matrix().into_inner();
+        let rows = self.rows_per_pose();
+        let mut data = self.data.borrow_mut();
+        let mut jac = self.pose_jacobian.borrow_mut();
+        let robot_columns = self.robot_columns.get();
+        if !robot_columns {
+            jac.fill(0.0);
+        }
+        for (k, m) in self.set.measurements().iter().enumerate() {
+            let kinematics_error = |source| CalibError::Kinematics {
+                pose: k,
+                pose_id: m.label(k),
+                source,
+            };
+            let x_base_tcp = if robot_columns {
+                param_jacobian_into(self.model, &mut data, &m.q, xi, &mut jac)
+                    .map_err(kinematics_error)?
+            } else {
+                forward_pose(self.model, &mut data, &m.q, xi).map_err(kinematics_error)?
+            };
+            let r_bt = x_base_tcp.rotation.to_rotation_matrix().into_inner();
+            let offset_base = r_bt * x_tcp_target.translation.vector;
+            let target_base = x_base_tcp.translation.vector + offset_base;
+            let r0 = k * rows;
+            // Robot parameters: moving the TCP by (v, w) moves the target by v + w x offset.
+            let lever = skew(&offset_base);
+            for j in 0..np {
+                let v = Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
+                let w = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
+                let dp = r_mb * (v - lever * w);
+                for i in 0..3 {
+                    out[(r0 + i, j)] = dp[i];
+                }
+            }
+            // Measurement frame.
+            let d_rot = -skew(&(r_mb * target_base)) * jl_phi;
+            // Target offset.
+            let d_target = r_mb * r_bt;
+            for i in 0..3 {
+                for c in 0..3 {
+                    out[(r0 + i, fo + c)] = if i == c { 1.0 } else { 0.0 };
+                    out[(r0 + i, fo + 3 + c)] = d_rot[(i, c)];
+                    out[(r0 + i, to + c)] = d_target[(i, c)];
+                    out[(r0 + i, to + 3 + c)] = 0.0;
+                }
+            }
+            if self.use_orientation {
+                let predicted = x_meas_base * x_base_tcp * x_tcp_target;
+                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
+                let residual = vector_from_rotation(&(predicted.rotation * measured.inverse()));
+                let jinv = left_jacobian_inverse(&residual);
+                let map = jinv * r_mb;
+                for j in 0..np {
+                    let w = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
+                    let dr = map * w;
+                    for i in 0..3 {
+                        out[(r0 + 3 + i, j)] = dr[i];
+                    }
+                }
+                let d_phi = jinv * jl_phi;
+                let r_pred = predicted.rotation.to_rotation_matrix().into_inner();
+                let d_psi = jinv * r_pred * jr_psi;
+                let zero = Matrix3::<f64>::zeros();
+                for i in 0..3 {
+                    for c in 0..3 {
+                        out[(r0 + 3 + i, fo + c)] = zero[(i, c)];
+                        out[(r0 + 3 + i, fo + 3 + c)] = d_phi[(i, c)];
+                        out[(r0 + 3 + i, to + c)] = 0.0;
+                        out[(r0 + 3 + i, to + 3 + c)] = d_psi[(i, c)];
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Target positions `p_base_target` of the poses of `set` predicted by the
+/// robot at `xi` with target offset `x_tcp_target`: the points registered
+/// onto the measurements to start the measurement frame.
+///
+/// # Errors
+/// [`CalibError::Kinematics`] naming the pose.
+pub fn predicted_target_positions(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    x_tcp_target: &Isometry3<f64>,
+) -> Result<Vec<Vector3<f64>>, CalibError> {
+    let mut data = Data::new(model);
+    set.measurements()
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let x_base_tcp = forward_pose(model, &mut data, &m.q, xi).map_err(|source| {
+                CalibError::Kinematics {
+                    pose: k,
+                    pose_id: m.label(k),
+                    source,
+                }
+            })?;
+            Ok((x_base_tcp * x_tcp_target * Point3::origin()).coords)
+        })
+        .collect()
+}
+
+/// Closed-form start of the measurement frame: the rigid registration of the
+/// predicted target positions onto the measured ones.
+///
+/// # Errors
+/// [`CalibError::Kinematics`], [`CalibError::DegenerateRegistration`].
+pub fn register_measurement_frame(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    x_tcp_target: &Isometry3<f64>,
+) -> Result<Isometry3<f64>, CalibError> {
+    let predicted = predicted_target_positions(model, set, xi, x_tcp_target)?;
+    let measured: Vec<Vector3<f64>> = set.measurements().iter().map(|m| m.position).collect();
+    crate::geometry::register_points(&measured, &predicted)
+}

@@ -1,0 +1,874 @@
+//! Geometric identification: identifiability, iterative least squares,
+//! standard errors, and the fitted [`Calibration`].
+
+use faer::Mat;
+use faer::prelude::SolveLstsq;
+use flexcal_kinematics::{Model, RobotDescription};
+use flexcal_optim::{
+    ColumnScaling, GaussNewton, IdentifiabilityOptions, IdentifiabilityReport, Jacobian,
+    LevenbergMarquardt, ProblemSetup, Residuals, SolveReport, analyze_identifiability,
+};
+use nalgebra::Isometry3;
+
+use crate::error_model::{GeometricErrorModel, UnknownKind, register_measurement_frame};
+use crate::validate::{ErrorStatistics, FramePolicy, error_statistics, evaluate_errors};
+use crate::{CalibError, MeasurementSet};
+
+/// The iterative solver of the identification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Levenberg-Marquardt (default): robust from a poor start.
+    #[default]
+    LevenbergMarquardt,
+    /// The paper's Gauss-Newton re-linearisation (section 2.1.5, eq. (12)), with
+    /// step halving.
+    GaussNewton,
+}
+
+/// How residual rows are weighted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Weighting {
+    /// `1/sigma` per axis from the file's standard deviations when it has them
+    /// (then the weights are absolute: standard errors use sigma^2 = 1),
+    /// otherwise the default standard deviations of [`CalibrationOptions`].
+    #[default]
+    FromFile,
+    /// The default standard deviations of [`CalibrationOptions`] for every
+    /// pose (relative weights; sigma^2 is estimated from the residual).
+    Uniform,
+}
+
+/// Whether a frame (measurement frame or target offset) is identified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FrameTreatment {
+    /// Identified together with the robot (default).
+    #[default]
+    Identify,
+    /// Kept at its given (or nominal) value.
+    Fixed,
+}
+
+/// Settings of [`calibrate`]. Defaults suit a laser tracker or photogrammetry
+/// campaign of a few tens to thousands of poses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationOptions {
+    /// Solver (default Levenberg-Marquardt).
+    pub method: Method,
+    /// Use measured orientations (default `None`: when the set has them).
+    pub use_orientation: Option<bool>,
+    /// Row weighting (default [`Weighting::FromFile`]).
+    pub weighting: Weighting,
+    /// Standard deviation assumed for position axes without one (m; default
+    /// 50e-6; `> 0`).
+    pub default_position_std: f64,
+    /// Standard deviation assumed for orientation axes without one (rad;
+    /// default 0.01 deg; `> 0`). Its ratio to `default_position_std` sets the
+    /// relative weight of orientation rows.
+    pub default_orientation_std: f64,
+    /// Names of unknowns kept at their starting value: robot parameters
+    /// (`d3`, `theta1`, ...) or frame unknowns (`frame_x`, `target_z`, ...).
+    pub fixed: Vec<String>,
+    /// Names to leave out of the base set first when the data cannot separate
+    /// them from others (lowest pivoting priority). Default: the paper's
+    /// choice for the IR-663 (`kappa8 kappa2 r8p d9 r2 r7`) — see
+    /// [`CalibrationOptions::for_model`].
+    pub deferred: Vec<String>,
+    /// Measurement frame treatment (default identified).
+    pub measurement_frame: FrameTreatment,
+    /// Measurement frame `x_meas_base`: the fixed value, or the starting
+    /// value when identified (default `None`: identity when fixed, closed-form
+    /// registration when identified).
+    pub measurement_frame_value: Option<Isometry3<f64>>,
+    /// Target offset treatment (default identified).
+    pub target: FrameTreatment,
+    /// Target offset `x_tcp_target`: fixed or starting value (default `None`:
+    /// the set's nominal target, else identity).
+    pub target_value: Option<Isometry3<f64>>,
+    /// Relative rank tolerance of the pivoted QR of the stacked Jacobian, its
+    /// columns scaled by their norms (default 1e-4: a column within 0.006 deg
+    /// of the span of the others is taken as dependent; range (0, 1)).
+    /// Unknowns beyond this rank are [`UnknownStatus::NonIdentifiable`].
+    pub rank_tolerance: f64,
+    /// Noise-aware rank: a length unknown that could only be identified with a
+    /// standard error above this limit is not identified but kept at its
+    /// starting value, [`UnknownStatus::PoorlyIdentifiable`] (m; default
+    /// 5e-3, several times the geometric errors of a machined robot: above it
+    /// the data say nothing about the parameter; `> 0`).
+    pub max_standard_error_length: f64,
+    /// Same for angles (rad; default 0.25 deg; `> 0`).
+    pub max_standard_error_angle: f64,
+    /// Fail with [`CalibError::RankDeficient`] instead of reporting and
+    /// freezing non-identifiable unknowns (default false).
+    pub require_full_rank: bool,
+    /// Maximum solver iterations (default 100; `>= 1`).
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this fraction
+    /// (default 1e-8: far below what measurement noise can resolve; `>= 0`).
+    pub cost_tolerance: f64,
+}
+
+impl Default for CalibrationOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::LevenbergMarquardt,
+            use_orientation: None,
+            weighting: Weighting::FromFile,
+            default_position_std: 50e-6,
+            default_orientation_std: 0.01f64.to_radians(),
+            fixed: Vec::new(),
+            deferred: Vec::new(),
+            measurement_frame: FrameTreatment::Identify,
+            measurement_frame_value: None,
+            target: FrameTreatment::Identify,
+            target_value: None,
+            rank_tolerance: 1e-4,
+            max_standard_error_length: 5e-3,
+            max_standard_error_angle: 0.25f64.to_radians(),
+            require_full_rank: false,
+            max_iterations: 100,
+            cost_tolerance: 1e-8,
+        }
+    }
+}
+
+/// The paper's non-identifiable set for the IR-663 (section 3.2.3), used as
+/// the default deferred names of that robot.
+pub const IR663_PAPER_DEFERRED: [&str; 6] = ["kappa8", "kappa2", "r8p", "d9", "r2", "r7"];
+
+impl CalibrationOptions {
+    /// Defaults for `model`: for the built-in `ir663`, the paper's six
+    /// non-identifiable parameters are deferred so that the base set matches
+    /// Appendix C.
+    pub fn for_model(model: &Model) -> Self {
+        let mut options = Self::default();
+        if model.name() == "ir663" {
+            options.deferred = IR663_PAPER_DEFERRED.iter().map(|s| s.to_string()).collect();
+        }
+        options
+    }
+
+    fn check(&self) -> Result<(), CalibError> {
+        let positive = |name: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(CalibError::InvalidOption {
+                    name,
+                    reason: format!("must be finite and > 0, found {v}"),
+                })
+            }
+        };
+        positive("default_position_std", self.default_position_std)?;
+        positive("default_orientation_std", self.default_orientation_std)?;
+        positive("max_standard_error_length", self.max_standard_error_length)?;
+        positive("max_standard_error_angle", self.max_standard_error_angle)?;
+        if !(self.rank_tolerance > 0.0 && self.rank_tolerance < 1.0) {
+            return Err(CalibError::InvalidOption {
+                name: "rank_tolerance",
+                reason: format!("must be in (0, 1), found {}", self.rank_tolerance),
+            });
+        }
+        if !(self.cost_tolerance.is_finite() && self.cost_tolerance >= 0.0) {
+            return Err(CalibError::InvalidOption {
+                name: "cost_tolerance",
+                reason: format!("must be finite and >= 0, found {}", self.cost_tolerance),
+            });
+        }
+        if self.max_iterations == 0 {
+            return Err(CalibError::InvalidOption {
+                name: "max_iterations",
+                reason: "must be >= 1".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// What became of one unknown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UnknownStatus {
+    /// Identified (in the base set).
+    Identified,
+    /// Fixed by the user or by the frame treatment.
+    Fixed,
+    /// Not identifiable from these poses (beyond the numerical rank); kept at
+    /// its starting value, its effect absorbed by the identified combinations.
+    NonIdentifiable,
+    /// Identifiable in principle but its standard error would exceed the
+    /// limit of [`CalibrationOptions`]; kept at its starting value.
+    PoorlyIdentifiable,
+    /// Has no influence on what is measured (e.g. target rotation without
+    /// measured orientation); kept at its starting value.
+    NoInfluence,
+}
+
+/// One unknown of the identification, by name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnknownEstimate {
+    /// Name (`d3`, `frame_rx`, `target_z`, ...).
+    pub name: String,
+    /// Length (m) or angle (rad).
+    pub kind: UnknownKind,
+    /// Starting (nominal) value (m or rad; 0 for the frame increments).
+    pub initial: f64,
+    /// Identified value (m or rad).
+    pub value: f64,
+    /// Standard error (m or rad) when identified.
+    pub standard_error: Option<f64>,
+    /// What became of it.
+    pub status: UnknownStatus,
+}
+
+/// A fitted geometric calibration: the identified robot parameters, frames,
+/// the identifiability analysis and the solver's report.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    /// Identified robot parameters xi (m, rad).
+    pub xi: Vec<f64>,
+    /// Nominal robot parameters (m, rad).
+    pub nominal_xi: Vec<f64>,
+    /// Identified (or fixed) measurement frame `x_meas_base`.
+    pub x_meas_base: Isometry3<f64>,
+    /// Identified (or fixed) target offset `x_tcp_target`.
+    pub x_tcp_target: Isometry3<f64>,
+    /// Starting target offset (nominal).
+    pub x_tcp_target_initial: Isometry3<f64>,
+    /// Target offset fitted together with the measurement frame for the
+    /// nominal robot (the "before" of the comparisons; equal to the starting
+    /// one when the target is fixed or not identifiable).
+    pub x_tcp_target_nominal_robot: Isometry3<f64>,
+    /// Whether the measurement frame was fixed.
+    pub measurement_frame_fixed: bool,
+    /// Whether orientations were used.
+    pub use_orientation: bool,
+    /// Every unknown, robot parameters first, then `frame_*`, then `target_*`.
+    pub unknowns: Vec<UnknownEstimate>,
+    /// Numerical identifiability analysis of the free unknowns (exact
+    /// dependencies, at [`CalibrationOptions::rank_tolerance`]) at the start point.
+    pub identifiability: IdentifiabilityReport,
+    /// What each identified unknown stands for (C.1), linearised at the
+    /// start point (nominal robot, fitted frames).
+    pub combinations: Vec<Combination>,
+    /// The same as text, one line per identified unknown that absorbs others
+    /// (coefficients below 1e-3 dropped).
+    pub combination_lines: Vec<String>,
+    /// The final solver report (cost history = Figure 7 data, termination,
+    /// rank, singular values, covariance).
+    pub solve: SolveReport,
+    /// Cost `1/2 ||W r||^2` history of every solver run, rounds in order.
+    pub cost_history: Vec<f64>,
+    /// Errors on the identification set with the nominal robot, its frames
+    /// fitted (before).
+    pub training_before: ErrorStatistics,
+    /// Errors on the identification set after identification.
+    pub training_after: ErrorStatistics,
+    /// Number of poses used.
+    pub n_poses: usize,
+}
+
+impl Calibration {
+    /// Names of the non-identifiable unknowns.
+    pub fn non_identifiable(&self) -> Vec<&str> {
+        self.with_status(UnknownStatus::NonIdentifiable)
+    }
+    /// Names of the poorly identifiable unknowns (kept at nominal).
+    pub fn poorly_identifiable(&self) -> Vec<&str> {
+        self.with_status(UnknownStatus::PoorlyIdentifiable)
+    }
+    fn with_status(&self, status: UnknownStatus) -> Vec<&str> {
+        self.unknowns
+            .iter()
+            .filter(|u| u.status == status)
+            .map(|u| u.name.as_str())
+            .collect()
+    }
+    /// Number of identified unknowns (the rank used).
+    pub fn rank(&self) -> usize {
+        self.unknowns
+            .iter()
+            .filter(|u| u.status == UnknownStatus::Identified)
+            .count()
+    }
+    /// The calibrated robot description (mm, deg), which loads back with
+    /// [`RobotDescription::build`].
+    ///
+    /// # Errors
+    /// [`CalibError::Description`].
+    pub fn description(&self, model: &Model) -> Result<RobotDescription, CalibError> {
+        let mut d = model
+            .description_with_params(&self.xi)
+            .map_err(CalibError::Description)?;
+        let note = format!(
+            "Calibrated by flexcal from {} poses: {} of {} unknowns identified.",
+            self.n_poses,
+            self.rank(),
+            self.unknowns.len()
+        );
+        d.notes = if d.notes.is_empty() {
+            note
+        } else {
+            format!("{} {note}", d.notes)
+        };
+        Ok(d)
+    }
+}
+
+/// Per-row weights `1/sigma` and whether they are absolute.
+fn row_weights(
+    set: &MeasurementSet,
+    use_orientation: bool,
+    options: &CalibrationOptions,
+) -> (Vec<f64>, bool) {
+    let from_file = options.weighting == Weighting::FromFile;
+    let mut absolute = from_file && set.has_position_std();
+    let mut w = Vec::with_capacity(set.len() * 6);
+    for m in set.measurements() {
+        for i in 0..3 {
+            let s = match (from_file, m.position_std) {
+                (true, Some(s)) => s[i],
+                _ => options.default_position_std,
+            };
+            w.push(1.0 / s);
+        }
+        if use_orientation {
+            absolute &= set.has_orientation_std();
+            for i in 0..3 {
+                let s = match (from_file, m.orientation_std) {
+                    (true, Some(s)) => s[i],
+                    _ => options.default_orientation_std,
+                };
+                w.push(1.0 / s);
+            }
+        }
+    }
+    (w, absolute)
+}
+
+/// Identifies the robot parameters (and the measurement frame and target
+/// offset unless fixed) from a measurement set: equations (7)-(12) and
+/// (49)-(53) of the reference paper, with the frames of the note in the
+/// crate docs.
+///
+/// Steps: the measurement frame starts from a closed-form registration; the
+/// frames alone are fitted first; then, in rounds, the identifiability of the
+/// free unknowns is decided by pivoted QR of the scaled, weighted stacked
+/// Jacobian (deferred names last), the non-identifiable ones are frozen, the
+/// rest solved by Levenberg-Marquardt or Gauss-Newton, and any unknown whose
+/// standard error exceeds the limits is frozen at its starting value and the
+/// round repeated (at most 5 rounds).
+///
+/// # Errors
+/// Mismatched coordinates, unknown names in `fixed`/`deferred`, too few
+/// poses, a degenerate registration, a model failure at a pose, a solver
+/// failure, [`CalibError::RankDeficient`] when `require_full_rank` is set,
+/// [`CalibError::NothingToIdentify`].
+pub fn calibrate(
+    model: &Model,
+    set: &MeasurementSet,
+    options: &CalibrationOptions,
+) -> Result<Calibration, CalibError> {
+    options.check()?;
+    let use_orientation = options.use_orientation.unwrap_or(set.has_orientation());
+    let x_tcp_target0 = options
+        .target_value
+        .or(set.nominal_target)
+        .unwrap_or_else(Isometry3::identity);
+    let frame_fixed = options.measurement_frame == FrameTreatment::Fixed;
+    if set.n_actuated() != model.n_actuated() {
+        return Err(CalibError::ActuatedCountMismatch {
+            source_name: set.source.clone(),
+            robot: model.name().to_string(),
+            expected: model.n_actuated(),
+            found: set.n_actuated(),
+        });
+    }
+    // Too few poses is the first thing to tell (before a registration that
+    // would fail on them for a less helpful reason).
+    {
+        let mut known: Vec<&str> = model.params().iter().map(|p| p.name.as_str()).collect();
+        known.extend(crate::FRAME_PARAMETER_NAMES);
+        known.extend(crate::TARGET_PARAMETER_NAMES);
+        let mut free = vec![true; known.len()];
+        let np = model.n_params();
+        if frame_fixed {
+            free[np..np + 6].fill(false);
+        }
+        if options.target == FrameTreatment::Fixed || !use_orientation {
+            free[np + 9..].fill(false);
+        }
+        if options.target == FrameTreatment::Fixed {
+            free[np + 6..np + 9].fill(false);
+        }
+        for name in &options.fixed {
+            let j = known.iter().position(|k| k == name).ok_or_else(|| {
+                CalibError::UnknownParameter {
+                    name: name.clone(),
+                    known: known.join(", "),
+                }
+            })?;
+            free[j] = false;
+        }
+        let unknowns = free.iter().filter(|f| **f).count();
+        let rows = set.len() * if use_orientation { 6 } else { 3 };
+        if rows < unknowns {
+            return Err(CalibError::TooFewPoses {
+                poses: set.len(),
+                rows,
+                unknowns,
+            });
+        }
+    }
+    let x_meas_base0 = match (frame_fixed, options.measurement_frame_value) {
+        (_, Some(x)) => x,
+        (true, None) => Isometry3::identity(),
+        (false, None) => {
+            register_measurement_frame(model, set, model.nominal_params(), &x_tcp_target0)?
+        }
+    };
+    let problem =
+        GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?;
+    let n = problem.n_unknowns();
+    let names = problem.names().to_vec();
+    let kinds = problem.kinds();
+    let index_of = |name: &String| {
+        names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| CalibError::UnknownParameter {
+                name: name.clone(),
+                known: names.join(", "),
+            })
+    };
+    let mut fixed = vec![false; n];
+    for name in &options.fixed {
+        fixed[index_of(name)?] = true;
+    }
+    let mut priorities = vec![0i32; n];
+    for name in &options.deferred {
+        priorities[index_of(name)?] = -1;
+    }
+    let fo = problem.frame_offset();
+    let to = problem.target_offset();
+    // The frames take what they can from the robot's base and tool parameters.
+    priorities[fo..to].fill(2);
+    priorities[to..n].fill(1);
+    let mut no_influence = vec![false; n];
+    if frame_fixed {
+        fixed[fo..to].fill(true);
+    }
+    if options.target == FrameTreatment::Fixed {
+        fixed[to..n].fill(true);
+    }
+    if !use_orientation {
+        for (none, is_fixed) in no_influence[to + 3..n].iter_mut().zip(&fixed[to + 3..n]) {
+            *none = !is_fixed;
+        }
+    }
+    let rows = problem.n_residuals();
+    let free_count = (0..n).filter(|&j| !fixed[j] && !no_influence[j]).count();
+    if free_count == 0 {
+        return Err(CalibError::NothingToIdentify);
+    }
+    if rows < free_count {
+        return Err(CalibError::TooFewPoses {
+            poses: set.len(),
+            rows,
+            unknowns: free_count,
+        });
+    }
+    let (weights, absolute) = row_weights(set, use_orientation, options);
+    let x_initial = problem.initial_unknowns();
+    let solve = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
+        // Frames-only fits skip the robot's parameter Jacobian.
+        problem.set_robot_columns(frozen[..model.n_params()].iter().any(|f| !f));
+        let setup = ProblemSetup {
+            row_weights: Some(weights.clone()),
+            weights_are_absolute: absolute,
+            fixed: frozen.to_vec(),
+            column_scaling: ColumnScaling::ColumnNorm,
+        };
+        let result = match options.method {
+            Method::LevenbergMarquardt => {
+                let mut solver =
+                    LevenbergMarquardt::params().max_iterations(options.max_iterations);
+                solver.options.max_evaluations = 20 * options.max_iterations;
+                solver.options.cost_tolerance = options.cost_tolerance;
+                solver.solve(&problem, x0, &setup, &mut ())
+            }
+            Method::GaussNewton => {
+                let mut solver = GaussNewton::params().max_iterations(options.max_iterations);
+                solver.options.max_evaluations = 20 * options.max_iterations;
+                solver.options.cost_tolerance = options.cost_tolerance;
+                solver.solve(&problem, x0, &setup, &mut ())
+            }
+        };
+        problem.set_robot_columns(true);
+        result.map_err(CalibError::optim("identification"))
+    };
+    let mut cost_history = Vec::new();
+    let mut x_start = x_initial.clone();
+    let limits: Vec<f64> = kinds
+        .iter()
+        .map(|k| match k {
+            UnknownKind::Length => options.max_standard_error_length,
+            UnknownKind::Angle => options.max_standard_error_angle,
+        })
+        .collect();
+    let context = AnalysisContext {
+        problem: &problem,
+        weights: &weights,
+        names: &names,
+        priorities: &priorities,
+        limits: &limits,
+        rank_tolerance: options.rank_tolerance,
+    };
+    // Noise level in weighted units: 1 with absolute weights, else estimated
+    // from the residual (first at the start, then at each fit).
+    let noise_at = |x: &[f64], free: usize| -> Result<f64, CalibError> {
+        if absolute {
+            return Ok(1.0);
+        }
+        let mut r = vec![0.0; rows];
+        problem.residuals(x, &mut r).map_err(problem_error)?;
+        let ssr: f64 = r.iter().zip(&weights).map(|(r, w)| (r * w).powi(2)).sum();
+        Ok((ssr / (rows.saturating_sub(free).max(1)) as f64).sqrt())
+    };
+    // Frames alone first, from the registration: the robot's linearisation
+    // point is then the nominal robot in the right place.
+    let frame_unknowns: Vec<usize> = (fo..n).filter(|&j| !fixed[j] && !no_influence[j]).collect();
+    if !frame_unknowns.is_empty() {
+        let sigma = noise_at(&x_start, frame_unknowns.len())?;
+        let analysis = context.analyse(&context.reduced(&x_start)?, Some(sigma), &|j| {
+            !frame_unknowns.contains(&j)
+        })?;
+        let mut frozen = vec![true; n];
+        for &j in &analysis.base {
+            frozen[analysis_index(&analysis, j, &names)] = false;
+        }
+        if frozen.iter().any(|f| !f) {
+            let report = solve(&x_start, &frozen)?;
+            cost_history.extend(&report.cost_history);
+            x_start = report.x;
+        }
+    }
+    // The nominal robot with its frames fitted: the "before" of the report.
+    let (x_meas_base_nominal, x_tcp_target_nominal) = problem.frames(&x_start);
+    let excluded = |j: usize| fixed[j] || no_influence[j];
+    // Unknowns beyond the numerical rank whatever the noise (exact dependencies).
+    let reduced_start = context.reduced(&x_start)?;
+    let numerical = context.analyse(&reduced_start, None, &excluded)?;
+    let mut exactly_dependent = vec![false; n];
+    for &j in &numerical.non_identifiable {
+        exactly_dependent[analysis_index(&numerical, j, &names)] = true;
+    }
+    let mut sigma = noise_at(&x_start, free_count)?;
+    // Solve, re-estimate the noise from the fit, and solve again only if the
+    // base set then changes (relative weights: the first estimate includes
+    // the model error of the nominal robot).
+    let mut previous: Option<(Vec<usize>, SolveReport, Vec<bool>)> = None;
+    let mut round = 0;
+    let (report, frozen) = loop {
+        round += 1;
+        let analysis = context.analyse(&reduced_start, Some(sigma), &|j| {
+            excluded(j) || exactly_dependent[j]
+        })?;
+        let mut base = analysis.base.clone();
+        base.sort_unstable();
+        if let Some((previous_base, report, frozen)) = previous.take() {
+            if previous_base == base || round > 4 {
+                break (report, frozen);
+            }
+        }
+        let mut frozen = vec![true; n];
+        for &b in &analysis.base {
+            frozen[analysis_index(&analysis, b, &names)] = false;
+        }
+        if frozen.iter().all(|f| *f) {
+            return Err(CalibError::NothingToIdentify);
+        }
+        if options.require_full_rank && frozen.iter().enumerate().any(|(j, f)| *f && !excluded(j)) {
+            return Err(CalibError::RankDeficient {
+                rank: analysis.rank,
+                unknowns: free_count,
+                non_identifiable: (0..n)
+                    .filter(|&j| frozen[j] && !excluded(j))
+                    .map(|j| names[j].clone())
+                    .collect(),
+            });
+        }
+        let report = solve(&x_start, &frozen)?;
+        cost_history.extend(&report.cost_history);
+        if absolute {
+            break (report, frozen);
+        }
+        sigma = noise_at(&report.x, analysis.rank)?;
+        previous = Some((base, report, frozen));
+    };
+    let x = report.x.clone();
+    let identified: Vec<usize> = (0..n).filter(|&j| !frozen[j]).collect();
+    let absorbed: Vec<usize> = (0..n).filter(|&j| frozen[j] && !excluded(j)).collect();
+    // Linearised at the start point (nominal robot, fitted frames): with
+    // geometric errors of millimetres the difference from the solution is of
+    // second order, and the start's factor is at hand.
+    let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
+    let unknowns: Vec<UnknownEstimate> = (0..n)
+        .map(|j| {
+            let status = if fixed[j] {
+                UnknownStatus::Fixed
+            } else if no_influence[j] {
+                UnknownStatus::NoInfluence
+            } else if frozen[j] && exactly_dependent[j] {
+                UnknownStatus::NonIdentifiable
+            } else if frozen[j] {
+                UnknownStatus::PoorlyIdentifiable
+            } else {
+                UnknownStatus::Identified
+            };
+            UnknownEstimate {
+                name: names[j].clone(),
+                kind: kinds[j],
+                initial: x_initial[j],
+                value: x[j],
+                standard_error: if status == UnknownStatus::Identified {
+                    report.standard_errors[j]
+                } else {
+                    None
+                },
+                status,
+            }
+        })
+        .collect();
+    let (x_meas_base, x_tcp_target) = problem.frames(&x);
+    let np = model.n_params();
+    let xi = x[..np].to_vec();
+    let training_before = error_statistics(&evaluate_errors(
+        model,
+        set,
+        model.nominal_params(),
+        &x_tcp_target_nominal,
+        FramePolicy::Fixed(x_meas_base_nominal),
+        use_orientation,
+    )?);
+    let training_after = error_statistics(&evaluate_errors(
+        model,
+        set,
+        &xi,
+        &x_tcp_target,
+        FramePolicy::Fixed(x_meas_base),
+        use_orientation,
+    )?);
+    Ok(Calibration {
+        xi,
+        nominal_xi: model.nominal_params().to_vec(),
+        x_meas_base,
+        x_tcp_target,
+        x_tcp_target_initial: x_tcp_target0,
+        x_tcp_target_nominal_robot: x_tcp_target_nominal,
+        measurement_frame_fixed: frame_fixed,
+        use_orientation,
+        unknowns,
+        identifiability: numerical,
+        combination_lines: combinations
+            .iter()
+            .map(|c| c.to_text(1e-3))
+            .filter(|l| !l.is_empty())
+            .collect(),
+        combinations,
+        solve: report,
+        cost_history,
+        training_before,
+        training_after,
+        n_poses: set.len(),
+    })
+}
+
+/// Maps an index of an analysis over a subset of unknowns back to the full vector.
+fn analysis_index(analysis: &IdentifiabilityReport, j: usize, names: &[String]) -> usize {
+    let name = &analysis.names[j];
+    names.iter().position(|n| n == name).unwrap_or(0)
+}
+
+fn problem_error(e: flexcal_optim::ProblemError) -> CalibError {
+    match e.downcast::<CalibError>() {
+        Ok(calib) => *calib,
+        Err(other) => CalibError::BadMeasurement {
+            source_name: String::new(),
+            line: 0,
+            what: other.to_string(),
+        },
+    }
+}
+
+/// `name_id = name + sum_k coefficient_k * other_k`: what an identified
+/// unknown stands for when others are not identified (the paper's (C.1)).
+/// Coefficients are in physical units (m per m, m per rad, ...).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Combination {
+    /// The identified unknown.
+    pub name: String,
+    /// `(absorbed unknown, coefficient)`, largest magnitude first.
+    pub terms: Vec<(String, f64)>,
+}
+
+impl Combination {
+    /// `d4_id = d4 + 0.82 d9 - r8p`; empty when no coefficient reaches `threshold`.
+    pub fn to_text(&self, threshold: f64) -> String {
+        let mut line = format!("{}_id = {}", self.name, self.name);
+        let mut any = false;
+        for (other, k) in &self.terms {
+            if k.abs() < threshold {
+                continue;
+            }
+            any = true;
+            let sign = if *k < 0.0 { '-' } else { '+' };
+            if (k.abs() - 1.0).abs() < 5e-4 {
+                line.push_str(&format!(" {sign} {other}"));
+            } else {
+                line.push_str(&format!(" {sign} {:.3} {other}", k.abs()));
+            }
+        }
+        if any { line } else { String::new() }
+    }
+}
+
+/// What the identifiability analyses share.
+struct AnalysisContext<'a> {
+    problem: &'a GeometricErrorModel<'a>,
+    weights: &'a [f64],
+    names: &'a [String],
+    priorities: &'a [i32],
+    limits: &'a [f64],
+    rank_tolerance: f64,
+}
+
+impl AnalysisContext<'_> {
+    /// The triangular factor `R` of the weighted Jacobian `W J = Q R` at `x`
+    /// (min(m, n) x n). Column-pivoted QR, ranks, base sets and least-squares
+    /// combinations of any subset of columns are the same on `R` as on `W J`
+    /// (they differ by the orthogonal `Q`), at a fraction of the cost for
+    /// thousands of poses.
+    fn reduced(&self, x: &[f64]) -> Result<Mat<f64>, CalibError> {
+        let m = self.problem.n_residuals();
+        let n = self.problem.n_unknowns();
+        let mut full = Mat::<f64>::zeros(m, n);
+        self.problem
+            .jacobian(x, full.as_mut())
+            .map_err(problem_error)?;
+        for j in 0..n {
+            for i in 0..m {
+                full[(i, j)] *= self.weights[i];
+            }
+        }
+        let qr = full.qr();
+        let r = qr.thin_R();
+        Ok(Mat::<f64>::from_fn(r.nrows(), n, |i, j| {
+            if i <= j { r[(i, j)] } else { 0.0 }
+        }))
+    }
+
+    /// `K` with `J_N = J_B K` (weighted least squares at `x`), so that
+    /// `J (xi_B, xi_N) = J_B (xi_B + K xi_N)`.
+    fn combinations(
+        &self,
+        reduced: &Mat<f64>,
+        base: &[usize],
+        absorbed: &[usize],
+    ) -> Result<Vec<Combination>, CalibError> {
+        let m = reduced.nrows();
+        if absorbed.is_empty() || base.is_empty() {
+            return Ok(base
+                .iter()
+                .map(|&b| Combination {
+                    name: self.names[b].clone(),
+                    terms: Vec::new(),
+                })
+                .collect());
+        }
+        let j_b = Mat::<f64>::from_fn(m, base.len(), |i, c| reduced[(i, base[c])]);
+        let j_n = Mat::<f64>::from_fn(m, absorbed.len(), |i, c| reduced[(i, absorbed[c])]);
+        // The base columns are independent by construction: plain QR least squares.
+        let k = j_b.qr().solve_lstsq(&j_n);
+        Ok(base
+            .iter()
+            .enumerate()
+            .map(|(row, &b)| {
+                let mut terms: Vec<(String, f64)> = absorbed
+                    .iter()
+                    .enumerate()
+                    .map(|(col, &a)| (self.names[a].clone(), k[(row, col)]))
+                    .filter(|(_, v)| v.is_finite() && *v != 0.0)
+                    .collect();
+                terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+                Combination {
+                    name: self.names[b].clone(),
+                    terms,
+                }
+            })
+            .collect())
+    }
+
+    /// Identifiability of the unknowns not excluded, at `x`, on the weighted
+    /// Jacobian (so a pose measured poorly counts less).
+    ///
+    /// Without `noise`, columns are scaled by their norms and the rank is the
+    /// numerical one at `rank_tolerance`. With the noise level `sigma`
+    /// (weighted units), column j is scaled by its standard-error limit
+    /// `l_j` and a column enters the base set only if its part orthogonal to
+    /// the columns already chosen, `|R_kk| l_j`, exceeds `sigma`: the
+    /// identified value would otherwise carry a standard error above `l_j`
+    /// (`se_k >= sigma / |R_kk|`).
+    fn analyse(
+        &self,
+        reduced: &Mat<f64>,
+        noise: Option<f64>,
+        excluded: &dyn Fn(usize) -> bool,
+    ) -> Result<IdentifiabilityReport, CalibError> {
+        let n = reduced.ncols();
+        let kept: Vec<usize> = (0..n).filter(|&j| !excluded(j)).collect();
+        let sub = Mat::<f64>::from_fn(reduced.nrows(), kept.len(), |i, c| reduced[(i, kept[c])]);
+        let sub_names: Vec<String> = kept.iter().map(|&j| self.names[j].clone()).collect();
+        let mut options = IdentifiabilityOptions {
+            rank_tolerance: self.rank_tolerance,
+            priorities: kept.iter().map(|&j| self.priorities[j]).collect(),
+            ..IdentifiabilityOptions::default()
+        };
+        if let Some(sigma) = noise {
+            let limits: Vec<f64> = kept.iter().map(|&j| self.limits[j]).collect();
+            let reference = (0..kept.len())
+                .map(|c| sub.col(c).norm_l2() * limits[c])
+                .fold(0.0, f64::max);
+            if reference > 0.0 && sigma.is_finite() {
+                options.rank_tolerance = (sigma / reference).clamp(1e-12, 0.999);
+            }
+            options.column_scaling = ColumnScaling::Fixed(limits.iter().map(|l| 1.0 / l).collect());
+        }
+        analyze_identifiability(sub.as_ref(), &sub_names, &options)
+            .map_err(CalibError::optim("identifiability analysis"))
+    }
+}
+
+/// The true value of each identified combination `xi_B + K xi_N` given a
+/// full vector of true unknowns (`truth`, indexed like
+/// [`Calibration::unknowns`]): `(name, true combination value, identified
+/// value, standard error)`. Absorbed unknowns stay at their starting values
+/// in the fit, so only their true deviation from there is absorbed.
+pub fn combination_check(
+    calibration: &Calibration,
+    truth: &[f64],
+) -> Vec<(String, f64, f64, Option<f64>)> {
+    let index = |name: &str| calibration.unknowns.iter().position(|u| u.name == name);
+    calibration
+        .combinations
+        .iter()
+        .filter_map(|c| {
+            let jb = index(&c.name)?;
+            let mut value = *truth.get(jb)?;
+            for (other, k) in &c.terms {
+                let jn = index(other)?;
+                value += k * (truth.get(jn)? - calibration.unknowns[jn].initial);
+            }
+            let u = &calibration.unknowns[jb];
+            Some((u.name.clone(), value, u.value, u.standard_error))
+        })
+        .collect()
+}

@@ -1,0 +1,249 @@
+//! The JSON report of a calibration (mm and deg at this boundary).
+
+use serde::Serialize;
+
+use crate::CalibError;
+use crate::error_model::UnknownKind;
+use crate::identify::{Calibration, UnknownStatus};
+use crate::validate::{ErrorStatistics, ValidationReport};
+
+/// Error figures in mm and deg.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct StatisticsJson {
+    /// Number of poses.
+    pub n_poses: usize,
+    /// Mean position error (mm).
+    pub position_mean_mm: f64,
+    /// RMS position error (mm).
+    pub position_rms_mm: f64,
+    /// Maximum position error (mm).
+    pub position_max_mm: f64,
+    /// Mean orientation error (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_mean_deg: Option<f64>,
+    /// RMS orientation error (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_rms_deg: Option<f64>,
+    /// Maximum orientation error (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_max_deg: Option<f64>,
+}
+
+impl From<&ErrorStatistics> for StatisticsJson {
+    fn from(s: &ErrorStatistics) -> Self {
+        let o = s.orientation_mean_rms_max;
+        Self {
+            n_poses: s.n_poses,
+            position_mean_mm: s.position_mean * 1e3,
+            position_rms_mm: s.position_rms * 1e3,
+            position_max_mm: s.position_max * 1e3,
+            orientation_mean_deg: o.map(|o| o.0.to_degrees()),
+            orientation_rms_deg: o.map(|o| o.1.to_degrees()),
+            orientation_max_deg: o.map(|o| o.2.to_degrees()),
+        }
+    }
+}
+
+/// One unknown in the report.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ParameterJson {
+    /// Name.
+    pub name: String,
+    /// `mm` or `deg`.
+    pub unit: &'static str,
+    /// Starting value (nominal) in `unit`.
+    pub nominal: f64,
+    /// Identified value in `unit`.
+    pub identified: f64,
+    /// `identified - nominal` in `unit`.
+    pub delta: f64,
+    /// Standard error in `unit` (identified unknowns only).
+    pub standard_error: Option<f64>,
+    /// `identified`, `fixed`, `non-identifiable`, `poorly-identifiable`, `no-influence`.
+    pub status: &'static str,
+}
+
+/// The `identification` object.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct IdentificationJson {
+    /// Mean position error on the identification set after (mm).
+    pub position_mean_mm: f64,
+    /// RMS position error after (mm).
+    pub position_rms_mm: f64,
+    /// Maximum position error after (mm).
+    pub position_max_mm: f64,
+    /// Mean orientation error after (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_mean_deg: Option<f64>,
+    /// RMS orientation error after (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_rms_deg: Option<f64>,
+    /// Maximum orientation error after (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_max_deg: Option<f64>,
+    /// Same figures with the nominal robot (frames registered).
+    pub before: StatisticsJson,
+    /// Number of poses.
+    pub n_poses: usize,
+    /// Identified unknowns.
+    pub rank: usize,
+    /// Unknowns in the model (robot + 6 frame + 6 target).
+    pub n_unknowns: usize,
+    /// Free unknowns considered (not fixed, with influence).
+    pub n_free: usize,
+    /// Non-identifiable unknowns (beyond the numerical rank).
+    pub non_identifiable: Vec<String>,
+    /// Unknowns kept at nominal because their standard error would exceed the limit.
+    pub poorly_identifiable: Vec<String>,
+    /// Combinations the identified unknowns stand for (like (C.1)).
+    pub combinations: Vec<String>,
+    /// Condition number of the scaled base columns.
+    pub condition_number: f64,
+    /// Singular values of the scaled, weighted Jacobian of the identified unknowns.
+    pub singular_values: Vec<f64>,
+    /// Solver termination reason.
+    pub termination: String,
+    /// Whether the termination is a convergence test.
+    pub converged: bool,
+    /// Iterations of the final solve.
+    pub iterations: usize,
+    /// Cost `1/2 ||W r||^2` at the start and after each iteration, every solve in order (Figure 7 data).
+    pub cost_history: Vec<f64>,
+    /// Every unknown.
+    pub parameters: Vec<ParameterJson>,
+}
+
+/// The `validation` object.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ValidationJson {
+    /// Mean position error after calibration (mm).
+    pub position_mean_mm: f64,
+    /// RMS position error after (mm).
+    pub position_rms_mm: f64,
+    /// Maximum position error after (mm).
+    pub position_max_mm: f64,
+    /// Mean orientation error after (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_mean_deg: Option<f64>,
+    /// RMS orientation error after (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_rms_deg: Option<f64>,
+    /// Maximum orientation error after (deg), when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_max_deg: Option<f64>,
+    /// With the nominal robot.
+    pub before: StatisticsJson,
+    /// What was re-fitted on the validation data.
+    pub note: String,
+}
+
+/// The whole report.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CalibrationReportJson {
+    /// Robot name.
+    pub robot: String,
+    /// Identification results.
+    pub identification: IdentificationJson,
+    /// Validation results, when a validation set was given.
+    pub validation: Option<ValidationJson>,
+}
+
+fn status_name(s: UnknownStatus) -> &'static str {
+    match s {
+        UnknownStatus::Identified => "identified",
+        UnknownStatus::Fixed => "fixed",
+        UnknownStatus::NonIdentifiable => "non-identifiable",
+        UnknownStatus::PoorlyIdentifiable => "poorly-identifiable",
+        UnknownStatus::NoInfluence => "no-influence",
+    }
+}
+
+impl CalibrationReportJson {
+    /// Builds the report.
+    pub fn new(
+        robot: &str,
+        calibration: &Calibration,
+        validation: Option<&ValidationReport>,
+    ) -> Self {
+        let after = StatisticsJson::from(&calibration.training_after);
+        let parameters = calibration
+            .unknowns
+            .iter()
+            .map(|u| {
+                let (unit, scale) = match u.kind {
+                    UnknownKind::Length => ("mm", 1e3),
+                    UnknownKind::Angle => ("deg", 180.0 / std::f64::consts::PI),
+                };
+                ParameterJson {
+                    name: u.name.clone(),
+                    unit,
+                    nominal: u.initial * scale,
+                    identified: u.value * scale,
+                    delta: (u.value - u.initial) * scale,
+                    standard_error: u.standard_error.map(|s| s * scale),
+                    status: status_name(u.status),
+                }
+            })
+            .collect();
+        let identification = IdentificationJson {
+            position_mean_mm: after.position_mean_mm,
+            position_rms_mm: after.position_rms_mm,
+            position_max_mm: after.position_max_mm,
+            orientation_mean_deg: after.orientation_mean_deg,
+            orientation_rms_deg: after.orientation_rms_deg,
+            orientation_max_deg: after.orientation_max_deg,
+            before: StatisticsJson::from(&calibration.training_before),
+            n_poses: calibration.n_poses,
+            rank: calibration.rank(),
+            n_unknowns: calibration.unknowns.len(),
+            n_free: calibration.identifiability.names.len(),
+            non_identifiable: calibration
+                .non_identifiable()
+                .into_iter()
+                .map(String::from)
+                .collect(),
+            poorly_identifiable: calibration
+                .poorly_identifiable()
+                .into_iter()
+                .map(String::from)
+                .collect(),
+            combinations: calibration.combination_lines.clone(),
+            condition_number: calibration.solve.condition_number,
+            singular_values: calibration.solve.singular_values.clone(),
+            termination: format!("{:?}", calibration.solve.termination),
+            converged: calibration.solve.termination.is_converged(),
+            iterations: calibration.solve.iterations,
+            cost_history: calibration.cost_history.clone(),
+            parameters,
+        };
+        let validation = validation.map(|v| {
+            let a = StatisticsJson::from(&v.after);
+            ValidationJson {
+                position_mean_mm: a.position_mean_mm,
+                position_rms_mm: a.position_rms_mm,
+                position_max_mm: a.position_max_mm,
+                orientation_mean_deg: a.orientation_mean_deg,
+                orientation_rms_deg: a.orientation_rms_deg,
+                orientation_max_deg: a.orientation_max_deg,
+                before: StatisticsJson::from(&v.before),
+                note: v.frame_note.clone(),
+            }
+        });
+        Self {
+            robot: robot.to_string(),
+            identification,
+            validation,
+        }
+    }
+
+    /// Pretty JSON text. Non-finite numbers (an infinite condition number) are written as `null`.
+    ///
+    /// # Errors
+    /// [`CalibError::Serialise`].
+    pub fn to_json_string(&self) -> Result<String, CalibError> {
+        serde_json::to_string_pretty(self).map_err(|e| CalibError::Serialise {
+            what: "calibration report",
+            message: e.to_string(),
+        })
+    }
+}

@@ -1,0 +1,235 @@
+//! Validation metrics: position and orientation errors before and after
+//! calibration, on the identification set or a separate validation set.
+
+use flexcal_kinematics::Model;
+use flexcal_optim::{LevenbergMarquardt, ProblemSetup, Residuals};
+use nalgebra::Isometry3;
+
+use crate::error_model::{GeometricErrorModel, register_measurement_frame};
+use crate::geometry::{rotation_from_vector, vector_from_rotation};
+use crate::identify::Calibration;
+use crate::{CalibError, MeasurementSet};
+
+/// How the measurement frame is obtained when errors are evaluated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FramePolicy {
+    /// A known `x_meas_base` (measurements already in the robot base frame:
+    /// identity; or the frame identified with the robot on the same series).
+    Fixed(Isometry3<f64>),
+    /// Re-fitted on the evaluated data with the robot frozen: closed-form
+    /// registration then least squares on the 6 frame unknowns (and the 3
+    /// target position unknowns if `refit_target`). Used when the validation
+    /// series was measured from another tracker position.
+    Refit {
+        /// Also re-fit the target position offset.
+        refit_target: bool,
+    },
+}
+
+/// Errors of one pose: position error norm (m) and orientation error angle
+/// (rad) when orientations are used.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseError {
+    /// `|p_predicted - p_measured|` (m).
+    pub position: f64,
+    /// Angle of `R_predicted R_measured^T` (rad), when used.
+    pub orientation: Option<f64>,
+}
+
+/// Mean, RMS and maximum of the pose errors of a set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorStatistics {
+    /// Number of poses.
+    pub n_poses: usize,
+    /// Mean position error (m).
+    pub position_mean: f64,
+    /// RMS position error (m).
+    pub position_rms: f64,
+    /// Maximum position error (m).
+    pub position_max: f64,
+    /// Mean, RMS and maximum orientation error (rad), when used.
+    pub orientation_mean_rms_max: Option<(f64, f64, f64)>,
+}
+
+/// Mean / RMS / max of pose errors.
+pub fn error_statistics(errors: &[PoseError]) -> ErrorStatistics {
+    let n = errors.len().max(1) as f64;
+    let stats = |v: &mut dyn Iterator<Item = f64>| {
+        let (mut sum, mut sum2, mut max) = (0.0, 0.0, 0.0f64);
+        for e in v {
+            sum += e;
+            sum2 += e * e;
+            max = max.max(e);
+        }
+        (sum / n, (sum2 / n).sqrt(), max)
+    };
+    let (position_mean, position_rms, position_max) = stats(&mut errors.iter().map(|e| e.position));
+    let orientation_mean_rms_max =
+        if !errors.is_empty() && errors.iter().all(|e| e.orientation.is_some()) {
+            Some(stats(&mut errors.iter().filter_map(|e| e.orientation)))
+        } else {
+            None
+        };
+    ErrorStatistics {
+        n_poses: errors.len(),
+        position_mean,
+        position_rms,
+        position_max,
+        orientation_mean_rms_max,
+    }
+}
+
+/// Per-pose errors of the robot at `xi` with target `x_tcp_target` on `set`,
+/// the measurement frame taken or re-fitted according to `policy`.
+///
+/// # Errors
+/// Mismatched coordinates, a model failure at a pose, a degenerate
+/// registration, a failing re-fit.
+pub fn evaluate_errors(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    x_tcp_target: &Isometry3<f64>,
+    policy: FramePolicy,
+    use_orientation: bool,
+) -> Result<Vec<PoseError>, CalibError> {
+    let use_orientation = use_orientation && set.has_orientation();
+    let (x_meas_base, x_tcp_target) = match policy {
+        FramePolicy::Fixed(x) => (x, *x_tcp_target),
+        FramePolicy::Refit { refit_target } => {
+            let start = register_measurement_frame(model, set, xi, x_tcp_target)?;
+            let problem =
+                GeometricErrorModel::new(model, set, use_orientation, start, *x_tcp_target)?;
+            let mut x0 = problem.initial_unknowns();
+            x0[..model.n_params()].copy_from_slice(xi);
+            let n = problem.n_unknowns();
+            let fo = problem.frame_offset();
+            let to = problem.target_offset();
+            let mut fixed = vec![true; n];
+            fixed[fo..to].fill(false);
+            if refit_target {
+                fixed[to..to + 3].fill(false);
+                if use_orientation {
+                    fixed[to + 3..n].fill(false);
+                }
+            }
+            let mut weights = Vec::with_capacity(problem.n_residuals());
+            for _ in 0..set.len() {
+                weights.extend([1.0; 3]);
+                if use_orientation {
+                    // 0.01 deg weighs like 50 um, as in the identification defaults.
+                    weights.extend([50e-6 / 0.01f64.to_radians(); 3]);
+                }
+            }
+            let setup = ProblemSetup {
+                row_weights: Some(weights),
+                fixed,
+                ..ProblemSetup::default()
+            };
+            let report = LevenbergMarquardt::params()
+                .solve(&problem, &x0, &setup, &mut ())
+                .map_err(CalibError::optim(
+                    "validation re-fit of the measurement frame",
+                ))?;
+            problem.frames(&report.x)
+        }
+    };
+    let problem = GeometricErrorModel::new(model, set, use_orientation, x_meas_base, x_tcp_target)?;
+    let mut x = problem.initial_unknowns();
+    x[..model.n_params()].copy_from_slice(xi);
+    debug_assert_eq!(x.len(), problem.n_params());
+    set.measurements()
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let predicted = problem.predict(&x, k)?;
+            let position = (predicted.translation.vector - m.position).norm();
+            let orientation = if use_orientation {
+                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
+                Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
+            } else {
+                None
+            };
+            Ok(PoseError {
+                position,
+                orientation,
+            })
+        })
+        .collect()
+}
+
+/// Errors on a validation set before (nominal robot with the target offset
+/// fitted for it) and after (identified robot and target) calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidationReport {
+    /// Nominal robot.
+    pub before: ErrorStatistics,
+    /// Calibrated robot.
+    pub after: ErrorStatistics,
+    /// Per-pose errors after calibration.
+    pub after_per_pose: Vec<PoseError>,
+    /// How the measurement frame was obtained, in words.
+    pub frame_note: String,
+}
+
+impl Calibration {
+    /// Validates on a separate set. If the identification kept the
+    /// measurement frame fixed, the same frame is used; otherwise only the
+    /// measurement frame (and, with `refit_target`, the target position) is
+    /// re-fitted on the validation data, robot parameters frozen.
+    ///
+    /// # Errors
+    /// As [`evaluate_errors`].
+    pub fn validate(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+        refit_target: bool,
+    ) -> Result<ValidationReport, CalibError> {
+        let (policy, frame_note) = if self.measurement_frame_fixed {
+            (
+                FramePolicy::Fixed(self.x_meas_base),
+                "measurement frame fixed (as in the identification); nothing re-fitted".to_string(),
+            )
+        } else {
+            (
+                FramePolicy::Refit { refit_target },
+                format!(
+                    "measurement frame (tracker -> base){} re-fitted on the validation data; robot parameters{} frozen",
+                    if refit_target {
+                        " and target offset"
+                    } else {
+                        ""
+                    },
+                    if refit_target {
+                        ""
+                    } else {
+                        " and target offset"
+                    }
+                ),
+            )
+        };
+        let before = error_statistics(&evaluate_errors(
+            model,
+            set,
+            &self.nominal_xi,
+            &self.x_tcp_target_nominal_robot,
+            policy,
+            self.use_orientation,
+        )?);
+        let after_per_pose = evaluate_errors(
+            model,
+            set,
+            &self.xi,
+            &self.x_tcp_target,
+            policy,
+            self.use_orientation,
+        )?;
+        Ok(ValidationReport {
+            before,
+            after: error_statistics(&after_per_pose),
+            after_per_pose,
+            frame_note,
+        })
+    }
+}

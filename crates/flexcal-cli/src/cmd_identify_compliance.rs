@@ -1,0 +1,249 @@
+//! `flexcal identify compliance`: the fuzzy compliance model of a robot
+//! (section 3.3.2 of the reference paper, equations (38), (70)), learnt from
+//! the deflection sets of one load and validated on the others.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use flexcal_elastic::campaign::read_campaign_dir;
+use flexcal_elastic::fuzzy_compliance::{
+    ComplianceComponent, ComplianceFitParams, ComplianceSample, RobotInputs, compliance_samples,
+    identify_compliance, noise_floor_rms,
+};
+use flexcal_elastic::metrics::per_load_metrics;
+use serde_json::json;
+
+use crate::robot_arg::load_model;
+
+/// Arguments of `flexcal identify compliance`.
+#[derive(clap::Args, Debug)]
+pub struct ComplianceArgs {
+    /// Folder of deflection files (`*.csv`, one per load case).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Model inputs, comma-separated: actuated coordinates (`theta1`,
+    /// `r2p`) or joint angles of slider-crank joints (`theta2`, `theta8`).
+    #[arg(long, default_value = "theta2,theta8", value_delimiter = ',')]
+    pub inputs: Vec<String>,
+    /// Robot: a built-in name or a description TOML file (turns the files'
+    /// actuated coordinates into the inputs).
+    #[arg(long, default_value = "ir663")]
+    pub robot: String,
+    /// Load magnitude (N) whose sets train the model; the others validate it.
+    #[arg(long, default_value_t = 900.0)]
+    pub train_load: f64,
+    /// Fraction of the training configurations held out to choose the
+    /// structure (0.286: 36 of the paper's 126).
+    #[arg(long, default_value_t = 0.286)]
+    pub test_fraction: f64,
+    /// Seed of the train/test split.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Rule budget of each component model (the paper's 4 x 3 = 12).
+    #[arg(long, default_value_t = 12)]
+    pub max_rules: usize,
+    /// Give each component its own partition grid instead of one shared grid.
+    #[arg(long)]
+    pub separate_structures: bool,
+    /// Save the fitted model (TOML, SI units) here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a JSON report here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+/// Runs `flexcal identify compliance`.
+/// Everything `identify compliance` computes, for printing or for the demo.
+pub struct ComplianceOutcome {
+    /// The robot's geometric model.
+    pub robot: flexcal_kinematics::Model,
+    /// The fitted compliance model and its report.
+    pub fitted: flexcal_elastic::fuzzy_compliance::FittedCompliance,
+    /// Names of the training sets.
+    pub train_sets: Vec<String>,
+    /// Number of training deflections.
+    pub training_samples: usize,
+    /// Residuals on every set in the x-z plane (Table 5).
+    pub table: flexcal_elastic::metrics::LoadMetricsTable,
+    /// RMS norm of the stated deflection noise in the x-z plane [mm].
+    pub noise_floor_mm: f64,
+    /// Whether the components share one structure.
+    pub shared_structure: bool,
+}
+
+/// Identifies the fuzzy compliance model from the files named by `args`
+/// (the code path of `flexcal identify compliance`, without printing).
+pub fn compliance_from_files(args: &ComplianceArgs) -> anyhow::Result<ComplianceOutcome> {
+    if !(args.train_load.is_finite() && args.train_load > 0.0) {
+        anyhow::bail!(
+            "--train-load must be a positive load in N, got {}",
+            args.train_load
+        );
+    }
+    let robot = load_model(&args.robot)?;
+    let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
+    let inputs = RobotInputs::resolve(&robot, &names).context("--inputs")?;
+    let sets = read_campaign_dir(&args.data, robot.n_actuated())?;
+    let is_train = |load: f64| (load - args.train_load).abs() <= 0.5;
+    let mut train: Vec<ComplianceSample> = Vec::new();
+    let mut all: Vec<ComplianceSample> = Vec::new();
+    let mut train_sets = Vec::new();
+    for set in &sets {
+        let samples = compliance_samples(&robot, &inputs, &set.measurements)
+            .with_context(|| format!("{}", set.path.display()))?;
+        if is_train(set.load_n()) {
+            train.extend(samples.iter().cloned());
+            train_sets.push(set.name.clone());
+        }
+        all.extend(samples);
+    }
+    if train.is_empty() {
+        let loads: Vec<String> = sets
+            .iter()
+            .map(|s| format!("{} ({:.0} N)", s.name, s.load_n()))
+            .collect();
+        anyhow::bail!(
+            "no deflection set in {} has the training load {} N (sets: {})",
+            args.data.display(),
+            args.train_load,
+            loads.join(", ")
+        );
+    }
+    let components = ComplianceComponent::plane_xz();
+    let mut params = ComplianceFitParams {
+        shared_structure: !args.separate_structures,
+        test_fraction: args.test_fraction,
+        seed: args.seed,
+        ..ComplianceFitParams::default()
+    };
+    params.fuzzy.search.max_rules = args.max_rules;
+    let fitted = identify_compliance(inputs.specs(), &components, &train, &params, &mut |_| {})?;
+    let residuals = fitted.compliance.residual_samples(&all)?;
+    let table = per_load_metrics(&residuals);
+    let noise_floor_mm = noise_floor_rms(&all, &fitted.compliance.displacement_axes()) * 1e3;
+    Ok(ComplianceOutcome {
+        robot,
+        fitted,
+        train_sets,
+        training_samples: train.len(),
+        table,
+        noise_floor_mm,
+        shared_structure: params.shared_structure,
+    })
+}
+
+/// Runs `flexcal identify compliance`.
+pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
+    let outcome = compliance_from_files(&args)?;
+    let ComplianceOutcome {
+        robot,
+        fitted,
+        train_sets,
+        training_samples,
+        table,
+        noise_floor_mm: floor_mm,
+        shared_structure,
+    } = &outcome;
+    let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
+    let components = ComplianceComponent::plane_xz();
+    println!(
+        "fuzzy compliance (C_xx, C_xz, C_zx, C_zz) of ({}) identified on {} deflections ({}), split seed {}",
+        names.join(", "),
+        training_samples,
+        train_sets.join(", "),
+        args.seed
+    );
+    let model = &fitted.compliance;
+    let r = &fitted.report;
+    let grid: Vec<String> = model.models()[0]
+        .structure()
+        .membership_counts()
+        .iter()
+        .map(usize::to_string)
+        .collect();
+    println!(
+        "{} training + {} test configurations; structure {} ({} rules per component{}), growth stopped: {:?}",
+        r.training_configurations,
+        r.test_configurations,
+        grid.join(" x "),
+        model.models()[0].conclusions().len(),
+        if *shared_structure {
+            ", shared"
+        } else {
+            " for C_xx"
+        },
+        r.search.termination
+    );
+    println!(
+        "{} fits, {} Solis-Wets placements, {:.3} s; RMSE per displacement component: training {:.4} mm, test {:.4} mm; cond >= {:.2e}",
+        r.search.evaluations,
+        r.search.placement_runs,
+        r.elapsed_s,
+        r.training_mm.rmse,
+        r.test_mm.rmse,
+        r.conclusions.condition_lower_bound.unwrap_or(f64::NAN)
+    );
+    println!("rule base of C_xx (Table 4):");
+    if let Some(table) = model.rule_base_table(components[0]) {
+        print!("{table}");
+    }
+    println!(
+        "fuzzy model residuals in the x-z plane, per load (both directions pooled; train load {} N) (Table 5):",
+        args.train_load
+    );
+    println!("{table}");
+    println!(
+        "measurement-noise floor (RMS norm of the stated deflection noise in the x-z plane): {floor_mm:.4} mm; overall RMS / floor = {:.2}",
+        table.overall_rms_mm / floor_mm
+    );
+    if let Some(path) = &args.out {
+        model.save(path)?;
+        println!("model written to {}", path.display());
+    }
+    if let Some(path) = &args.report {
+        let components_json: Vec<_> = model
+            .components()
+            .iter()
+            .zip(model.models())
+            .map(|(c, m)| {
+                json!({
+                    "name": c.name(),
+                    "unit": c.table_unit(),
+                    "modal_values": m.structure().partitions().iter().zip(model.inputs()).map(|(p, spec)| {
+                        let (factor, unit) = spec.unit.table_unit();
+                        json!({
+                            "input": spec.name,
+                            "unit": unit,
+                            "values": p.modal_values().iter().map(|v| v * factor).collect::<Vec<_>>(),
+                        })
+                    }).collect::<Vec<_>>(),
+                    "conclusions": m.conclusions().iter().map(|b| b * 1e6).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        let report = json!({
+            "robot": robot.name(),
+            "inputs": model.inputs(),
+            "train_load_n": args.train_load,
+            "train_sets": train_sets,
+            "seed": args.seed,
+            "test_fraction": args.test_fraction,
+            "shared_structure": shared_structure,
+            "training_configurations": r.training_configurations,
+            "test_configurations": r.test_configurations,
+            "training_rmse_mm": r.training_mm.rmse,
+            "test_rmse_mm": r.test_mm.rmse,
+            "termination": format!("{:?}", r.search.termination),
+            "evaluations": r.search.evaluations,
+            "elapsed_s": r.elapsed_s,
+            "history": r.search.history,
+            "components": components_json,
+            "per_load": table,
+            "noise_floor_mm": floor_mm,
+        });
+        flexcal_io::write_atomic(path, serde_json::to_string_pretty(&report)?)?;
+        println!("report written to {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,99 @@
+//! `flexcal twin`: the virtual robot's campaigns, written as the files a real
+//! campaign would produce.
+
+use std::path::PathBuf;
+
+use flexcal_twin::geometric::{
+    GeometricCampaignOptions, geometric_campaign, write_geometric_campaign,
+};
+
+/// Subcommands of `flexcal twin`.
+#[derive(clap::Subcommand, Debug)]
+pub enum TwinCommand {
+    /// The virtual IR-663's geometric campaign: 27 identification + 16
+    /// validation poses of box (59), photogrammetry noise, and the truth.
+    Geometric(GeometricArgs),
+    /// The virtual IR-663's elastic campaign: the 63-pose grid (65), loads of
+    /// 300-1100 N along x and z, loaded and unloaded poses (8 files), and the truth.
+    Elastic(ElasticArgs),
+}
+
+/// Arguments of `flexcal twin elastic`.
+#[derive(clap::Args, Debug)]
+pub struct ElasticArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed of the measurement noise.
+    #[arg(long, default_value_t = 663)]
+    pub seed: u64,
+}
+
+fn run_elastic(args: ElasticArgs) -> anyhow::Result<()> {
+    let options = flexcal_twin::elastic::ElasticCampaignOptions {
+        seed: args.seed,
+        ..Default::default()
+    };
+    let summary = flexcal_twin::elastic::write_elastic_campaign(&args.out, &options)?;
+    println!(
+        "virtual IR-663 elastic campaign (seed {}): {} data files and the truth written to {}",
+        args.seed,
+        summary.data_files.len(),
+        args.out.display()
+    );
+    println!(
+        "true TCP deflection under 1100 N vertical: {:.2} to {:.2} mm over the grid; screw joints k h^2: \
+         joint 2 {:.2e} to {:.2e}, joint 8 {:.2e} to {:.2e} N.m/rad",
+        summary.deflection_norm_1100n_z_mm[0],
+        summary.deflection_norm_1100n_z_mm[1],
+        summary.kar2_effective_range_nm_rad[0],
+        summary.kar2_effective_range_nm_rad[1],
+        summary.kar8_effective_range_nm_rad[0],
+        summary.kar8_effective_range_nm_rad[1]
+    );
+    println!(
+        "identify with `flexcal identify stiffness --robot ir663 --elastic ir663 --data {} --train-load 900`",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Arguments of `flexcal twin geometric`.
+#[derive(clap::Args, Debug)]
+pub struct GeometricArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed of every random draw.
+    #[arg(long, default_value_t = 663)]
+    pub seed: u64,
+}
+
+/// Runs `flexcal twin ...`.
+pub fn run(command: TwinCommand) -> anyhow::Result<()> {
+    match command {
+        TwinCommand::Elastic(args) => run_elastic(args),
+        TwinCommand::Geometric(args) => {
+            let options = GeometricCampaignOptions {
+                seed: args.seed,
+                ..GeometricCampaignOptions::default()
+            };
+            let campaign = geometric_campaign(&options)?;
+            write_geometric_campaign(&campaign, &args.out)?;
+            println!(
+                "virtual IR-663 geometric campaign (seed {}): {} identification + {} validation poses, \
+                 truth.toml and truth.json written to {}",
+                args.seed,
+                campaign.identification.len(),
+                campaign.validation.len(),
+                args.out.display()
+            );
+            println!(
+                "measurements in the robot base frame R0 (target = TCP): calibrate with \
+                 `flexcal calibrate --robot ir663 --data {0}/identification.csv --validate {0}/validation.csv --fixed-frame --fixed-target`",
+                args.out.display()
+            );
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,194 @@
+//! `flexcal twin geometric`, `flexcal calibrate` and `flexcal poses select`
+//! end to end on temporary files, and bad input.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn flexcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flexcal"))
+        .args(args)
+        .output()
+        .expect("the flexcal binary runs")
+}
+
+fn text(output: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+fn path(dir: &Path, name: &str) -> String {
+    dir.join(name).display().to_string()
+}
+
+#[test]
+fn twin_files_calibrate_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = flexcal(&[
+        "twin",
+        "geometric",
+        "--out",
+        &d.display().to_string(),
+        "--seed",
+        "7",
+    ]);
+    assert!(out.status.success(), "{:?}", text(&out));
+    for f in [
+        "identification.csv",
+        "validation.csv",
+        "truth.toml",
+        "truth.json",
+    ] {
+        assert!(d.join(f).exists(), "{f} written");
+    }
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ir663",
+        "--data",
+        &path(d, "identification.csv"),
+        "--validate",
+        &path(d, "validation.csv"),
+        "--fixed-frame",
+        "--fixed-target",
+        "--out",
+        &path(d, "calibrated.toml"),
+        "--report",
+        &path(d, "report.json"),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("NON-IDENTIFIABLE") && stdout.contains("validation after"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("report.json")).unwrap()).unwrap();
+    let id = &report["identification"];
+    // Every robot parameter is identified, non-identifiable or poorly identifiable.
+    let rank = id["rank"].as_u64().unwrap() as usize;
+    let non = id["non_identifiable"].as_array().unwrap().len();
+    let poor = id["poorly_identifiable"].as_array().unwrap().len();
+    assert_eq!(rank + non + poor, 43, "{id}");
+    assert!((35..=39).contains(&rank), "rank {rank}");
+    assert!(!id["combinations"].as_array().unwrap().is_empty());
+    let v = &report["validation"];
+    for key in [
+        "position_mean_mm",
+        "position_rms_mm",
+        "position_max_mm",
+        "orientation_mean_deg",
+    ] {
+        assert!(v[key].as_f64().is_some(), "validation.{key}");
+        assert!(id[key].as_f64().is_some(), "identification.{key}");
+    }
+    assert!(v["position_mean_mm"].as_f64().unwrap() < 0.1);
+    assert!(v["before"]["position_mean_mm"].as_f64().unwrap() > 0.5);
+    // The calibrated robot loads back.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        &path(d, "calibrated.toml"),
+        "--data",
+        &path(d, "validation.csv"),
+        "--fixed-frame",
+        "--fixed-target",
+        "--fix",
+        "alpha1,d1",
+    ]);
+    // 16 poses x 6 rows = 96 equations for the remaining unknowns: runs.
+    assert!(out.status.success(), "{:?}", text(&out));
+
+    // Pose selection from the validation file used as a candidate pool.
+    let out = flexcal(&[
+        "poses",
+        "select",
+        "--robot",
+        "ir663",
+        "--candidates",
+        &path(d, "identification.csv"),
+        "--count",
+        "12",
+        "--index",
+        "o3",
+        "--orientation",
+        "--out",
+        &path(d, "selected.csv"),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let selected = std::fs::read_to_string(d.join("selected.csv")).unwrap();
+    assert_eq!(selected.lines().count(), 13);
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let write = |name: &str, body: &str| {
+        std::fs::write(d.join(name), body).unwrap();
+        path(d, name)
+    };
+    let run = |file: &str, extra: &[&str]| {
+        let mut args = vec!["calibrate", "--robot", "ur10", "--data", file];
+        args.extend_from_slice(extra);
+        let out = flexcal(&args);
+        let (stdout, stderr) = text(&out);
+        assert!(!out.status.success(), "should fail: {stdout}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        stderr
+    };
+    let header = "q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm\n";
+    let malformed = write(
+        "malformed.csv",
+        &format!("{header}0,0,0,0,0,0,1,2,3\n0,0,0,0,0,1,2\n"),
+    );
+    let err = run(&malformed, &[]);
+    assert!(err.contains("malformed.csv:3"), "{err}");
+    let missing = write(
+        "missing.csv",
+        "q1,q2,q3,q4,q5,q6,x_mm,y_mm\n0,0,0,0,0,0,1,2\n",
+    );
+    let err = run(&missing, &[]);
+    assert!(err.contains("z_mm"), "{err}");
+    let nan = write("nan.csv", &format!("{header}0,0,0,0,0,0,1,NaN,3\n"));
+    let err = run(&nan, &[]);
+    assert!(err.contains("nan.csv:2") && err.contains("y_mm"), "{err}");
+    let few: String = (0..4)
+        .map(|k| format!("0.{k},-1,1,0,1,0,{k}00,20,30\n"))
+        .collect();
+    let few = write("few.csv", &format!("{header}{few}"));
+    let err = run(&few, &[]);
+    assert!(err.contains("too few measurements"), "{err}");
+    let wrong = write("wrong.csv", "q1,q2,x_mm,y_mm,z_mm\n0,0,1,2,3\n");
+    let err = run(&wrong, &[]);
+    assert!(err.contains("actuated coordinates"), "{err}");
+    // Rank deficient with nothing fixed: with --strict an error naming the parameters.
+    let rows: String = (0..30)
+        .map(|k| {
+            let t = k as f64;
+            format!(
+                "{},{},{},{},{},{},{},{},{}\n",
+                0.1 * t,
+                -1.0 + 0.03 * t,
+                1.0 - 0.02 * t,
+                0.1 * t,
+                0.5,
+                0.2 * t,
+                1000.0 + 7.0 * t,
+                (t * 0.3).sin() * 300.0,
+                200.0 + t * t
+            )
+        })
+        .collect();
+    let deficient = write("deficient.csv", &format!("{header}{rows}"));
+    let err = run(&deficient, &["--strict"]);
+    assert!(
+        err.contains("rank-deficient") && err.contains("theta1"),
+        "{err}"
+    );
+    let err = run(&deficient, &["--fix", "nonsense"]);
+    assert!(err.contains("unknown parameter `nonsense`"), "{err}");
+}

@@ -1,0 +1,564 @@
+//! The virtual IR-663's elastic campaign (paper section 3.3.1).
+//!
+//! The twin's truth is richer than the identification model
+//! (`flexcal_elastic`'s built-in `ir663`, Figure 8):
+//! - joints 2 and 8 are driven by ball screws modelled as axial springs
+//!   between their slider-crank pivots, so their stiffness about the joint
+//!   is `k_screw h(q)^2`, `h = l1 l3 sin(phi) / r'` being the lever arm of the
+//!   screw about the joint axis, which changes with the configuration;
+//! - the pivots sit on stiff but elastic levers, and the forearm is split at
+//!   the wrist centre (forearm beam to the wrist, stiff wrist beam to the TCP);
+//! - the radial joint stiffnesses are Table 3 (design 1) read in N/mm;
+//! - the measurement system is the geometric campaign's: 21 um Gaussian
+//!   noise per axis on every measured position, so a measured deflection
+//!   (loaded minus unloaded) carries about 30 um per axis.
+//!
+//! The campaign is the paper's: the 63 poses of the 7 x 9 grid (65) in the
+//! plane y = 0 (x 1.25-2.25 m, z 0.85-2.15 m, tool pointing down), loads of
+//! 300, 600, 900 and 1100 N along +x (horizontal, a cable over a pulley) and
+//! along -z (a dead weight), each pose measured unloaded and loaded: eight
+//! files in flexcal's measurement CSV conventions (see
+//! `flexcal_elastic::campaign`), plus the truth.
+//!
+//! The grid's three lowest points at x = 1.25 m (z <= 1.175 m) lie in the
+//! corner where the IR-663's four-bar reaches its toggle (see
+//! flexcal-kinematics); they are moved along +x to the first reachable
+//! point at least 0.1 m away from the toggle (reported in the truth file).
+
+use std::path::{Path, PathBuf};
+
+use flexcal_elastic::campaign::{PositionRow, write_position_rows};
+use flexcal_elastic::description::{
+    BeamDescription, ElasticDescription, NodeDescription, SectionDescription, SpringDescription,
+};
+use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
+use flexcal_kinematics::{
+    Data, InverseOptions, InverseTarget, Model, RobotDescription, actuated_from_joint_angles,
+    forward_pose, inverse_pose, joint_angles_from_actuated,
+};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::Serialize;
+
+/// Errors of the elastic twin.
+#[derive(Debug, thiserror::Error)]
+pub enum ElasticTwinError {
+    /// The elastic model failed.
+    #[error(transparent)]
+    Elastic(#[from] flexcal_elastic::ElasticError),
+    /// The robot geometry failed (a grid point out of reach, ...).
+    #[error("robot geometry: {0}")]
+    Kinematics(#[from] flexcal_kinematics::KinematicsError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Io(#[from] flexcal_io::IoError),
+    /// An option is out of range.
+    #[error("invalid option '{name}': {message}")]
+    InvalidOption {
+        /// Option name.
+        name: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// A grid point cannot be reached with the tool pointing down.
+    #[error("grid point x = {x_m} m, z = {z_m} m cannot be reached: {message}")]
+    Unreachable {
+        /// Target x (m).
+        x_m: f64,
+        /// Target z (m).
+        z_m: f64,
+        /// Why.
+        message: String,
+    },
+}
+
+/// Axial stiffness of the joint 2 screw (N/m). Tuned so that the TCP
+/// deflection norm under 1100 N vertical spans about 1.6-2.5 mm over the
+/// grid, as measured in the paper: `k h^2` is then 1.9e6 to 5.1e6 N.m/rad
+/// over the grid (lever arm h from 0.22 to 0.35 m), the magnitude of Table
+/// 3's Kar(1,2) = 1.72e6 N.m/rad (2.2 times it at a 0.30 m lever arm).
+pub const SCREW_2_STIFFNESS: f64 = 4.2e7;
+/// Axial stiffness of the joint 8 screw (N/m), tuned like
+/// [`SCREW_2_STIFFNESS`]: `k h^2` is 3.2e6 to 5.0e6 N.m/rad over the grid
+/// (h from 0.24 to 0.30 m), the magnitude of Table 3's Kar(1,8) = 1.56e6 N.m/rad.
+pub const SCREW_8_STIFFNESS: f64 = 5.5e7;
+
+/// Standard deviation of each measured position coordinate (m): 21 um, the
+/// photogrammetry system of the geometric campaign.
+pub const POSITION_NOISE_M: f64 = 21e-6;
+
+/// Options of the elastic campaign.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ElasticCampaignOptions {
+    /// Seed of the measurement noise.
+    pub seed: u64,
+    /// Load magnitudes (N) (default 300, 600, 900, 1100).
+    pub loads_n: Vec<f64>,
+    /// Standard deviation of each measured coordinate (m) (default 21e-6).
+    pub position_noise_m: f64,
+}
+
+impl Default for ElasticCampaignOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            loads_n: vec![300.0, 600.0, 900.0, 1100.0],
+            position_noise_m: POSITION_NOISE_M,
+        }
+    }
+}
+
+/// The lever arm `h = l1 l3 sin(phi) / r'` (m) of a slider-crank screw
+/// about its joint, from the crank geometry and the joint angle.
+pub fn screw_lever_arm(l1: f64, l3: f64, kappa: f64, lambda: f64, joint_angle: f64) -> f64 {
+    let phi = joint_angle - lambda + kappa;
+    let screw = (l1 * l1 + l3 * l3 - 2.0 * l1 * l3 * phi.cos()).sqrt();
+    l1 * l3 * phi.sin().abs() / screw
+}
+
+/// Slider-crank geometry of the built-in IR-663 (mm, deg): `(l1, l3, kappa, lambda)`.
+fn crank(robot: &RobotDescription, frame: &str) -> (f64, f64, f64, f64) {
+    let f = robot.frames.iter().find(|f| f.name == frame);
+    match f.and_then(|f| f.slider_crank) {
+        Some(c) => (c.l1_mm, c.l3_mm, c.kappa_deg, c.lambda_deg),
+        None => (0.0, 0.0, 0.0, 0.0),
+    }
+}
+
+/// The twin's true elastic description: the built-in `ir663` plus the wrist
+/// centre node, the screws between their pivots (joints 2 and 8 then turn
+/// freely), and their stiff levers.
+///
+/// # Errors
+/// Never for the built-in robot (the error type is that of the descriptions).
+pub fn ir663_elastic_truth() -> Result<ElasticDescription, ElasticTwinError> {
+    let robot = RobotDescription::builtin("ir663")?;
+    let mut d = ElasticDescription::builtin("ir663")?;
+    d.name = "ir663-twin".into();
+    d.notes = "Truth of the virtual IR-663: the built-in ir663 beam model with ball screws as axial \
+               springs between the slider-crank pivots of joints 2 and 8 (joints 2 and 8 free about \
+               their axes), stiff pivot levers, and the forearm split at the wrist centre W."
+        .into();
+    // Forearm to the wrist centre, then a stiff wrist to the TCP.
+    let forearm = d
+        .beams
+        .iter()
+        .find(|b| b.name == "10E")
+        .cloned()
+        .ok_or_else(|| ElasticTwinError::InvalidOption {
+            name: "ir663",
+            message: "built-in description has no beam 10E".into(),
+        })?;
+    d.beams.retain(|b| b.name != "10E");
+    d.nodes.push(NodeDescription {
+        name: "W".into(),
+        frame: "4".into(),
+        offset_mm: [0.0; 3],
+    });
+    d.beams.push(BeamDescription {
+        name: "10W".into(),
+        j: "W".into(),
+        ..forearm.clone()
+    });
+    let wrist = SectionDescription::steel_box(0.3, 0.3, 0.05);
+    d.beams.push(BeamDescription {
+        name: "WE".into(),
+        i: "W".into(),
+        j: "E".into(),
+        section: wrist,
+        vecxz: [1.0, 0.0, 0.0],
+        vecxz_frame: Some("E".into()),
+        mass_per_length_kg_m: 0.0,
+    });
+    let lever = SectionDescription::steel_box(0.4, 0.3, 0.05);
+    for (joint, antecedent_alpha_deg, theta_const_deg, k_screw) in [
+        ("2", -90.0f64, -90.0f64, SCREW_2_STIFFNESS),
+        ("8", -90.0, 0.0, SCREW_8_STIFFNESS),
+    ] {
+        let (l1, l3, kappa, lambda) = crank(&robot, joint);
+        let (kappa, lambda) = (kappa.to_radians(), lambda.to_radians());
+        // Pivot A on the driven body, in the joint's frame.
+        let a = [l1 * kappa.cos(), l1 * kappa.sin(), 0.0];
+        // Pivot B on the antecedent (frame 1), at lambda from the joint frame's
+        // x axis at zero joint angle: frame 1 -> Rx(alpha) Rz(theta_const).
+        let rot = nalgebra::Rotation3::from_axis_angle(
+            &Vector3::x_axis(),
+            antecedent_alpha_deg.to_radians(),
+        ) * nalgebra::Rotation3::from_axis_angle(
+            &Vector3::z_axis(),
+            theta_const_deg.to_radians(),
+        );
+        let b = rot * Vector3::new(l3 * lambda.cos(), l3 * lambda.sin(), 0.0);
+        let (node_a, node_b) = (format!("A{joint}"), format!("B{joint}"));
+        d.nodes.push(NodeDescription {
+            name: node_a.clone(),
+            frame: joint.into(),
+            offset_mm: a,
+        });
+        d.nodes.push(NodeDescription {
+            name: node_b.clone(),
+            frame: "1".into(),
+            offset_mm: [b.x, b.y, b.z],
+        });
+        let lever_beam = |name: String, i: &str, j: &str| BeamDescription {
+            name,
+            i: i.into(),
+            j: j.into(),
+            section: lever,
+            vecxz: [0.0, 0.0, 1.0],
+            vecxz_frame: Some(joint.into()),
+            mass_per_length_kg_m: 0.0,
+        };
+        d.beams
+            .push(lever_beam(format!("lever{node_a}"), joint, &node_a));
+        d.beams
+            .push(lever_beam(format!("lever{node_b}"), "1", &node_b));
+        d.springs.push(SpringDescription {
+            name: format!("screw{joint}"),
+            i: node_a,
+            j: node_b,
+            k_n_m: k_screw,
+        });
+    }
+    for j in d.joints.iter_mut() {
+        if j.name == "12" || j.name == "18" {
+            j.kar_nm_rad = 0.0;
+        }
+        j.identify.clear();
+    }
+    Ok(d)
+}
+
+/// One pose of the grid (65).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GridPose {
+    /// Index in the grid (x-major, then z).
+    pub pose_id: u64,
+    /// Grid target x (m).
+    pub target_x_m: f64,
+    /// Grid target z (m).
+    pub target_z_m: f64,
+    /// Reached x (m) (differs from the target in the toggle corner).
+    pub x_m: f64,
+    /// Reached z (m).
+    pub z_m: f64,
+    /// Actuated coordinates (rad, m).
+    pub q: Vec<f64>,
+    /// Joint angles theta2, theta8 (rad).
+    pub theta2_rad: f64,
+    /// Joint angle theta8 (rad).
+    pub theta8_rad: f64,
+}
+
+/// The 63 configurations of the 7 x 9 grid (65) in the plane y = 0 with the
+/// tool pointing down, by the inverse model (each solution seeds the next).
+///
+/// # Errors
+/// A grid point that cannot be reached even after the corner shift.
+pub fn grid_configurations(robot: &Model) -> Result<Vec<GridPose>, ElasticTwinError> {
+    let xi = robot.nominal_params().to_vec();
+    let mut data = Data::new(robot);
+    let down = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
+    let options = InverseOptions {
+        target: InverseTarget::PositionAndToolAxis,
+        ..InverseOptions::default()
+    };
+    let start = actuated_from_joint_angles(robot, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
+    let xs: Vec<f64> = (0..7).map(|i| 1.25 + i as f64 / 6.0).collect();
+    let zs: Vec<f64> = (0..9).map(|i| 0.85 + 1.3 * i as f64 / 8.0).collect();
+    let mut poses = Vec::with_capacity(63);
+    let mut seed = start;
+    // Serpentine order so that each solution seeds the next; ids stay x-major.
+    for (ix, &x) in xs.iter().enumerate().rev() {
+        let order: Vec<usize> = if ix % 2 == 0 {
+            (0..9).collect()
+        } else {
+            (0..9).rev().collect()
+        };
+        for iz in order {
+            let z = zs[iz];
+            let mut reach_x = x;
+            // The toggle corner of the four-bar (x <= 1.35, z <= 1.24 m).
+            if x <= 1.35 && z <= 1.24 {
+                reach_x = 1.45;
+            }
+            let target = Isometry3::from_parts(Vector3::new(reach_x, 0.0, z).into(), down);
+            let s = inverse_pose(robot, &mut data, &target, &seed, &xi, &options).map_err(|e| {
+                ElasticTwinError::Unreachable {
+                    x_m: x,
+                    z_m: z,
+                    message: e.to_string(),
+                }
+            })?;
+            let reached = forward_pose(robot, &mut data, &s.q, &xi)?;
+            let joints = joint_angles_from_actuated(robot, &s.q)?;
+            poses.push(GridPose {
+                pose_id: (ix * 9 + iz) as u64,
+                target_x_m: x,
+                target_z_m: z,
+                x_m: reached.translation.vector.x,
+                z_m: reached.translation.vector.z,
+                q: s.q.clone(),
+                theta2_rad: joints[1],
+                theta8_rad: joints[2],
+            });
+            seed = s.q;
+        }
+    }
+    poses.sort_by_key(|p| p.pose_id);
+    Ok(poses)
+}
+
+/// Noise-free truth of one pose.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PoseTruth {
+    /// The pose.
+    pub pose: GridPose,
+    /// Lever arm of the joint 2 screw (m).
+    pub screw2_lever_m: f64,
+    /// Lever arm of the joint 8 screw (m).
+    pub screw8_lever_m: f64,
+    /// Stiffness of joint 2 through its screw, `k h^2` (N.m/rad).
+    pub kar2_effective_nm_rad: f64,
+    /// Stiffness of joint 8 through its screw, `k h^2` (N.m/rad).
+    pub kar8_effective_nm_rad: f64,
+    /// True TCP deflection under 1100 N along -z (mm).
+    pub deflection_1100n_z_mm: [f64; 3],
+    /// True TCP deflection under 1100 N along +x (mm).
+    pub deflection_1100n_x_mm: [f64; 3],
+}
+
+/// The campaign in memory.
+#[derive(Debug, Clone)]
+pub struct ElasticCampaign {
+    /// File name and rows of each set.
+    pub sets: Vec<(String, Vec<PositionRow>)>,
+    /// Per-pose truth.
+    pub truth: Vec<PoseTruth>,
+    /// The true elastic description.
+    pub description: ElasticDescription,
+}
+
+/// Summary written to `elastic_truth.json`.
+#[derive(Debug, Clone, Serialize)]
+struct TruthFile<'a> {
+    seed: u64,
+    position_noise_mm: f64,
+    screw2_stiffness_n_m: f64,
+    screw8_stiffness_n_m: f64,
+    deflection_norm_1100n_z_mm: [f64; 2],
+    kar2_effective_range_nm_rad: [f64; 2],
+    kar8_effective_range_nm_rad: [f64; 2],
+    files: Vec<&'a str>,
+    poses: &'a [PoseTruth],
+}
+
+/// Simulates the campaign.
+///
+/// # Errors
+/// Invalid options, an unreachable grid point, a singular structure.
+pub fn simulate_elastic_campaign(
+    options: &ElasticCampaignOptions,
+) -> Result<ElasticCampaign, ElasticTwinError> {
+    if !(options.position_noise_m.is_finite() && options.position_noise_m >= 0.0) {
+        return Err(ElasticTwinError::InvalidOption {
+            name: "position_noise_m",
+            message: format!("must be >= 0 and finite, got {}", options.position_noise_m),
+        });
+    }
+    if options.loads_n.is_empty() || options.loads_n.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+        return Err(ElasticTwinError::InvalidOption {
+            name: "loads_n",
+            message: format!("need positive finite loads, got {:?}", options.loads_n),
+        });
+    }
+    let robot_description = RobotDescription::builtin("ir663")?;
+    let robot = robot_description.clone().build()?;
+    let xi = robot.nominal_params().to_vec();
+    let description = ir663_elastic_truth()?;
+    let truth_model = ElasticModel::new(&robot, &description)?;
+    let mut data = ElasticData::new(&truth_model)?;
+    let mut kinematics = Data::new(&robot);
+    let poses = grid_configurations(&robot)?;
+    let (l1_2, l3_2, k2, la2) = crank(&robot_description, "2");
+    let (l1_8, l3_8, k8, la8) = crank(&robot_description, "8");
+    let noise = Normal::new(0.0, options.position_noise_m).map_err(|e| {
+        ElasticTwinError::InvalidOption {
+            name: "position_noise_m",
+            message: e.to_string(),
+        }
+    })?;
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut draw = |p: Vector3<f64>| p + Vector3::from_fn(|_, _| noise.sample(&mut rng));
+    let sigma = Vector3::repeat(options.position_noise_m);
+    let gamma: Vec<f64> = Vec::new();
+    let mut truth = Vec::with_capacity(poses.len());
+    let mut sets: Vec<(String, Vec<PositionRow>)> = Vec::new();
+    let directions = [
+        ("x", Vector3::new(1.0, 0.0, 0.0)),
+        ("z", Vector3::new(0.0, 0.0, -1.0)),
+    ];
+    for (dir_name, _) in &directions {
+        for load in &options.loads_n {
+            sets.push((format!("elastic_{dir_name}_{load:04.0}N.csv"), Vec::new()));
+        }
+    }
+    for pose in &poses {
+        let x_nominal = forward_pose(&robot, &mut kinematics, &pose.q, &xi)?
+            .translation
+            .vector;
+        let zero = Vector6::zeros();
+        let sag = tcp_deflection(&truth_model, &mut data, &pose.q, &xi, &gamma, &zero, true)?;
+        let unloaded_true = x_nominal + sag.fixed_rows::<3>(0);
+        let mut set_index = 0;
+        let mut tip = [[0.0; 3]; 2];
+        for (d, (_, direction)) in directions.iter().enumerate() {
+            let unit = tcp_deflection(
+                &truth_model,
+                &mut data,
+                &pose.q,
+                &xi,
+                &gamma,
+                &Vector6::new(direction.x, direction.y, direction.z, 0.0, 0.0, 0.0),
+                false,
+            )?;
+            let unit = unit.fixed_rows::<3>(0).into_owned();
+            let u1100 = unit * 1100.0 * 1e3;
+            tip[d] = [u1100.x, u1100.y, u1100.z];
+            for &load in &options.loads_n {
+                let f = direction * load;
+                let wrench = Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0);
+                let rows = &mut sets[set_index].1;
+                rows.push(PositionRow {
+                    pose_id: pose.pose_id,
+                    q: pose.q.clone(),
+                    position: draw(unloaded_true),
+                    wrench: Vector6::zeros(),
+                    sigma,
+                });
+                // Linear statics: the load adds to the own-weight sag.
+                rows.push(PositionRow {
+                    pose_id: pose.pose_id,
+                    q: pose.q.clone(),
+                    position: draw(unloaded_true + unit * load),
+                    wrench,
+                    sigma,
+                });
+                set_index += 1;
+            }
+        }
+        let h2 = screw_lever_arm(
+            l1_2,
+            l3_2,
+            k2.to_radians(),
+            la2.to_radians(),
+            pose.theta2_rad,
+        ) * 1e-3;
+        let h8 = screw_lever_arm(
+            l1_8,
+            l3_8,
+            k8.to_radians(),
+            la8.to_radians(),
+            pose.theta8_rad,
+        ) * 1e-3;
+        truth.push(PoseTruth {
+            pose: pose.clone(),
+            screw2_lever_m: h2,
+            screw8_lever_m: h8,
+            kar2_effective_nm_rad: SCREW_2_STIFFNESS * h2 * h2,
+            kar8_effective_nm_rad: SCREW_8_STIFFNESS * h8 * h8,
+            deflection_1100n_x_mm: tip[0],
+            deflection_1100n_z_mm: tip[1],
+        });
+    }
+    Ok(ElasticCampaign {
+        sets,
+        truth,
+        description,
+    })
+}
+
+fn range(values: impl Iterator<Item = f64>) -> [f64; 2] {
+    values.fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| {
+        [lo.min(v), hi.max(v)]
+    })
+}
+
+/// What [`write_elastic_campaign`] wrote.
+#[derive(Debug, Clone)]
+pub struct ElasticCampaignSummary {
+    /// The data files, one per load case.
+    pub data_files: Vec<PathBuf>,
+    /// The truth files (JSON summary and TOML description).
+    pub truth_files: Vec<PathBuf>,
+    /// Range of the true TCP deflection norm under 1100 N along -z (mm).
+    pub deflection_norm_1100n_z_mm: [f64; 2],
+    /// Range of the effective joint 2 stiffness k h^2 over the grid (N.m/rad).
+    pub kar2_effective_range_nm_rad: [f64; 2],
+    /// Range of the effective joint 8 stiffness k h^2 over the grid (N.m/rad).
+    pub kar8_effective_range_nm_rad: [f64; 2],
+}
+
+/// Simulates the campaign and writes it into `out_dir`: the eight data files
+/// `elastic_{x,z}_{load}N.csv`, `elastic_truth.json` (per-pose truth,
+/// lever arms, effective joint stiffness) and `elastic_truth.toml` (the true
+/// elastic description).
+///
+/// # Errors
+/// As [`simulate_elastic_campaign`], and file errors.
+pub fn write_elastic_campaign(
+    out_dir: impl AsRef<Path>,
+    options: &ElasticCampaignOptions,
+) -> Result<ElasticCampaignSummary, ElasticTwinError> {
+    let out_dir = out_dir.as_ref();
+    let campaign = simulate_elastic_campaign(options)?;
+    let mut data_files = Vec::new();
+    for (name, rows) in &campaign.sets {
+        let path = out_dir.join(name);
+        let comments = vec![
+            format!("flexcal twin elastic (virtual IR-663), seed {}: {name}", options.seed),
+            "q1..q6 = theta1 (rad), r'2 (m), r'8 (m), theta4, theta5, theta7 (rad); positions of the TCP in R0".into(),
+            "each pose_id appears unloaded (zero wrench) and loaded; deflection = loaded - unloaded".into(),
+        ];
+        write_position_rows(&path, rows, &comments)?;
+        data_files.push(path);
+    }
+    let norms = range(
+        campaign
+            .truth
+            .iter()
+            .map(|t| Vector3::from(t.deflection_1100n_z_mm).norm()),
+    );
+    let kar2 = range(campaign.truth.iter().map(|t| t.kar2_effective_nm_rad));
+    let kar8 = range(campaign.truth.iter().map(|t| t.kar8_effective_nm_rad));
+    let names: Vec<&str> = campaign.sets.iter().map(|(n, _)| n.as_str()).collect();
+    let file = TruthFile {
+        seed: options.seed,
+        position_noise_mm: options.position_noise_m * 1e3,
+        screw2_stiffness_n_m: SCREW_2_STIFFNESS,
+        screw8_stiffness_n_m: SCREW_8_STIFFNESS,
+        deflection_norm_1100n_z_mm: norms,
+        kar2_effective_range_nm_rad: kar2,
+        kar8_effective_range_nm_rad: kar8,
+        files: names,
+        poses: &campaign.truth,
+    };
+    let json_path = out_dir.join("elastic_truth.json");
+    let json =
+        serde_json::to_string_pretty(&file).map_err(|e| ElasticTwinError::InvalidOption {
+            name: "truth",
+            message: e.to_string(),
+        })?;
+    flexcal_io::write_atomic(&json_path, json)?;
+    let toml_path = out_dir.join("elastic_truth.toml");
+    flexcal_io::write_atomic(&toml_path, campaign.description.to_toml_string()?)?;
+    Ok(ElasticCampaignSummary {
+        data_files,
+        truth_files: vec![json_path, toml_path],
+        deflection_norm_1100n_z_mm: norms,
+        kar2_effective_range_nm_rad: kar2,
+        kar8_effective_range_nm_rad: kar8,
+    })
+}

@@ -1,0 +1,104 @@
+//! The virtual IR-663's elastic campaign: grid, files, noise and the
+//! configuration-dependent truth.
+
+use flexcal_elastic::campaign::read_campaign_dir;
+use flexcal_twin::elastic::{
+    ElasticCampaignOptions, simulate_elastic_campaign, write_elastic_campaign,
+};
+use nalgebra::Vector3;
+
+#[test]
+fn campaign_has_the_papers_shape_and_magnitudes() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = ElasticCampaignOptions {
+        seed: 11,
+        ..ElasticCampaignOptions::default()
+    };
+    let summary = write_elastic_campaign(dir.path(), &options).unwrap();
+    assert_eq!(summary.data_files.len(), 8);
+    // Deflection norm under 1100 N vertical: about 1.6-2.5 mm as in the paper.
+    let [lo, hi] = summary.deflection_norm_1100n_z_mm;
+    assert!(
+        (1.4..1.8).contains(&lo) && (2.3..2.8).contains(&hi),
+        "{lo} - {hi}"
+    );
+    // The screws make the joint stiffness depend on the configuration.
+    let [k2lo, k2hi] = summary.kar2_effective_range_nm_rad;
+    assert!(k2hi / k2lo > 1.5, "{k2lo} {k2hi}");
+
+    let sets = read_campaign_dir(dir.path(), 6).unwrap();
+    assert_eq!(sets.len(), 8);
+    let mut loads: Vec<f64> = sets.iter().map(|s| s.load_n()).collect();
+    loads.sort_by(f64::total_cmp);
+    assert_eq!(
+        loads,
+        [300.0, 300.0, 600.0, 600.0, 900.0, 900.0, 1100.0, 1100.0]
+    );
+    for s in &sets {
+        assert_eq!(s.measurements.len(), 63, "{}", s.name);
+        for m in &s.measurements {
+            assert!((m.sigma.x - 21e-6 * 2f64.sqrt()).abs() < 1e-12);
+        }
+    }
+
+    // Measured minus true deflection is the measurement noise: about
+    // 21 um * sqrt(2) per axis.
+    let campaign = simulate_elastic_campaign(&options).unwrap();
+    let z1100 = sets.iter().find(|s| s.name == "elastic_z_1100N").unwrap();
+    let mut sum_sq = 0.0;
+    for (m, t) in z1100.measurements.iter().zip(&campaign.truth) {
+        assert_eq!(m.pose_id, t.pose.pose_id);
+        let truth = Vector3::from(t.deflection_1100n_z_mm) * 1e-3;
+        sum_sq += (m.deflection - truth).norm_squared();
+    }
+    let per_axis = (sum_sq / (3.0 * 63.0)).sqrt();
+    assert!((20e-6..40e-6).contains(&per_axis), "{per_axis}");
+
+    // The grid lies in the plane y = 0 within box (65).
+    for t in &campaign.truth {
+        assert!((1.25 - 1e-9..=2.25 + 1e-9).contains(&t.pose.x_m));
+        assert!((0.85 - 1e-6..=2.15 + 1e-6).contains(&t.pose.z_m));
+    }
+}
+
+#[test]
+fn same_seed_same_files_other_seed_other_noise() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    let c = tempfile::tempdir().unwrap();
+    let opt = |seed| ElasticCampaignOptions {
+        seed,
+        ..ElasticCampaignOptions::default()
+    };
+    write_elastic_campaign(a.path(), &opt(5)).unwrap();
+    write_elastic_campaign(b.path(), &opt(5)).unwrap();
+    write_elastic_campaign(c.path(), &opt(6)).unwrap();
+    let read =
+        |d: &std::path::Path| std::fs::read_to_string(d.join("elastic_x_0600N.csv")).unwrap();
+    assert_eq!(read(a.path()), read(b.path()));
+    assert_ne!(read(a.path()), read(c.path()));
+}
+
+#[test]
+fn invalid_options_are_errors() {
+    let bad = ElasticCampaignOptions {
+        position_noise_m: -1.0,
+        ..ElasticCampaignOptions::default()
+    };
+    assert!(
+        simulate_elastic_campaign(&bad)
+            .unwrap_err()
+            .to_string()
+            .contains("position_noise_m")
+    );
+    let bad = ElasticCampaignOptions {
+        loads_n: vec![0.0],
+        ..ElasticCampaignOptions::default()
+    };
+    assert!(
+        simulate_elastic_campaign(&bad)
+            .unwrap_err()
+            .to_string()
+            .contains("loads_n")
+    );
+}
