@@ -68,11 +68,13 @@ fn time(name: &str, budget: Duration, per_call: u64, mut op: impl FnMut()) -> Ti
 
 /// A 2-input model with 4 x 3 = 12 rules, like the paper's compliance models.
 pub fn twelve_rule_model() -> anyhow::Result<FuzzyModel> {
+    // Modal values in rad over the IR-663's joint 2 and 8 ranges; conclusions
+    // of the order of the robot's compliance (m/N).
     let structure = FuzzyStructure::new(
         vec!["theta2".into(), "theta8".into()],
         vec![
-            Partition::new(vec![-1.0, -0.4, 0.1, 0.6])?,
-            Partition::new(vec![0.5, 0.8, 1.1])?,
+            Partition::new(vec![-1.2, -0.6, -0.1, 0.5])?,
+            Partition::new(vec![-0.5, 0.4, 1.3])?,
         ],
     )?;
     let conclusions: Vec<f64> = (0..12).map(|i| 1e-6 * (1.0 + 0.1 * i as f64)).collect();
@@ -117,7 +119,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let inputs: Vec<f64> = (0..n)
         .flat_map(|i| {
             let t = i as f64 / n as f64;
-            [-1.0 + 1.6 * t, 0.5 + 0.6 * ((7.0 * t) % 1.0)]
+            [-1.2 + 1.7 * t, -0.5 + 1.8 * ((7.0 * t) % 1.0)]
         })
         .collect();
     let mut outputs = vec![0.0; n];
@@ -132,6 +134,91 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             black_box(&outputs);
         },
     ));
+    // FE assembly + condensation of the IR-663 beam model (60 DOF).
+    let robot = RobotDescription::builtin("ir663")?.build()?;
+    let description = flexcal_elastic::description::ElasticDescription::builtin("ir663")?;
+    let fe_model = flexcal_elastic::model::ElasticModel::new(&robot, &description)?;
+    let gamma = fe_model.nominal_gamma();
+    let xi = robot.nominal_params().to_vec();
+    let mut fe_data = flexcal_elastic::model::ElasticData::new(&fe_model)?;
+    let q_ir =
+        flexcal_kinematics::actuated_from_joint_angles(&robot, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
+    flexcal_elastic::model::tcp_condensation(&fe_model, &mut fe_data, &q_ir, &xi, &gamma)?;
+    timings.push(time(
+        "ir663: FE assembly + condensation onto the TCP (60 DOF)",
+        budget,
+        1,
+        || {
+            black_box(
+                flexcal_elastic::model::tcp_condensation(
+                    &fe_model,
+                    &mut fe_data,
+                    black_box(&q_ir),
+                    &xi,
+                    &gamma,
+                )
+                .ok(),
+            );
+        },
+    ));
+    // Compensation of one IR-663 path point with each elastic model.
+    let fe = flexcal_twin::forming::FeTcpModel::new(fe_model, xi.clone(), gamma, "FE beam model")?;
+    let inputs = vec![
+        flexcal_elastic::fuzzy_compliance::InputSpec::radians("theta2"),
+        flexcal_elastic::fuzzy_compliance::InputSpec::radians("theta8"),
+    ];
+    let components = flexcal_elastic::fuzzy_compliance::ComplianceComponent::plane_xz().to_vec();
+    let models = components
+        .iter()
+        .map(|c| -> anyhow::Result<FuzzyModel> {
+            let base = twelve_rule_model()?;
+            Ok(FuzzyModel::new(
+                base.structure().clone(),
+                c.name(),
+                base.conclusions().to_vec(),
+            )?)
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let fuzzy_compliance =
+        flexcal_elastic::fuzzy_compliance::FuzzyCompliance::new(inputs, components, models)?;
+    let fuzzy_elastic = flexcal_elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
+        fuzzy_compliance,
+        robot.clone(),
+    )?;
+    let mut ir_data = Data::new(&robot);
+    let target_ir = forward_pose(&robot, &mut ir_data, &q_ir, &xi)?;
+    for (label, elastic) in [
+        (
+            "fuzzy model",
+            &fuzzy_elastic as &dyn flexcal_compensate::compensation::ElasticModel,
+        ),
+        ("FE model", &fe),
+    ] {
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &robot,
+            elastic,
+            None,
+            Cell::payload_only(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
+        );
+        let options = Default::default();
+        timings.push(time(
+            &format!("ir663: compensation of one path point, {label}, 920 N"),
+            budget,
+            1,
+            || {
+                black_box(
+                    egm.compensate_pose(
+                        &mut ir_data,
+                        &target_ir,
+                        &q_ir,
+                        &Vector3::zeros(),
+                        &options,
+                    )
+                    .ok(),
+                );
+            },
+        ));
+    }
     // Compensation of one path point (payload only) with a constant compliance.
     let model = RobotDescription::builtin("ur10")?.build()?;
     let mut data = Data::new(&model);

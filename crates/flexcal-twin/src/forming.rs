@@ -130,9 +130,11 @@ impl Default for FormingOptions {
             step_m: 0.005,
             edge_margin_m: 0.005,
             // The beam lies along the base x axis in the plane y = 0, clamped at
-            // x = 1.2 m, top surface 1.0 m above the base: the tool then works
-            // at x 1.58-1.78 m, inside the elastic campaign's grid (65).
-            x_base_part: Isometry3::translation(1.2, 0.0, 1.0),
+            // x = 1.2 m, top surface 1.45 m above the base: the tool then works
+            // at x 1.58-1.78 m, z 1.425-1.45 m, inside both the geometric
+            // calibration's box (59) and the elastic campaign's grid (65), where
+            // the identified models hold.
+            x_base_part: Isometry3::translation(1.2, 0.0, 1.45),
             beam: CantileverBeam::reference(BeamTheory::LargeDeflection),
             position_noise: 21e-6,
         }

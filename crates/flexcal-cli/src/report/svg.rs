@@ -9,11 +9,11 @@
 use std::fmt::Write;
 
 /// Width of every chart, in SVG user units (pixels).
-const WIDTH: f64 = 640.0;
+const WIDTH: f64 = 720.0;
 /// Height of every chart, in SVG user units (pixels).
 const HEIGHT: f64 = 360.0;
 const MARGIN_LEFT: f64 = 72.0;
-const MARGIN_RIGHT: f64 = 150.0;
+const MARGIN_RIGHT: f64 = 210.0;
 const MARGIN_TOP: f64 = 36.0;
 const MARGIN_BOTTOM: f64 = 52.0;
 
@@ -51,6 +51,17 @@ impl Series {
         self.dashed = true;
         self.markers = false;
         self
+    }
+}
+
+/// `text` cut to at most `max` characters, with an ellipsis when cut.
+fn shorten(text: &str, max: usize) -> String {
+    if text.chars().count() <= max {
+        text.to_string()
+    } else {
+        let mut s: String = text.chars().take(max - 1).collect();
+        s.push('…');
+        s
     }
 }
 
@@ -229,7 +240,7 @@ fn legend(out: &mut String, labels: &[(String, &str, bool)]) {
             x2 = x + 18.0,
             tx = x + 24.0,
             ty = y + 4.0,
-            l = escape(label)
+            l = escape(&shorten(label, 30))
         );
     }
 }
