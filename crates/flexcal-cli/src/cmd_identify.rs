@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal_elastic::campaign::{DeflectionMeasurement, read_campaign_dir};
+use flexcal_elastic::campaign::read_campaign_dir;
 use flexcal_elastic::description::ElasticDescription;
 use flexcal_elastic::identify::{
     StiffnessIdentificationOptions, identify_stiffness, residual_samples,
@@ -65,6 +65,44 @@ pub fn run(command: IdentifyCommand) -> anyhow::Result<()> {
     }
 }
 
+/// Splits a campaign's sets into the items of the training sets (those whose
+/// load is `train_load` N, within 0.5 N) and the items of every set, with the
+/// names of the training sets. `items` turns one set into what is fitted.
+pub fn split_by_load<T>(
+    sets: &[flexcal_elastic::campaign::DeflectionSet],
+    train_load: f64,
+    data: &std::path::Path,
+    items: impl Fn(&flexcal_elastic::campaign::DeflectionSet) -> anyhow::Result<Vec<T>>,
+) -> anyhow::Result<(Vec<T>, Vec<T>, Vec<String>)>
+where
+    T: Clone,
+{
+    let mut train = Vec::new();
+    let mut all = Vec::new();
+    let mut train_sets = Vec::new();
+    for set in sets {
+        let set_items = items(set)?;
+        if (set.load_n() - train_load).abs() <= 0.5 {
+            train.extend(set_items.iter().cloned());
+            train_sets.push(set.name.clone());
+        }
+        all.extend(set_items);
+    }
+    if train.is_empty() {
+        let loads: Vec<String> = sets
+            .iter()
+            .map(|s| format!("{} ({:.0} N)", s.name, s.load_n()))
+            .collect();
+        anyhow::bail!(
+            "no deflection set in {} has the training load {} N (sets: {})",
+            data.display(),
+            train_load,
+            loads.join(", ")
+        );
+    }
+    Ok((train, all, train_sets))
+}
+
 /// Everything `identify stiffness` computes, for printing or for the demo.
 pub struct StiffnessOutcome {
     /// The robot's geometric model.
@@ -98,29 +136,9 @@ pub fn identify_stiffness_from_files(args: &StiffnessArgs) -> anyhow::Result<Sti
     let model = ElasticModel::new(&robot, &description)
         .with_context(|| format!("elastic description '{}'", description.name))?;
     let sets = read_campaign_dir(&args.data, robot.n_actuated())?;
-    let is_train = |load: f64| (load - args.train_load).abs() <= 0.5;
-    let mut train: Vec<DeflectionMeasurement> = Vec::new();
-    let mut all: Vec<DeflectionMeasurement> = Vec::new();
-    let mut train_sets = Vec::new();
-    for set in &sets {
-        if is_train(set.load_n()) {
-            train.extend(set.measurements.iter().cloned());
-            train_sets.push(set.name.clone());
-        }
-        all.extend(set.measurements.iter().cloned());
-    }
-    if train.is_empty() {
-        let loads: Vec<String> = sets
-            .iter()
-            .map(|s| format!("{} ({:.0} N)", s.name, s.load_n()))
-            .collect();
-        anyhow::bail!(
-            "no deflection set in {} has the training load {} N (sets: {})",
-            args.data.display(),
-            args.train_load,
-            loads.join(", ")
-        );
-    }
+    let (train, all, train_sets) = split_by_load(&sets, args.train_load, &args.data, |set| {
+        Ok(set.measurements.clone())
+    })?;
     let xi = robot.nominal_params().to_vec();
     let options = StiffnessIdentificationOptions {
         seed: args.seed,

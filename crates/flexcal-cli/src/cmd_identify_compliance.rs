@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use anyhow::Context;
 use flexcal_elastic::campaign::read_campaign_dir;
 use flexcal_elastic::fuzzy_compliance::{
-    ComplianceComponent, ComplianceFitParams, ComplianceSample, RobotInputs, compliance_samples,
-    identify_compliance, noise_floor_rms,
+    ComplianceComponent, ComplianceFitParams, RobotInputs, compliance_samples, identify_compliance,
+    noise_floor_rms,
 };
 use flexcal_elastic::metrics::per_load_metrics;
 use serde_json::json;
@@ -85,31 +85,11 @@ pub fn compliance_from_files(args: &ComplianceArgs) -> anyhow::Result<Compliance
     let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
     let inputs = RobotInputs::resolve(&robot, &names).context("--inputs")?;
     let sets = read_campaign_dir(&args.data, robot.n_actuated())?;
-    let is_train = |load: f64| (load - args.train_load).abs() <= 0.5;
-    let mut train: Vec<ComplianceSample> = Vec::new();
-    let mut all: Vec<ComplianceSample> = Vec::new();
-    let mut train_sets = Vec::new();
-    for set in &sets {
-        let samples = compliance_samples(&robot, &inputs, &set.measurements)
-            .with_context(|| format!("{}", set.path.display()))?;
-        if is_train(set.load_n()) {
-            train.extend(samples.iter().cloned());
-            train_sets.push(set.name.clone());
-        }
-        all.extend(samples);
-    }
-    if train.is_empty() {
-        let loads: Vec<String> = sets
-            .iter()
-            .map(|s| format!("{} ({:.0} N)", s.name, s.load_n()))
-            .collect();
-        anyhow::bail!(
-            "no deflection set in {} has the training load {} N (sets: {})",
-            args.data.display(),
-            args.train_load,
-            loads.join(", ")
-        );
-    }
+    let (train, all, train_sets) =
+        super::split_by_load(&sets, args.train_load, &args.data, |set| {
+            compliance_samples(&robot, &inputs, &set.measurements)
+                .with_context(|| format!("{}", set.path.display()))
+        })?;
     let components = ComplianceComponent::plane_xz();
     let mut params = ComplianceFitParams {
         shared_structure: !args.separate_structures,
