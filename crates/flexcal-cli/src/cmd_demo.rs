@@ -364,49 +364,69 @@ fn geometric_section(g: &GeometricStep, out: &Path) -> anyhow::Result<Section> {
         &g.identification_q,
         model.nominal_params(),
     )?;
-    let mut length_names = Vec::new();
-    let mut length_values = vec![Vec::new(), Vec::new()];
-    let mut angle_names = Vec::new();
-    let mut angle_values = vec![Vec::new(), Vec::new()];
-    for j in 0..table.names.len() {
-        match table.kinds[j] {
-            // mm per mm.
-            ParamKind::Length => {
-                length_names.push(table.names[j].clone());
-                length_values[0].push(table.mean_position[j]);
-                length_values[1].push(table.max_position[j]);
-            }
-            // mm per deg.
-            ParamKind::Angle => {
-                angle_names.push(table.names[j].clone());
-                angle_values[0].push(table.mean_position[j] * 1e3 * std::f64::consts::PI / 180.0);
-                angle_values[1].push(table.max_position[j] * 1e3 * std::f64::consts::PI / 180.0);
-            }
-        }
-    }
+    // Figures C.21-C.24: mean and max of mu_P (55) and mu_Phi (56), split by
+    // the unit of the parameter (per mm or per degree of error).
+    let per_unit = |kind: ParamKind| match kind {
+        ParamKind::Length => 1e-3,
+        ParamKind::Angle => std::f64::consts::PI / 180.0,
+    };
     let series = ["mean".to_string(), "max".to_string()];
-    s.figure(
-        bar_chart(
+    let figures = [
+        (
             "Position sensitivity to length errors (Fig. C.21)",
+            ParamKind::Length,
+            true,
             "mm per mm",
-            &length_names,
-            &series,
-            &length_values,
-            false,
+            1e3,
         ),
-        "Sensitivity index mu_P (55) of each length parameter over the 27 identification poses.",
-    );
-    s.figure(
-        bar_chart(
+        (
             "Position sensitivity to angular errors (Fig. C.22)",
+            ParamKind::Angle,
+            true,
             "mm per deg",
-            &angle_names,
-            &series,
-            &angle_values,
-            false,
+            1e3,
         ),
-        "Sensitivity index mu_P (55) of each angular parameter over the 27 identification poses.",
-    );
+        (
+            "Orientation sensitivity to length errors (Fig. C.23)",
+            ParamKind::Length,
+            false,
+            "deg per mm",
+            180.0 / std::f64::consts::PI,
+        ),
+        (
+            "Orientation sensitivity to angular errors (Fig. C.24)",
+            ParamKind::Angle,
+            false,
+            "deg per deg",
+            180.0 / std::f64::consts::PI,
+        ),
+    ];
+    for (title, kind, position, unit, scale) in figures {
+        let mut names = Vec::new();
+        let mut values = vec![Vec::new(), Vec::new()];
+        for j in (0..table.names.len()).filter(|&j| table.kinds[j] == kind) {
+            let (mean, max) = if position {
+                (table.mean_position[j], table.max_position[j])
+            } else {
+                (table.mean_orientation[j], table.max_orientation[j])
+            };
+            names.push(table.names[j].clone());
+            values[0].push(mean * scale * per_unit(kind));
+            values[1].push(max * scale * per_unit(kind));
+        }
+        s.figure(
+            bar_chart(title, unit, &names, &series, &values, false),
+            format!(
+                "Sensitivity index {} of each {} parameter over the 27 identification poses.",
+                if position { "mu_P (55)" } else { "mu_Phi (56)" },
+                if kind == ParamKind::Length {
+                    "length"
+                } else {
+                    "angular"
+                }
+            ),
+        );
+    }
     let per_pose: Vec<(f64, f64)> = g
         .validation
         .after_per_pose
@@ -820,6 +840,105 @@ fn fuzzy_section(e: &ElasticStep) -> anyhow::Result<Section> {
             ),
             "The multilinear surface of the C_xx model between its modal values.",
         );
+    }
+    // Figures 14 and 15: both models against the measurements of the largest
+    // vertical load, pose by pose and as relative error maps over the grid.
+    let robot = &e.outcome.robot;
+    let vertical = e
+        .sets
+        .iter()
+        .filter(|set| {
+            set.measurements
+                .first()
+                .is_some_and(|m| m.wrench[2].abs() > m.wrench[0].abs())
+        })
+        .max_by(|a, b| a.load_n().total_cmp(&b.load_n()));
+    if let Some(set) = vertical {
+        let inputs =
+            flexcal_elastic::fuzzy_compliance::RobotInputs::resolve(robot, &["theta2", "theta8"])?;
+        let samples = flexcal_elastic::fuzzy_compliance::compliance_samples(
+            robot,
+            &inputs,
+            &set.measurements,
+        )?;
+        let fuzzy_residuals = model.residual_samples(&samples)?;
+        let fe_residuals = flexcal_elastic::identify::residual_samples(
+            &e.outcome.model,
+            &set.measurements,
+            robot.nominal_params(),
+            &e.outcome.fitted.gamma,
+        )?;
+        let pose_series = |f: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+            (0..set.measurements.len())
+                .map(|k| (k as f64 + 1.0, f(k)))
+                .collect()
+        };
+        s.figure(
+            line_chart(
+                &format!(
+                    "Vertical deflection, {:.0} N vertical load (Fig. 14)",
+                    set.load_n()
+                ),
+                "pose of the grid",
+                "deflection along z [mm]",
+                &[
+                    Series::new(
+                        "measured",
+                        pose_series(&|k| set.measurements[k].deflection.z * 1e3),
+                    ),
+                    Series::new(
+                        "fuzzy model",
+                        pose_series(&|k| {
+                            (set.measurements[k].deflection.z + fuzzy_residuals[k].residual.z) * 1e3
+                        }),
+                    )
+                    .dashed(),
+                ],
+                false,
+            ),
+            "Measured TCP deflection and the fuzzy model's prediction, pose by pose.",
+        );
+        let mut data = flexcal_kinematics::Data::new(robot);
+        let mut cells = Vec::new();
+        for m in &set.measurements {
+            let x =
+                flexcal_kinematics::forward_pose(robot, &mut data, &m.q, robot.nominal_params())?;
+            let key = |v: f64| (v * 1e2).round() / 1e2;
+            cells.push((key(x.translation.vector.x), key(x.translation.vector.z)));
+        }
+        let mut xs: Vec<f64> = cells.iter().map(|c| c.0).collect();
+        let mut zs: Vec<f64> = cells.iter().map(|c| c.1).collect();
+        for v in [&mut xs, &mut zs] {
+            v.sort_by(f64::total_cmp);
+            v.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        }
+        for (label, residuals) in [
+            ("parametric model", &fe_residuals),
+            ("fuzzy model", &fuzzy_residuals),
+        ] {
+            let mut grid = vec![vec![f64::NAN; xs.len()]; zs.len()];
+            for (k, (cx, cz)) in cells.iter().enumerate() {
+                let measured = set.measurements[k].deflection.norm();
+                if let (Some(c), Some(r)) = (
+                    xs.iter().position(|x| (x - cx).abs() < 1e-9),
+                    zs.iter().position(|z| (z - cz).abs() < 1e-9),
+                ) {
+                    grid[r][c] = 100.0 * residuals[k].residual.norm() / measured.max(1e-12);
+                }
+            }
+            s.figure(
+                heat_map(
+                    &format!("Error of the {label}, {:.0} N vertical (Fig. 15)", set.load_n()),
+                    "TCP x [m]",
+                    "TCP z [m]",
+                    &xs,
+                    &zs,
+                    &grid,
+                    "%",
+                ),
+                format!("Residual norm of the {label} relative to the measured deflection, over the grid."),
+            );
+        }
     }
     s.paragraph("Rerun this step with the individual command:");
     s.code("flexcal identify compliance --data DIR --inputs theta2,theta8 --train-load 900 --test-fraction 0.286 --seed SEED --out DIR/fuzzy_compliance.toml");
