@@ -16,6 +16,138 @@ pub enum TwinCommand {
     /// The virtual IR-663's elastic campaign: the 63-pose grid (65), loads of
     /// 300-1100 N along x and z, loaded and unloaded poses (8 files), and the truth.
     Elastic(ElasticArgs),
+    /// The forming experiment (paper section 4, Figure 17) on the virtual
+    /// IR-663: a 920 N tool plunges 25 mm into a clamped Al-5005 beam and
+    /// travels 200 mm, commanded without and with compensation.
+    Forming(FormingArgs),
+}
+
+/// Arguments of `flexcal twin forming`.
+#[derive(clap::Args, Debug)]
+pub struct FormingArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed of the measurement noise.
+    #[arg(long, default_value_t = 17)]
+    pub seed: u64,
+    /// Calibrated robot description TOML (from `flexcal calibrate`) whose xi
+    /// commands the robot; default the nominal xi.
+    #[arg(long)]
+    pub calibrated: Option<PathBuf>,
+    /// Identified Gamma (`flexcal identify stiffness --report` JSON) for the
+    /// FE beam model; default the nominal Gamma.
+    #[arg(long)]
+    pub fe_report: Option<PathBuf>,
+    /// Fuzzy compliance TOML (from `flexcal identify compliance`): also
+    /// compensate with it.
+    #[arg(long)]
+    pub fuzzy: Option<PathBuf>,
+}
+
+fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
+    use flexcal_twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
+    let robot = crate::robot_arg::load_model("ir663")?;
+    let true_xi = flexcal_twin::geometric::ir663_true_params(&robot)?;
+    let truth_description = flexcal_twin::elastic::ir663_elastic_truth()?;
+    let truth_model = flexcal_elastic::model::ElasticModel::new(&robot, &truth_description)?;
+    let truth_gamma = truth_model.nominal_gamma();
+    let truth = FeTcpModel::new(truth_model, true_xi.clone(), truth_gamma, "twin truth")?;
+    let xi = crate::cmd_compensate::calibrated_xi(&robot, args.calibrated.as_deref())?;
+    // The FE model the user would have: the built-in description, not the twin's truth.
+    let description = flexcal_elastic::description::ElasticDescription::builtin("ir663")?;
+    let fe_model = flexcal_elastic::model::ElasticModel::new(&robot, &description)?;
+    let (gamma, origin) = match &args.fe_report {
+        Some(path) => (
+            crate::cmd_compensate::read_gamma_report(path, &fe_model)?,
+            "identified Gamma",
+        ),
+        None => (fe_model.nominal_gamma(), "nominal Gamma"),
+    };
+    let fe_label = format!("compensated, FE beam model ({origin})");
+    let fe = FeTcpModel::new(fe_model, xi.clone(), gamma, fe_label.clone())?;
+    let fuzzy = match &args.fuzzy {
+        Some(path) => {
+            let compliance = flexcal_elastic::fuzzy_compliance::FuzzyCompliance::load(path)?;
+            Some(
+                flexcal_elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
+                    compliance,
+                    robot.clone(),
+                )?,
+            )
+        }
+        None => None,
+    };
+    let mut models: Vec<(&str, &dyn flexcal_compensate::compensation::ElasticModel)> = Vec::new();
+    if let Some(f) = &fuzzy {
+        models.push(("compensated, fuzzy model", f));
+    }
+    models.push((&fe_label, &fe));
+
+    let options = FormingOptions {
+        seed: args.seed,
+        ..FormingOptions::default()
+    };
+    let twin = TwinCell {
+        model: &robot,
+        true_xi,
+        true_elastic: &truth,
+    };
+    let result = run_forming(&twin, &xi, &models, &options)?;
+    flexcal_io::write_atomic(
+        args.out.join("target_path.csv"),
+        flexcal_compensate::path::target_path_to_csv(&forming_path(&options)),
+    )?;
+    flexcal_io::write_atomic(
+        args.out.join("forming_result.json"),
+        serde_json::to_string_pretty(&result)? + "\n",
+    )?;
+    // Figure 17 data: one row per (path, point), target and measured in the part frame.
+    let mut rows = Vec::new();
+    let mut labels = Vec::new();
+    for (p, path) in std::iter::once(&result.uncompensated)
+        .chain(&result.compensated)
+        .enumerate()
+    {
+        labels.push(format!("{p}: {}", path.label));
+        for (k, &(x, z)) in result.target_mm.iter().enumerate() {
+            rows.push(vec![
+                p as f64,
+                k as f64,
+                x,
+                z,
+                x + path.deviation_x_mm[k],
+                z + path.deviation_z_mm[k],
+            ]);
+        }
+    }
+    flexcal_io::write_atomic(
+        args.out.join("forming_paths.csv"),
+        flexcal_io::format_csv(
+            &[
+                "path",
+                "point",
+                "x_target_mm",
+                "z_target_mm",
+                "x_measured_mm",
+                "z_measured_mm",
+            ],
+            rows,
+        ),
+    )?;
+    println!(
+        "virtual IR-663 forming (seed {}): max |deviation along z_p| {:.3} mm uncompensated",
+        args.seed, result.uncompensated.max_abs_deviation_z_mm
+    );
+    for c in &result.compensated {
+        println!("  {}: {:.3} mm", c.label, c.max_abs_deviation_z_mm);
+    }
+    println!(
+        "target_path.csv, forming_result.json and forming_paths.csv (paths {}) written to {}",
+        labels.join("; "),
+        args.out.display()
+    );
+    Ok(())
 }
 
 /// Arguments of `flexcal twin elastic`.
@@ -73,6 +205,7 @@ pub struct GeometricArgs {
 pub fn run(command: TwinCommand) -> anyhow::Result<()> {
     match command {
         TwinCommand::Elastic(args) => run_elastic(args),
+        TwinCommand::Forming(args) => run_forming_cmd(args),
         TwinCommand::Geometric(args) => {
             let options = GeometricCampaignOptions {
                 seed: args.seed,

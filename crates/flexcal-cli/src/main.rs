@@ -11,6 +11,7 @@ use std::process::ExitCode;
 // type and a `run` function returning `anyhow::Result<()>`.
 mod cmd_bench;
 mod cmd_calibrate;
+mod cmd_compensate;
 mod cmd_demo;
 mod cmd_fem;
 mod cmd_fk;
@@ -60,6 +61,8 @@ enum Command {
     /// Elastic identification: stiffness of a robot's beam model from measured deflections.
     #[command(subcommand)]
     Identify(cmd_identify::IdentifyCommand),
+    /// Compensation: the commanded path that makes the loaded robot follow a target path.
+    Compensate(cmd_compensate::CompensateArgs),
     // <wire: new subcommand variants go above this line>
 }
 
@@ -77,6 +80,7 @@ fn main() -> ExitCode {
         Command::Poses(command) => cmd_poses::run(command),
         Command::Twin(command) => cmd_twin::run(command),
         Command::Identify(command) => cmd_identify::run(command),
+        Command::Compensate(args) => cmd_compensate::run(args),
         // <wire: new match arms go above this line>
     };
     match result {

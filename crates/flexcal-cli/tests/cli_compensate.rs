@@ -1,0 +1,373 @@
+//! `flexcal twin forming` and `flexcal compensate` run end to end on temporary files.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn flexcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flexcal"))
+        .args(args)
+        .output()
+        .expect("the flexcal binary runs")
+}
+
+fn text(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Header and rows of a CSV file written by `compensate`.
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let content = text(path);
+    let mut lines = content.lines();
+    let header = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    (header, rows)
+}
+
+fn column(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
+    let j = header.iter().position(|h| h == name).unwrap();
+    rows.iter().map(|r| r[j].parse::<f64>().unwrap()).collect()
+}
+
+/// Writes the twin's forming target path into `dir` and returns its path.
+fn forming_target(dir: &Path) -> std::path::PathBuf {
+    let twin = dir.join("twin");
+    let out = flexcal(&["twin", "forming", "--out", twin.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for file in [
+        "target_path.csv",
+        "forming_result.json",
+        "forming_paths.csv",
+    ] {
+        assert!(twin.join(file).exists(), "{file} missing");
+    }
+    twin.join("target_path.csv")
+}
+
+fn compensate(
+    path: &Path,
+    process: &str,
+    payload: Option<&str>,
+    out: &Path,
+    krl: Option<&Path>,
+) -> Output {
+    let mut args = vec![
+        "compensate",
+        "--robot",
+        "ir663",
+        "--elastic",
+        "fe:ir663",
+        "--path",
+        path.to_str().unwrap(),
+        "--part-pose",
+        "1200,0,1450,0,0,0",
+        "--process",
+        process,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    if let Some(p) = payload {
+        args.extend(["--payload", p]);
+    }
+    if let Some(k) = krl {
+        args.extend(["--krl", k.to_str().unwrap()]);
+    }
+    flexcal(&args)
+}
+
+#[test]
+fn twin_forming_compensation_reaches_the_target_and_writes_krl() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = forming_target(dir.path());
+    let json: serde_json::Value =
+        serde_json::from_str(&text(&dir.path().join("twin/forming_result.json"))).unwrap();
+    let before = json["uncompensated"]["max_abs_deviation_z_mm"]
+        .as_f64()
+        .unwrap();
+    let after = json["compensated"][0]["max_abs_deviation_z_mm"]
+        .as_f64()
+        .unwrap();
+    // Compensating with the nominal FE model removes part of the sag.
+    assert!(
+        after < before,
+        "compensated {after} mm vs uncompensated {before} mm"
+    );
+
+    let out_csv = dir.path().join("commanded.csv");
+    let krl = dir.path().join("path.src");
+    let out = compensate(
+        &target,
+        "cantilever:585,50,14,Al-5005,large",
+        Some("0,0,-920"),
+        &out_csv,
+        Some(&krl),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let n_points = text(&target).lines().count() - 1;
+    let (header, rows) = read_csv(&out_csv);
+    assert_eq!(rows.len(), n_points);
+    let lines = column(&header, &rows, "line");
+    assert_eq!(lines[0], 2.0);
+    for r in column(&header, &rows, "res_mm") {
+        assert!(r < 1e-6, "residual {r} mm");
+    }
+    // At the first point the tool only touches the beam: the 920 N dead
+    // weight alone makes it sag by millimetres; deeper in, the beam pushes back.
+    let dz = column(&header, &rows, "pred_dz_mm");
+    assert!(dz[0] < -1.0, "{dz:?}");
+    assert!(dz[n_points - 1] > dz[0], "{dz:?}");
+    let program = text(&krl);
+    assert_eq!(program.matches("PTP {").count(), 1);
+    assert_eq!(program.matches("LIN {").count(), n_points - 1);
+}
+
+#[test]
+fn zero_load_commands_the_inverse_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = forming_target(dir.path());
+    let out_csv = dir.path().join("commanded.csv");
+    let out = compensate(&target, "constant:0,0,0,0,0,0", None, &out_csv, None);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (header, rows) = read_csv(&out_csv);
+    let (t_header, t_rows) = read_csv(&target);
+    for name in ["pred_dx_mm", "pred_dy_mm", "pred_dz_mm", "iterations"] {
+        for v in column(&header, &rows, name) {
+            assert!(v.abs() < 1e-9, "{name} = {v}");
+        }
+    }
+    // The commanded pose is the target itself, moved by the part pose.
+    let offsets = [("x_mm", 1200.0), ("y_mm", 0.0), ("z_mm", 1450.0)];
+    for (name, offset) in offsets {
+        let commanded = column(&header, &rows, name);
+        let wanted = column(&t_header, &t_rows, name);
+        for (c, w) in commanded.iter().zip(&wanted) {
+            assert!(
+                (c - (w + offset)).abs() < 1e-5,
+                "{name}: {c} vs {}",
+                w + offset
+            );
+        }
+    }
+    for name in ["qw", "qx", "qy", "qz"] {
+        let commanded = column(&header, &rows, name);
+        let wanted = column(&t_header, &t_rows, name);
+        for (c, w) in commanded.iter().zip(&wanted) {
+            assert!((c - w).abs() < 1e-8, "{name}: {c} vs {w}");
+        }
+    }
+}
+
+#[test]
+fn unreachable_point_is_named_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("far.csv");
+    std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n5000,0,0\n560,0,0\n").unwrap();
+    let out_csv = dir.path().join("commanded.csv");
+    std::fs::write(&out_csv, "previous content\n").unwrap();
+    let krl = dir.path().join("path.src");
+    let out = compensate(&path, "constant:0,0,-100,0,0,0", None, &out_csv, Some(&krl));
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("line 3:"), "{err}");
+    assert!(
+        !err.contains("line 2:") && !err.contains("line 4:"),
+        "{err}"
+    );
+    assert_eq!(text(&out_csv), "previous content\n");
+    assert!(!krl.exists());
+}
+
+#[test]
+fn malformed_path_gives_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_csv = dir.path().join("commanded.csv");
+    let cases = [
+        ("missing.csv", "x_mm,y_mm\n580,0\n", "z_mm"),
+        ("nan.csv", "x_mm,y_mm,z_mm\n580,0,0\nNaN,0,0\n", ":3"),
+    ];
+    for (name, content, expected) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, content).unwrap();
+        let out = compensate(&path, "constant:0,0,0,0,0,0", None, &out_csv, None);
+        assert!(!out.status.success());
+        let err = stderr(&out);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(name) && err.contains(expected), "{err}");
+        assert!(!out_csv.exists());
+    }
+}
+
+fn run_ok(args: &[&str]) {
+    let out = flexcal(args);
+    assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+}
+
+#[test]
+fn identified_models_compensate_the_twin_forming_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_string_lossy().into_owned();
+    run_ok(&["twin", "geometric", "--out", &p("geo")]);
+    let identification = p("geo/identification.csv");
+    let validation = p("geo/validation.csv");
+    run_ok(&[
+        "calibrate",
+        "--robot",
+        "ir663",
+        "--data",
+        &identification,
+        "--validate",
+        &validation,
+        "--fixed-frame",
+        "--fixed-target",
+        "--out",
+        &p("calibrated.toml"),
+    ]);
+    run_ok(&["twin", "elastic", "--seed", "7", "--out", &p("elastic")]);
+    run_ok(&[
+        "identify",
+        "stiffness",
+        "--robot",
+        "ir663",
+        "--elastic",
+        "ir663",
+        "--data",
+        &p("elastic"),
+        "--train-load",
+        "900",
+        "--search-evaluations",
+        "0",
+        "--report",
+        &p("stiffness.json"),
+    ]);
+    run_ok(&[
+        "identify",
+        "compliance",
+        "--data",
+        &p("elastic"),
+        "--inputs",
+        "theta2,theta8",
+        "--train-load",
+        "900",
+        "--seed",
+        "1",
+        "--out",
+        &p("fuzzy.toml"),
+    ]);
+    run_ok(&[
+        "twin",
+        "forming",
+        "--out",
+        &p("forming"),
+        "--calibrated",
+        &p("calibrated.toml"),
+        "--fe-report",
+        &p("stiffness.json"),
+        "--fuzzy",
+        &p("fuzzy.toml"),
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&text(&dir.path().join("forming/forming_result.json"))).unwrap();
+    let before = json["uncompensated"]["max_abs_deviation_z_mm"]
+        .as_f64()
+        .unwrap();
+    let compensated = json["compensated"].as_array().unwrap();
+    assert_eq!(compensated.len(), 2);
+    for c in compensated {
+        let after = c["max_abs_deviation_z_mm"].as_f64().unwrap();
+        // The paper's claim: identified models remove most of the deviation.
+        assert!(
+            after < 0.2 * before,
+            "{}: {after} mm vs {before} mm",
+            c["label"]
+        );
+    }
+    let figure = text(&dir.path().join("forming/forming_paths.csv"));
+    let n_points = text(&dir.path().join("forming/target_path.csv"))
+        .lines()
+        .count()
+        - 1;
+    assert_eq!(figure.lines().count(), 1 + 3 * n_points);
+
+    let target = dir.path().join("forming/target_path.csv");
+    let calibrated = p("calibrated.toml");
+    for (elastic, report) in [
+        (format!("fuzzy:{}", p("fuzzy.toml")), None),
+        ("fe:ir663".to_string(), Some(p("stiffness.json"))),
+    ] {
+        let out_csv = dir.path().join("commanded.csv");
+        let mut args = vec![
+            "compensate",
+            "--robot",
+            "ir663",
+            "--calibrated",
+            &calibrated,
+            "--elastic",
+            &elastic,
+            "--path",
+            target.to_str().unwrap(),
+            "--part-pose",
+            "1200,0,1450,0,0,0",
+            "--process",
+            "cantilever:585,50,14,Al-5005",
+            "--payload",
+            "0,0,-920",
+            "--out",
+            out_csv.to_str().unwrap(),
+        ];
+        if let Some(r) = &report {
+            args.extend(["--gamma-report", r]);
+        }
+        run_ok(&args);
+        let (header, rows) = read_csv(&out_csv);
+        assert_eq!(rows.len(), n_points);
+        for r in column(&header, &rows, "res_mm") {
+            assert!(r < 1e-6, "{elastic}: residual {r} mm");
+        }
+    }
+}
+
+#[test]
+fn gamma_report_of_another_model_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("stiffness.json");
+    std::fs::write(
+        &report,
+        r#"{"parameters": [{"name": "k_wrong", "value": 1.0}]}"#,
+    )
+    .unwrap();
+    let path = dir.path().join("path.csv");
+    std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n").unwrap();
+    let out = flexcal(&[
+        "compensate",
+        "--robot",
+        "ir663",
+        "--elastic",
+        "fe:ir663",
+        "--gamma-report",
+        report.to_str().unwrap(),
+        "--path",
+        path.to_str().unwrap(),
+        "--part-pose",
+        "1200,0,1450,0,0,0",
+        "--process",
+        "constant:0,0,0,0,0,0",
+        "--out",
+        dir.path().join("out.csv").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.contains("stiffness.json") && err.contains("parameters"),
+        "{err}"
+    );
+}
