@@ -163,10 +163,6 @@ pub struct Summary {
     pub runtime_s: f64,
 }
 
-/// Steps of the reference study that the demo does not run yet.
-const NOT_BUILT: [&str; 1] =
-    ["the `flexcal compensate` command (the demo computes the forming paths through the library)"];
-
 fn step(message: &str) -> ProgressBar {
     let bar = ProgressBar::new_spinner();
     bar.set_style(
@@ -1115,6 +1111,13 @@ fn forming_section(
         ),
         "Measured deviations point by point, and the deviation the user's model predicted before compensation.",
     );
+    s.paragraph("Rerun this step with the individual commands (files of the earlier steps):");
+    s.code(
+        "flexcal twin forming --out DIR/forming --seed SEED --calibrated DIR/geometric/calibrated.toml \\\n    --fe-report DIR/elastic/stiffness_report.json --fuzzy DIR/elastic/fuzzy_compliance.toml\n\
+         flexcal compensate --robot ir663 --calibrated DIR/geometric/calibrated.toml --elastic fuzzy:DIR/elastic/fuzzy_compliance.toml \\\n    \
+         --path DIR/forming/target_path.csv --part-pose 1200,0,1450,0,0,0 --process cantilever:585,50,14,al-5005 \\\n    \
+         --payload 0,0,-920 --out DIR/forming/commanded.csv --krl DIR/forming/commanded.src",
+    );
     s
 }
 
@@ -1131,9 +1134,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let geometric = geometric_step(&args.out, args.seed)?;
     let elastic = elastic_step(&args.out, args.seed)?;
     let (forming, forming_summary) = forming_step(&args.out, args.seed, &geometric, &elastic)?;
-    for s in NOT_BUILT {
-        println!("not built yet: {s}");
-    }
     let summary = Summary {
         geometric: geometric.summary.clone(),
         elastic: elastic.summary.clone(),
@@ -1152,16 +1152,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     report.push(elastic_section(&elastic, &args.out)?);
     report.push(fuzzy_section(&elastic)?);
     report.push(forming_section(&forming, &forming_summary));
-    let mut pending = Section::new("Not built yet");
-    pending.paragraph(
-        "These steps of the reference study are not part of the demo yet; nothing below stands in for their results.",
-    );
-    pending.table(
-        "Pending steps",
-        &["step"],
-        NOT_BUILT.iter().map(|s| vec![s.to_string()]).collect(),
-    );
-    report.push(pending);
     flexcal_io::write_atomic(
         args.out.join("summary.json"),
         serde_json::to_string_pretty(&summary)? + "\n",

@@ -66,7 +66,7 @@ pub struct ComplianceOutcome {
     pub training_samples: usize,
     /// Residuals on every set in the x-z plane (Table 5).
     pub table: flexcal_elastic::metrics::LoadMetricsTable,
-    /// RMS norm of the stated deflection noise in the x-z plane [mm].
+    /// RMS norm of the stated deflection noise in the x-z plane (mm).
     pub noise_floor_mm: f64,
     /// Whether the components share one structure.
     pub shared_structure: bool,

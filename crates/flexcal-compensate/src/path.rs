@@ -55,7 +55,7 @@ pub struct PathPoint {
     pub x_part_tcp: Isometry3<f64>,
 }
 
-/// Rotation from KUKA A, B, C angles [rad]: `Rz(A) Ry(B) Rx(C)`.
+/// Rotation from KUKA A, B, C angles (rad): `Rz(A) Ry(B) Rx(C)`.
 pub fn rotation_from_abc(a: f64, b: f64, c: f64) -> UnitQuaternion<f64> {
     UnitQuaternion::from_euler_angles(c, b, a)
 }
