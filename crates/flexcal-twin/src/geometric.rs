@@ -150,7 +150,7 @@ pub struct GeometricCampaign {
     pub validation: MeasurementSet,
 }
 
-/// True xi of the virtual IR-663: nominal + [`IR663_TRUE_ERRORS`](crate::geometric::IR663_TRUE_ERRORS).
+/// True xi of the virtual IR-663: nominal + [`IR663_TRUE_ERRORS`].
 ///
 /// # Errors
 /// When `model` lacks one of the named parameters (it is not the IR-663).
