@@ -116,6 +116,63 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
         serde_json::from_str(&std::fs::read_to_string(geo.join("report.json")).unwrap()).unwrap();
     assert_eq!(again["validation"], demo_report["validation"]);
     assert_eq!(again["identification"], demo_report["identification"]);
+
+    // The elastic steps, with the individual commands on the demo's files.
+    let elastic_dir = out.join("elastic");
+    let compare = |per_load: &serde_json::Value, table5: &serde_json::Value| {
+        for row in per_load["rows"].as_array().unwrap() {
+            let load = format!("{:.0}", row["load_n"].as_f64().unwrap());
+            for (ours, theirs) in [
+                ("rms_mm", "rms_mm"),
+                ("max_norm_mm", "max_norm_mm"),
+                ("max_abs_x_mm", "max_x_mm"),
+                ("max_abs_z_mm", "max_z_mm"),
+            ] {
+                assert_eq!(row[ours], table5[&load][theirs], "load {load}, {ours}");
+            }
+        }
+        assert_eq!(per_load["overall_rms_mm"], table5["all"]["rms_mm"]);
+    };
+    let stiffness_report = dir.path().join("stiffness.json");
+    let o = flexcal(&[
+        "identify",
+        "stiffness",
+        "--robot",
+        "ir663",
+        "--elastic",
+        "ir663",
+        "--data",
+        elastic_dir.to_str().unwrap(),
+        "--train-load",
+        "900",
+        "--seed",
+        "7",
+        "--report",
+        stiffness_report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stiffness: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stiffness_report).unwrap()).unwrap();
+    compare(&stiffness["per_load"], &summary["elastic"]["parametric"]);
+    let compliance_report = dir.path().join("compliance.json");
+    let o = flexcal(&[
+        "identify",
+        "compliance",
+        "--data",
+        elastic_dir.to_str().unwrap(),
+        "--inputs",
+        "theta2,theta8",
+        "--train-load",
+        "900",
+        "--seed",
+        "7",
+        "--report",
+        compliance_report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let compliance: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&compliance_report).unwrap()).unwrap();
+    compare(&compliance["per_load"], &summary["elastic"]["fuzzy"]);
 }
 
 #[test]
