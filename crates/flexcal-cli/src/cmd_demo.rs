@@ -587,6 +587,66 @@ fn table5_rows(
     rows
 }
 
+/// The deflection set with the largest vertical load (Figs. 9, 10, 14, 15).
+fn largest_vertical_set(
+    sets: &[flexcal_elastic::campaign::DeflectionSet],
+) -> Option<&flexcal_elastic::campaign::DeflectionSet> {
+    sets.iter()
+        .filter(|set| {
+            set.measurements
+                .first()
+                .is_some_and(|m| m.wrench[2].abs() > m.wrench[0].abs())
+        })
+        .max_by(|a, b| a.load_n().total_cmp(&b.load_n()))
+}
+
+/// Values on the grid of TCP positions in the x-z plane.
+struct GridValues {
+    /// Grid x values [m].
+    xs: Vec<f64>,
+    /// Grid z values [m].
+    zs: Vec<f64>,
+    /// `values[row of z][column of x]`, NaN where no pose sits.
+    values: Vec<Vec<f64>>,
+}
+
+/// A value per measurement of `set` laid out on the grid of TCP positions in
+/// the x-z plane.
+fn on_grid(
+    robot: &flexcal_kinematics::Model,
+    set: &flexcal_elastic::campaign::DeflectionSet,
+    value: impl Fn(usize) -> f64,
+) -> anyhow::Result<GridValues> {
+    let mut data = flexcal_kinematics::Data::new(robot);
+    // Grid steps are ~0.16 m: positions to the centimetre identify the grid lines.
+    let key = |v: f64| (v * 1e2).round() / 1e2;
+    let mut cells = Vec::with_capacity(set.measurements.len());
+    for m in &set.measurements {
+        let x = flexcal_kinematics::forward_pose(robot, &mut data, &m.q, robot.nominal_params())?;
+        cells.push((key(x.translation.vector.x), key(x.translation.vector.z)));
+    }
+    let mut xs: Vec<f64> = cells.iter().map(|c| c.0).collect();
+    let mut zs: Vec<f64> = cells.iter().map(|c| c.1).collect();
+    for v in [&mut xs, &mut zs] {
+        v.sort_by(f64::total_cmp);
+        v.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    }
+    let mut grid = vec![vec![f64::NAN; xs.len()]; zs.len()];
+    for (k, (cx, cz)) in cells.iter().enumerate() {
+        if let (Some(c), Some(r)) = (
+            xs.iter().position(|x| (x - cx).abs() < 1e-9),
+            zs.iter().position(|z| (z - cz).abs() < 1e-9),
+        ) {
+            grid[r][c] = value(k);
+        }
+    }
+    Ok(GridValues {
+        xs,
+        zs,
+        values: grid,
+    })
+}
+
 fn elastic_section(e: &ElasticStep, out: &Path) -> anyhow::Result<Section> {
     let o = &e.outcome;
     let mut s = Section::new("Elastic model and stiffness identification (paper section 3.3.1)");
@@ -649,45 +709,12 @@ fn elastic_section(e: &ElasticStep, out: &Path) -> anyhow::Result<Section> {
     ));
     // Figure 9: deflection norm over the grid under the largest vertical load.
     let robot = &o.robot;
-    let mut data = flexcal_kinematics::Data::new(robot);
-    let vertical = e
-        .sets
-        .iter()
-        .filter(|set| {
-            set.measurements
-                .first()
-                .is_some_and(|m| m.wrench[2].abs() > m.wrench[0].abs())
-        })
-        .max_by(|a, b| a.load_n().total_cmp(&b.load_n()));
-    if let Some(set) = vertical {
-        let mut xs: Vec<f64> = Vec::new();
-        let mut zs: Vec<f64> = Vec::new();
-        let mut points = Vec::new();
-        for m in &set.measurements {
-            let x =
-                flexcal_kinematics::forward_pose(robot, &mut data, &m.q, robot.nominal_params())?;
-            let (px, pz) = (x.translation.vector.x, x.translation.vector.z);
-            // Grid steps are ~0.16 m: positions to the centimetre identify the grid lines.
-            let key = |v: f64| (v * 1e2).round() / 1e2;
-            if !xs.iter().any(|v| (v - key(px)).abs() < 1e-9) {
-                xs.push(key(px));
-            }
-            if !zs.iter().any(|v| (v - key(pz)).abs() < 1e-9) {
-                zs.push(key(pz));
-            }
-            points.push((key(px), key(pz), m.deflection.norm() * 1e3));
-        }
-        xs.sort_by(f64::total_cmp);
-        zs.sort_by(f64::total_cmp);
-        let mut grid = vec![vec![f64::NAN; xs.len()]; zs.len()];
-        for (px, pz, v) in points {
-            if let (Some(c), Some(r)) = (
-                xs.iter().position(|x| (x - px).abs() < 1e-9),
-                zs.iter().position(|z| (z - pz).abs() < 1e-9),
-            ) {
-                grid[r][c] = v;
-            }
-        }
+    if let Some(set) = largest_vertical_set(&e.sets) {
+        let GridValues {
+            xs,
+            zs,
+            values: grid,
+        } = on_grid(robot, set, |k| set.measurements[k].deflection.norm() * 1e3)?;
         s.figure(
             heat_map(
                 &format!("Measured deflection norm, {:.0} N vertical (Fig. 9)", set.load_n()),
@@ -840,15 +867,7 @@ fn fuzzy_section(e: &ElasticStep) -> anyhow::Result<Section> {
     // Figures 14 and 15: both models against the measurements of the largest
     // vertical load, pose by pose and as relative error maps over the grid.
     let robot = &e.outcome.robot;
-    let vertical = e
-        .sets
-        .iter()
-        .filter(|set| {
-            set.measurements
-                .first()
-                .is_some_and(|m| m.wrench[2].abs() > m.wrench[0].abs())
-        })
-        .max_by(|a, b| a.load_n().total_cmp(&b.load_n()));
+    let vertical = largest_vertical_set(&e.sets);
     if let Some(set) = vertical {
         let inputs =
             flexcal_elastic::fuzzy_compliance::RobotInputs::resolve(robot, &["theta2", "theta8"])?;
@@ -894,34 +913,18 @@ fn fuzzy_section(e: &ElasticStep) -> anyhow::Result<Section> {
             ),
             "Measured TCP deflection and the fuzzy model's prediction, pose by pose.",
         );
-        let mut data = flexcal_kinematics::Data::new(robot);
-        let mut cells = Vec::new();
-        for m in &set.measurements {
-            let x =
-                flexcal_kinematics::forward_pose(robot, &mut data, &m.q, robot.nominal_params())?;
-            let key = |v: f64| (v * 1e2).round() / 1e2;
-            cells.push((key(x.translation.vector.x), key(x.translation.vector.z)));
-        }
-        let mut xs: Vec<f64> = cells.iter().map(|c| c.0).collect();
-        let mut zs: Vec<f64> = cells.iter().map(|c| c.1).collect();
-        for v in [&mut xs, &mut zs] {
-            v.sort_by(f64::total_cmp);
-            v.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-        }
         for (label, residuals) in [
             ("parametric model", &fe_residuals),
             ("fuzzy model", &fuzzy_residuals),
         ] {
-            let mut grid = vec![vec![f64::NAN; xs.len()]; zs.len()];
-            for (k, (cx, cz)) in cells.iter().enumerate() {
-                let measured = set.measurements[k].deflection.norm();
-                if let (Some(c), Some(r)) = (
-                    xs.iter().position(|x| (x - cx).abs() < 1e-9),
-                    zs.iter().position(|z| (z - cz).abs() < 1e-9),
-                ) {
-                    grid[r][c] = 100.0 * residuals[k].residual.norm() / measured.max(1e-12);
-                }
-            }
+            let GridValues {
+                xs,
+                zs,
+                values: grid,
+            } = on_grid(robot, set, |k| {
+                100.0 * residuals[k].residual.norm()
+                    / set.measurements[k].deflection.norm().max(1e-12)
+            })?;
             s.figure(
                 heat_map(
                     &format!("Error of the {label}, {:.0} N vertical (Fig. 15)", set.load_n()),
