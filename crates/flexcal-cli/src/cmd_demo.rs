@@ -602,9 +602,9 @@ fn largest_vertical_set(
 
 /// Values on the grid of TCP positions in the x-z plane.
 struct GridValues {
-    /// Grid x values [m].
+    /// Grid x values (m).
     xs: Vec<f64>,
-    /// Grid z values [m].
+    /// Grid z values (m).
     zs: Vec<f64>,
     /// `values[row of z][column of x]`, NaN where no pose sits.
     values: Vec<Vec<f64>>,
