@@ -1,10 +1,12 @@
 //! Full iterative identification of the UR10 from the 2 773 poses of IPA
-//! series C (goal <= 50 ms). Skipped with a message when the data is absent.
+//! series C: geometric (goal <= 50 ms) and elasto-geometric (joint
+//! compliances under gravity, goal <= 0.5 s). Skipped with a message when
+//! the data is absent.
 
 use std::path::PathBuf;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flexcal_calib::{CalibrationOptions, MeasurementSet, Weighting, calibrate};
+use flexcal_calib::{CalibrationOptions, GravityCompliance, MeasurementSet, Weighting, calibrate};
 use flexcal_kinematics::RobotDescription;
 
 fn series_c() -> Option<PathBuf> {
@@ -29,6 +31,11 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("ur10_series_c_2773_poses", |b| {
         b.iter(|| calibrate(&model, &set, &options).expect("calibration succeeds"))
+    });
+    let mut elastic = options.clone();
+    elastic.gravity = Some(GravityCompliance::ur10_urdf(&model).expect("ur10 mass table"));
+    group.bench_function("ur10_series_c_2773_poses_elasto_geometric", |b| {
+        b.iter(|| calibrate(&model, &set, &elastic).expect("calibration succeeds"))
     });
     group.finish();
 }

@@ -14,6 +14,16 @@ pub enum CalibError {
     /// error names the file, line and column).
     #[error(transparent)]
     Io(#[from] IoError),
+    /// A mass table (elasto-geometric model) is malformed or inconsistent.
+    #[error("{source_name}:{line}: {what}")]
+    BadMassTable {
+        /// File of the mass table.
+        source_name: String,
+        /// 1-based line in the file (0 when the whole file is concerned).
+        line: usize,
+        /// What is wrong.
+        what: String,
+    },
     /// A measurement file has consistent syntax but unusable contents.
     #[error("{source_name}:{line}: {what}")]
     BadMeasurement {

@@ -4,13 +4,16 @@
 use std::cell::{Cell, RefCell};
 
 use faer::MatMut;
-use flexcal_kinematics::{Data, Model, ParamKind, forward_pose, param_jacobian_into};
+use flexcal_kinematics::{
+    Data, Model, ParamKind, forward_pose, joint_jacobian_into, param_jacobian_into,
+};
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
-use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Translation3, Vector3};
+use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Point3, Translation3, Vector3};
 
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
+use crate::gravity::{GravityCompliance, GravityTerms};
 use crate::{CalibError, MeasurementSet};
 
 /// Names of the six unknowns of the measurement frame `x_meas_base`: a
@@ -33,13 +36,34 @@ pub const TARGET_PARAMETER_NAMES: [&str; 6] = [
     "target_rz",
 ];
 
-/// Kind of an unknown of the extended vector `[xi; frame; target]`.
+/// Kind of an unknown of the extended vector `[xi; frame; target]` (and,
+/// elasto-geometric, `[c; m; m c]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum UnknownKind {
     /// m.
     Length,
     /// rad.
     Angle,
+    /// Joint compliance: rad/N.m (revolute) or m/N (prismatic, screw).
+    Compliance,
+    /// kg.
+    Mass,
+    /// First moment of a mass, mass times centre (kg.m).
+    FirstMoment,
+}
+
+impl UnknownKind {
+    /// The unit in which files and reports show this kind, and the factor
+    /// from SI to it: mm, deg, urad/N.m (um/N for linear joints), kg, kg.m.
+    pub fn display_unit(self) -> (&'static str, f64) {
+        match self {
+            UnknownKind::Length => ("mm", 1e3),
+            UnknownKind::Angle => ("deg", 180.0 / std::f64::consts::PI),
+            UnknownKind::Compliance => ("urad/N.m", 1e6),
+            UnknownKind::Mass => ("kg", 1.0),
+            UnknownKind::FirstMoment => ("kg.m", 1.0),
+        }
+    }
 }
 
 /// The measurement model of one pose k,
@@ -52,6 +76,11 @@ pub enum UnknownKind {
 /// The Jacobian is exact: the robot part is the parameter Jacobian of
 /// `flexcal-kinematics` carried to the target point and into the measurement
 /// frame; the frame parts use the SO(3) left Jacobian.
+///
+/// With [`GeometricErrorModel::with_gravity`] the model is elasto-geometric:
+/// the robot is evaluated at `q_k + dq_k`, the joint-spring deflection under
+/// gravity of [`crate::gravity`], and the unknowns gain the compliances and
+/// the payload (`[xi; tau; t; c; m; m c]`).
 pub struct GeometricErrorModel<'a> {
     model: &'a Model,
     set: &'a MeasurementSet,
@@ -62,6 +91,9 @@ pub struct GeometricErrorModel<'a> {
     data: RefCell<Data>,
     pose_jacobian: RefCell<DMatrix<f64>>,
     robot_columns: Cell<bool>,
+    gravity: Option<(GravityTerms, Vec<f64>)>,
+    joint_jacobian: RefCell<Matrix6xX<f64>>,
+    deflection: RefCell<(Vec<f64>, Vec<f64>)>,
 }
 
 impl<'a> GeometricErrorModel<'a> {
@@ -107,7 +139,51 @@ impl<'a> GeometricErrorModel<'a> {
             data: RefCell::new(Data::new(model)),
             pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
             robot_columns: Cell::new(true),
+            gravity: None,
+            joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
+            deflection: RefCell::new((
+                vec![0.0; model.n_actuated()],
+                vec![0.0; model.n_actuated()],
+            )),
         })
+    }
+
+    /// Makes the model elasto-geometric: joint compliances under gravity
+    /// ([`crate::gravity`]), their unknowns appended after the target's.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for a mass on a missing frame or
+    /// non-finite values, [`CalibError::Kinematics`] naming a pose.
+    pub fn with_gravity(mut self, gravity: &GravityCompliance) -> Result<Self, CalibError> {
+        let terms = GravityTerms::new(self.model, self.set, gravity)?;
+        self.names
+            .extend(GravityCompliance::unknown_names(self.model));
+        self.gravity = Some((terms, gravity.initial_unknowns(self.model)));
+        Ok(self)
+    }
+
+    /// Index of the first elastic unknown (the compliances), when the model
+    /// is elasto-geometric.
+    pub fn elastic_offset(&self) -> Option<usize> {
+        self.gravity.as_ref().map(|_| self.model.n_params() + 12)
+    }
+
+    /// The actuated coordinates at which the robot is evaluated for pose `k`:
+    /// `q_k`, plus the gravity deflection `c_i tau_i` when elasto-geometric.
+    /// Writes them into `buffers.0`, the generalised gravity forces into
+    /// `buffers.1`.
+    fn deflect(&self, x: &[f64], k: usize, buffers: &mut (Vec<f64>, Vec<f64>)) {
+        let q = &self.set.measurements()[k].q;
+        let (deflected, tau) = buffers;
+        deflected.copy_from_slice(q);
+        if let Some((terms, _)) = &self.gravity {
+            let eo = self.model.n_params() + 12;
+            let na = self.model.n_actuated();
+            terms.forces(k, &x[eo + na..eo + na + 4], tau);
+            for i in 0..na {
+                deflected[i] += x[eo + i] * tau[i];
+            }
+        }
     }
 
     /// Whether [`Jacobian::jacobian`] computes the robot-parameter columns
@@ -118,7 +194,8 @@ impl<'a> GeometricErrorModel<'a> {
         self.robot_columns.set(on);
     }
 
-    /// Number of unknowns `n_params + 12`.
+    /// Number of unknowns: `n_params + 12`, plus `n_actuated + 4` when
+    /// elasto-geometric.
     pub fn n_unknowns(&self) -> usize {
         self.names.len()
     }
@@ -149,16 +226,28 @@ impl<'a> GeometricErrorModel<'a> {
             kinds.extend([UnknownKind::Length; 3]);
             kinds.extend([UnknownKind::Angle; 3]);
         }
+        if self.gravity.is_some() {
+            kinds.extend(std::iter::repeat_n(
+                UnknownKind::Compliance,
+                self.model.n_actuated(),
+            ));
+            kinds.push(UnknownKind::Mass);
+            kinds.extend([UnknownKind::FirstMoment; 3]);
+        }
         kinds
     }
     /// Rows per pose: 3 (position) or 6 (position and orientation).
     pub fn rows_per_pose(&self) -> usize {
         if self.use_orientation { 6 } else { 3 }
     }
-    /// The starting vector: nominal xi, zero frame and target increments.
+    /// The starting vector: nominal xi, zero frame and target increments,
+    /// and the starting elastic unknowns when elasto-geometric.
     pub fn initial_unknowns(&self) -> Vec<f64> {
         let mut x = self.model.nominal_params().to_vec();
         x.extend([0.0; 12]);
+        if let Some((_, initial)) = &self.gravity {
+            x.extend(initial);
+        }
         x
     }
 
@@ -191,13 +280,13 @@ impl<'a> GeometricErrorModel<'a> {
         let (x_meas_base, x_tcp_target) = self.frames(x);
         let m = &self.set.measurements()[k];
         let xi = &x[..self.model.n_params()];
-        let x_base_tcp =
-            forward_pose(self.model, &mut self.data.borrow_mut(), &m.q, xi).map_err(|source| {
-                CalibError::Kinematics {
-                    pose: k,
-                    pose_id: m.label(k),
-                    source,
-                }
+        let mut buffers = self.deflection.borrow_mut();
+        self.deflect(x, k, &mut buffers);
+        let x_base_tcp = forward_pose(self.model, &mut self.data.borrow_mut(), &buffers.0, xi)
+            .map_err(|source| CalibError::Kinematics {
+                pose: k,
+                pose_id: m.label(k),
+                source,
             })?;
         Ok(x_meas_base * x_base_tcp * x_tcp_target)
     }
@@ -249,34 +338,76 @@ impl Jacobian for GeometricErrorModel<'_> {
         let rows = self.rows_per_pose();
         let mut data = self.data.borrow_mut();
         let mut jac = self.pose_jacobian.borrow_mut();
+        let mut jq = self.joint_jacobian.borrow_mut();
+        let mut buffers = self.deflection.borrow_mut();
         let robot_columns = self.robot_columns.get();
         if !robot_columns {
             jac.fill(0.0);
         }
+        let na = self.model.n_actuated();
+        let eo = np + 12;
+        let n_elastic = if self.gravity.is_some() { na + 4 } else { 0 };
+        // TCP twists of the elastic unknowns, one column each.
+        let mut elastic = Matrix6xX::<f64>::zeros(n_elastic);
         for (k, m) in self.set.measurements().iter().enumerate() {
             let kinematics_error = |source| CalibError::Kinematics {
                 pose: k,
                 pose_id: m.label(k),
                 source,
             };
+            self.deflect(x, k, &mut buffers);
+            let q = &buffers.0;
             let x_base_tcp = if robot_columns {
-                param_jacobian_into(self.model, &mut data, &m.q, xi, &mut jac)
+                param_jacobian_into(self.model, &mut data, q, xi, &mut jac)
                     .map_err(kinematics_error)?
             } else {
-                forward_pose(self.model, &mut data, &m.q, xi).map_err(kinematics_error)?
+                forward_pose(self.model, &mut data, q, xi).map_err(kinematics_error)?
             };
+            if let (true, Some((terms, _))) = (robot_columns, &self.gravity) {
+                joint_jacobian_into(self.model, &mut data, q, xi, &mut jq)
+                    .map_err(kinematics_error)?;
+                let tau = &buffers.1;
+                elastic.fill(0.0);
+                for i in 0..na {
+                    let column = jq.column(i);
+                    // dq_i = c_i tau_i(payload): by c_i, tau_i; by the payload,
+                    // c_i dtau_i/dpayload.
+                    elastic.column_mut(i).axpy(tau[i], &column, 0.0);
+                    let d = terms.payload_derivatives(k, i);
+                    for (p, dp) in d.iter().enumerate() {
+                        elastic
+                            .column_mut(na + p)
+                            .axpy(x[eo + i] * dp, &column, 1.0);
+                    }
+                }
+            }
             let r_bt = x_base_tcp.rotation.to_rotation_matrix().into_inner();
             let offset_base = r_bt * x_tcp_target.translation.vector;
             let target_base = x_base_tcp.translation.vector + offset_base;
             let r0 = k * rows;
-            // Robot parameters: moving the TCP by (v, w) moves the target by v + w x offset.
+            // Robot parameters and elastic unknowns: moving the TCP by
+            // (v, w) moves the target by v + w x offset.
             let lever = skew(&offset_base);
-            for j in 0..np {
-                let v = Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
-                let w = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
+            let twist = |j: usize| -> (usize, Vector3<f64>, Vector3<f64>) {
+                if j < np {
+                    let v = Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
+                    let w = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
+                    (j, v, w)
+                } else {
+                    let e = j - np;
+                    let c = elastic.column(e);
+                    (
+                        eo + e,
+                        Vector3::new(c[0], c[1], c[2]),
+                        Vector3::new(c[3], c[4], c[5]),
+                    )
+                }
+            };
+            for j in 0..np + n_elastic {
+                let (col, v, w) = twist(j);
                 let dp = r_mb * (v - lever * w);
                 for i in 0..3 {
-                    out[(r0 + i, j)] = dp[i];
+                    out[(r0 + i, col)] = dp[i];
                 }
             }
             // Measurement frame.
@@ -297,11 +428,11 @@ impl Jacobian for GeometricErrorModel<'_> {
                 let residual = vector_from_rotation(&(predicted.rotation * measured.inverse()));
                 let jinv = left_jacobian_inverse(&residual);
                 let map = jinv * r_mb;
-                for j in 0..np {
-                    let w = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
+                for j in 0..np + n_elastic {
+                    let (col, _, w) = twist(j);
                     let dr = map * w;
                     for i in 0..3 {
-                        out[(r0 + 3 + i, j)] = dr[i];
+                        out[(r0 + 3 + i, col)] = dr[i];
                     }
                 }
                 let d_phi = jinv * jl_phi;

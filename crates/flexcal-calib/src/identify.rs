@@ -5,12 +5,14 @@ use faer::Mat;
 use faer::prelude::SolveLstsq;
 use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{
-    ColumnScaling, GaussNewton, IdentifiabilityOptions, IdentifiabilityReport, Jacobian,
-    LevenbergMarquardt, ProblemSetup, Residuals, SolveReport, analyze_identifiability,
+    ColumnScaling, Control, GaussNewton, IdentifiabilityOptions, IdentifiabilityReport,
+    IterationState, Jacobian, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport,
+    analyze_identifiability,
 };
 use nalgebra::Isometry3;
 
 use crate::error_model::{GeometricErrorModel, UnknownKind, register_measurement_frame};
+use crate::gravity::GravityCompliance;
 use crate::validate::{ErrorStatistics, FramePolicy, error_statistics, evaluate_errors};
 use crate::{CalibError, MeasurementSet};
 
@@ -97,6 +99,16 @@ pub struct CalibrationOptions {
     pub max_standard_error_length: f64,
     /// Same for angles (rad; default 0.25 deg; `> 0`).
     pub max_standard_error_angle: f64,
+    /// Same for joint compliances (rad/N.m or m/N; default 2e-6 rad/N.m,
+    /// about the compliance of a joint of a mid-size arm; `> 0`).
+    pub max_standard_error_compliance: f64,
+    /// Same for the payload mass (kg; default 1; `> 0`).
+    pub max_standard_error_mass: f64,
+    /// Same for the payload's first moment (kg.m; default 0.1; `> 0`).
+    pub max_standard_error_first_moment: f64,
+    /// Elasto-geometric model: joint compliances under gravity and the
+    /// payload are identified with the geometry (default `None`: geometric).
+    pub gravity: Option<GravityCompliance>,
     /// Fail with [`CalibError::RankDeficient`] instead of reporting and
     /// freezing non-identifiable unknowns (default false).
     pub require_full_rank: bool,
@@ -124,6 +136,10 @@ impl Default for CalibrationOptions {
             rank_tolerance: 1e-4,
             max_standard_error_length: 5e-3,
             max_standard_error_angle: 0.25f64.to_radians(),
+            max_standard_error_compliance: 10e-6,
+            max_standard_error_mass: 1.0,
+            max_standard_error_first_moment: 0.1,
+            gravity: None,
             require_full_rank: false,
             max_iterations: 100,
             cost_tolerance: 1e-8,
@@ -162,6 +178,15 @@ impl CalibrationOptions {
         positive("default_orientation_std", self.default_orientation_std)?;
         positive("max_standard_error_length", self.max_standard_error_length)?;
         positive("max_standard_error_angle", self.max_standard_error_angle)?;
+        positive(
+            "max_standard_error_compliance",
+            self.max_standard_error_compliance,
+        )?;
+        positive("max_standard_error_mass", self.max_standard_error_mass)?;
+        positive(
+            "max_standard_error_first_moment",
+            self.max_standard_error_first_moment,
+        )?;
         if !(self.rank_tolerance > 0.0 && self.rank_tolerance < 1.0) {
             return Err(CalibError::InvalidOption {
                 name: "rank_tolerance",
@@ -205,18 +230,33 @@ pub enum UnknownStatus {
 /// One unknown of the identification, by name.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UnknownEstimate {
-    /// Name (`d3`, `frame_rx`, `target_z`, ...).
+    /// Name (`d3`, `frame_rx`, `target_z`, `compliance_2`, ...).
     pub name: String,
-    /// Length (m) or angle (rad).
+    /// Length (m), angle (rad), compliance (rad/N.m or m/N), mass (kg) or
+    /// first moment (kg.m).
     pub kind: UnknownKind,
-    /// Starting (nominal) value (m or rad; 0 for the frame increments).
+    /// Starting (nominal) value, in the unit of `kind` (0 for the frame
+    /// increments).
     pub initial: f64,
-    /// Identified value (m or rad).
+    /// Identified value, in the unit of `kind`.
     pub value: f64,
-    /// Standard error (m or rad) when identified.
+    /// Standard error, in the unit of `kind`, when identified.
     pub standard_error: Option<f64>,
     /// What became of it.
     pub status: UnknownStatus,
+}
+
+/// Unweighted residual norms at one iterate of the identification (Figure 7
+/// plots these, position and orientation separately).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResidualNorms {
+    /// Cost `1/2 ||W r||^2` (weighted, dimensionless).
+    pub cost: f64,
+    /// RMS over the poses of the position error norm (m).
+    pub position_rms: f64,
+    /// RMS over the poses of the orientation error angle (rad), when
+    /// orientations are used.
+    pub orientation_rms: Option<f64>,
 }
 
 /// A fitted geometric calibration: the identified robot parameters, frames,
@@ -241,8 +281,12 @@ pub struct Calibration {
     pub measurement_frame_fixed: bool,
     /// Whether orientations were used.
     pub use_orientation: bool,
-    /// Every unknown, robot parameters first, then `frame_*`, then `target_*`.
+    /// Every unknown, robot parameters first, then `frame_*`, then
+    /// `target_*`, then (elasto-geometric) `compliance_*` and `payload_*`.
     pub unknowns: Vec<UnknownEstimate>,
+    /// The gravity loading when the model is elasto-geometric, with the
+    /// identified elastic unknowns (compliances, payload mass, first moment).
+    pub elastic: Option<(GravityCompliance, Vec<f64>)>,
     /// Numerical identifiability analysis of the free unknowns (exact
     /// dependencies, at [`CalibrationOptions::rank_tolerance`]) at the start point.
     pub identifiability: IdentifiabilityReport,
@@ -257,6 +301,9 @@ pub struct Calibration {
     pub solve: SolveReport,
     /// Cost `1/2 ||W r||^2` history of every solver run, rounds in order.
     pub cost_history: Vec<f64>,
+    /// The same iterates' unweighted position and orientation RMS errors
+    /// (one entry per entry of `cost_history`).
+    pub residual_history: Vec<ResidualNorms>,
     /// Errors on the identification set with the nominal robot, its frames
     /// fitted (before).
     pub training_before: ErrorStatistics,
@@ -264,6 +311,9 @@ pub struct Calibration {
     pub training_after: ErrorStatistics,
     /// Number of poses used.
     pub n_poses: usize,
+    /// Range `(min, max)` of each actuated coordinate over the identification
+    /// poses (rad or m): validation poses outside it are extrapolations.
+    pub actuated_ranges: Vec<(f64, f64)>,
 }
 
 impl Calibration {
@@ -282,6 +332,80 @@ impl Calibration {
             .map(|u| u.name.as_str())
             .collect()
     }
+    /// What the poses could not identify, in sentences for a report: robot
+    /// parameters left at nominal, the target (probe) offset and the
+    /// measurement frame components not identified (their error then stays
+    /// in every prediction away from these poses), and, elasto-geometric,
+    /// which joint compliances gravity loads enough to be identified.
+    pub fn identifiability_notes(&self) -> Vec<String> {
+        let not_identified = |u: &&UnknownEstimate| {
+            matches!(
+                u.status,
+                UnknownStatus::NonIdentifiable | UnknownStatus::PoorlyIdentifiable
+            )
+        };
+        let names = |prefix: &str| -> Vec<&str> {
+            self.unknowns
+                .iter()
+                .filter(|u| u.name.starts_with(prefix))
+                .filter(not_identified)
+                .map(|u| u.name.as_str())
+                .collect()
+        };
+        let mut notes = Vec::new();
+        let np = self.xi.len();
+        let robot: Vec<&str> = self.unknowns[..np]
+            .iter()
+            .filter(not_identified)
+            .map(|u| u.name.as_str())
+            .collect();
+        if !robot.is_empty() {
+            notes.push(format!(
+                "{} of {np} robot parameters are not identified by these poses and stay at nominal ({}); the identified ones stand for combinations that hold near these poses",
+                robot.len(),
+                robot.join(", ")
+            ));
+        }
+        let target = names("target_");
+        if !target.is_empty() {
+            notes.push(format!(
+                "the target (probe) offset is not identified along {}: it stays at its starting value, and its error goes into every prediction away from these poses (vary the tool orientation more to identify it)",
+                target.join(", ")
+            ));
+        }
+        let frame = names("frame_");
+        if !frame.is_empty() && !self.measurement_frame_fixed {
+            notes.push(format!(
+                "measurement frame components not separable from the robot's base parameters: {} (absorbed by the base parameters, harmless for predictions)",
+                frame.join(", ")
+            ));
+        }
+        if self.elastic.is_some() {
+            let identified: Vec<&str> = self
+                .unknowns
+                .iter()
+                .filter(|u| {
+                    u.name.starts_with("compliance_") && u.status == UnknownStatus::Identified
+                })
+                .map(|u| u.name.as_str())
+                .collect();
+            let not = names("compliance_");
+            notes.push(format!(
+                "joint compliances identified from gravity loading: {}; not identifiable from gravity alone (too little or no gravity torque, kept at the starting value): {}",
+                if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
+                if not.is_empty() { "none".to_string() } else { not.join(", ") }
+            ));
+            let payload = names("payload_");
+            if !payload.is_empty() {
+                notes.push(format!(
+                    "payload not identified ({}): its mass and centre stay at their starting values",
+                    payload.join(", ")
+                ));
+            }
+        }
+        notes
+    }
+
     /// Number of identified unknowns (the rank used).
     pub fn rank(&self) -> usize {
         self.unknowns
@@ -388,13 +512,17 @@ pub fn calibrate(
         let mut known: Vec<&str> = model.params().iter().map(|p| p.name.as_str()).collect();
         known.extend(crate::FRAME_PARAMETER_NAMES);
         known.extend(crate::TARGET_PARAMETER_NAMES);
+        let elastic_names = GravityCompliance::unknown_names(model);
+        if options.gravity.is_some() {
+            known.extend(elastic_names.iter().map(|s| s.as_str()));
+        }
         let mut free = vec![true; known.len()];
         let np = model.n_params();
         if frame_fixed {
             free[np..np + 6].fill(false);
         }
         if options.target == FrameTreatment::Fixed || !use_orientation {
-            free[np + 9..].fill(false);
+            free[np + 9..np + 12].fill(false);
         }
         if options.target == FrameTreatment::Fixed {
             free[np + 6..np + 9].fill(false);
@@ -425,8 +553,11 @@ pub fn calibrate(
             register_measurement_frame(model, set, model.nominal_params(), &x_tcp_target0)?
         }
     };
-    let problem =
+    let mut problem =
         GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?;
+    if let Some(gravity) = &options.gravity {
+        problem = problem.with_gravity(gravity)?;
+    }
     let n = problem.n_unknowns();
     let names = problem.names().to_vec();
     let kinds = problem.kinds();
@@ -449,18 +580,20 @@ pub fn calibrate(
     }
     let fo = problem.frame_offset();
     let to = problem.target_offset();
+    // Target unknowns end where the elastic ones (if any) begin.
+    let te = to + 6;
     // The frames take what they can from the robot's base and tool parameters.
     priorities[fo..to].fill(2);
-    priorities[to..n].fill(1);
+    priorities[to..te].fill(1);
     let mut no_influence = vec![false; n];
     if frame_fixed {
         fixed[fo..to].fill(true);
     }
     if options.target == FrameTreatment::Fixed {
-        fixed[to..n].fill(true);
+        fixed[to..te].fill(true);
     }
     if !use_orientation {
-        for (none, is_fixed) in no_influence[to + 3..n].iter_mut().zip(&fixed[to + 3..n]) {
+        for (none, is_fixed) in no_influence[to + 3..te].iter_mut().zip(&fixed[to + 3..te]) {
             *none = !is_fixed;
         }
     }
@@ -478,6 +611,35 @@ pub fn calibrate(
     }
     let (weights, absolute) = row_weights(set, use_orientation, options);
     let x_initial = problem.initial_unknowns();
+    let rows_per_pose = problem.rows_per_pose();
+    // Position and orientation RMS of (unweighted) residuals `r`.
+    let norms_of = |r: &[f64], cost: f64| -> ResidualNorms {
+        let (mut p2, mut o2) = (0.0, 0.0);
+        for pose in r.chunks(rows_per_pose) {
+            p2 += pose[..3].iter().map(|v| v * v).sum::<f64>();
+            if use_orientation {
+                o2 += pose[3..6].iter().map(|v| v * v).sum::<f64>();
+            }
+        }
+        let n_poses = set.len().max(1) as f64;
+        ResidualNorms {
+            cost,
+            position_rms: (p2 / n_poses).sqrt(),
+            orientation_rms: use_orientation.then(|| (o2 / n_poses).sqrt()),
+        }
+    };
+    let norms_at = |x: &[f64], cost: f64| -> ResidualNorms {
+        let mut r = vec![0.0; rows];
+        match problem.residuals(x, &mut r) {
+            Ok(()) => norms_of(&r, cost),
+            Err(_) => ResidualNorms {
+                cost,
+                position_rms: f64::NAN,
+                orientation_rms: None,
+            },
+        }
+    };
+    let residual_history = std::cell::RefCell::new(Vec::<ResidualNorms>::new());
     let solve = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
         // Frames-only fits skip the robot's parameter Jacobian.
         problem.set_robot_columns(frozen[..model.n_params()].iter().any(|f| !f));
@@ -487,23 +649,49 @@ pub fn calibrate(
             fixed: frozen.to_vec(),
             column_scaling: ColumnScaling::ColumnNorm,
         };
+        // The iterates' position and orientation errors, for Figure 7.
+        let mut iterates = Vec::new();
+        let mut observer = |state: &IterationState| {
+            let r: Vec<f64> = state
+                .weighted_residuals
+                .iter()
+                .zip(&weights)
+                .map(|(r, w)| r / w)
+                .collect();
+            iterates.push(norms_of(&r, state.cost));
+            Control::Continue
+        };
         let result = match options.method {
             Method::LevenbergMarquardt => {
                 let mut solver =
                     LevenbergMarquardt::params().max_iterations(options.max_iterations);
                 solver.options.max_evaluations = 20 * options.max_iterations;
                 solver.options.cost_tolerance = options.cost_tolerance;
-                solver.solve(&problem, x0, &setup, &mut ())
+                solver.solve(&problem, x0, &setup, &mut observer)
             }
             Method::GaussNewton => {
                 let mut solver = GaussNewton::params().max_iterations(options.max_iterations);
                 solver.options.max_evaluations = 20 * options.max_iterations;
                 solver.options.cost_tolerance = options.cost_tolerance;
-                solver.solve(&problem, x0, &setup, &mut ())
+                solver.solve(&problem, x0, &setup, &mut observer)
             }
         };
         problem.set_robot_columns(true);
-        result.map_err(CalibError::optim("identification"))
+        let report = result.map_err(CalibError::optim("identification"))?;
+        let mut history = residual_history.borrow_mut();
+        let before = history.len();
+        let start_cost = report.cost_history.first().copied().unwrap_or(f64::NAN);
+        history.push(norms_at(x0, start_cost));
+        let last = iterates.last().copied();
+        history.extend(iterates);
+        // A solver that stops (no further decrease possible) records the
+        // final cost once more, at the final x.
+        for &cost in report.cost_history.iter().skip(history.len() - before) {
+            let mut norms = last.unwrap_or_else(|| norms_at(&report.x, cost));
+            norms.cost = cost;
+            history.push(norms);
+        }
+        Ok(report)
     };
     let mut cost_history = Vec::new();
     let mut x_start = x_initial.clone();
@@ -512,6 +700,9 @@ pub fn calibrate(
         .map(|k| match k {
             UnknownKind::Length => options.max_standard_error_length,
             UnknownKind::Angle => options.max_standard_error_angle,
+            UnknownKind::Compliance => options.max_standard_error_compliance,
+            UnknownKind::Mass => options.max_standard_error_mass,
+            UnknownKind::FirstMoment => options.max_standard_error_first_moment,
         })
         .collect();
     let context = AnalysisContext {
@@ -535,7 +726,9 @@ pub fn calibrate(
     };
     // Frames alone first, from the registration: the robot's linearisation
     // point is then the nominal robot in the right place.
-    let frame_unknowns: Vec<usize> = (fo..n).filter(|&j| !fixed[j] && !no_influence[j]).collect();
+    let frame_unknowns: Vec<usize> = (fo..te)
+        .filter(|&j| !fixed[j] && !no_influence[j])
+        .collect();
     if !frame_unknowns.is_empty() {
         let sigma = noise_at(&x_start, frame_unknowns.len())?;
         let analysis = context.analyse(&context.reduced(&x_start)?, Some(sigma), &|j| {
@@ -641,10 +834,17 @@ pub fn calibrate(
     let (x_meas_base, x_tcp_target) = problem.frames(&x);
     let np = model.n_params();
     let xi = x[..np].to_vec();
+    let elastic = options
+        .gravity
+        .as_ref()
+        .map(|g| (g.clone(), x[te..].to_vec()));
+    // The starting model: nominal geometry (and starting compliances).
+    let elastic_start = options.gravity.as_ref().map(|g| (g, &x_initial[te..]));
     let training_before = error_statistics(&evaluate_errors(
         model,
         set,
         model.nominal_params(),
+        elastic_start,
         &x_tcp_target_nominal,
         FramePolicy::Fixed(x_meas_base_nominal),
         use_orientation,
@@ -653,6 +853,7 @@ pub fn calibrate(
         model,
         set,
         &xi,
+        elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
         &x_tcp_target,
         FramePolicy::Fixed(x_meas_base),
         use_orientation,
@@ -667,6 +868,7 @@ pub fn calibrate(
         measurement_frame_fixed: frame_fixed,
         use_orientation,
         unknowns,
+        elastic,
         identifiability: numerical,
         combination_lines: combinations
             .iter()
@@ -676,9 +878,19 @@ pub fn calibrate(
         combinations,
         solve: report,
         cost_history,
+        residual_history: residual_history.into_inner(),
         training_before,
         training_after,
         n_poses: set.len(),
+        actuated_ranges: (0..model.n_actuated())
+            .map(|i| {
+                set.measurements()
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                        (lo.min(m.q[i]), hi.max(m.q[i]))
+                    })
+            })
+            .collect(),
     })
 }
 

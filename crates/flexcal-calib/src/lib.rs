@@ -1,6 +1,7 @@
 //! # flexcal-calib
 //!
-//! Geometric calibration of any robot flexcal can describe: measurement sets
+//! Geometric and elasto-geometric calibration of any robot flexcal can
+//! describe: measurement sets
 //! and their files, the stacked error model, identifiability (which
 //! parameters the poses identify, and which combinations the identified ones
 //! stand for), iterative identification with standard errors, validation
@@ -45,6 +46,20 @@
 //! fixed ([`FrameTreatment`]), any parameter masked ([`CalibrationOptions::fixed`]).
 //! Residuals are `predicted - measured` positions (m) and rotation vectors
 //! `log(R_pred R_meas^T)` (rad), weighted by `1/sigma` per axis.
+//!
+//! ## Elasto-geometric model
+//! With [`CalibrationOptions::gravity`] (a [`GravityCompliance`]: the link
+//! masses, gravity, payload start) the robot is evaluated at `q + dq`, where
+//! `dq_i = c_i tau_i` is the deflection of a joint spring of compliance `c_i`
+//! under the generalised gravity force `tau = sum_k J_k^T m_k g` of the links
+//! and of the payload ([`gravity`]): the joint-spring part of the paper's
+//! elastic model (13)-(16) with gravity as the load. The unknowns gain
+//! `compliance_<joint>` (rad/N.m, or m/N for linear joints), `payload_mass`
+//! (kg) and `payload_mx..mz` (first moment, kg.m, TCP frame); the same
+//! identifiability analysis says which of them gravity alone identifies (a
+//! vertical joint axis never is loaded). The built-in table
+//! [`GravityCompliance::ur10_urdf`] holds the UR10's URDF masses; other robots
+//! give a mass-table file ([`GravityCompliance::from_toml_file`]).
 //!
 //! ## Equations (Marie, Courteille, Maurine 2013)
 //! - Pose error and linear error model (7)-(8), (49): `dS^k = J^k dxi`, with
@@ -105,13 +120,15 @@
 //! slider-crank geometry, which the paper does not publish, decides which).
 //!
 //! ## Limitations
+//! - The elasto-geometric model has rigid links and linear joint springs;
+//!   gravity torques are evaluated on the nominal geometry at the commanded
+//!   configuration (second-order effects), and process forces are not part
+//!   of it (see `flexcal-elastic` for loaded campaigns).
 //! - The combinations (C.1) come from the linearised model at the solution;
 //!   with errors of millimetres they hold to second order only.
 //! - Standard errors are the linearised ones and ignore model error (joint
 //!   compliance, thermal drift); with relative weights sigma^2 is estimated
 //!   from the residual, which then includes that model error.
-//! - The iteration history records the weighted cost, not separate position
-//!   and orientation norms (Figure 7 plots both).
 //! - The noise-aware rank decision depends on the standard-error limits; they
 //!   are judgement, not physics (see the options' defaults).
 //! - The IPA standard-deviation columns are sample spreads, not accuracies:
@@ -124,6 +141,7 @@
 mod error;
 pub mod error_model;
 pub mod geometry;
+pub mod gravity;
 pub mod identify;
 pub mod measurement;
 pub mod report;
@@ -135,9 +153,10 @@ pub use error_model::{
     FRAME_PARAMETER_NAMES, GeometricErrorModel, TARGET_PARAMETER_NAMES, UnknownKind,
 };
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
+pub use gravity::{GravityCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
 pub use identify::{
     Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
-    UnknownEstimate, UnknownStatus, Weighting, calibrate, combination_check,
+    ResidualNorms, UnknownEstimate, UnknownStatus, Weighting, calibrate, combination_check,
 };
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
 pub use report::CalibrationReportJson;

@@ -3,7 +3,6 @@
 use serde::Serialize;
 
 use crate::CalibError;
-use crate::error_model::UnknownKind;
 use crate::identify::{Calibration, UnknownStatus};
 use crate::validate::{ErrorStatistics, ValidationReport};
 
@@ -97,6 +96,9 @@ pub struct IdentificationJson {
     pub poorly_identifiable: Vec<String>,
     /// Combinations the identified unknowns stand for (like (C.1)).
     pub combinations: Vec<String>,
+    /// What the poses could not identify, in sentences
+    /// ([`Calibration::identifiability_notes`]).
+    pub notes: Vec<String>,
     /// Condition number of the scaled base columns.
     pub condition_number: f64,
     /// Singular values of the scaled, weighted Jacobian of the identified unknowns.
@@ -109,6 +111,11 @@ pub struct IdentificationJson {
     pub iterations: usize,
     /// Cost `1/2 ||W r||^2` at the start and after each iteration, every solve in order (Figure 7 data).
     pub cost_history: Vec<f64>,
+    /// RMS position error (mm) at the same iterates.
+    pub position_rms_history_mm: Vec<f64>,
+    /// RMS orientation error (deg) at the same iterates, when measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_rms_history_deg: Option<Vec<f64>>,
     /// Every unknown.
     pub parameters: Vec<ParameterJson>,
 }
@@ -135,6 +142,13 @@ pub struct ValidationJson {
     pub before: StatisticsJson,
     /// What was re-fitted on the validation data.
     pub note: String,
+    /// Errors after calibration on the validation poses within the
+    /// identification poses' joint ranges.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub within_training_ranges: Option<StatisticsJson>,
+    /// Errors after calibration on the other validation poses (extrapolations).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outside_training_ranges: Option<StatisticsJson>,
 }
 
 /// The whole report.
@@ -142,6 +156,8 @@ pub struct ValidationJson {
 pub struct CalibrationReportJson {
     /// Robot name.
     pub robot: String,
+    /// `geometric` or `elasto-geometric` (joint compliances under gravity).
+    pub model: &'static str,
     /// Identification results.
     pub identification: IdentificationJson,
     /// Validation results, when a validation set was given.
@@ -170,10 +186,7 @@ impl CalibrationReportJson {
             .unknowns
             .iter()
             .map(|u| {
-                let (unit, scale) = match u.kind {
-                    UnknownKind::Length => ("mm", 1e3),
-                    UnknownKind::Angle => ("deg", 180.0 / std::f64::consts::PI),
-                };
+                let (unit, scale) = u.kind.display_unit();
                 ParameterJson {
                     name: u.name.clone(),
                     unit,
@@ -208,12 +221,23 @@ impl CalibrationReportJson {
                 .map(String::from)
                 .collect(),
             combinations: calibration.combination_lines.clone(),
+            notes: calibration.identifiability_notes(),
             condition_number: calibration.solve.condition_number,
             singular_values: calibration.solve.singular_values.clone(),
             termination: format!("{:?}", calibration.solve.termination),
             converged: calibration.solve.termination.is_converged(),
             iterations: calibration.solve.iterations,
             cost_history: calibration.cost_history.clone(),
+            position_rms_history_mm: calibration
+                .residual_history
+                .iter()
+                .map(|h| h.position_rms * 1e3)
+                .collect(),
+            orientation_rms_history_deg: calibration
+                .residual_history
+                .iter()
+                .map(|h| h.orientation_rms.map(f64::to_degrees))
+                .collect(),
             parameters,
         };
         let validation = validation.map(|v| {
@@ -227,10 +251,17 @@ impl CalibrationReportJson {
                 orientation_max_deg: a.orientation_max_deg,
                 before: StatisticsJson::from(&v.before),
                 note: v.frame_note.clone(),
+                within_training_ranges: v.inside_outside.0.as_ref().map(StatisticsJson::from),
+                outside_training_ranges: v.inside_outside.1.as_ref().map(StatisticsJson::from),
             }
         });
         Self {
             robot: robot.to_string(),
+            model: if calibration.elastic.is_some() {
+                "elasto-geometric"
+            } else {
+                "geometric"
+            },
             identification,
             validation,
         }

@@ -7,6 +7,7 @@ use nalgebra::Isometry3;
 
 use crate::error_model::{GeometricErrorModel, register_measurement_frame};
 use crate::geometry::{rotation_from_vector, vector_from_rotation};
+use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
 use crate::{CalibError, MeasurementSet};
 
@@ -80,7 +81,10 @@ pub fn error_statistics(errors: &[PoseError]) -> ErrorStatistics {
 }
 
 /// Per-pose errors of the robot at `xi` with target `x_tcp_target` on `set`,
-/// the measurement frame taken or re-fitted according to `policy`.
+/// the measurement frame taken or re-fitted according to `policy`. With
+/// `elastic`, the robot deflects under gravity with the given elastic
+/// unknowns (compliances, payload mass, first moment: see
+/// [`GravityCompliance::unknown_names`]).
 ///
 /// # Errors
 /// Mismatched coordinates, a model failure at a pose, a degenerate
@@ -89,19 +93,43 @@ pub fn evaluate_errors(
     model: &Model,
     set: &MeasurementSet,
     xi: &[f64],
+    elastic: Option<(&GravityCompliance, &[f64])>,
     x_tcp_target: &Isometry3<f64>,
     policy: FramePolicy,
     use_orientation: bool,
 ) -> Result<Vec<PoseError>, CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
+    // The error model at given robot unknowns: geometric or elasto-geometric.
+    let problem_at = |x_meas_base: Isometry3<f64>,
+                      x_tcp_target: Isometry3<f64>|
+     -> Result<(GeometricErrorModel<'_>, Vec<f64>), CalibError> {
+        let mut problem =
+            GeometricErrorModel::new(model, set, use_orientation, x_meas_base, x_tcp_target)?;
+        if let Some((gravity, _)) = elastic {
+            problem = problem.with_gravity(gravity)?;
+        }
+        let mut x = problem.initial_unknowns();
+        x[..model.n_params()].copy_from_slice(xi);
+        if let (Some((_, values)), Some(eo)) = (elastic, problem.elastic_offset()) {
+            if values.len() != x.len() - eo {
+                return Err(CalibError::InvalidOption {
+                    name: "elastic",
+                    reason: format!(
+                        "{} elastic values given, the model has {}",
+                        values.len(),
+                        x.len() - eo
+                    ),
+                });
+            }
+            x[eo..].copy_from_slice(values);
+        }
+        Ok((problem, x))
+    };
     let (x_meas_base, x_tcp_target) = match policy {
         FramePolicy::Fixed(x) => (x, *x_tcp_target),
         FramePolicy::Refit { refit_target } => {
             let start = register_measurement_frame(model, set, xi, x_tcp_target)?;
-            let problem =
-                GeometricErrorModel::new(model, set, use_orientation, start, *x_tcp_target)?;
-            let mut x0 = problem.initial_unknowns();
-            x0[..model.n_params()].copy_from_slice(xi);
+            let (problem, x0) = problem_at(start, *x_tcp_target)?;
             let n = problem.n_unknowns();
             let fo = problem.frame_offset();
             let to = problem.target_offset();
@@ -110,7 +138,7 @@ pub fn evaluate_errors(
             if refit_target {
                 fixed[to..to + 3].fill(false);
                 if use_orientation {
-                    fixed[to + 3..n].fill(false);
+                    fixed[to + 3..to + 6].fill(false);
                 }
             }
             let mut weights = Vec::with_capacity(problem.n_residuals());
@@ -134,9 +162,7 @@ pub fn evaluate_errors(
             problem.frames(&report.x)
         }
     };
-    let problem = GeometricErrorModel::new(model, set, use_orientation, x_meas_base, x_tcp_target)?;
-    let mut x = problem.initial_unknowns();
-    x[..model.n_params()].copy_from_slice(xi);
+    let (problem, x) = problem_at(x_meas_base, x_tcp_target)?;
     debug_assert_eq!(x.len(), problem.n_params());
     set.measurements()
         .iter()
@@ -170,9 +196,37 @@ pub struct ValidationReport {
     pub after_per_pose: Vec<PoseError>,
     /// How the measurement frame was obtained, in words.
     pub frame_note: String,
+    /// Errors after calibration on the validation poses whose actuated
+    /// coordinates all lie within the identification poses' ranges, and on
+    /// the others (extrapolations): `(inside, outside)`, `None` when empty.
+    pub inside_outside: (Option<ErrorStatistics>, Option<ErrorStatistics>),
+    /// Per actuated coordinate outside the identification range on some
+    /// validation poses: `(name, fraction of the validation poses outside)`.
+    pub extrapolated_coordinates: Vec<(String, f64)>,
 }
 
 impl Calibration {
+    /// Per-pose errors after calibration on the identification set `set`
+    /// (the one given to [`crate::calibrate`]), with the identified frames.
+    ///
+    /// # Errors
+    /// As [`evaluate_errors`].
+    pub fn training_errors(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+    ) -> Result<Vec<PoseError>, CalibError> {
+        evaluate_errors(
+            model,
+            set,
+            &self.xi,
+            self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
+            &self.x_tcp_target,
+            FramePolicy::Fixed(self.x_meas_base),
+            self.use_orientation,
+        )
+    }
+
     /// Validates on a separate set. If the identification kept the
     /// measurement frame fixed, the same frame is used; otherwise only the
     /// measurement frame (and, with `refit_target`, the target position) is
@@ -213,6 +267,7 @@ impl Calibration {
             model,
             set,
             &self.nominal_xi,
+            None,
             &self.x_tcp_target_nominal_robot,
             policy,
             self.use_orientation,
@@ -221,15 +276,54 @@ impl Calibration {
             model,
             set,
             &self.xi,
+            self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
             &self.x_tcp_target,
             policy,
             self.use_orientation,
         )?;
+        // Extrapolation: which validation poses leave the identification's
+        // joint ranges, and how the errors differ there.
+        let margin = 1e-9;
+        let outside: Vec<bool> = set
+            .measurements()
+            .iter()
+            .map(|m| {
+                m.q.iter()
+                    .zip(&self.actuated_ranges)
+                    .any(|(q, (lo, hi))| *q < lo - margin || *q > hi + margin)
+            })
+            .collect();
+        let split = |want: bool| {
+            let errors: Vec<PoseError> = after_per_pose
+                .iter()
+                .zip(&outside)
+                .filter(|(_, o)| **o == want)
+                .map(|(e, _)| *e)
+                .collect();
+            (!errors.is_empty()).then(|| error_statistics(&errors))
+        };
+        let n = set.len().max(1) as f64;
+        let extrapolated_coordinates = model
+            .actuated_names()
+            .iter()
+            .zip(&self.actuated_ranges)
+            .enumerate()
+            .filter_map(|(i, (name, (lo, hi)))| {
+                let count = set
+                    .measurements()
+                    .iter()
+                    .filter(|m| m.q[i] < lo - margin || m.q[i] > hi + margin)
+                    .count();
+                (count > 0).then(|| (name.clone(), count as f64 / n))
+            })
+            .collect();
         Ok(ValidationReport {
             before,
             after: error_statistics(&after_per_pose),
+            inside_outside: (split(false), split(true)),
             after_per_pose,
             frame_note,
+            extrapolated_coordinates,
         })
     }
 }

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use flexcal_calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics, FrameTreatment,
-    MeasurementSet, Method, UnknownKind, UnknownStatus, ValidationReport, Weighting, calibrate,
+    GravityCompliance, MeasurementSet, Method, UnknownStatus, ValidationReport, Weighting,
+    calibrate,
 };
 use flexcal_kinematics::{Model, RobotDescription};
 
@@ -24,6 +25,9 @@ pub enum DataFormat {
 pub enum ModelKind {
     /// Geometric parameters (+ measurement frame and target offset).
     Geometric,
+    /// Geometric parameters plus joint compliances under gravity and the
+    /// payload's mass and centre (mass table: built-in for ur10, or --masses).
+    ElastoGeometric,
 }
 
 /// Solvers.
@@ -70,6 +74,10 @@ pub struct CalibrateArgs {
     /// Identification model.
     #[arg(long, value_enum, default_value = "geometric")]
     pub model: ModelKind,
+    /// Mass table of the elasto-geometric model (TOML, see the README);
+    /// default: the robot's built-in table (ur10).
+    #[arg(long)]
+    pub masses: Option<PathBuf>,
     /// Solver.
     #[arg(long, value_enum, default_value = "lm")]
     pub method: SolverKind,
@@ -98,6 +106,10 @@ pub struct CalibrateArgs {
     /// Write the JSON report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Write the per-pose errors after calibration here (CSV: the validation
+    /// set when given, else the identification set).
+    #[arg(long)]
+    pub residuals: Option<PathBuf>,
 }
 
 /// Loads a robot by built-in name or description file.
@@ -122,7 +134,6 @@ fn read_set(path: &Path, format: DataFormat) -> anyhow::Result<MeasurementSet> {
 
 /// Runs `flexcal calibrate`.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
-    let ModelKind::Geometric = args.model;
     let model = load_robot(&args.robot)?;
     let data = read_set(&args.data, args.format)?;
     let validation_set = args
@@ -161,10 +172,23 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         options.target = FrameTreatment::Fixed;
     }
     options.require_full_rank = args.strict;
+    if args.model == ModelKind::ElastoGeometric {
+        options.gravity = Some(match &args.masses {
+            Some(path) => GravityCompliance::from_toml_file(path)?,
+            None => GravityCompliance::builtin(&model).context("--model elasto-geometric")?,
+        });
+    } else if args.masses.is_some() {
+        anyhow::bail!("--masses is for --model elasto-geometric");
+    }
     println!(
-        "Calibrating `{}` ({} parameters) from {} poses of {}",
+        "Calibrating `{}` ({} parameters{}) from {} poses of {}",
         model.name(),
         model.n_params(),
+        if options.gravity.is_some() {
+            ", elasto-geometric: joint compliances under gravity and the payload"
+        } else {
+            ""
+        },
         data.len(),
         args.data.display()
     );
@@ -176,6 +200,33 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         .transpose()
         .context("validation")?;
     print_before_after(&calibration, validation.as_ref());
+    let (per_pose, per_pose_set, per_pose_name) = match (&validation, &validation_set) {
+        (Some(v), Some(set)) => (v.after_per_pose.clone(), set, "validation"),
+        _ => (
+            calibration.training_errors(&model, &data)?,
+            &data,
+            "identification",
+        ),
+    };
+    print_temperature_analysis(per_pose_name, per_pose_set, &per_pose);
+    if let Some(path) = &args.residuals {
+        let mut text = String::from("pose,temperature_c,position_error_mm,orientation_error_deg\n");
+        for (k, (e, m)) in per_pose.iter().zip(per_pose_set.measurements()).enumerate() {
+            let optional = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
+            text.push_str(&format!(
+                "{},{},{},{}\n",
+                m.label(k).replace(',', ";"),
+                optional(m.temperature_c),
+                e.position * 1e3,
+                optional(e.orientation.map(f64::to_degrees))
+            ));
+        }
+        flexcal_io::write_atomic(path, text)?;
+        println!(
+            "per-pose errors of the {per_pose_name} set written to {}",
+            path.display()
+        );
+    }
     if let Some(out) = &args.out {
         let description = calibration.description(&model)?;
         flexcal_io::write_atomic(out, description.to_toml_string())?;
@@ -201,22 +252,19 @@ fn status(s: UnknownStatus) -> &'static str {
 
 fn print_identification(c: &Calibration) {
     println!();
-    println!("Identifiability and identified values (lengths mm, angles deg)");
+    println!("Identifiability and identified values");
     println!(
-        "{:<10} {:>19} {:>14} {:>12} {:>12}  status",
-        "unknown", "nominal", "identified", "delta", "std error"
+        "{:<16} {:>9} {:>13} {:>14} {:>12} {:>12}  status",
+        "unknown", "unit", "nominal", "identified", "delta", "std error"
     );
     for u in &c.unknowns {
-        let scale = match u.kind {
-            UnknownKind::Length => 1e3,
-            UnknownKind::Angle => 180.0 / std::f64::consts::PI,
-        };
+        let (unit, scale) = u.kind.display_unit();
         let se = u
             .standard_error
             .map(|s| format!("{:12.5}", s * scale))
             .unwrap_or_else(|| format!("{:>12}", "-"));
         println!(
-            "{:<10} {:>19.5} {:>14.5} {:>12.5} {se}  {}",
+            "{:<16} {unit:>9} {:>13.5} {:>14.5} {:>12.5} {se}  {}",
             u.name,
             u.initial * scale,
             u.value * scale,
@@ -248,10 +296,27 @@ fn print_identification(c: &Calibration) {
             poor.join(", ")
         );
     }
+    for note in c.identifiability_notes() {
+        println!("note: {note}");
+    }
     println!();
-    println!("Iteration history (cost 1/2 |W r|^2, every solve in order)");
-    for (k, cost) in c.cost_history.iter().enumerate() {
-        println!("  {k:3}  {cost:.6e}");
+    println!(
+        "Iteration history, every solve in order (cost 1/2 |W r|^2; RMS errors of the iterate)"
+    );
+    println!(
+        "  {:>3}  {:>13}  {:>12}  {:>12}",
+        "", "cost", "pos RMS mm", "rot RMS deg"
+    );
+    for (k, h) in c.residual_history.iter().enumerate() {
+        let rotation = h
+            .orientation_rms
+            .map(|r| format!("{:12.5}", r.to_degrees()))
+            .unwrap_or_default();
+        println!(
+            "  {k:3}  {:13.6e}  {:12.5}  {rotation}",
+            h.cost,
+            h.position_rms * 1e3
+        );
     }
     println!(
         "termination: {:?} after {} iterations",
@@ -280,6 +345,49 @@ fn row(label: &str, s: &ErrorStatistics) {
     );
 }
 
+/// Whether temperature explains the remaining error: its range over the set
+/// and the correlation and slope of the position error against it.
+fn print_temperature_analysis(
+    name: &str,
+    set: &MeasurementSet,
+    errors: &[flexcal_calib::PoseError],
+) {
+    let pairs: Vec<(f64, f64)> = set
+        .measurements()
+        .iter()
+        .zip(errors)
+        .filter_map(|(m, e)| m.temperature_c.map(|t| (t, e.position * 1e3)))
+        .collect();
+    if pairs.len() < 3 {
+        return;
+    }
+    let n = pairs.len() as f64;
+    let (mt, me) = pairs
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (t, e)| (a + t / n, b + e / n));
+    let (mut stt, mut see, mut ste) = (0.0, 0.0, 0.0);
+    for (t, e) in &pairs {
+        stt += (t - mt) * (t - mt);
+        see += (e - me) * (e - me);
+        ste += (t - mt) * (e - me);
+    }
+    let (lo, hi) = pairs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (t, _)| {
+            (l.min(*t), h.max(*t))
+        });
+    if stt <= 0.0 || see <= 0.0 {
+        println!("temperature on the {name} set: constant {lo:.2} C; no analysis");
+        return;
+    }
+    println!(
+        "temperature on the {name} set: {lo:.2} to {hi:.2} C; correlation of the position error with it r = {:.3} (r^2 = {:.3}), slope {:.4} mm/K",
+        ste / (stt * see).sqrt(),
+        ste * ste / (stt * see),
+        ste / stt
+    );
+}
+
 fn print_before_after(c: &Calibration, validation: Option<&ValidationReport>) {
     println!();
     println!(
@@ -291,6 +399,21 @@ fn print_before_after(c: &Calibration, validation: Option<&ValidationReport>) {
     if let Some(v) = validation {
         row("validation before", &v.before);
         row("validation after", &v.after);
+        if let (Some(inside), Some(outside)) = &v.inside_outside {
+            row("  within training ranges", inside);
+            row("  outside (extrapolated)", outside);
+        }
         println!("validation: {}", v.frame_note);
+        if !v.extrapolated_coordinates.is_empty() {
+            let list: Vec<String> = v
+                .extrapolated_coordinates
+                .iter()
+                .map(|(name, f)| format!("{name} ({:.0} % of the poses)", f * 100.0))
+                .collect();
+            println!(
+                "validation poses outside the identification poses' range of: {}",
+                list.join(", ")
+            );
+        }
     }
 }

@@ -337,21 +337,41 @@ fn geometric_section(g: &GeometricStep, out: &Path) -> anyhow::Result<Section> {
         &["parameter", "unit", "true error", "identified", "standard error"],
         rows,
     );
-    let history: Vec<(f64, f64)> = c
-        .cost_history
-        .iter()
-        .enumerate()
-        .map(|(i, v)| (i as f64, (2.0 * v / c.n_poses.max(1) as f64).sqrt()))
-        .collect();
+    // Figure 7: position and orientation RMS errors of the identification set
+    // at each iterate (every solve in order).
+    let history =
+        |value: &dyn Fn(&flexcal_calib::ResidualNorms) -> Option<f64>| -> Vec<(f64, f64)> {
+            c.residual_history
+                .iter()
+                .enumerate()
+                .filter_map(|(i, h)| value(h).map(|v| (i as f64, v)))
+                .collect()
+        };
     s.figure(
         line_chart(
-            "Residual during identification (Fig. 7)",
+            "Position error during identification (Fig. 7)",
             "iteration",
-            "RMS weighted residual per pose",
-            &[Series::new("identification set", history)],
+            "RMS position error (mm)",
+            &[Series::new(
+                "identification set",
+                history(&|h| Some(h.position_rms * 1e3)),
+            )],
             true,
         ),
-        "Weighted residual norm per pose at each iteration of Levenberg-Marquardt (unitless: residuals divided by the measurement standard deviations).",
+        "RMS over the 27 identification poses of the position error at each iterate of Levenberg-Marquardt (each solve starts again from the nominal robot when the base set changes).",
+    );
+    s.figure(
+        line_chart(
+            "Orientation error during identification (Fig. 7)",
+            "iteration",
+            "RMS orientation error (deg)",
+            &[Series::new(
+                "identification set",
+                history(&|h| h.orientation_rms.map(f64::to_degrees)),
+            )],
+            true,
+        ),
+        "RMS over the identification poses of the orientation error angle at each iterate.",
     );
     let mut data = Data::new(model);
     let table = sensitivity_indices(

@@ -192,3 +192,160 @@ fn bad_input_gives_clear_errors() {
     let err = run(&deficient, &["--fix", "nonsense"]);
     assert!(err.contains("unknown parameter `nonsense`"), "{err}");
 }
+
+/// `calibrate --model elasto-geometric` end to end: UR10 poses from `flexcal
+/// fk`, a mass table file, the report's elastic unknowns; bad mass tables.
+#[test]
+fn elasto_geometric_calibration_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Deterministic configurations spread over the workspace.
+    let joints = |n: usize, phase: f64| -> String {
+        let mut text = String::from("q1,q2,q3,q4,q5,q6\n");
+        for k in 0..n {
+            let t = k as f64 + phase;
+            text.push_str(&format!(
+                "{},{},{},{},{},{}\n",
+                (0.37 * t).sin() * 2.5,
+                -1.5 + (0.53 * t).sin(),
+                (0.29 * t).cos() * 2.0,
+                (0.71 * t).sin() * 2.0,
+                0.8 + (0.43 * t).sin(),
+                (0.61 * t).cos() * 2.5
+            ));
+        }
+        text
+    };
+    let measurements = |name: &str, n: usize, phase: f64| -> String {
+        let q_file = path(d, &format!("{name}-q.csv"));
+        let p_file = path(d, &format!("{name}-p.csv"));
+        let q_text = joints(n, phase);
+        std::fs::write(&q_file, &q_text).unwrap();
+        let out = flexcal(&[
+            "fk", "--robot", "ur10", "--input", &q_file, "--output", &p_file,
+        ]);
+        assert!(out.status.success(), "{}", text(&out).1);
+        let poses = std::fs::read_to_string(&p_file).unwrap();
+        let mut csv = String::from("q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm\n");
+        for (q, p) in q_text.lines().skip(1).zip(poses.lines().skip(1)) {
+            let xyz: Vec<f64> = p.split(',').take(3).map(|v| v.parse().unwrap()).collect();
+            // Seen from a tracker 3 m away.
+            csv.push_str(&format!(
+                "{q},{},{},{}\n",
+                xyz[0] * 1e3 + 3000.0,
+                xyz[1] * 1e3 - 200.0,
+                xyz[2] * 1e3 + 100.0
+            ));
+        }
+        let file = path(d, &format!("{name}.csv"));
+        std::fs::write(&file, csv).unwrap();
+        file
+    };
+    let train = measurements("train", 120, 0.0);
+    let validate = measurements("validate", 60, 0.5);
+    let masses = path(d, "masses.toml");
+    std::fs::write(
+        &masses,
+        "payload_mass_kg = 1.0\npayload_center_mm = [0.0, 0.0, 100.0]\ninitial_compliance_urad_per_nm = 10.0\n\n[[mass]]\nname = \"upper arm\"\nframe = \"2\"\nmass_kg = 12.93\ncenter_mm = [-306.0, 0.0, 0.0]\n\n[[mass]]\nname = \"forearm\"\nframe = \"3\"\nmass_kg = 3.87\ncenter_mm = [-286.15, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    let report = path(d, "report.json");
+    let residuals = path(d, "residuals.csv");
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &train,
+        "--validate",
+        &validate,
+        "--model",
+        "elasto-geometric",
+        "--masses",
+        &masses,
+        "--report",
+        &report,
+        "--residuals",
+        &residuals,
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("elasto-geometric") && stdout.contains("compliance_theta2"));
+    // Per-pose errors of the validation set, one row per pose.
+    let rows = std::fs::read_to_string(&residuals).unwrap();
+    assert!(rows.starts_with("pose,temperature_c,position_error_mm,orientation_error_deg\n"));
+    assert_eq!(rows.lines().count(), 61);
+    assert!(
+        rows.lines()
+            .skip(1)
+            .all(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap() < 1e-3)
+    );
+    assert!(stdout.contains("pos RMS mm"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["model"], "elasto-geometric");
+    let identification = &json["identification"];
+    let non: Vec<&str> = identification["non_identifiable"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(non.contains(&"compliance_theta1"), "{non:?}");
+    let c2 = identification["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "compliance_theta2")
+        .unwrap();
+    assert_eq!(c2["unit"], "urad/N.m");
+    // The measurements are of the rigid nominal robot: the fit ends at
+    // their (zero) error, with joint 2 found stiff.
+    assert!(identification["position_max_mm"].as_f64().unwrap() < 1e-3);
+    assert_eq!(c2["status"], "identified");
+    assert!(c2["identified"].as_f64().unwrap().abs() < 0.01);
+    let history = identification["position_rms_history_mm"]
+        .as_array()
+        .unwrap();
+    assert_eq!(
+        history.len(),
+        identification["cost_history"].as_array().unwrap().len()
+    );
+    let validation = &json["validation"];
+    assert!(validation["position_mean_mm"].as_f64().unwrap() < 1e-3);
+    assert!(validation["note"].as_str().unwrap().contains("re-fitted"));
+
+    // A robot without a built-in mass table, and a malformed table.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "puma560",
+        "--data",
+        &train,
+        "--model",
+        "elasto-geometric",
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success() && !stderr.contains("panicked"));
+    assert!(stderr.contains("no built-in mass table"), "{stderr}");
+    let bad = path(d, "bad.toml");
+    std::fs::write(
+        &bad,
+        "payload_mass_kg = 1.0\npayload_center_mm = [0.0, 0.0]\n",
+    )
+    .unwrap();
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &train,
+        "--model",
+        "elasto-geometric",
+        "--masses",
+        &bad,
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success() && !stderr.contains("panicked"));
+    assert!(stderr.contains("bad.toml:2"), "{stderr}");
+}

@@ -821,6 +821,73 @@ pub fn joint_jacobian(
     Ok(out)
 }
 
+/// A force applied at a point fixed to a frame (a link's weight, a payload).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointLoad {
+    /// Index of the frame carrying the point ([`Model::frame_index`]).
+    pub frame: usize,
+    /// The point in that frame (m).
+    pub point: Vector3<f64>,
+    /// The force in the base frame R0 (N).
+    pub force: Vector3<f64>,
+}
+
+/// Generalised forces on the actuated coordinates (N.m for angles, N for
+/// lengths) of point forces, by virtual work: `tau = sum_k J_k^T f_k`, with
+/// `J_k` the linear Jacobian of load k's point with respect to the actuated
+/// coordinates (closed loops, slider cranks and couplings included, as in
+/// [`joint_jacobian_into`]). A joint spring of compliance `c_i` then
+/// deflects actuated coordinate i by `c_i tau_i`. Writes `out` (length
+/// n_actuated) and returns nothing else.
+///
+/// # Errors
+/// [`KinematicsError::WrongLength`] for `out` or a frame index out of range,
+/// and the errors of the forward model.
+pub fn actuated_forces_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    loads: &[PointLoad],
+    out: &mut [f64],
+) -> Result<(), KinematicsError> {
+    let na = model.n_actuated();
+    check_vector("generalised forces", out, na)?;
+    if let Some(bad) = loads.iter().find(|l| l.frame >= model.frames.len()) {
+        return Err(KinematicsError::WrongLength {
+            what: "frame index of a point load (number of frames)".into(),
+            expected: model.frames.len(),
+            found: bad.frame,
+        });
+    }
+    run_forward(model, data, q, xi, true)?;
+    out.fill(0.0);
+    for load in loads {
+        let pose = &data.poses[load.frame];
+        let point = pose.p + pose.r * load.point;
+        let mut f = Some(load.frame);
+        while let Some(frame) = f {
+            f = model.frames[frame].parent;
+            let Some(k) = model.frames[frame].joint_quantity() else {
+                continue;
+            };
+            if model.frames[frame].source == JointSource::Fixed {
+                continue;
+            }
+            let (u, o) = data.quantity_axis(model, frame, k);
+            let t = twist_at(&u, &o, &point);
+            let work = t[0] * load.force.x + t[1] * load.force.y + t[2] * load.force.z;
+            for (c, tau) in out.iter_mut().enumerate() {
+                let w = data.djoint_dq[frame * na + c];
+                if w != 0.0 {
+                    *tau += w * work;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Parameter Jacobian (equations (49)-(52)) into `out` (6 x n_params): column
 /// j = d[p_tcp; phi]/d xi_j, rows `[linear; angular]` in the base frame, with
 /// `R(xi + dxi) = exp([dphi]x) R(xi)`. Returns the TCP pose `x_base_tcp`.

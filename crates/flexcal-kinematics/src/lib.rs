@@ -138,8 +138,8 @@ pub use description::{
 };
 pub use error::KinematicsError;
 pub use forward::{
-    Data, forward_frames, forward_pose, joint_jacobian, joint_jacobian_into, param_jacobian,
-    param_jacobian_into,
+    Data, PointLoad, actuated_forces_into, forward_frames, forward_pose, joint_jacobian,
+    joint_jacobian_into, param_jacobian, param_jacobian_into,
 };
 pub use inverse::{InverseOptions, InverseSolution, InverseTarget, inverse_pose};
 pub use model::{ActuatedKind, Model, ParamInfo, ParamKind, Quantity};

@@ -120,7 +120,7 @@ impl Termination {
 }
 
 /// What the observer sees after each iteration.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct IterationState {
     /// Iteration number (1-based).
     pub iteration: usize,
@@ -134,6 +134,11 @@ pub struct IterationState {
     pub rank: usize,
     /// Residual evaluations so far.
     pub evaluations: usize,
+    /// Parameters after the iteration (all of them, fixed ones included):
+    /// for observers that track quantities other than the cost.
+    pub x: Vec<f64>,
+    /// Weighted residuals `W r` at `x`.
+    pub weighted_residuals: Vec<f64>,
 }
 
 /// Whether the solver should go on.
@@ -613,6 +618,8 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
                         damping,
                         rank,
                         evaluations: self.residual_evaluations,
+                        x: self.x.clone(),
+                        weighted_residuals: self.residual.clone(),
                     };
                     if observer.observe(&state) == Control::Stop {
                         break Termination::StoppedByObserver;

@@ -1,0 +1,424 @@
+//! Joint compliances under gravity: the elastic part of the elasto-geometric
+//! calibration model.
+//!
+//! The links are rigid and every actuated coordinate has a joint spring of
+//! compliance `c_i` (rad/N.m for revolute joints, m/N for prismatic joints
+//! and screws). Under the weights of the links (point masses with known mass
+//! and centre of mass) and of the payload (a probe, a tool: mass and centre
+//! unknown), the springs deflect the actuated coordinates by
+//! `dq_i = c_i tau_i(q)`, where `tau = sum_k J_k^T m_k g` is the generalised
+//! gravity force (virtual work, [`flexcal_kinematics::actuated_forces_into`]).
+//! This is the static equilibrium of the joint-spring model of the paper's
+//! section 2.2 (equations (13)-(16), rigid links, load = gravity) to first
+//! order in the deflection; the calibration then predicts the pose at
+//! `FK(q + dq, xi)`.
+//!
+//! The payload enters linearly through its mass `m` (kg) and first moment
+//! `m c` (kg.m, centre `c` in the TCP frame), so that
+//! `tau = tau_links + m a(q) + B(q) (m c)`; the torques are evaluated on the
+//! nominal geometry (a geometric error of a millimetre changes them by about
+//! 0.1 %, far below what gravity deflection can resolve).
+
+use flexcal_kinematics::{
+    ActuatedKind, Data, Model, PointLoad, actuated_forces_into, joint_jacobian_into,
+};
+use nalgebra::{Matrix6xX, Vector3};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+use crate::{CalibError, MeasurementSet};
+
+/// Standard gravity (m/s^2).
+pub const STANDARD_GRAVITY: f64 = 9.806_65;
+
+/// A link's mass concentrated at its centre of mass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointMass {
+    /// Name of the link (for reports).
+    pub name: String,
+    /// Name of the robot frame the link is fixed to.
+    pub frame: String,
+    /// Mass (kg, `>= 0`).
+    pub mass: f64,
+    /// Centre of mass in that frame (m).
+    pub center: Vector3<f64>,
+}
+
+/// The gravity loading of a robot and the starting values of its elastic
+/// unknowns: what [`crate::CalibrationOptions::gravity`] needs to make the
+/// identification elasto-geometric.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GravityCompliance {
+    /// Gravity in the robot base frame R0 (m/s^2; default straight down
+    /// along -z0 for a floor-mounted robot).
+    pub gravity: Vector3<f64>,
+    /// The links' masses (known, not identified).
+    pub masses: Vec<PointMass>,
+    /// Starting payload mass (kg).
+    pub payload_mass: f64,
+    /// Starting payload centre of mass in the TCP frame (m).
+    pub payload_center: Vector3<f64>,
+    /// Starting joint compliance (rad/N.m or m/N): a plausible value, not
+    /// zero, so that the payload's influence (proportional to the
+    /// compliances) is seen by the identifiability analysis.
+    pub initial_compliance: f64,
+}
+
+/// Names of the payload unknowns appended after the compliances: its mass
+/// (kg) and its first moment in the TCP frame (kg.m).
+pub const PAYLOAD_PARAMETER_NAMES: [&str; 4] =
+    ["payload_mass", "payload_mx", "payload_my", "payload_mz"];
+
+impl GravityCompliance {
+    /// The UR10 of the built-in `ur10` description, with the link masses of
+    /// the public UR10 URDF (shoulder 7.778, upper arm 12.93, forearm 3.87,
+    /// wrist 1-3: 1.96, 1.96, 0.202 kg). Centres of mass: the upper arm and
+    /// forearm at the middle of their links (between the joint axes), each
+    /// wrist link at the origin of its joint frame, the shoulder on the
+    /// axis of joint 1 (it loads no other joint). Payload start: 1 kg, 0.1 m
+    /// along the flange's z axis (a measuring probe).
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] when `model` lacks the frames `2`-`6`
+    /// of the built-in description.
+    pub fn ur10_urdf(model: &Model) -> Result<Self, CalibError> {
+        for frame in ["1", "2", "3", "4", "5", "6"] {
+            if model.frame_index(frame).is_none() {
+                return Err(CalibError::InvalidOption {
+                    name: "gravity",
+                    reason: format!(
+                        "the UR10 mass table needs frame `{frame}` of the built-in ur10 description; robot `{}` has none",
+                        model.name()
+                    ),
+                });
+            }
+        }
+        let mass = |name: &str, frame: &str, mass: f64, center: [f64; 3]| PointMass {
+            name: name.into(),
+            frame: frame.into(),
+            mass,
+            center: Vector3::from(center),
+        };
+        // Nominal DH: a2 = -0.612 m, a3 = -0.5723 m along the x axes of
+        // frames 2 and 3 (frame 4 sits d4 = 0.1639 m off the forearm's line).
+        Ok(Self {
+            gravity: Vector3::new(0.0, 0.0, -STANDARD_GRAVITY),
+            masses: vec![
+                mass("shoulder", "1", 7.778, [0.0, 0.0, 0.0]),
+                mass("upper arm", "2", 12.93, [-0.306, 0.0, 0.0]),
+                mass("forearm", "3", 3.87, [-0.28615, 0.0, 0.0]),
+                mass("wrist 1", "4", 1.96, [0.0, 0.0, 0.0]),
+                mass("wrist 2", "5", 1.96, [0.0, 0.0, 0.0]),
+                mass("wrist 3", "6", 0.202, [0.0, 0.0, 0.0]),
+            ],
+            payload_mass: 1.0,
+            payload_center: Vector3::new(0.0, 0.0, 0.1),
+            initial_compliance: 10e-6,
+        })
+    }
+
+    /// Names of the elastic unknowns of `model`: `compliance_<joint>` per
+    /// actuated coordinate, then [`PAYLOAD_PARAMETER_NAMES`].
+    pub fn unknown_names(model: &Model) -> Vec<String> {
+        let mut names: Vec<String> = model
+            .actuated_names()
+            .iter()
+            .map(|n| format!("compliance_{n}"))
+            .collect();
+        names.extend(PAYLOAD_PARAMETER_NAMES.iter().map(|s| s.to_string()));
+        names
+    }
+
+    /// Starting values of the elastic unknowns (compliances, payload mass,
+    /// first moment).
+    pub fn initial_unknowns(&self, model: &Model) -> Vec<f64> {
+        let mut x = vec![self.initial_compliance; model.n_actuated()];
+        x.push(self.payload_mass);
+        x.extend((self.payload_center * self.payload_mass).iter());
+        x
+    }
+
+    fn check(&self, model: &Model) -> Result<Vec<PointLoad>, CalibError> {
+        let invalid = |reason: String| CalibError::InvalidOption {
+            name: "gravity",
+            reason,
+        };
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err(invalid(format!(
+                "gravity must be finite, found {:?}",
+                self.gravity
+            )));
+        }
+        if !(self.initial_compliance.is_finite() && self.payload_mass.is_finite()) {
+            return Err(invalid(
+                "initial compliance and payload mass must be finite".into(),
+            ));
+        }
+        self.masses
+            .iter()
+            .map(|m| {
+                let frame = model.frame_index(&m.frame).ok_or_else(|| {
+                    invalid(format!(
+                        "link `{}`: robot `{}` has no frame `{}` (frames: {})",
+                        m.name,
+                        model.name(),
+                        m.frame,
+                        model.frame_names().join(", ")
+                    ))
+                })?;
+                if !(m.mass.is_finite() && m.mass >= 0.0 && m.center.iter().all(|c| c.is_finite()))
+                {
+                    return Err(invalid(format!(
+                        "link `{}`: mass must be finite and >= 0 and the centre finite",
+                        m.name
+                    )));
+                }
+                Ok(PointLoad {
+                    frame,
+                    point: m.center,
+                    force: self.gravity * m.mass,
+                })
+            })
+            .collect()
+    }
+}
+
+/// The gravity terms of every pose of a measurement set, evaluated once on
+/// the nominal geometry: `tau = tau_links + m a + B (m c)` per pose.
+#[derive(Debug, Clone)]
+pub(crate) struct GravityTerms {
+    n_actuated: usize,
+    /// Per pose: `tau_links` (n), `a` (n), `B` row-major (n x 3).
+    terms: Vec<f64>,
+}
+
+impl GravityTerms {
+    pub(crate) fn new(
+        model: &Model,
+        set: &MeasurementSet,
+        gravity: &GravityCompliance,
+    ) -> Result<Self, CalibError> {
+        let loads = gravity.check(model)?;
+        let na = model.n_actuated();
+        let stride = 5 * na;
+        let mut terms = vec![0.0; set.len() * stride];
+        let mut data = Data::new(model);
+        let mut jac = Matrix6xX::zeros(na);
+        let xi = model.nominal_params();
+        let g = gravity.gravity;
+        for (k, m) in set.measurements().iter().enumerate() {
+            let kinematics_error = |source| CalibError::Kinematics {
+                pose: k,
+                pose_id: m.label(k),
+                source,
+            };
+            let block = &mut terms[k * stride..(k + 1) * stride];
+            actuated_forces_into(model, &mut data, &m.q, xi, &loads, &mut block[..na])
+                .map_err(kinematics_error)?;
+            let x_base_tcp = joint_jacobian_into(model, &mut data, &m.q, xi, &mut jac)
+                .map_err(kinematics_error)?;
+            let r = x_base_tcp.rotation.to_rotation_matrix().into_inner();
+            for i in 0..na {
+                let v = Vector3::new(jac[(0, i)], jac[(1, i)], jac[(2, i)]);
+                let w = Vector3::new(jac[(3, i)], jac[(4, i)], jac[(5, i)]);
+                // Weight m g at the TCP: work rate v . (m g).
+                block[na + i] = v.dot(&g);
+                // First moment: the force m g at p_tcp + R c adds the moment
+                // (R (m c)) x g about the TCP, whose work rate is w . moment.
+                for l in 0..3 {
+                    block[2 * na + 3 * i + l] = w.dot(&r.column(l).cross(&g));
+                }
+            }
+        }
+        Ok(Self {
+            n_actuated: na,
+            terms,
+        })
+    }
+
+    /// Generalised gravity forces of pose `k` for payload `[m, mc_x, mc_y,
+    /// mc_z]`, into `tau` (n_actuated).
+    pub(crate) fn forces(&self, k: usize, payload: &[f64], tau: &mut [f64]) {
+        let na = self.n_actuated;
+        let block = &self.terms[k * 5 * na..(k + 1) * 5 * na];
+        for i in 0..na {
+            let b = &block[2 * na + 3 * i..2 * na + 3 * i + 3];
+            tau[i] = block[i]
+                + payload[0] * block[na + i]
+                + payload[1] * b[0]
+                + payload[2] * b[1]
+                + payload[3] * b[2];
+        }
+    }
+
+    /// `d tau_i / d payload`: `[a_i, B_i0, B_i1, B_i2]` of pose `k`.
+    pub(crate) fn payload_derivatives(&self, k: usize, i: usize) -> [f64; 4] {
+        let na = self.n_actuated;
+        let block = &self.terms[k * 5 * na..(k + 1) * 5 * na];
+        let b = &block[2 * na + 3 * i..2 * na + 3 * i + 3];
+        [block[na + i], b[0], b[1], b[2]]
+    }
+}
+
+/// The mass-table file (TOML; kg, mm, m/s^2, urad/N.m):
+///
+/// ```toml
+/// gravity_m_s2 = [0.0, 0.0, -9.80665]   # in the robot base frame R0 (optional)
+/// payload_mass_kg = 1.0                 # starting value
+/// payload_center_mm = [0.0, 0.0, 100.0] # starting value, TCP frame
+/// initial_compliance_urad_per_nm = 1.0  # starting value, every joint (um/N for linear joints)
+///
+/// [[mass]]
+/// name = "upper arm"
+/// frame = "2"                           # a frame of the robot description
+/// mass_kg = 12.93
+/// center_mm = [-306.0, 0.0, 0.0]        # centre of mass in that frame
+/// ```
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MassTableFile {
+    #[serde(default = "default_gravity")]
+    gravity_m_s2: [f64; 3],
+    payload_mass_kg: f64,
+    payload_center_mm: [f64; 3],
+    initial_compliance_urad_per_nm: f64,
+    #[serde(default)]
+    mass: Vec<MassFile>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MassFile {
+    name: String,
+    frame: String,
+    mass_kg: f64,
+    center_mm: [f64; 3],
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -STANDARD_GRAVITY]
+}
+
+impl GravityCompliance {
+    /// The built-in mass table of a robot: `ur10` only
+    /// ([`GravityCompliance::ur10_urdf`]).
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for a robot without one (give a mass
+    /// table file instead).
+    pub fn builtin(model: &Model) -> Result<Self, CalibError> {
+        match model.name() {
+            "ur10" => Self::ur10_urdf(model),
+            other => Err(CalibError::InvalidOption {
+                name: "gravity",
+                reason: format!(
+                    "robot `{other}` has no built-in mass table: give one in a file (see the README, mass table format)"
+                ),
+            }),
+        }
+    }
+
+    /// Parses a mass table (format in the README and on this type's source:
+    /// kg, mm, urad/N.m); `source_name` names it in errors.
+    ///
+    /// # Errors
+    /// [`CalibError::BadMassTable`] with the line of a TOML error, a
+    /// negative mass or a non-finite value.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self, CalibError> {
+        let bad = |line: usize, what: String| CalibError::BadMassTable {
+            source_name: source_name.to_string(),
+            line,
+            what,
+        };
+        let file: MassTableFile = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+                .unwrap_or(0);
+            bad(line, e.message().to_string())
+        })?;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !finite(&file.gravity_m_s2)
+            || !finite(&file.payload_center_mm)
+            || !file.payload_mass_kg.is_finite()
+            || !file.initial_compliance_urad_per_nm.is_finite()
+        {
+            return Err(bad(
+                0,
+                "gravity, payload and initial compliance must be finite".into(),
+            ));
+        }
+        let masses = file
+            .mass
+            .iter()
+            .map(|m| {
+                if !(m.mass_kg.is_finite() && m.mass_kg >= 0.0 && finite(&m.center_mm)) {
+                    return Err(bad(
+                        0,
+                        format!(
+                            "mass `{}`: mass_kg must be finite and >= 0, center_mm finite",
+                            m.name
+                        ),
+                    ));
+                }
+                Ok(PointMass {
+                    name: m.name.clone(),
+                    frame: m.frame.clone(),
+                    mass: m.mass_kg,
+                    center: Vector3::from(m.center_mm) * 1e-3,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            gravity: Vector3::from(file.gravity_m_s2),
+            masses,
+            payload_mass: file.payload_mass_kg,
+            payload_center: Vector3::from(file.payload_center_mm) * 1e-3,
+            initial_compliance: file.initial_compliance_urad_per_nm * 1e-6,
+        })
+    }
+
+    /// Reads a mass table file.
+    ///
+    /// # Errors
+    /// As [`GravityCompliance::from_toml_str`], and the file's I/O error.
+    pub fn from_toml_file(path: &Path) -> Result<Self, CalibError> {
+        let text = flexcal_io::read_to_string(path)?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// The mass table as TOML (the format of [`GravityCompliance::from_toml_str`]).
+    ///
+    /// # Errors
+    /// [`CalibError::Serialise`].
+    pub fn to_toml_string(&self) -> Result<String, CalibError> {
+        let file = MassTableFile {
+            gravity_m_s2: self.gravity.into(),
+            payload_mass_kg: self.payload_mass,
+            payload_center_mm: (self.payload_center * 1e3).into(),
+            initial_compliance_urad_per_nm: self.initial_compliance * 1e6,
+            mass: self
+                .masses
+                .iter()
+                .map(|m| MassFile {
+                    name: m.name.clone(),
+                    frame: m.frame.clone(),
+                    mass_kg: m.mass,
+                    center_mm: (m.center * 1e3).into(),
+                })
+                .collect(),
+        };
+        toml::to_string(&file).map_err(|e| CalibError::Serialise {
+            what: "mass table",
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Unit of the compliance of an actuated coordinate, for reports.
+pub fn compliance_unit(kind: ActuatedKind) -> &'static str {
+    match kind {
+        ActuatedKind::Revolute => "rad/N.m",
+        ActuatedKind::Prismatic | ActuatedKind::Screw => "m/N",
+    }
+}
