@@ -142,13 +142,9 @@ pub struct ValidationJson {
     pub before: StatisticsJson,
     /// What was re-fitted on the validation data.
     pub note: String,
-    /// Errors after calibration on the validation poses within the
-    /// identification poses' joint ranges.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub within_training_ranges: Option<StatisticsJson>,
-    /// Errors after calibration on the other validation poses (extrapolations).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub outside_training_ranges: Option<StatisticsJson>,
+    /// Actuated coordinates that leave the identification poses' range on
+    /// some validation poses, with the fraction of those poses (0-1).
+    pub extrapolated_coordinates: Vec<(String, f64)>,
 }
 
 /// The whole report.
@@ -251,8 +247,7 @@ impl CalibrationReportJson {
                 orientation_max_deg: a.orientation_max_deg,
                 before: StatisticsJson::from(&v.before),
                 note: v.frame_note.clone(),
-                within_training_ranges: v.inside_outside.0.as_ref().map(StatisticsJson::from),
-                outside_training_ranges: v.inside_outside.1.as_ref().map(StatisticsJson::from),
+                extrapolated_coordinates: v.extrapolated_coordinates.clone(),
             }
         });
         Self {

@@ -196,10 +196,6 @@ pub struct ValidationReport {
     pub after_per_pose: Vec<PoseError>,
     /// How the measurement frame was obtained, in words.
     pub frame_note: String,
-    /// Errors after calibration on the validation poses whose actuated
-    /// coordinates all lie within the identification poses' ranges, and on
-    /// the others (extrapolations): `(inside, outside)`, `None` when empty.
-    pub inside_outside: (Option<ErrorStatistics>, Option<ErrorStatistics>),
     /// Per actuated coordinate outside the identification range on some
     /// validation poses: `(name, fraction of the validation poses outside)`.
     pub extrapolated_coordinates: Vec<(String, f64)>,
@@ -281,27 +277,10 @@ impl Calibration {
             policy,
             self.use_orientation,
         )?;
-        // Extrapolation: which validation poses leave the identification's
-        // joint ranges, and how the errors differ there.
+        // Extrapolation: which coordinates of the validation poses leave the
+        // identification poses' ranges (a joint whose motion does not change
+        // the errors, like a vertical first axis, may do so harmlessly).
         let margin = 1e-9;
-        let outside: Vec<bool> = set
-            .measurements()
-            .iter()
-            .map(|m| {
-                m.q.iter()
-                    .zip(&self.actuated_ranges)
-                    .any(|(q, (lo, hi))| *q < lo - margin || *q > hi + margin)
-            })
-            .collect();
-        let split = |want: bool| {
-            let errors: Vec<PoseError> = after_per_pose
-                .iter()
-                .zip(&outside)
-                .filter(|(_, o)| **o == want)
-                .map(|(e, _)| *e)
-                .collect();
-            (!errors.is_empty()).then(|| error_statistics(&errors))
-        };
         let n = set.len().max(1) as f64;
         let extrapolated_coordinates = model
             .actuated_names()
@@ -320,7 +299,6 @@ impl Calibration {
         Ok(ValidationReport {
             before,
             after: error_statistics(&after_per_pose),
-            inside_outside: (split(false), split(true)),
             after_per_pose,
             frame_note,
             extrapolated_coordinates,

@@ -97,6 +97,13 @@ pub struct CalibrateArgs {
     /// On validation, re-fit the target offset too (not only the measurement frame).
     #[arg(long)]
     pub refit_target: bool,
+    /// Noise-aware rank: a length unknown whose standard error would exceed
+    /// this is kept at nominal (mm; default 5).
+    #[arg(long)]
+    pub max_se_length_mm: Option<f64>,
+    /// Same for angles (deg; default 0.25).
+    #[arg(long)]
+    pub max_se_angle_deg: Option<f64>,
     /// Fail instead of freezing non-identifiable parameters.
     #[arg(long)]
     pub strict: bool,
@@ -172,6 +179,12 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         options.target = FrameTreatment::Fixed;
     }
     options.require_full_rank = args.strict;
+    if let Some(v) = args.max_se_length_mm {
+        options.max_standard_error_length = v * 1e-3;
+    }
+    if let Some(v) = args.max_se_angle_deg {
+        options.max_standard_error_angle = v.to_radians();
+    }
     if args.model == ModelKind::ElastoGeometric {
         options.gravity = Some(match &args.masses {
             Some(path) => GravityCompliance::from_toml_file(path)?,
@@ -399,10 +412,6 @@ fn print_before_after(c: &Calibration, validation: Option<&ValidationReport>) {
     if let Some(v) = validation {
         row("validation before", &v.before);
         row("validation after", &v.after);
-        if let (Some(inside), Some(outside)) = &v.inside_outside {
-            row("  within training ranges", inside);
-            row("  outside (extrapolated)", outside);
-        }
         println!("validation: {}", v.frame_note);
         if !v.extrapolated_coordinates.is_empty() {
             let list: Vec<String> = v
