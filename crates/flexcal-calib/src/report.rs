@@ -65,25 +65,12 @@ pub struct ParameterJson {
 /// The `identification` object.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct IdentificationJson {
-    /// Mean position error on the identification set after (mm).
-    pub position_mean_mm: f64,
-    /// RMS position error after (mm).
-    pub position_rms_mm: f64,
-    /// Maximum position error after (mm).
-    pub position_max_mm: f64,
-    /// Mean orientation error after (deg), when measured.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_mean_deg: Option<f64>,
-    /// RMS orientation error after (deg), when measured.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_rms_deg: Option<f64>,
-    /// Maximum orientation error after (deg), when measured.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_max_deg: Option<f64>,
+    /// Errors on the identification set after identification (its fields
+    /// `n_poses`, `position_mean_mm`, ... sit directly in this object).
+    #[serde(flatten)]
+    pub after: StatisticsJson,
     /// Same figures with the nominal robot (frames registered).
     pub before: StatisticsJson,
-    /// Number of poses.
-    pub n_poses: usize,
     /// Identified unknowns.
     pub rank: usize,
     /// Unknowns in the model (robot + 6 frame + 6 target).
@@ -123,21 +110,10 @@ pub struct IdentificationJson {
 /// The `validation` object.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct ValidationJson {
-    /// Mean position error after calibration (mm).
-    pub position_mean_mm: f64,
-    /// RMS position error after (mm).
-    pub position_rms_mm: f64,
-    /// Maximum position error after (mm).
-    pub position_max_mm: f64,
-    /// Mean orientation error after (deg), when measured.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_mean_deg: Option<f64>,
-    /// RMS orientation error after (deg), when measured.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_rms_deg: Option<f64>,
-    /// Maximum orientation error after (deg), when measured.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_max_deg: Option<f64>,
+    /// Errors on the validation set after calibration (its fields sit
+    /// directly in this object).
+    #[serde(flatten)]
+    pub after: StatisticsJson,
     /// With the nominal robot.
     pub before: StatisticsJson,
     /// What was re-fitted on the validation data.
@@ -195,14 +171,8 @@ impl CalibrationReportJson {
             })
             .collect();
         let identification = IdentificationJson {
-            position_mean_mm: after.position_mean_mm,
-            position_rms_mm: after.position_rms_mm,
-            position_max_mm: after.position_max_mm,
-            orientation_mean_deg: after.orientation_mean_deg,
-            orientation_rms_deg: after.orientation_rms_deg,
-            orientation_max_deg: after.orientation_max_deg,
+            after,
             before: StatisticsJson::from(&calibration.training_before),
-            n_poses: calibration.n_poses,
             rank: calibration.rank(),
             n_unknowns: calibration.unknowns.len(),
             n_free: calibration.identifiability.names.len(),
@@ -236,19 +206,11 @@ impl CalibrationReportJson {
                 .collect(),
             parameters,
         };
-        let validation = validation.map(|v| {
-            let a = StatisticsJson::from(&v.after);
-            ValidationJson {
-                position_mean_mm: a.position_mean_mm,
-                position_rms_mm: a.position_rms_mm,
-                position_max_mm: a.position_max_mm,
-                orientation_mean_deg: a.orientation_mean_deg,
-                orientation_rms_deg: a.orientation_rms_deg,
-                orientation_max_deg: a.orientation_max_deg,
-                before: StatisticsJson::from(&v.before),
-                note: v.frame_note.clone(),
-                extrapolated_coordinates: v.extrapolated_coordinates.clone(),
-            }
+        let validation = validation.map(|v| ValidationJson {
+            after: StatisticsJson::from(&v.after),
+            before: StatisticsJson::from(&v.before),
+            note: v.frame_note.clone(),
+            extrapolated_coordinates: v.extrapolated_coordinates.clone(),
         });
         Self {
             robot: robot.to_string(),

@@ -1,16 +1,18 @@
 //! The stacked error model: exact Jacobian against central differences,
 //! identification of a simulated serial robot with free frames, masks.
 
-use faer::Mat;
 use flexcal_calib::{
     CalibError, CalibrationOptions, FrameTreatment, GeometricErrorModel, Measurement,
     MeasurementSet, UnknownStatus, calibrate, rotation_from_vector, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, RobotDescription, forward_pose};
-use flexcal_optim::{Jacobian, Residuals};
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+mod common;
+
+use faer::Mat;
 
 fn random_q(rng: &mut ChaCha8Rng, n: usize) -> Vec<f64> {
     (0..n).map(|_| rng.random_range(-2.0..2.0)).collect()
@@ -97,33 +99,13 @@ fn jacobian_matches_central_differences() {
         };
         let problem = GeometricErrorModel::new(&model, &set, true, frame, target).unwrap();
         let mut x = problem.initial_unknowns();
-        let n = x.len();
         // Away from zero so the frame Jacobians' exp-map terms are exercised.
         for v in x[model.n_params()..].iter_mut() {
             *v = rng.random_range(-0.05..0.05);
         }
-        let m = problem.n_residuals();
-        let mut jac = Mat::<f64>::zeros(m, n);
-        problem.jacobian(&x, jac.as_mut()).unwrap();
-        let h = 1e-6;
-        let (mut plus, mut minus) = (vec![0.0; m], vec![0.0; m]);
-        for j in 0..n {
-            let mut xp = x.clone();
-            xp[j] += h;
-            let mut xm = x.clone();
-            xm[j] -= h;
-            problem.residuals(&xp, &mut plus).unwrap();
-            problem.residuals(&xm, &mut minus).unwrap();
-            for i in 0..m {
-                let fd = (plus[i] - minus[i]) / (2.0 * h);
-                assert!(
-                    (fd - jac[(i, j)]).abs() < 1e-6 * (1.0 + fd.abs()),
-                    "{robot}: row {i}, unknown {}: analytic {} vs central difference {fd}",
-                    problem.names()[j],
-                    jac[(i, j)]
-                );
-            }
-        }
+        common::assert_jacobian_matches(robot, &problem, &x, &|_| 1e-6, &|_, fd| {
+            1e-6 * (1.0 + fd.abs())
+        });
     }
 }
 

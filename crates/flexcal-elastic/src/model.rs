@@ -144,25 +144,33 @@ impl ElasticModel {
                 })
         };
         let mut element_names: Vec<&str> = Vec::new();
+        // An element's name must be new and its two end nodes known and distinct.
+        let element_ends = |names: &[&str],
+                            owner: &str,
+                            kind: &str,
+                            (name, i, j): (&str, &str, &str)|
+         -> Result<(NodeId, NodeId)> {
+            if names.contains(&name) {
+                return Err(ElasticError::DuplicateName {
+                    kind: "element",
+                    name: name.to_string(),
+                });
+            }
+            let (ni, nj) = (node_of(owner, "i", i)?, node_of(owner, "j", j)?);
+            if ni == nj {
+                return Err(ElasticError::invalid(
+                    owner,
+                    "j",
+                    format!("a {kind} needs two different nodes, got '{i}' twice"),
+                ));
+            }
+            Ok((ni, nj))
+        };
         let mut beams = Vec::new();
         let mut beam_axes = Vec::new();
         for b in &d.beams {
             let owner = format!("beam '{}'", b.name);
-            if element_names.contains(&b.name.as_str()) {
-                return Err(ElasticError::DuplicateName {
-                    kind: "element",
-                    name: b.name.clone(),
-                });
-            }
-            let i = node_of(&owner, "i", &b.i)?;
-            let j = node_of(&owner, "j", &b.j)?;
-            if i == j {
-                return Err(ElasticError::invalid(
-                    &owner,
-                    "j",
-                    format!("a beam needs two different nodes, got '{}' twice", b.i),
-                ));
-            }
+            let (i, j) = element_ends(&element_names, &owner, "beam", (&b.name, &b.i, &b.j))?;
             let section = b.section.to_fem();
             section
                 .validate(&owner)
@@ -197,21 +205,7 @@ impl ElasticModel {
         let mut joint_axes = Vec::new();
         for (index, jd) in d.joints.iter().enumerate() {
             let owner = format!("joint '{}'", jd.name);
-            if element_names.contains(&jd.name.as_str()) {
-                return Err(ElasticError::DuplicateName {
-                    kind: "element",
-                    name: jd.name.clone(),
-                });
-            }
-            let i = node_of(&owner, "i", &jd.i)?;
-            let j = node_of(&owner, "j", &jd.j)?;
-            if i == j {
-                return Err(ElasticError::invalid(
-                    &owner,
-                    "j",
-                    format!("a joint needs two different nodes, got '{}' twice", jd.i),
-                ));
-            }
+            let (i, j) = element_ends(&element_names, &owner, "joint", (&jd.name, &jd.i, &jd.j))?;
             for c in JointComponent::ALL {
                 let v = jd.component(c);
                 if !(v.is_finite() && v >= 0.0) {
@@ -272,21 +266,7 @@ impl ElasticModel {
         let mut springs = Vec::new();
         for sd in &d.springs {
             let owner = format!("spring '{}'", sd.name);
-            if element_names.contains(&sd.name.as_str()) {
-                return Err(ElasticError::DuplicateName {
-                    kind: "element",
-                    name: sd.name.clone(),
-                });
-            }
-            let i = node_of(&owner, "i", &sd.i)?;
-            let j = node_of(&owner, "j", &sd.j)?;
-            if i == j {
-                return Err(ElasticError::invalid(
-                    &owner,
-                    "j",
-                    format!("a spring needs two different nodes, got '{}' twice", sd.i),
-                ));
-            }
+            let (i, j) = element_ends(&element_names, &owner, "spring", (&sd.name, &sd.i, &sd.j))?;
             if !(sd.k_n_m.is_finite() && sd.k_n_m >= 0.0) {
                 return Err(ElasticError::invalid(
                     &owner,

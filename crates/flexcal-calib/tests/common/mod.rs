@@ -1,0 +1,41 @@
+//! Shared checks of the integration tests.
+
+use faer::Mat;
+use flexcal_calib::GeometricErrorModel;
+use flexcal_optim::{Jacobian, Residuals};
+
+/// Asserts that the analytic Jacobian of `problem` at `x` matches central
+/// differences with step `step(j)` per unknown: entry by entry within
+/// `tolerance(analytic column, central difference)`. Returns the Jacobian.
+pub fn assert_jacobian_matches(
+    label: &str,
+    problem: &GeometricErrorModel<'_>,
+    x: &[f64],
+    step: &dyn Fn(usize) -> f64,
+    tolerance: &dyn Fn(&[f64], f64) -> f64,
+) -> Mat<f64> {
+    let (m, n) = (problem.n_residuals(), problem.n_unknowns());
+    let mut jac = Mat::<f64>::zeros(m, n);
+    problem.jacobian(x, jac.as_mut()).unwrap();
+    let (mut plus, mut minus) = (vec![0.0; m], vec![0.0; m]);
+    for j in 0..n {
+        let h = step(j);
+        let mut xp = x.to_vec();
+        xp[j] += h;
+        let mut xm = x.to_vec();
+        xm[j] -= h;
+        problem.residuals(&xp, &mut plus).unwrap();
+        problem.residuals(&xm, &mut minus).unwrap();
+        let column: Vec<f64> = (0..m).map(|i| jac[(i, j)]).collect();
+        for i in 0..m {
+            let fd = (plus[i] - minus[i]) / (2.0 * h);
+            assert!(
+                (fd - jac[(i, j)]).abs() < tolerance(&column, fd),
+                "{label}: row {i}, unknown {}: analytic {} vs central difference {fd}",
+                problem.names()[j],
+                jac[(i, j)]
+            );
+        }
+    }
+    jac
+}
