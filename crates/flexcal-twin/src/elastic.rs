@@ -20,10 +20,18 @@
 //! files in flexcal's measurement CSV conventions (see
 //! `flexcal_elastic::campaign`), plus the truth.
 //!
-//! The grid's three lowest points at x = 1.25 m (z <= 1.175 m) lie in the
-//! corner where the IR-663's four-bar reaches its toggle (see
-//! flexcal-kinematics); they are moved along +x to the first reachable
-//! point at least 0.1 m away from the toggle (reported in the truth file).
+//! The grid's three lowest points at x = 1.25 m (z = 0.85, 1.0125,
+//! 1.175 m) cannot be reached with the tool pointing straight down by any
+//! IR-663 built from Table 2: the wrist centre would lie 1.267, 1.304 and
+//! 1.359 m from the shoulder axis, and the four-bar cannot fold the elbow
+//! below 32.0 deg (the crank d9 and the coupler d11 in line, joint 9 at
+//! -180 deg: joints 2 and 10 are then d11 - d9 = 739 mm apart), which keeps
+//! the wrist centre at least 1.388 m away (see the `ir663` robot of
+//! flexcal-kinematics). The paper states only the TCP positions of (65),
+//! so these three points keep their positions and the tool is tilted back
+//! towards the base (about y) by the smallest multiple of 5 deg that keeps
+//! joint 9 at least 10 deg from that dead centre, as the nearest tool-down
+//! grid points are (45, 35 and 20 deg; reported per pose in the truth file).
 
 use std::path::{Path, PathBuf};
 
@@ -34,7 +42,7 @@ use flexcal_elastic::description::{
 use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, Model, RobotDescription, actuated_from_joint_angles,
-    forward_pose, inverse_pose, joint_angles_from_actuated,
+    forward_frames, forward_pose, inverse_pose, joint_angles_from_actuated,
 };
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use rand::SeedableRng;
@@ -240,7 +248,7 @@ pub struct GridPose {
     pub target_x_m: f64,
     /// Grid target z (m).
     pub target_z_m: f64,
-    /// Reached x (m) (differs from the target in the toggle corner).
+    /// Reached x (m) (the target's, to the inverse model's tolerance).
     pub x_m: f64,
     /// Reached z (m).
     pub z_m: f64,
@@ -250,21 +258,35 @@ pub struct GridPose {
     pub theta2_rad: f64,
     /// Joint angle theta8 (rad).
     pub theta8_rad: f64,
+    /// Tilt of the tool axis from straight down, towards the base about the
+    /// y axis (rad): 0 except in the corner the four-bar cannot reach with
+    /// the tool down.
+    pub tool_tilt_rad: f64,
 }
 
-/// The 63 configurations of the 7 x 9 grid (65) in the plane y = 0 with the
-/// tool pointing down, by the inverse model (each solution seeds the next).
+/// Smallest angle (rad) between joint 9 and its dead centre (+-180 deg, the
+/// crank and the coupler in line) kept in the grid (65): the nearest
+/// tool-down grid points keep about 11 deg.
+const CRANK_DEAD_CENTRE_MARGIN: f64 = 10.0 * std::f64::consts::PI / 180.0;
+/// Step and largest value of the tool tilt tried in the grid (65) (rad).
+const TILT_STEP: f64 = 5.0 * std::f64::consts::PI / 180.0;
+const TILT_MAX: f64 = 60.0 * std::f64::consts::PI / 180.0;
+
+/// The 63 configurations of the 7 x 9 grid (65) in the plane y = 0, the tool
+/// pointing down (tilted back towards the base in the corner the four-bar
+/// cannot reach with the tool down, see the module documentation), by the
+/// inverse model (each solution seeds the next).
 ///
 /// # Errors
-/// A grid point that cannot be reached even after the corner shift.
+/// A grid point that cannot be reached even with the largest tilt.
 pub fn grid_configurations(robot: &Model) -> Result<Vec<GridPose>, ElasticTwinError> {
     let xi = robot.nominal_params().to_vec();
     let mut data = Data::new(robot);
-    let down = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
     let options = InverseOptions {
         target: InverseTarget::PositionAndToolAxis,
         ..InverseOptions::default()
     };
+    let joint9 = robot.passive_names().iter().position(|n| n == "9");
     let start = actuated_from_joint_angles(robot, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
     let xs: Vec<f64> = (0..7).map(|i| 1.25 + i as f64 / 6.0).collect();
     let zs: Vec<f64> = (0..9).map(|i| 0.85 + 1.3 * i as f64 / 8.0).collect();
@@ -279,32 +301,58 @@ pub fn grid_configurations(robot: &Model) -> Result<Vec<GridPose>, ElasticTwinEr
         };
         for iz in order {
             let z = zs[iz];
-            let mut reach_x = x;
-            // The toggle corner of the four-bar (x <= 1.35, z <= 1.24 m).
-            if x <= 1.35 && z <= 1.24 {
-                reach_x = 1.45;
-            }
-            let target = Isometry3::from_parts(Vector3::new(reach_x, 0.0, z).into(), down);
-            let s = inverse_pose(robot, &mut data, &target, &seed, &xi, &options).map_err(|e| {
-                ElasticTwinError::Unreachable {
-                    x_m: x,
-                    z_m: z,
-                    message: e.to_string(),
+            let mut tilt = 0.0;
+            let (solution, tilt) = loop {
+                // Tool axis (-sin t, 0, -cos t): down, leaning towards the base.
+                let rotation = UnitQuaternion::from_axis_angle(
+                    &Vector3::y_axis(),
+                    std::f64::consts::PI + tilt,
+                );
+                let target = Isometry3::from_parts(Vector3::new(x, 0.0, z).into(), rotation);
+                let attempt = inverse_pose(robot, &mut data, &target, &seed, &xi, &options);
+                let clear = |q: &[f64], data: &mut Data| -> Result<bool, ElasticTwinError> {
+                    let Some(k) = joint9 else {
+                        return Ok(true);
+                    };
+                    forward_frames(robot, data, q, &xi)?;
+                    let theta9 = data.passive_values()[k];
+                    let from_dead_centre =
+                        std::f64::consts::PI - theta9.sin().atan2(theta9.cos()).abs();
+                    Ok(from_dead_centre >= CRANK_DEAD_CENTRE_MARGIN)
+                };
+                match attempt {
+                    Ok(s) if clear(&s.q, &mut data)? => break (s, tilt),
+                    Err(e) if tilt + TILT_STEP > TILT_MAX + 1e-9 => {
+                        return Err(ElasticTwinError::Unreachable {
+                            x_m: x,
+                            z_m: z,
+                            message: e.to_string(),
+                        });
+                    }
+                    _ if tilt + TILT_STEP > TILT_MAX + 1e-9 => {
+                        return Err(ElasticTwinError::Unreachable {
+                            x_m: x,
+                            z_m: z,
+                            message: "joint 9 stays near its dead centre at every tilt".into(),
+                        });
+                    }
+                    _ => tilt += TILT_STEP,
                 }
-            })?;
-            let reached = forward_pose(robot, &mut data, &s.q, &xi)?;
-            let joints = joint_angles_from_actuated(robot, &s.q)?;
+            };
+            let reached = forward_pose(robot, &mut data, &solution.q, &xi)?;
+            let joints = joint_angles_from_actuated(robot, &solution.q)?;
             poses.push(GridPose {
                 pose_id: (ix * 9 + iz) as u64,
                 target_x_m: x,
                 target_z_m: z,
                 x_m: reached.translation.vector.x,
                 z_m: reached.translation.vector.z,
-                q: s.q.clone(),
+                q: solution.q.clone(),
                 theta2_rad: joints[1],
                 theta8_rad: joints[2],
+                tool_tilt_rad: tilt,
             });
-            seed = s.q;
+            seed = solution.q;
         }
     }
     poses.sort_by_key(|p| p.pose_id);
