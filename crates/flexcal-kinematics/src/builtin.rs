@@ -145,12 +145,14 @@ pub(crate) const IR663_CRANK_8: SliderCrankDescription = SliderCrankDescription 
 /// above the TCP, so the TCP needs z >= 1.245 m at x = 1.25 m (z >= 0.965 m
 /// at x = 1.35 m, y = 0). This follows from Table 2's lengths alone: no
 /// slider-crank geometry, joint limit or assembly branch changes it. Box
-/// (59) (tool down) is reached with theta2 in about [-60, -1] deg; the plane
-/// y = 0 of box (65) with theta2 in about [-60, 14] deg and theta8 in about
-/// [-2, 53] deg (screws 690-1095 mm and 690-960 mm), except its three grid
-/// points at x = 1.25 m, z <= 1.175 m, where the wrist centre would be
-/// 1.267-1.359 m from the shoulder: there the tool must lean back towards
-/// the base (by 20-45 deg to keep joint 9 about 10 deg off its dead centre).
+/// (59) (tool down) is reached with theta2 in about [-47, -1] deg and theta8
+/// in about [13, 27] deg; the plane y = 0 of box (65) with theta2 in about
+/// [-60, 14] deg and theta8 in about [-2, 46] deg (screws 690-1095 mm and
+/// 690-930 mm, within their limits), except its three grid points at
+/// x = 1.25 m, z <= 1.175 m, where the wrist centre would be 1.267-1.359 m
+/// from the shoulder: there the tool must lean back towards the base (by
+/// 20-45 deg to keep joint 9 about 10 deg off its dead centre) or the point
+/// move out along x (to x = 1.32-1.41 m).
 /// The assembly branch is the paper's: its combination
 /// `dd10_id = dd10 - 0.82 dd9`, `dd11_id = dd11 - 0.39 dd9` (C.1) is a null
 /// direction of this branch (about 0.02 mm of TCP motion per mm in box (59),
