@@ -94,14 +94,15 @@ const RAD_PER_M_IN_DEG_PER_MM: f64 = 1e-3 * 180.0 / std::f64::consts::PI;
 /// closes the gap. The printed errors of frames 4 to E alone (mostly the
 /// offsets d4, d6, d7 and rE, pure translations, mm for mm) move the TCP by
 /// 1.3 mm mean: d7 (along x6) and rE (along z7, perpendicular to x6) alone
-/// make 1.01 mm in every pose. The four-bar lengths d3, d10, d11 (0.94, 1.22, 1.25 mm each, 0.9 mm
-/// together) add to them. The printed angles, even all about one axis, sum
-/// to 0.156 deg (theta5 twice, as theta6 = -theta5), and the four-bar's rotation adds about 0.03 deg: a mean of
-/// 0.14 deg would need them nearly aligned in every pose. The paper's
-/// before figures therefore do not follow from its printed errors through
-/// Table 1 alone (a measurement frame registered on the nominal model, for
-/// example, would take up most of the difference: a rigid fit on the
-/// validation poses leaves 0.4 mm).
+/// make 1.01 mm in every pose. The four-bar lengths d3, d10, d11 (0.94,
+/// 1.22, 1.25 mm each, 0.9 mm together) add to them. The printed angles,
+/// even all about one axis, sum to 0.156 deg (theta5 twice, as
+/// theta6 = -theta5), and the four-bar's rotation adds about 0.03 deg: a
+/// mean of 0.14 deg would need them nearly aligned in every pose. The
+/// paper's before figures therefore do not follow from its printed errors
+/// through Table 1 alone (a measurement frame registered on the nominal
+/// model, for example, would take up most of the difference: a rigid fit on
+/// the validation poses leaves 0.4 mm).
 pub const IR663_TRUE_ERRORS: [(&str, f64); 43] = [
     ("alpha1", -0.0045),
     ("d1", -0.1117),
