@@ -27,20 +27,22 @@
 //! below 32.0 deg (the crank d9 and the coupler d11 in line, joint 9 at
 //! -180 deg: joints 2 and 10 are then d11 - d9 = 739 mm apart), which keeps
 //! the wrist centre at least 1.388 m away (see the `ir663` robot of
-//! flexcal-kinematics). [`GridCorner`](crate::elastic::GridCorner) says what the twin does there; every
-//! other point keeps joint 9 at least 10 deg off that dead centre, as these
-//! three are then kept:
-//! - [`GridCorner::ShiftOutward`](crate::elastic::GridCorner::ShiftOutward) (default): the tool stays down and the
-//!   point moves along +x by the smallest multiple of 5 mm (to x = 1.41,
-//!   1.375 and 1.32 m). The fuzzy model's inputs theta2 and theta8 then
-//!   still fix the TCP relative to the wrist, as over the rest of the grid.
-//! - [`GridCorner::TiltTool`](crate::elastic::GridCorner::TiltTool): the point keeps its position (the paper
-//!   gives only positions for (65)) and the tool leans back towards the
-//!   base about y by the smallest multiple of 5 deg (45, 35 and 20 deg).
-//!   The TCP compliance at those three poses is then not the function of
-//!   theta2 and theta8 it is elsewhere (the TCP sits elsewhere relative to
-//!   the wrist): the demo's fuzzy model drops from 4 x 3 to 3 x 2
-//!   membership functions and 0.047 to 0.069 mm RMS (Table 5).
+//! flexcal-kinematics). [`GridCorner`](crate::elastic::GridCorner) says
+//! what the twin does there; every other point keeps joint 9 at least
+//! 10 deg off that dead centre, as these three are then kept:
+//! - [`GridCorner::ShiftOutward`](crate::elastic::GridCorner::ShiftOutward)
+//!   (default): the tool stays down and the point moves along +x by the
+//!   smallest multiple of 5 mm (to x = 1.41, 1.375 and 1.32 m). The fuzzy
+//!   model's inputs theta2 and theta8 then still fix the TCP relative to the
+//!   wrist, as over the rest of the grid.
+//! - [`GridCorner::TiltTool`](crate::elastic::GridCorner::TiltTool): the
+//!   point keeps its position (the paper gives only positions for (65)) and
+//!   the tool leans back towards the base about y by the smallest multiple
+//!   of 5 deg (45, 35 and 20 deg). The TCP compliance at those three poses
+//!   is then not the function of theta2 and theta8 it is elsewhere (the TCP
+//!   sits elsewhere relative to the wrist): the demo's fuzzy model drops
+//!   from 4 x 3 to 3 x 2 membership functions and 0.047 to 0.069 mm RMS
+//!   (Table 5).
 //!
 //! The reached position and the tilt of every pose are in the truth file.
 
