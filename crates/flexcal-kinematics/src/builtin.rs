@@ -132,6 +132,31 @@ pub(crate) const IR663_CRANK_8: SliderCrankDescription = SliderCrankDescription 
 
 /// KUKA IR-663 after the reference paper: Table 1 / Table 2 with the
 /// reading-notes corrections.
+///
+/// Reachable domain. The four-bar (joints 2 = 8, 3, 9, 10) closes only while
+/// joint 10 stays at least d11 - d9 = 739 mm from the common axis of joints
+/// 2 and 8: at that distance the crank (d9) and the coupler (d11) are in line
+/// (joint 9 at -180 deg, the crank's dead centre). Joint 10 lies d10 = 400 mm
+/// from joint 3 on the forearm, towards the wrist (Table 1: gamma10 = 90 deg
+/// and row 4's r = r4 + d10), so the elbow cannot fold below 32.0 deg
+/// between the upper arm (d3 = 1047 mm) and the forearm, and the wrist
+/// centre (r4 + d10 = 2160 mm from joint 3) stays at least 1.388 m from the
+/// shoulder. With the tool pointing down the wrist centre is rE = 244 mm
+/// above the TCP, so the TCP needs z >= 1.245 m at x = 1.25 m (z >= 0.965 m
+/// at x = 1.35 m, y = 0). This follows from Table 2's lengths alone: no
+/// slider-crank geometry, joint limit or assembly branch changes it. Box
+/// (59) (tool down) is reached with theta2 in about [-47, -1] deg and theta8
+/// in about [13, 27] deg; the plane y = 0 of box (65) with theta2 in about
+/// [-60, 14] deg and theta8 in about [-2, 46] deg (screws 690-1095 mm and
+/// 690-930 mm, within their limits), except its three grid points at
+/// x = 1.25 m, z <= 1.175 m, where the wrist centre would be 1.267-1.359 m
+/// from the shoulder: there the tool must lean back towards the base (by
+/// 20-45 deg to keep joint 9 about 10 deg off its dead centre) or the point
+/// move out along x (to x = 1.32-1.41 m).
+/// The assembly branch is the paper's: its combination
+/// `dd10_id = dd10 - 0.82 dd9`, `dd11_id = dd11 - 0.39 dd9` (C.1) is a null
+/// direction of this branch (about 0.02 mm of TCP motion per mm in box (59),
+/// against 4 mm for d9 alone) and not of the other one.
 fn ir663() -> RobotDescription {
     let mut f1 = revolute("1", "0", 0.0, 0.0, 885.0);
     f1.limits_deg = Some([-150.0, 150.0]);

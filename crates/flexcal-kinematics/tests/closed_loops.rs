@@ -156,40 +156,116 @@ fn steps(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Smallest distance (m) from the shoulder (joint 2's axis) to the wrist
+/// centre that the IR-663's four-bar allows, from its nominal lengths: the
+/// triangle of joint 8, joint 9 and joint 10 keeps joints 2 (= 8) and 10 at
+/// least d11 - d9 apart, which bounds the elbow angle between the upper arm
+/// (d3) and the forearm, on which joint 10 lies d10 from joint 3 and the
+/// wrist centre r4 + d10.
+fn ir663_smallest_wrist_distance(model: &flexcal_kinematics::Model) -> f64 {
+    let xi = model.nominal_params();
+    let p = |name: &str| xi[model.param_index(name).unwrap()];
+    let (d3, d9, d10, d11) = (p("d3"), p("d9"), p("d10"), p("d11"));
+    let forearm = p("r4") + d10;
+    let closest = d11 - d9;
+    let cos_elbow = (d3 * d3 + d10 * d10 - closest * closest) / (2.0 * d3 * d10);
+    (d3 * d3 + forearm * forearm - 2.0 * d3 * forearm * cos_elbow).sqrt()
+}
+
+/// Distance (m) from the shoulder to the wrist centre for a TCP at `p` with
+/// the tool pointing straight down.
+fn ir663_wrist_distance_tool_down(
+    model: &flexcal_kinematics::Model,
+    p: &nalgebra::Vector3<f64>,
+) -> f64 {
+    let xi = model.nominal_params();
+    let v = |name: &str| xi[model.param_index(name).unwrap()];
+    p.x.hypot(p.y).hypot(p.z + v("rE") - v("r1"))
+}
+
 #[test]
-fn ir663_reaches_the_papers_workspaces_with_the_tool_down() {
+fn ir663_reaches_box_59_and_box_65_with_the_tool_down_except_the_four_bar_dead_centre() {
     use flexcal_kinematics::{InverseOptions, InverseTarget, inverse_pose};
     use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+    let mut unlimited = RobotDescription::builtin("ir663").unwrap();
+    for f in unlimited.frames.iter_mut() {
+        f.limits_deg = None;
+        f.limits_mm = None;
+    }
+    let unlimited = unlimited.build().unwrap();
     let model = RobotDescription::builtin("ir663").unwrap().build().unwrap();
     let xi = model.nominal_params().to_vec();
     let mut data = Data::new(&model);
+    let (f10, f11) = (
+        model.frame_index("10").unwrap(),
+        model.frame_index("11").unwrap(),
+    );
     let down = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
     let options = InverseOptions {
         target: InverseTarget::PositionAndToolAxis,
         ..InverseOptions::default()
     };
     let start = actuated_from_joint_angles(&model, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0]).unwrap();
-    // Box (59) and the plane y = 0 of box (65), except the corner the
-    // four-bar cannot reach (x <= 1.35 m and z <= 1.24 m: toggle of the coupler).
+    // 1.388 m with Table 2: elbow folded to 32.0 deg, crank and coupler in line.
+    let smallest = ir663_smallest_wrist_distance(&model);
+    assert!((smallest - 1.3883).abs() < 1e-4, "{smallest}");
     let box59 = serpentine(
         &steps(1.4, 2.1, 4),
         &steps(-0.3, 0.3, 4),
         &steps(1.4, 1.7, 3),
     );
-    let box65: Vec<_> = serpentine(&steps(1.25, 2.25, 10), &[0.0], &steps(0.85, 2.15, 10))
-        .into_iter()
-        .filter(|p| !(p.x <= 1.35 + 1e-9 && p.z <= 1.24 + 1e-9))
-        .collect();
-    for (name, points) in [("(59)", box59), ("(65)", box65)] {
+    // The paper's 7 x 9 grid of (65), then a finer one.
+    let grid65 = serpentine(&steps(1.25, 2.25, 6), &[0.0], &steps(0.85, 2.15, 8));
+    let fine65 = serpentine(&steps(1.25, 2.25, 10), &[0.0], &steps(0.85, 2.15, 13));
+    let mut grid65_out_of_reach = Vec::new();
+    for (name, points) in [("(59)", box59), ("(65)", grid65), ("(65) fine", fine65)] {
         let mut seed = start.clone();
         for p in points {
             let target = Isometry3::from_parts(p.into(), down);
+            let reach = ir663_wrist_distance_tool_down(&model, &p);
+            if reach < smallest - 1e-3 {
+                // No configuration exists, limits or not.
+                if name == "(65)" {
+                    grid65_out_of_reach.push(p);
+                }
+                for robot in [&model, &unlimited] {
+                    let mut d = Data::new(robot);
+                    assert!(
+                        inverse_pose(robot, &mut d, &target, &seed, &xi, &options).is_err(),
+                        "box {name}: {p:?} reached although the wrist centre would be \
+                         {reach} m < {smallest} m from the shoulder"
+                    );
+                }
+                continue;
+            }
+            if reach < smallest + 0.02 {
+                // Within 20 mm of the dead centre: no claim either way.
+                continue;
+            }
             let s = inverse_pose(&model, &mut data, &target, &seed, &xi, &options)
                 .unwrap_or_else(|e| panic!("box {name}: {p:?}: {e}"));
+            for (q, (lo, hi)) in s.q.iter().zip(model.actuated_limits()) {
+                assert!(
+                    (*lo..=*hi).contains(q),
+                    "box {name}: {p:?}: {q} out of limits"
+                );
+            }
+            forward_frames(&model, &mut data, &s.q, &xi).unwrap();
+            let residual =
+                (data.frame_origin(f10).unwrap() - data.frame_origin(f11).unwrap()).norm();
+            assert!(
+                residual < 1e-9,
+                "box {name}: {p:?}: loop residual {residual} m"
+            );
             let joints = joint_angles_from_actuated(&model, &s.q).unwrap();
-            assert!((-70f64..30.0).contains(&joints[1].to_degrees()));
+            assert!((-61f64..15.0).contains(&joints[1].to_degrees()));
             seed = s.q;
         }
+    }
+    // Exactly the three lowest points at x = 1.25 m (z 0.85, 1.0125, 1.175).
+    assert_eq!(grid65_out_of_reach.len(), 3, "{grid65_out_of_reach:?}");
+    for p in &grid65_out_of_reach {
+        assert!((p.x - 1.25).abs() < 1e-12 && p.z < 1.2);
     }
 }
 

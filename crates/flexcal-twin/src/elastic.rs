@@ -20,10 +20,31 @@
 //! files in flexcal's measurement CSV conventions (see
 //! `flexcal_elastic::campaign`), plus the truth.
 //!
-//! The grid's three lowest points at x = 1.25 m (z <= 1.175 m) lie in the
-//! corner where the IR-663's four-bar reaches its toggle (see
-//! flexcal-kinematics); they are moved along +x to the first reachable
-//! point at least 0.1 m away from the toggle (reported in the truth file).
+//! The grid's three lowest points at x = 1.25 m (z = 0.85, 1.0125,
+//! 1.175 m) cannot be reached with the tool pointing straight down by any
+//! IR-663 built from Table 2: the wrist centre would lie 1.267, 1.304 and
+//! 1.359 m from the shoulder axis, and the four-bar cannot fold the elbow
+//! below 32.0 deg (the crank d9 and the coupler d11 in line, joint 9 at
+//! -180 deg: joints 2 and 10 are then d11 - d9 = 739 mm apart), which keeps
+//! the wrist centre at least 1.388 m away (see the `ir663` robot of
+//! flexcal-kinematics). [`GridCorner`](crate::elastic::GridCorner) says
+//! what the twin does there; every other point keeps joint 9 at least
+//! 10 deg off that dead centre, as these three are then kept:
+//! - [`GridCorner::ShiftOutward`](crate::elastic::GridCorner::ShiftOutward)
+//!   (default): the tool stays down and the point moves along +x by the
+//!   smallest multiple of 5 mm (to x = 1.41, 1.375 and 1.32 m). The fuzzy
+//!   model's inputs theta2 and theta8 then still fix the TCP relative to the
+//!   wrist, as over the rest of the grid.
+//! - [`GridCorner::TiltTool`](crate::elastic::GridCorner::TiltTool): the
+//!   point keeps its position (the paper gives only positions for (65)) and
+//!   the tool leans back towards the base about y by the smallest multiple
+//!   of 5 deg (45, 35 and 20 deg). The TCP compliance at those three poses
+//!   is then not the function of theta2 and theta8 it is elsewhere (the TCP
+//!   sits elsewhere relative to the wrist): the demo's fuzzy model drops
+//!   from 4 x 3 to 3 x 2 membership functions and 0.047 to 0.069 mm RMS
+//!   (Table 5).
+//!
+//! The reached position and the tilt of every pose are in the truth file.
 
 use std::path::{Path, PathBuf};
 
@@ -34,7 +55,7 @@ use flexcal_elastic::description::{
 use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, Model, RobotDescription, actuated_from_joint_angles,
-    forward_pose, inverse_pose, joint_angles_from_actuated,
+    forward_frames, forward_pose, inverse_pose, joint_angles_from_actuated,
 };
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use rand::SeedableRng;
@@ -98,6 +119,21 @@ pub struct ElasticCampaignOptions {
     pub loads_n: Vec<f64>,
     /// Standard deviation of each measured coordinate (m) (default 21e-6).
     pub position_noise_m: f64,
+    /// What to do with the grid's corner the four-bar cannot reach with the
+    /// tool down (default [`GridCorner::ShiftOutward`]).
+    pub corner: GridCorner,
+}
+
+/// How the grid (65) treats its three points that no Table 2 IR-663 reaches
+/// with the tool pointing down (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum GridCorner {
+    /// Tool down, the point moved along +x by the smallest multiple of 5 mm.
+    #[default]
+    ShiftOutward,
+    /// Position kept, the tool leaning back towards the base by the smallest
+    /// multiple of 5 deg.
+    TiltTool,
 }
 
 impl Default for ElasticCampaignOptions {
@@ -106,6 +142,7 @@ impl Default for ElasticCampaignOptions {
             seed: 1,
             loads_n: vec![300.0, 600.0, 900.0, 1100.0],
             position_noise_m: POSITION_NOISE_M,
+            corner: GridCorner::default(),
         }
     }
 }
@@ -240,7 +277,8 @@ pub struct GridPose {
     pub target_x_m: f64,
     /// Grid target z (m).
     pub target_z_m: f64,
-    /// Reached x (m) (differs from the target in the toggle corner).
+    /// Reached x (m): the target's, or moved along +x in the corner the
+    /// four-bar cannot reach with the tool down ([`GridCorner::ShiftOutward`]).
     pub x_m: f64,
     /// Reached z (m).
     pub z_m: f64,
@@ -250,21 +288,41 @@ pub struct GridPose {
     pub theta2_rad: f64,
     /// Joint angle theta8 (rad).
     pub theta8_rad: f64,
+    /// Tilt of the tool axis from straight down, towards the base about the
+    /// y axis (rad): 0 except in the corner the four-bar cannot reach with
+    /// the tool down ([`GridCorner::TiltTool`]).
+    pub tool_tilt_rad: f64,
 }
 
+/// Smallest angle (rad) between joint 9 and its dead centre (+-180 deg, the
+/// crank and the coupler in line) kept in the grid (65): the nearest
+/// tool-down grid points keep about 11 deg.
+const CRANK_DEAD_CENTRE_MARGIN: f64 = 10.0 * std::f64::consts::PI / 180.0;
+/// Step and largest value of the tool tilt tried in the grid (65) (rad).
+const TILT_STEP: f64 = 5.0 * std::f64::consts::PI / 180.0;
+const TILT_MAX: f64 = 60.0 * std::f64::consts::PI / 180.0;
+/// Step and largest value of the outward shift tried in the grid (65) (m).
+const SHIFT_STEP: f64 = 0.005;
+const SHIFT_MAX: f64 = 0.3;
+
 /// The 63 configurations of the 7 x 9 grid (65) in the plane y = 0 with the
-/// tool pointing down, by the inverse model (each solution seeds the next).
+/// tool pointing down, by the inverse model (each solution seeds the next);
+/// `corner` says what happens where the four-bar cannot reach with the tool
+/// down (see the module documentation).
 ///
 /// # Errors
-/// A grid point that cannot be reached even after the corner shift.
-pub fn grid_configurations(robot: &Model) -> Result<Vec<GridPose>, ElasticTwinError> {
+/// A grid point that cannot be reached even with the largest shift or tilt.
+pub fn grid_configurations(
+    robot: &Model,
+    corner: GridCorner,
+) -> Result<Vec<GridPose>, ElasticTwinError> {
     let xi = robot.nominal_params().to_vec();
     let mut data = Data::new(robot);
-    let down = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
     let options = InverseOptions {
         target: InverseTarget::PositionAndToolAxis,
         ..InverseOptions::default()
     };
+    let joint9 = robot.passive_names().iter().position(|n| n == "9");
     let start = actuated_from_joint_angles(robot, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
     let xs: Vec<f64> = (0..7).map(|i| 1.25 + i as f64 / 6.0).collect();
     let zs: Vec<f64> = (0..9).map(|i| 0.85 + 1.3 * i as f64 / 8.0).collect();
@@ -279,36 +337,77 @@ pub fn grid_configurations(robot: &Model) -> Result<Vec<GridPose>, ElasticTwinEr
         };
         for iz in order {
             let z = zs[iz];
-            let mut reach_x = x;
-            // The toggle corner of the four-bar (x <= 1.35, z <= 1.24 m).
-            if x <= 1.35 && z <= 1.24 {
-                reach_x = 1.45;
-            }
-            let target = Isometry3::from_parts(Vector3::new(reach_x, 0.0, z).into(), down);
-            let s = inverse_pose(robot, &mut data, &target, &seed, &xi, &options).map_err(|e| {
-                ElasticTwinError::Unreachable {
-                    x_m: x,
-                    z_m: z,
-                    message: e.to_string(),
+            let (mut shift, mut tilt) = (0.0, 0.0);
+            let solution = loop {
+                // Tool axis (-sin t, 0, -cos t): down, leaning towards the base.
+                let rotation = UnitQuaternion::from_axis_angle(
+                    &Vector3::y_axis(),
+                    std::f64::consts::PI + tilt,
+                );
+                let target =
+                    Isometry3::from_parts(Vector3::new(x + shift, 0.0, z).into(), rotation);
+                let attempt = inverse_pose(robot, &mut data, &target, &seed, &xi, &options);
+                let reason = match attempt {
+                    Ok(s) => match clear_of_dead_centre(robot, &mut data, &s.q, &xi, joint9)? {
+                        true => break s,
+                        false => "joint 9 stays near its dead centre".to_string(),
+                    },
+                    Err(e) => e.to_string(),
+                };
+                let exhausted = match corner {
+                    GridCorner::ShiftOutward => {
+                        shift += SHIFT_STEP;
+                        shift > SHIFT_MAX + 1e-9
+                    }
+                    GridCorner::TiltTool => {
+                        tilt += TILT_STEP;
+                        tilt > TILT_MAX + 1e-9
+                    }
+                };
+                if exhausted {
+                    return Err(ElasticTwinError::Unreachable {
+                        x_m: x,
+                        z_m: z,
+                        message: reason,
+                    });
                 }
-            })?;
-            let reached = forward_pose(robot, &mut data, &s.q, &xi)?;
-            let joints = joint_angles_from_actuated(robot, &s.q)?;
+            };
+            let reached = forward_pose(robot, &mut data, &solution.q, &xi)?;
+            let joints = joint_angles_from_actuated(robot, &solution.q)?;
             poses.push(GridPose {
                 pose_id: (ix * 9 + iz) as u64,
                 target_x_m: x,
                 target_z_m: z,
                 x_m: reached.translation.vector.x,
                 z_m: reached.translation.vector.z,
-                q: s.q.clone(),
+                q: solution.q.clone(),
                 theta2_rad: joints[1],
                 theta8_rad: joints[2],
+                tool_tilt_rad: tilt,
             });
-            seed = s.q;
+            seed = solution.q;
         }
     }
     poses.sort_by_key(|p| p.pose_id);
     Ok(poses)
+}
+
+/// Whether joint 9 (passive index `joint9`) is at least
+/// [`CRANK_DEAD_CENTRE_MARGIN`] from +-180 deg in configuration `q`.
+fn clear_of_dead_centre(
+    robot: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    joint9: Option<usize>,
+) -> Result<bool, ElasticTwinError> {
+    let Some(k) = joint9 else {
+        return Ok(true);
+    };
+    forward_frames(robot, data, q, xi)?;
+    let theta9 = data.passive_values()[k];
+    let from_dead_centre = std::f64::consts::PI - theta9.sin().atan2(theta9.cos()).abs();
+    Ok(from_dead_centre >= CRANK_DEAD_CENTRE_MARGIN)
 }
 
 /// Noise-free truth of one pose.
@@ -352,6 +451,7 @@ struct TruthFile<'a> {
     kar2_effective_range_nm_rad: [f64; 2],
     kar8_effective_range_nm_rad: [f64; 2],
     files: Vec<&'a str>,
+    grid_corner: GridCorner,
     poses: &'a [PoseTruth],
 }
 
@@ -381,7 +481,7 @@ pub fn simulate_elastic_campaign(
     let truth_model = ElasticModel::new(&robot, &description)?;
     let mut data = ElasticData::new(&truth_model)?;
     let mut kinematics = Data::new(&robot);
-    let poses = grid_configurations(&robot)?;
+    let poses = grid_configurations(&robot, options.corner)?;
     let (l1_2, l3_2, k2, la2) = crank(&robot_description, "2");
     let (l1_8, l3_8, k8, la8) = crank(&robot_description, "8");
     let noise = Normal::new(0.0, options.position_noise_m).map_err(|e| {
@@ -543,6 +643,7 @@ pub fn write_elastic_campaign(
         kar2_effective_range_nm_rad: kar2,
         kar8_effective_range_nm_rad: kar8,
         files: names,
+        grid_corner: options.corner,
         poses: &campaign.truth,
     };
     let json_path = out_dir.join("elastic_truth.json");

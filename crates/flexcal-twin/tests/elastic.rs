@@ -2,8 +2,10 @@
 //! configuration-dependent truth.
 
 use flexcal_elastic::campaign::read_campaign_dir;
+use flexcal_kinematics::RobotDescription;
 use flexcal_twin::elastic::{
-    ElasticCampaignOptions, simulate_elastic_campaign, write_elastic_campaign,
+    ElasticCampaignOptions, GridCorner, grid_configurations, simulate_elastic_campaign,
+    write_elastic_campaign,
 };
 use nalgebra::Vector3;
 
@@ -58,6 +60,45 @@ fn campaign_has_the_papers_shape_and_magnitudes() {
     for t in &campaign.truth {
         assert!((1.25 - 1e-9..=2.25 + 1e-9).contains(&t.pose.x_m));
         assert!((0.85 - 1e-6..=2.15 + 1e-6).contains(&t.pose.z_m));
+    }
+}
+
+#[test]
+fn grid_is_the_seven_by_nine_box_except_the_corner_out_of_reach_with_the_tool_down() {
+    let robot = RobotDescription::builtin("ir663").unwrap().build().unwrap();
+    let limits = robot.actuated_limits();
+    for corner in [GridCorner::ShiftOutward, GridCorner::TiltTool] {
+        let poses = grid_configurations(&robot, corner).unwrap();
+        assert_eq!(poses.len(), 63);
+        for (k, p) in poses.iter().enumerate() {
+            let (ix, iz) = (k / 9, k % 9);
+            assert_eq!(p.pose_id, k as u64);
+            let (x, z) = (1.25 + ix as f64 / 6.0, 0.85 + 1.3 * iz as f64 / 8.0);
+            assert!((p.target_x_m - x).abs() < 1e-12 && (p.target_z_m - z).abs() < 1e-12);
+            for (q, (lo, hi)) in p.q.iter().zip(limits) {
+                assert!(
+                    (*lo..=*hi).contains(q),
+                    "pose {k}: {q} outside [{lo}, {hi}]"
+                );
+            }
+            // Only the three lowest points at x = 1.25 m move or tilt (the
+            // four-bar's dead centre, see the module documentation).
+            let corner_point = ix == 0 && iz <= 2;
+            let shift = p.x_m - x;
+            assert!((p.z_m - z).abs() < 1e-9, "{p:?}");
+            match corner {
+                GridCorner::ShiftOutward => {
+                    assert_eq!(p.tool_tilt_rad, 0.0);
+                    assert_eq!(shift > 1e-9, corner_point, "pose {k}: {p:?}");
+                    assert!((-1e-9..0.2).contains(&shift), "pose {k}: {p:?}");
+                }
+                GridCorner::TiltTool => {
+                    assert!(shift.abs() < 1e-9, "pose {k}: {p:?}");
+                    assert_eq!(p.tool_tilt_rad > 0.0, corner_point, "pose {k}: {p:?}");
+                    assert!(p.tool_tilt_rad <= 45f64.to_radians() + 1e-12);
+                }
+            }
+        }
     }
 }
 

@@ -5,7 +5,7 @@ use flexcal_calib::{
 };
 use flexcal_kinematics::RobotDescription;
 use flexcal_twin::geometric::{
-    GeometricCampaignOptions, geometric_campaign, write_geometric_campaign,
+    GeometricCampaignOptions, IR663_TRUE_ERRORS, geometric_campaign, write_geometric_campaign,
 };
 
 #[test]
@@ -110,5 +110,65 @@ fn campaign_files_load_back_and_are_reproducible() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("truth.json")).unwrap())
             .unwrap();
-    assert!((json["errors_from_nominal"]["rE"].as_f64().unwrap() - 0.7799).abs() < 1e-9);
+    // The file carries the true errors, whose combination rE + r7 is the
+    // value printed in (C.9).
+    let errors = &json["errors_from_nominal"];
+    let re_plus_r7 = errors["rE"].as_f64().unwrap() + errors["r7"].as_f64().unwrap();
+    assert!((re_plus_r7 - 0.7799).abs() < 1e-9, "rE + r7 = {re_plus_r7}");
+}
+
+/// The identified combinations (C.1) of the twin's true errors are the
+/// values printed in (C.2)-(C.11) (mm, deg), and the six non-identifiable
+/// parameters are not zero.
+#[test]
+fn true_errors_reproduce_the_printed_identified_combinations() {
+    let e = |name: &str| {
+        IR663_TRUE_ERRORS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+            .unwrap()
+    };
+    // (C.1) coefficients relate SI values: rad per m is 1e-3 rad per mm.
+    let rad_per_m = 1e-3f64.to_degrees();
+    let (d9, r8p) = (e("d9"), e("r8p"));
+    let combinations = [
+        ("r1", e("r1") - 0.0012 * d9, -0.04512),
+        ("r2p", e("r2p") + 0.003 * d9 - 0.011 * r8p, -0.0453),
+        ("lambda2", e("lambda2") - e("kappa2"), -0.0026),
+        ("l12", e("l12") + 0.0011 * d9 + 0.0066 * r8p, -0.0456),
+        ("d3", e("d3") + 0.0013 * d9, 0.1804),
+        ("r3", e("r3") + e("r2"), -0.0855),
+        // Row 4's r is r4 + d10 in flexcal's description.
+        ("r4", e("r4") + e("d10"), -0.030),
+        ("d5", e("d5") + 0.0053 * d9 + 0.0025 * r8p, 0.0729),
+        ("r5", e("r5") - 0.0036 * d9 - 0.0019 * r8p, -0.0995),
+        ("r6", e("r6") - 0.0038 * d9 - 0.0021 * r8p, -0.1536),
+        ("d7", e("d7") - 0.0057 * d9 - 0.0025 * r8p, -0.6448),
+        ("rE", e("rE") + e("r7"), 0.7799),
+        (
+            "lambda8",
+            e("lambda8") - e("kappa8") + (0.098 * d9 - 0.78 * r8p) * rad_per_m,
+            0.0027,
+        ),
+        ("l18", e("l18") - 0.0014 * r8p, 0.3134),
+        ("l38", e("l38") - 0.0012 * d9 - 0.84 * r8p, -0.080),
+        ("d10", e("d10") - 0.82 * d9, -0.4441),
+        ("d11", e("d11") - 0.39 * d9, 0.2074),
+        ("d4", e("d4"), -0.4196),
+        ("theta4", e("theta4"), 0.0395),
+        ("alpha7", e("alpha7"), 0.0272),
+    ];
+    for (name, combination, printed) in combinations {
+        assert!(
+            (combination - printed).abs() < 1e-12,
+            "{name}: combination {combination} vs printed {printed}"
+        );
+    }
+    for name in ["kappa8", "kappa2", "r8p", "d9", "r2", "r7", "l32"] {
+        assert!(
+            e(name) != 0.0,
+            "{name} must have a plausible non-zero error"
+        );
+    }
 }
