@@ -745,7 +745,7 @@ fn elastic_section(e: &ElasticStep, out: &Path) -> anyhow::Result<Section> {
                 &grid,
                 "mm",
             ),
-            "Norm of the measured TCP deflection over the grid (65) in the plane y = 0 (poses moved out of the four-bar's toggle corner sit at their own x).",
+            "Norm of the measured TCP deflection over the grid (65) in the plane y = 0 (the 3 poses of the corner that the arm cannot reach with the tool down sit at their own, larger x).",
         );
         // Figure 10: model against measurement along the set.
         let samples = flexcal_elastic::identify::residual_samples(

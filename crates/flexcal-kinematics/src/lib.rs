@@ -94,11 +94,14 @@
 //!   apart; the assembly branch is the one with the coupler alongside the
 //!   upper arm (loop `branch = -1`). With the tool pointing down, the box (59)
 //!   (x 1.4-2.1, y -0.3-0.3, z 1.4-1.7 m) is reached with joint 2 in about
-//!   \[-60, -1\] deg and joint 8 in about \[23, 28\] deg, and the plane y = 0
-//!   of box (65) (x 1.25-2.25, z 0.85-2.15 m) with joint 2 in about
-//!   \[-60, 14\] deg, except its corner x <= 1.35 m, z <= 1.24 m, where the
-//!   coupler reaches its toggle (theta10 near -180 deg) (tested in
-//!   `tests/closed_loops.rs`).
+//!   \[-47, -1\] deg, and the plane y = 0 of box (65) (x 1.25-2.25, z
+//!   0.85-2.15 m) with joint 2 in about \[-60, 14\] deg and joint 8 in about
+//!   \[-2, 46\] deg, except below the line joining (x 1.25, z 1.245 m) and
+//!   (x 1.35, z 0.965 m): there the elbow would have to fold below 32 deg,
+//!   which Table 2's lengths forbid (joints 2/8 and 10 are never closer than
+//!   d11 - d9 = 739 mm, crank and coupler then in line, joint 9 at -180 deg),
+//!   so the wrist centre stays at least 1.388 m from the shoulder (tested in
+//!   `tests/closed_loops.rs`; 3 points of the 7 x 9 grid).
 //!
 //! ## Performance
 //! [`Data`] caches the constant part of every frame transform keyed on xi,
