@@ -20,6 +20,16 @@
 //! linearly at the rate of the neglected `dh/dq`; when it stalls, Newton on
 //! the coupled system with the full Jacobian of `S(q)` (elastic and process
 //! terms included, by central differences) takes over.
+//!
+//! # Paths
+//! Along a path the solution moves continuously, so
+//! [`ElastoGeometricModel::compensate_path`] predicts each point from the
+//! last three (quadratic extrapolation along the path length of the
+//! uncompensated command, of the correction and of the deflections) and
+//! corrects the prediction with a stored joint Jacobian, to the same
+//! tolerances. On a finely sampled path a point then costs one geometric and
+//! one elastic evaluation for each of the uncompensated and the compensated
+//! command, instead of an inverse-model solve and three or more of each.
 
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, KinematicsError, Model, inverse_pose, joint_jacobian_into,
