@@ -470,6 +470,22 @@ fn solve_square(jac: &Matrix6xX<f64>, rhs: &Vector6<f64>) -> Option<nalgebra::DV
     }
 }
 
+/// The remaining error of an uncompensated command, for polishing it (see
+/// `PathTracker::push`): the full pose error when the inverse model reaches
+/// the full pose; zero otherwise, since the rotation about the tool axis is
+/// then free and the full error is no error of the solution.
+fn full_pose_error(
+    pose: &Isometry3<f64>,
+    target_base: &Isometry3<f64>,
+    options: &InverseOptions,
+) -> Vector6<f64> {
+    if options.target == InverseTarget::Pose {
+        pose_difference(pose, target_base)
+    } else {
+        Vector6::zeros()
+    }
+}
+
 /// A step whose error shrinks by less than this factor marks the stored
 /// joint Jacobian as too far from the current configuration: it is
 /// recomputed there. A fresh Jacobian contracts by the ratio of the neglected
@@ -709,7 +725,7 @@ impl ElastoGeometricModel<'_> {
             &self.xi,
             &options.inverse,
         )?;
-        let inverse_error = pose_difference(&uncompensated.pose, target_base);
+        let inverse_error = full_pose_error(&uncompensated.pose, target_base, &options.inverse);
         let q0 = uncompensated.q;
         let actual0 =
             self.actual_from_geometric(&q0, uncompensated.pose, motion_base, options, None)?;
@@ -903,7 +919,6 @@ impl ElastoGeometricModel<'_> {
             // Other targets leave freedoms to the inverse model's own solver.
             let solution = inverse_pose(model, data, target_base, &q0, &self.xi, &options.inverse)?;
             q0 = solution.q;
-            inverse_error = pose_difference(&solution.pose, target_base);
             solution.pose
         };
         let guess0 = tracker.extrapolate_vector(&weights, |s| &s.deflection_uncompensated);
@@ -1445,6 +1460,37 @@ mod tests {
             assert_eq!(c.iterations, 0);
             assert_eq!(c.q_commanded, c.q_uncompensated);
             assert!(c.uncompensated_error.norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn tracked_path_with_a_free_tool_rotation_meets_the_tolerances() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: None,
+            cell: Cell {
+                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
+                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
+            },
+        };
+        let mut options = CompensationOptions::default();
+        options.inverse.target = InverseTarget::PositionAndToolAxis;
+        let path = fine_travel(100);
+        let outcomes = egm.compensate_path(&mut data, &path, &SEED, &options);
+        for (o, p) in outcomes.iter().zip(&path) {
+            let c = o.result.as_ref().unwrap();
+            assert!(converged(&c.residual, &options), "{:?}", c.residual);
+            // The uncompensated command reaches the target's position.
+            let reached =
+                flexcal_kinematics::forward_pose(&model, &mut data, &c.q_uncompensated, &egm.xi)
+                    .unwrap();
+            let target = egm.cell.x_base_part * p.x_part_tcp;
+            assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
         }
     }
 }
