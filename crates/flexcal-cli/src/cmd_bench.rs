@@ -282,9 +282,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({ "operations": timings }))?
         );
     } else {
-        println!("{:<72} {:>12}", "operation", "ns/op");
+        let width = timings.iter().map(|t| t.name.len()).max().unwrap_or(0);
+        println!("{:<width$} {:>14}", "operation", "ns/op");
         for t in &timings {
-            println!("{:<72} {:>12.1}", t.name, t.ns_per_op);
+            println!("{:<width$} {:>14.1}", t.name, t.ns_per_op);
         }
     }
     Ok(())
