@@ -4,7 +4,10 @@
 //! Each operation runs in batches after a warm-up; the figure is the median
 //! over batches of the time per operation. The operations and fixtures are
 //! the ones of the criterion benchmarks (`cargo bench`), which give the same
-//! figures with confidence intervals.
+//! figures with confidence intervals; the IR-663 compensation fixtures (one
+//! point solved from scratch, the 10 000-point forming travel with the fuzzy
+//! and the FE model, with and without the cantilever beam) are compiled from
+//! the very source file of `cargo bench -p flexcal-twin --bench compensation`.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -14,6 +17,13 @@ use flexcal_fuzzy::{FuzzyModel, FuzzyStructure, Partition};
 use flexcal_kinematics::{Data, RobotDescription, forward_pose, param_jacobian_into};
 use nalgebra::{DMatrix, Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::Serialize;
+
+// The fixtures of the criterion bench `compensation` of flexcal-twin,
+// included from its source so that both time exactly the same work.
+#[path = "../../flexcal-twin/benches/fixtures/compensation.rs"]
+mod compensation_fixtures;
+
+use compensation_fixtures::{Elastic, PATH_POINTS};
 
 /// Arguments of `flexcal bench`.
 #[derive(clap::Args, Debug)]
@@ -42,15 +52,22 @@ fn time(name: &str, budget: Duration, per_call: u64, mut op: impl FnMut()) -> Ti
     // Warm up and size the batches to ~1/10 of the budget.
     let start = Instant::now();
     let mut calls = 0u64;
-    while start.elapsed() < budget / 20 || calls < 3 {
+    while start.elapsed() < budget / 20 || calls < 2 {
         op();
         calls += 1;
     }
     let per_call_time = start.elapsed().as_secs_f64() / calls as f64;
     let batch = ((budget.as_secs_f64() / 10.0) / per_call_time).max(1.0) as u64;
+    // Operations longer than the budget (whole paths with the FE model) are
+    // sampled 3 times rather than 9, so the command stays short.
+    let batches = if per_call_time > budget.as_secs_f64() {
+        3
+    } else {
+        9
+    };
     let mut samples = Vec::new();
     let mut total = 0;
-    for _ in 0..9 {
+    for _ in 0..batches {
         let t = Instant::now();
         for _ in 0..batch {
             op();
@@ -161,63 +178,66 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             );
         },
     ));
-    // Compensation of one IR-663 path point with each elastic model.
-    let fe = flexcal_twin::forming::FeTcpModel::new(fe_model, xi.clone(), gamma, "FE beam model")?;
-    let inputs = vec![
-        flexcal_elastic::fuzzy_compliance::InputSpec::radians("theta2"),
-        flexcal_elastic::fuzzy_compliance::InputSpec::radians("theta8"),
-    ];
-    let components = flexcal_elastic::fuzzy_compliance::ComplianceComponent::plane_xz().to_vec();
-    let models = components
-        .iter()
-        .map(|c| -> anyhow::Result<FuzzyModel> {
-            let base = twelve_rule_model()?;
-            Ok(FuzzyModel::new(
-                base.structure().clone(),
-                c.name(),
-                base.conclusions().to_vec(),
-            )?)
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let fuzzy_compliance =
-        flexcal_elastic::fuzzy_compliance::FuzzyCompliance::new(inputs, components, models)?;
-    let fuzzy_elastic = flexcal_elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
-        fuzzy_compliance,
-        robot.clone(),
-    )?;
-    let mut ir_data = Data::new(&robot);
-    let target_ir = forward_pose(&robot, &mut ir_data, &q_ir, &xi)?;
-    for (label, elastic) in [
-        (
-            "fuzzy model",
-            &fuzzy_elastic as &dyn flexcal_compensate::compensation::ElasticModel,
-        ),
-        ("FE model", &fe),
-    ] {
-        let egm = ElastoGeometricModel::with_nominal_geometry(
-            &robot,
-            elastic,
-            None,
-            Cell::payload_only(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
-        );
-        let options = Default::default();
+    // Compensation on the IR-663 with each elastic model: one point solved
+    // from scratch, and the 10 000-point path of the criterion bench.
+    let fixture = compensation_fixtures::CompensationFixture::new(PATH_POINTS)
+        .map_err(|e| anyhow::anyhow!("compensation fixture: {e}"))?;
+    let mut ir_data = Data::new(&fixture.robot);
+    for elastic in [Elastic::Fuzzy, Elastic::Fe] {
+        let egm = fixture.model(elastic, false);
         timings.push(time(
-            &format!("ir663: compensation of one path point, {label}, 920 N"),
+            &format!(
+                "ir663: compensation of one path point from scratch, {}, 920 N",
+                elastic.label()
+            ),
             budget,
             1,
             || {
                 black_box(
                     egm.compensate_pose(
                         &mut ir_data,
-                        &target_ir,
-                        &q_ir,
+                        black_box(&fixture.middle_target),
+                        &fixture.middle_seed,
                         &Vector3::zeros(),
-                        &options,
+                        &fixture.options,
                     )
                     .ok(),
                 );
             },
         ));
+        for with_beam in [false, true] {
+            let egm = fixture.model(elastic, with_beam);
+            let load = if with_beam {
+                "920 N + cantilever beam"
+            } else {
+                "920 N"
+            };
+            let path = time(
+                &format!(
+                    "ir663: compensation of a {PATH_POINTS}-point path, {}, {load}",
+                    elastic.label()
+                ),
+                budget,
+                1,
+                || {
+                    black_box(egm.compensate_path(
+                        &mut ir_data,
+                        black_box(&fixture.path),
+                        &fixture.seed,
+                        &fixture.options,
+                    ));
+                },
+            );
+            timings.push(Timing {
+                name: format!(
+                    "ir663: compensation per point of the {PATH_POINTS}-point path, {}, {load}",
+                    elastic.label()
+                ),
+                ns_per_op: path.ns_per_op / PATH_POINTS as f64,
+                iterations: path.iterations * PATH_POINTS as u64,
+            });
+            timings.push(path);
+        }
     }
     // Compensation of one path point (payload only) with a constant compliance.
     let model = RobotDescription::builtin("ur10")?.build()?;
@@ -262,9 +282,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({ "operations": timings }))?
         );
     } else {
-        println!("{:<72} {:>12}", "operation", "ns/op");
+        let width = timings.iter().map(|t| t.name.len()).max().unwrap_or(0);
+        println!("{:<width$} {:>14}", "operation", "ns/op");
         for t in &timings {
-            println!("{:<72} {:>12.1}", t.name, t.ns_per_op);
+            println!("{:<width$} {:>14.1}", t.name, t.ns_per_op);
         }
     }
     Ok(())

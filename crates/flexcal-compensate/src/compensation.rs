@@ -20,9 +20,19 @@
 //! linearly at the rate of the neglected `dh/dq`; when it stalls, Newton on
 //! the coupled system with the full Jacobian of `S(q)` (elastic and process
 //! terms included, by central differences) takes over.
+//!
+//! # Paths
+//! Along a path the solution moves continuously, so
+//! [`ElastoGeometricModel::compensate_path`] predicts each point from the
+//! last three (quadratic extrapolation along the path length of the
+//! uncompensated command, of the correction and of the deflections) and
+//! corrects the prediction with a stored joint Jacobian, to the same
+//! tolerances. On a finely sampled path a point then costs one geometric and
+//! one elastic evaluation for each of the uncompensated and the compensated
+//! command, instead of an inverse-model solve and three or more of each.
 
 use flexcal_kinematics::{
-    Data, InverseOptions, KinematicsError, Model, inverse_pose, joint_jacobian_into,
+    Data, InverseOptions, InverseTarget, KinematicsError, Model, inverse_pose, joint_jacobian_into,
 };
 use nalgebra::{
     Isometry3, Matrix3, Matrix6xX, SVector, Translation3, UnitQuaternion, Vector3, Vector6,
@@ -270,8 +280,25 @@ impl ElastoGeometricModel<'_> {
         motion_base: &Vector3<f64>,
         options: &CompensationOptions,
     ) -> Result<ActualPose, CompensationError> {
+        self.actual_pose_from_guess(data, q, motion_base, options, None)
+    }
+
+    /// [`actual_pose`](Self::actual_pose) with the robot-process equilibrium
+    /// started from `deflection_guess` (m, rad) instead of the unloaded
+    /// pose: along a path, or between the iterations of one compensation,
+    /// the deflection barely changes, so a close guess saves most of the
+    /// coupling iterations. The result does not depend on the guess beyond
+    /// the coupling tolerance.
+    pub fn actual_pose_from_guess(
+        &self,
+        data: &mut Data,
+        q: &[f64],
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+        deflection_guess: Option<&Vector6<f64>>,
+    ) -> Result<ActualPose, CompensationError> {
         let geometric = flexcal_kinematics::forward_pose(self.model, data, q, &self.xi)?;
-        self.actual_from_geometric(q, geometric, motion_base, options)
+        self.actual_from_geometric(q, geometric, motion_base, options, deflection_guess)
     }
 
     fn actual_from_geometric(
@@ -280,6 +307,7 @@ impl ElastoGeometricModel<'_> {
         geometric: Isometry3<f64>,
         motion_base: &Vector3<f64>,
         options: &CompensationOptions,
+        deflection_guess: Option<&Vector6<f64>>,
     ) -> Result<ActualPose, CompensationError> {
         let p0 = geometric.translation.vector;
         // g(p) = position reached when the process sees the tool at p.
@@ -289,12 +317,24 @@ impl ElastoGeometricModel<'_> {
                 let d = self.deflection(q, &w)?;
                 Ok((w, d))
             };
-        let (mut w, mut d) = reached(&p0)?;
+        let tolerance = options.position_tolerance_m * 1e-2;
+        // Without a process the wrench does not depend on the pose: one
+        // evaluation is the equilibrium, whatever the guess.
+        let start = match (self.process, deflection_guess) {
+            (Some(_), Some(g)) if g.iter().all(|v| v.is_finite()) => p0 + g.fixed_rows::<3>(0),
+            _ => p0,
+        };
+        let (mut w, mut d) = reached(&start)?;
         let mut p = p0 + d.fixed_rows::<3>(0);
         let mut iterations = 1;
         let mut last_change = f64::INFINITY;
-        let tolerance = options.position_tolerance_m * 1e-2;
-        if self.process.is_some() {
+        // A guessed start is itself an iterate: the first evaluation already
+        // measures how far the guess was from its image.
+        let guessed = start != p0;
+        if guessed {
+            last_change = (p - start).norm();
+        }
+        if self.process.is_some() && !(guessed && last_change <= tolerance) {
             let mut converged = false;
             while iterations < options.max_coupling_iterations {
                 let (w_new, d_new) = reached(&p)?;
@@ -409,6 +449,11 @@ fn converged(e: &Vector6<f64>, options: &CompensationOptions) -> bool {
         && e.fixed_rows::<3>(3).norm() <= options.orientation_tolerance_rad
 }
 
+fn inverse_converged(e: &Vector6<f64>, options: &InverseOptions) -> bool {
+    e.fixed_rows::<3>(0).norm() <= options.position_tolerance
+        && e.fixed_rows::<3>(3).norm() <= options.orientation_tolerance
+}
+
 fn solve_square(jac: &Matrix6xX<f64>, rhs: &Vector6<f64>) -> Option<nalgebra::DVector<f64>> {
     let n = jac.ncols();
     if n == 6 {
@@ -425,7 +470,227 @@ fn solve_square(jac: &Matrix6xX<f64>, rhs: &Vector6<f64>) -> Option<nalgebra::DV
     }
 }
 
+/// The remaining error of an uncompensated command, for polishing it (see
+/// `PathTracker::push`): the full pose error when the inverse model reaches
+/// the full pose; zero otherwise, since the rotation about the tool axis is
+/// then free and the full error is no error of the solution.
+fn full_pose_error(
+    pose: &Isometry3<f64>,
+    target_base: &Isometry3<f64>,
+    options: &InverseOptions,
+) -> Vector6<f64> {
+    if options.target == InverseTarget::Pose {
+        pose_difference(pose, target_base)
+    } else {
+        Vector6::zeros()
+    }
+}
+
+/// A step whose error shrinks by less than this factor marks the stored
+/// joint Jacobian as too far from the current configuration: it is
+/// recomputed there. A fresh Jacobian contracts by the ratio of the neglected
+/// elastic term (about 1e-3 for the paper's robot), a Jacobian stored a few
+/// millimetres of path earlier by about 1e-2, so a factorisation is reused
+/// over many iterations and path points.
+const JACOBIAN_REFRESH_RATIO: f64 = 0.1;
+
+/// The joint Jacobian at some recent configuration, factored once and
+/// reused for the correction steps: the corrections converge at the rate of
+/// the Jacobian's error, so a slightly stale one costs little and saves a
+/// Jacobian evaluation and a factorisation per step.
+enum JacobianFactor {
+    /// No Jacobian yet.
+    Empty,
+    /// Six actuated coordinates: LU of the square Jacobian.
+    Square(Box<nalgebra::LU<f64, nalgebra::U6, nalgebra::U6>>),
+    /// Redundant or deficient robots: least squares by SVD.
+    LeastSquares(Box<nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>>),
+}
+
+struct JacobianCache {
+    jacobian: Matrix6xX<f64>,
+    factor: JacobianFactor,
+    step: Vec<f64>,
+}
+
+impl JacobianCache {
+    fn new(n_actuated: usize) -> Self {
+        Self {
+            jacobian: Matrix6xX::zeros(n_actuated),
+            factor: JacobianFactor::Empty,
+            step: vec![0.0; n_actuated],
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        matches!(self.factor, JacobianFactor::Empty)
+    }
+
+    /// Evaluates and factors the Jacobian at `q`; returns the geometric pose.
+    fn refresh(
+        &mut self,
+        model: &Model,
+        data: &mut Data,
+        q: &[f64],
+        xi: &[f64],
+    ) -> Result<Isometry3<f64>, CompensationError> {
+        let pose = joint_jacobian_into(model, data, q, xi, &mut self.jacobian)?;
+        self.factor = if self.jacobian.ncols() == 6 {
+            let m: nalgebra::Matrix6<f64> = self.jacobian.fixed_columns::<6>(0).into_owned();
+            JacobianFactor::Square(Box::new(m.lu()))
+        } else {
+            let dj = nalgebra::DMatrix::from_column_slice(
+                6,
+                self.jacobian.ncols(),
+                self.jacobian.as_slice(),
+            );
+            JacobianFactor::LeastSquares(Box::new(dj.svd(true, true)))
+        };
+        Ok(pose)
+    }
+
+    /// `q <- clamp(q - J^-1 error)`.
+    fn correct(
+        &mut self,
+        q: &mut [f64],
+        error: &Vector6<f64>,
+        limits: &[(f64, f64)],
+    ) -> Result<(), CompensationError> {
+        match &self.factor {
+            JacobianFactor::Empty => return Err(CompensationError::Singular),
+            JacobianFactor::Square(lu) => {
+                let step = lu.solve(error).ok_or(CompensationError::Singular)?;
+                self.step.copy_from_slice(step.as_slice());
+            }
+            JacobianFactor::LeastSquares(svd) => {
+                let rhs = nalgebra::DVector::from_column_slice(error.as_slice());
+                let step = svd
+                    .solve(&rhs, 1e-12)
+                    .map_err(|_| CompensationError::Singular)?;
+                self.step.copy_from_slice(step.as_slice());
+            }
+        }
+        for ((v, s), &(lo, hi)) in q.iter_mut().zip(&self.step).zip(limits) {
+            *v = (*v - s).clamp(lo, hi);
+        }
+        Ok(())
+    }
+}
+
+/// How a correction loop ended.
+struct Correction {
+    error: Vector6<f64>,
+    iterations: usize,
+}
+
 impl ElastoGeometricModel<'_> {
+    /// Fixed-point correction of the command `q` (whose reached pose is
+    /// `actual`) until it reaches `target_base`: `q <- q - J^-1 (S(q) (-)
+    /// target)`, the Jacobian reused while it contracts the error well.
+    /// Stops when converged, after `max_iterations`, or when the error
+    /// stalls (the caller then hands over to Newton).
+    #[allow(clippy::too_many_arguments)]
+    fn correct_command(
+        &self,
+        data: &mut Data,
+        target_base: &Isometry3<f64>,
+        q: &mut [f64],
+        actual: &mut ActualPose,
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+        jacobian: &mut JacobianCache,
+        max_iterations: usize,
+    ) -> Result<Correction, CompensationError> {
+        let limits = self.model.actuated_limits();
+        let mut error = pose_difference(&actual.x_base_tcp, target_base);
+        let mut iterations = 0;
+        let mut previous = f64::INFINITY;
+        let mut refreshed_here = false;
+        while !converged(&error, options) && iterations < max_iterations {
+            let size = error.norm();
+            if jacobian.is_empty() || (size > JACOBIAN_REFRESH_RATIO * previous && !refreshed_here)
+            {
+                jacobian.refresh(self.model, data, q, &self.xi)?;
+                refreshed_here = true;
+            } else {
+                refreshed_here = false;
+            }
+            jacobian.correct(q, &error, limits)?;
+            *actual = self.actual_pose_from_guess(
+                data,
+                q,
+                motion_base,
+                options,
+                Some(&actual.deflection),
+            )?;
+            error = pose_difference(&actual.x_base_tcp, target_base);
+            iterations += 1;
+            // Stalled or growing even with a fresh Jacobian: hand over to Newton.
+            if error.norm() > 0.9 * size && iterations > 3 {
+                break;
+            }
+            previous = size;
+        }
+        Ok(Correction { error, iterations })
+    }
+
+    /// Newton on the coupled system, the full Jacobian of the reached pose
+    /// (elastic and process terms included) by central differences.
+    fn newton_command(
+        &self,
+        data: &mut Data,
+        target_base: &Isometry3<f64>,
+        q: &mut [f64],
+        actual: &mut ActualPose,
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+    ) -> Result<Correction, CompensationError> {
+        let na = self.model.n_actuated();
+        let limits = self.model.actuated_limits();
+        let mut error = pose_difference(&actual.x_base_tcp, target_base);
+        let mut iterations = 0;
+        let mut full = Matrix6xX::zeros(na);
+        let mut perturbed = q.to_vec();
+        while !converged(&error, options) && iterations < options.max_newton_iterations {
+            for j in 0..na {
+                let h = 1e-6 * (1.0 + q[j].abs());
+                perturbed.copy_from_slice(q);
+                perturbed[j] += h;
+                let sp = self.actual_pose_from_guess(
+                    data,
+                    &perturbed,
+                    motion_base,
+                    options,
+                    Some(&actual.deflection),
+                )?;
+                perturbed[j] -= 2.0 * h;
+                let sm = self.actual_pose_from_guess(
+                    data,
+                    &perturbed,
+                    motion_base,
+                    options,
+                    Some(&actual.deflection),
+                )?;
+                let col = pose_difference(&sp.x_base_tcp, &sm.x_base_tcp) / (2.0 * h);
+                full.set_column(j, &col);
+            }
+            let step = solve_square(&full, &error).ok_or(CompensationError::Singular)?;
+            for ((v, s), &(lo, hi)) in q.iter_mut().zip(step.iter()).zip(limits) {
+                *v = (*v - s).clamp(lo, hi);
+            }
+            *actual = self.actual_pose_from_guess(
+                data,
+                q,
+                motion_base,
+                options,
+                Some(&actual.deflection),
+            )?;
+            error = pose_difference(&actual.x_base_tcp, target_base);
+            iterations += 1;
+        }
+        Ok(Correction { error, iterations })
+    }
+
     /// Compensates one target pose (base frame), starting the inverse model
     /// from `seed`. `motion_base` is the direction of travel (for friction).
     pub fn compensate_pose(
@@ -436,90 +701,82 @@ impl ElastoGeometricModel<'_> {
         motion_base: &Vector3<f64>,
         options: &CompensationOptions,
     ) -> Result<CompensatedPoint, CompensationError> {
-        let model = self.model;
-        let uncompensated =
-            inverse_pose(model, data, target_base, seed, &self.xi, &options.inverse)?;
-        let q0 = uncompensated.q.clone();
-        let actual0 = self.actual_from_geometric(&q0, uncompensated.pose, motion_base, options)?;
-        let uncompensated_error = pose_difference(&actual0.x_base_tcp, target_base);
+        let mut jacobian = JacobianCache::new(self.model.n_actuated());
+        self.compensate_pose_with(data, target_base, seed, motion_base, options, &mut jacobian)
+            .map(|solved| solved.point)
+    }
 
-        let na = model.n_actuated();
-        let mut jac = Matrix6xX::zeros(na);
+    /// [`compensate_pose`](Self::compensate_pose) with a caller's Jacobian
+    /// store; also returns the deflection at the uncompensated command.
+    fn compensate_pose_with(
+        &self,
+        data: &mut Data,
+        target_base: &Isometry3<f64>,
+        seed: &[f64],
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+        jacobian: &mut JacobianCache,
+    ) -> Result<Solved, CompensationError> {
+        let uncompensated = inverse_pose(
+            self.model,
+            data,
+            target_base,
+            seed,
+            &self.xi,
+            &options.inverse,
+        )?;
+        let inverse_error = full_pose_error(&uncompensated.pose, target_base, &options.inverse);
+        let q0 = uncompensated.q;
+        let actual0 =
+            self.actual_from_geometric(&q0, uncompensated.pose, motion_base, options, None)?;
+        let uncompensated_error = pose_difference(&actual0.x_base_tcp, target_base);
+        let deflection0 = actual0.deflection;
         let mut q = q0.clone();
-        let mut error = uncompensated_error;
         let mut actual = actual0;
-        let mut iterations = 0;
+        // The Jacobian is evaluated at this point's own command before use.
+        jacobian.factor = JacobianFactor::Empty;
+        let mut correction = self.correct_command(
+            data,
+            target_base,
+            &mut q,
+            &mut actual,
+            motion_base,
+            options,
+            jacobian,
+            options.max_fixed_point_iterations,
+        )?;
         let mut method = Method::FixedPoint;
-        let limits = model.actuated_limits().to_vec();
-        let clamp = |q: &mut Vec<f64>| {
-            for (v, &(lo, hi)) in q.iter_mut().zip(&limits) {
-                *v = v.clamp(lo, hi);
-            }
-        };
-        // Fixed point: correct the command by the remaining error.
-        let mut previous = f64::INFINITY;
-        while !converged(&error, options) && iterations < options.max_fixed_point_iterations {
-            joint_jacobian_into(model, data, &q, &self.xi, &mut jac)?;
-            let step = solve_square(&jac, &error).ok_or(CompensationError::Singular)?;
-            for (v, s) in q.iter_mut().zip(step.iter()) {
-                *v -= s;
-            }
-            clamp(&mut q);
-            actual = self.actual_pose(data, &q, motion_base, options)?;
-            error = pose_difference(&actual.x_base_tcp, target_base);
-            iterations += 1;
-            let size = error.norm();
-            // Stalled or growing: hand over to Newton.
-            if size > 0.9 * previous && iterations > 3 {
-                break;
-            }
-            previous = size;
-        }
-        if !converged(&error, options) {
+        if !converged(&correction.error, options) {
             method = Method::Newton;
-            let mut newton_iterations = 0;
-            while !converged(&error, options) && newton_iterations < options.max_newton_iterations {
-                // Full Jacobian of the reached pose w.r.t. q by central differences.
-                let mut full = Matrix6xX::zeros(na);
-                for j in 0..na {
-                    let h = 1e-6 * (1.0 + q[j].abs());
-                    let mut qp = q.clone();
-                    let mut qm = q.clone();
-                    qp[j] += h;
-                    qm[j] -= h;
-                    let sp = self.actual_pose(data, &qp, motion_base, options)?;
-                    let sm = self.actual_pose(data, &qm, motion_base, options)?;
-                    let col = pose_difference(&sp.x_base_tcp, &sm.x_base_tcp) / (2.0 * h);
-                    full.set_column(j, &col);
-                }
-                let step = solve_square(&full, &error).ok_or(CompensationError::Singular)?;
-                for (v, s) in q.iter_mut().zip(step.iter()) {
-                    *v -= s;
-                }
-                clamp(&mut q);
-                actual = self.actual_pose(data, &q, motion_base, options)?;
-                error = pose_difference(&actual.x_base_tcp, target_base);
-                newton_iterations += 1;
-            }
-            iterations += newton_iterations;
-            if !converged(&error, options) {
+            let newton =
+                self.newton_command(data, target_base, &mut q, &mut actual, motion_base, options)?;
+            correction = Correction {
+                error: newton.error,
+                iterations: correction.iterations + newton.iterations,
+            };
+            if !converged(&correction.error, options) {
                 return Err(CompensationError::NotConverged {
-                    residual_m: error.fixed_rows::<3>(0).norm(),
-                    residual_rad: error.fixed_rows::<3>(3).norm(),
-                    iterations,
+                    residual_m: correction.error.fixed_rows::<3>(0).norm(),
+                    residual_rad: correction.error.fixed_rows::<3>(3).norm(),
+                    iterations: correction.iterations,
                 });
             }
         }
-        Ok(CompensatedPoint {
-            target_base: *target_base,
-            q_uncompensated: q0,
-            uncompensated_error,
-            q_commanded: q,
-            commanded_base: actual.x_base_geometric,
-            residual: error,
-            wrench_base: actual.wrench_base,
-            iterations,
-            method,
+        Ok(Solved {
+            point: CompensatedPoint {
+                target_base: *target_base,
+                q_uncompensated: q0,
+                uncompensated_error,
+                q_commanded: q,
+                commanded_base: actual.x_base_geometric,
+                residual: correction.error,
+                wrench_base: actual.wrench_base,
+                iterations: correction.iterations,
+                method,
+            },
+            deflection_uncompensated: deflection0,
+            deflection_commanded: actual.deflection,
+            inverse_error,
         })
     }
 
@@ -527,6 +784,19 @@ impl ElastoGeometricModel<'_> {
     /// from the previous point's command (so the path stays on one branch);
     /// the first from `seed`. Every point is reported, failed ones with their
     /// reason, so a caller can list all bad points at once.
+    ///
+    /// Paths are continuous, so each point is first predicted from the last
+    /// points (commands, correction and deflections extrapolated along the
+    /// path length) and then corrected: Newton steps on the inverse
+    /// geometric model and fixed-point steps on the command, both with a
+    /// stored joint Jacobian, until the same tolerances as
+    /// [`compensate_pose`](Self::compensate_pose) are met. On a finely
+    /// sampled path the prediction usually meets them at once, so a point
+    /// costs one geometric and one elastic evaluation for the uncompensated
+    /// command and as many for the compensated one. A point whose
+    /// prediction does not converge quickly (a corner, a jump) is solved
+    /// from scratch by [`compensate_pose`](Self::compensate_pose); the
+    /// results agree within the tolerances.
     pub fn compensate_path(
         &self,
         data: &mut Data,
@@ -539,6 +809,8 @@ impl ElastoGeometricModel<'_> {
             .iter()
             .map(|p| self.cell.x_base_part * p.x_part_tcp)
             .collect();
+        let mut tracker = PathTracker::new(self.model.n_actuated());
+        let mut length = 0.0;
         let mut outcomes = Vec::with_capacity(path.len());
         for (i, (point, target)) in path.iter().zip(&targets).enumerate() {
             let next = targets
@@ -551,16 +823,318 @@ impl ElastoGeometricModel<'_> {
                 Some(p) => target.translation.vector - p.translation.vector,
                 None => Vector3::zeros(),
             };
-            let result = self.compensate_pose(data, target, &seed, &motion, options);
-            if let Ok(c) = &result {
-                seed.clone_from(&c.q_commanded);
+            if i > 0 {
+                length += path_distance(&targets[i - 1], target);
             }
+            let tracked = if tracker.samples.is_empty() {
+                None
+            } else {
+                self.compensate_tracked(data, target, length, &motion, options, &mut tracker)
+                    .ok()
+                    .flatten()
+            };
+            let result = match tracked {
+                Some(found) => Ok(found),
+                None => self.compensate_pose_with(
+                    data,
+                    target,
+                    &seed,
+                    &motion,
+                    options,
+                    &mut tracker.jacobian,
+                ),
+            };
+            let result = match result {
+                Ok(solved) => {
+                    seed.clone_from(&solved.point.q_commanded);
+                    tracker.push(length, &solved);
+                    Ok(solved.point)
+                }
+                Err(e) => {
+                    tracker.samples.clear();
+                    Err(e)
+                }
+            };
             outcomes.push(PointOutcome {
                 line: point.line,
                 result,
             });
         }
         outcomes
+    }
+
+    /// One path point predicted from the tracker's samples and corrected.
+    /// `Ok(None)` when the prediction does not converge in a few steps.
+    fn compensate_tracked(
+        &self,
+        data: &mut Data,
+        target_base: &Isometry3<f64>,
+        length: f64,
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+        tracker: &mut PathTracker,
+    ) -> Result<Option<Solved>, CompensationError> {
+        let model = self.model;
+        let limits = model.actuated_limits();
+        let weights = tracker.weights(length);
+        // Uncompensated command: Newton on the inverse geometric model from
+        // the extrapolated command.
+        let mut q0 = tracker.extrapolate(&weights, |s| &s.q_uncompensated);
+        for (v, &(lo, hi)) in q0.iter_mut().zip(limits) {
+            *v = v.clamp(lo, hi);
+        }
+        let mut inverse_error = Vector6::zeros();
+        let pose0 = if options.inverse.target == InverseTarget::Pose {
+            let mut found = None;
+            let mut previous = f64::INFINITY;
+            let mut refreshed_here = false;
+            for step in 0..=MAX_TRACKING_STEPS {
+                let pose = flexcal_kinematics::forward_pose(model, data, &q0, &self.xi)?;
+                let error = pose_difference(&pose, target_base);
+                if inverse_converged(&error, &options.inverse) {
+                    inverse_error = error;
+                    found = Some(pose);
+                    break;
+                }
+                if step == MAX_TRACKING_STEPS {
+                    break;
+                }
+                let size = error.norm();
+                if tracker.jacobian.is_empty()
+                    || (size > JACOBIAN_REFRESH_RATIO * previous && !refreshed_here)
+                {
+                    tracker.jacobian.refresh(model, data, &q0, &self.xi)?;
+                    refreshed_here = true;
+                } else {
+                    refreshed_here = false;
+                }
+                tracker.jacobian.correct(&mut q0, &error, limits)?;
+                previous = size;
+            }
+            match found {
+                Some(pose) => pose,
+                None => return Ok(None),
+            }
+        } else {
+            // Other targets leave freedoms to the inverse model's own solver.
+            let solution = inverse_pose(model, data, target_base, &q0, &self.xi, &options.inverse)?;
+            q0 = solution.q;
+            solution.pose
+        };
+        let guess0 = tracker.extrapolate_vector(&weights, |s| &s.deflection_uncompensated);
+        let actual0 =
+            self.actual_from_geometric(&q0, pose0, motion_base, options, Some(&guess0))?;
+        let uncompensated_error = pose_difference(&actual0.x_base_tcp, target_base);
+        let deflection0 = actual0.deflection;
+        // Compensated command: the extrapolated correction added to this
+        // point's uncompensated command (the correction varies more slowly
+        // than the command itself).
+        let correction = tracker.extrapolate_correction(&weights);
+        let mut q = q0.clone();
+        for ((v, c), &(lo, hi)) in q.iter_mut().zip(&correction).zip(limits) {
+            *v = (*v + c).clamp(lo, hi);
+        }
+        let mut actual = if q == q0 {
+            actual0
+        } else {
+            let guess = tracker.extrapolate_vector(&weights, |s| &s.deflection_commanded);
+            self.actual_pose_from_guess(data, &q, motion_base, options, Some(&guess))?
+        };
+        let result = self.correct_command(
+            data,
+            target_base,
+            &mut q,
+            &mut actual,
+            motion_base,
+            options,
+            &mut tracker.jacobian,
+            MAX_TRACKING_STEPS,
+        )?;
+        if !converged(&result.error, options) {
+            return Ok(None);
+        }
+        Ok(Some(Solved {
+            point: CompensatedPoint {
+                target_base: *target_base,
+                q_uncompensated: q0,
+                uncompensated_error,
+                q_commanded: q,
+                commanded_base: actual.x_base_geometric,
+                residual: result.error,
+                wrench_base: actual.wrench_base,
+                iterations: result.iterations,
+                method: Method::FixedPoint,
+            },
+            deflection_uncompensated: deflection0,
+            deflection_commanded: actual.deflection,
+            inverse_error,
+        }))
+    }
+}
+
+/// A solved path point with what the tracker needs to predict the next.
+struct Solved {
+    point: CompensatedPoint,
+    /// Deflection at the uncompensated command (m, rad).
+    deflection_uncompensated: Vector6<f64>,
+    /// Deflection at the compensated command (m, rad).
+    deflection_commanded: Vector6<f64>,
+    /// Geometric pose of the uncompensated command minus the target.
+    inverse_error: Vector6<f64>,
+}
+
+/// Correction steps allowed to a predicted path point before it is solved
+/// from scratch.
+const MAX_TRACKING_STEPS: usize = 6;
+
+/// Distance between two poses along a path: position change (m) plus
+/// rotation (rad) counted as 1 m per radian. Only ratios of such distances
+/// are used (to place the points for extrapolation), so the weighting of
+/// rotation merely needs to be of the robot's size.
+fn path_distance(a: &Isometry3<f64>, b: &Isometry3<f64>) -> f64 {
+    let d = pose_difference(a, b);
+    d.fixed_rows::<3>(0).norm() + d.fixed_rows::<3>(3).norm()
+}
+
+/// The last solved points of a path, for prediction.
+struct TrackSample {
+    length: f64,
+    q_uncompensated: Vec<f64>,
+    q_commanded: Vec<f64>,
+    deflection_uncompensated: Vector6<f64>,
+    deflection_commanded: Vector6<f64>,
+}
+
+/// Path-following state of [`ElastoGeometricModel::compensate_path`]: the
+/// last three solved points (quadratic extrapolation: its error is of the
+/// third order in the point spacing) and the stored joint Jacobian.
+struct PathTracker {
+    samples: std::collections::VecDeque<TrackSample>,
+    jacobian: JacobianCache,
+}
+
+impl PathTracker {
+    fn new(n_actuated: usize) -> Self {
+        Self {
+            samples: std::collections::VecDeque::with_capacity(3),
+            jacobian: JacobianCache::new(n_actuated),
+        }
+    }
+
+    /// Stores a solved point. Its commands met the tolerances but may sit
+    /// anywhere within them, and extrapolation amplifies such scatter (up
+    /// to 7 times for three points), which would make the next prediction
+    /// miss the tolerance it has to meet. So the stored commands are first
+    /// polished by one step on their known remaining errors with the stored
+    /// Jacobian: linear algebra only, no model evaluation.
+    fn push(&mut self, length: f64, solved: &Solved) {
+        let mut sample = if self.samples.len() == 3 {
+            self.samples.pop_front()
+        } else {
+            None
+        }
+        .unwrap_or_else(|| TrackSample {
+            length,
+            q_uncompensated: Vec::new(),
+            q_commanded: Vec::new(),
+            deflection_uncompensated: Vector6::zeros(),
+            deflection_commanded: Vector6::zeros(),
+        });
+        let point = &solved.point;
+        sample.length = length;
+        sample.q_uncompensated.clone_from(&point.q_uncompensated);
+        sample.q_commanded.clone_from(&point.q_commanded);
+        sample.deflection_uncompensated = solved.deflection_uncompensated;
+        sample.deflection_commanded = solved.deflection_commanded;
+        if !self.jacobian.is_empty() {
+            // Polishing is an improvement only: a failed solve keeps the
+            // commands as they are.
+            let unlimited = vec![(f64::NEG_INFINITY, f64::INFINITY); point.q_commanded.len()];
+            let _ = self.jacobian.correct(
+                &mut sample.q_uncompensated,
+                &solved.inverse_error,
+                &unlimited,
+            );
+            let _ = self
+                .jacobian
+                .correct(&mut sample.q_commanded, &point.residual, &unlimited);
+        }
+        self.samples.push_back(sample);
+    }
+
+    /// Lagrange weights of the stored samples (oldest first) for the path
+    /// length `length`. Fewer samples are used when they would extrapolate
+    /// too far (a jump in the path) or when two share a length.
+    fn weights(&self, length: f64) -> Vec<f64> {
+        let n = self.samples.len();
+        let mut used = n;
+        while used > 1 {
+            let nodes: Vec<f64> = self
+                .samples
+                .iter()
+                .skip(n - used)
+                .map(|s| s.length)
+                .collect();
+            let increasing = nodes.windows(2).all(|w| w[1] > w[0]);
+            let span = nodes[used - 1] - nodes[0];
+            let ahead = length - nodes[used - 1];
+            if increasing && ahead >= 0.0 && ahead <= 1.5 * span {
+                break;
+            }
+            used -= 1;
+        }
+        let nodes: Vec<f64> = self
+            .samples
+            .iter()
+            .skip(n - used)
+            .map(|s| s.length)
+            .collect();
+        let mut weights = vec![0.0; n - used];
+        for (i, &xi) in nodes.iter().enumerate() {
+            let mut w = 1.0;
+            for (j, &xj) in nodes.iter().enumerate() {
+                if i != j {
+                    w *= (length - xj) / (xi - xj);
+                }
+            }
+            weights.push(w);
+        }
+        weights
+    }
+
+    fn extrapolate(&self, weights: &[f64], field: impl Fn(&TrackSample) -> &Vec<f64>) -> Vec<f64> {
+        let mut out = vec![0.0; self.jacobian.step.len()];
+        for (s, &w) in self.samples.iter().zip(weights) {
+            if w != 0.0 {
+                for (o, v) in out.iter_mut().zip(field(s)) {
+                    *o += w * v;
+                }
+            }
+        }
+        out
+    }
+
+    fn extrapolate_vector(
+        &self,
+        weights: &[f64],
+        field: impl Fn(&TrackSample) -> &Vector6<f64>,
+    ) -> Vector6<f64> {
+        self.samples
+            .iter()
+            .zip(weights)
+            .fold(Vector6::zeros(), |acc, (s, &w)| acc + field(s) * w)
+    }
+
+    fn extrapolate_correction(&self, weights: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.jacobian.step.len()];
+        for (s, &w) in self.samples.iter().zip(weights) {
+            if w != 0.0 {
+                for ((o, c), u) in out.iter_mut().zip(&s.q_commanded).zip(&s.q_uncompensated) {
+                    *o += w * (c - u);
+                }
+            }
+        }
+        out
     }
 }
 
@@ -731,5 +1305,192 @@ mod tests {
             ),
             "{err}"
         );
+    }
+
+    /// An elastic model that counts its evaluations.
+    struct Counting<'a> {
+        inner: &'a dyn ElasticModel,
+        calls: std::sync::atomic::AtomicUsize,
+    }
+
+    impl ElasticModel for Counting<'_> {
+        fn describe(&self) -> String {
+            self.inner.describe()
+        }
+
+        fn tcp_displacement(
+            &self,
+            q: &[f64],
+            wrench_base: &Vector6<f64>,
+        ) -> Result<Vector6<f64>, ElasticEvalError> {
+            self.calls
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.inner.tcp_displacement(q, wrench_base)
+        }
+    }
+
+    /// A finely sampled straight travel along base -x, tool down, in the
+    /// part frame of `forming_beam_and_robot_are_solved_together`.
+    fn fine_travel(points: usize) -> Vec<PathPoint> {
+        let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+        (0..points)
+            .map(|i| PathPoint {
+                line: i + 2,
+                x_part_tcp: Isometry3::from_parts(
+                    Translation3::new(0.58 - 0.2 * i as f64 / (points - 1) as f64, 0.0, -0.025),
+                    down,
+                ),
+            })
+            .collect()
+    }
+
+    /// Compensates every point on its own, seeded by the previous point's
+    /// command: the reference the path tracker must reproduce.
+    fn cold_path(
+        egm: &ElastoGeometricModel<'_>,
+        data: &mut Data,
+        path: &[PathPoint],
+    ) -> Vec<CompensatedPoint> {
+        let mut seed = SEED.to_vec();
+        let targets: Vec<Isometry3<f64>> = path
+            .iter()
+            .map(|p| egm.cell.x_base_part * p.x_part_tcp)
+            .collect();
+        let mut out = Vec::new();
+        for (i, target) in targets.iter().enumerate() {
+            let motion = if i + 1 < targets.len() {
+                targets[i + 1].translation.vector - target.translation.vector
+            } else {
+                target.translation.vector - targets[i - 1].translation.vector
+            };
+            let c = egm
+                .compensate_pose(data, target, &seed, &motion, &Default::default())
+                .unwrap();
+            seed.clone_from(&c.q_commanded);
+            out.push(c);
+        }
+        out
+    }
+
+    fn assert_tracked_equals_cold(with_beam: bool) {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let compliance = compliance();
+        let elastic = Counting {
+            inner: &compliance,
+            calls: 0.into(),
+        };
+        let beam = CantileverBeam::reference(BeamTheory::SmallDeflection);
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: with_beam.then_some(&beam as &dyn ProcessModel),
+            cell: Cell {
+                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
+                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
+            },
+        };
+        let points = 1000;
+        let path = fine_travel(points);
+        let cold = cold_path(&egm, &mut data, &path);
+        let cold_calls = elastic.calls.swap(0, std::sync::atomic::Ordering::Relaxed);
+        let tracked = egm.compensate_path(&mut data, &path, &SEED, &Default::default());
+        let tracked_calls = elastic.calls.load(std::sync::atomic::Ordering::Relaxed);
+        let options = CompensationOptions::default();
+        for (t, c) in tracked.iter().zip(&cold) {
+            let t = t.result.as_ref().unwrap();
+            // Both meet the tolerances on the same branch...
+            assert!(converged(&t.residual, &options), "{:?}", t.residual);
+            // ...so commands agree to the tolerance over the Jacobian's
+            // smallest gain, and predicted errors to the tolerance.
+            for (a, b) in t.q_commanded.iter().zip(&c.q_commanded) {
+                assert!((a - b).abs() < 1e-7, "{a} vs {b}");
+            }
+            for (a, b) in t.q_uncompensated.iter().zip(&c.q_uncompensated) {
+                assert!((a - b).abs() < 1e-8, "{a} vs {b}");
+            }
+            assert!((t.uncompensated_error - c.uncompensated_error).norm() < 1e-9);
+            assert!((t.wrench_base - c.wrench_base).norm() < 1e-3);
+        }
+        // The tracker is what makes paths cheap: it must cut the elastic
+        // evaluations (two per point once it runs, one for the uncompensated
+        // and one for the compensated command, plus the coupling's extra
+        // evaluations with the beam; a point solved from scratch needs at
+        // least three, with the beam over twenty).
+        let per_point = if with_beam { 3 } else { 2 };
+        assert!(
+            tracked_calls <= per_point * points + 20,
+            "tracked {tracked_calls}, cold {cold_calls}"
+        );
+        assert!(
+            tracked_calls < cold_calls,
+            "tracked {tracked_calls}, cold {cold_calls}"
+        );
+    }
+
+    #[test]
+    fn tracked_path_equals_points_solved_from_scratch_under_payload() {
+        assert_tracked_equals_cold(false);
+    }
+
+    #[test]
+    fn tracked_path_equals_points_solved_from_scratch_with_the_beam() {
+        assert_tracked_equals_cold(true);
+    }
+
+    #[test]
+    fn tracked_path_without_load_is_the_inverse_model() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: None,
+            cell: Cell {
+                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
+                payload_base: Vector6::zeros(),
+            },
+        };
+        let outcomes = egm.compensate_path(&mut data, &fine_travel(50), &SEED, &Default::default());
+        for o in &outcomes {
+            let c = o.result.as_ref().unwrap();
+            assert_eq!(c.iterations, 0);
+            assert_eq!(c.q_commanded, c.q_uncompensated);
+            assert!(c.uncompensated_error.norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn tracked_path_with_a_free_tool_rotation_meets_the_tolerances() {
+        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let elastic = compliance();
+        let egm = ElastoGeometricModel {
+            model: &model,
+            xi: model.nominal_params().to_vec(),
+            elastic: &elastic,
+            process: None,
+            cell: Cell {
+                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
+                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
+            },
+        };
+        let mut options = CompensationOptions::default();
+        options.inverse.target = InverseTarget::PositionAndToolAxis;
+        let path = fine_travel(100);
+        let outcomes = egm.compensate_path(&mut data, &path, &SEED, &options);
+        for (o, p) in outcomes.iter().zip(&path) {
+            let c = o.result.as_ref().unwrap();
+            assert!(converged(&c.residual, &options), "{:?}", c.residual);
+            // The uncompensated command reaches the target's position.
+            let reached =
+                flexcal_kinematics::forward_pose(&model, &mut data, &c.q_uncompensated, &egm.xi)
+                    .unwrap();
+            let target = egm.cell.x_base_part * p.x_part_tcp;
+            assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
+        }
     }
 }

@@ -12,7 +12,8 @@
 //!   of the tool position: a constant wrench, and the clamped cantilever beam
 //!   of the paper's forming experiment (section 4) in small-deflection
 //!   (Euler-Bernoulli, `F = 3 E I w / a^3`) and large-deflection (elastica
-//!   with the load following the deformed beam) theory, with optional
+//!   with the load following the deformed beam, solved by Newton with the
+//!   exact Jacobian of the discretised elastica) theory, with optional
 //!   friction; a material table;
 //! * [`path`]: target path files (CSV) and the export of commanded paths to a
 //!   KUKA KRL program;
@@ -21,7 +22,10 @@
 //!   or fuzzy models implement it), the actual pose with robot and process
 //!   solved together, and the commanded poses (fake poses) that bring the
 //!   deflected robot onto the target: fixed-point iteration, Newton fallback,
-//!   per-point predicted uncompensated error and residual.
+//!   per-point predicted uncompensated error and residual; whole paths are
+//!   tracked point to point (prediction from the previous points, correction
+//!   with a stored Jacobian), which makes a 10 000-point path a matter of
+//!   tens of milliseconds with a fuzzy model.
 //!
 //! ```
 //! use flexcal_compensate::process::{BeamTheory, CantileverBeam, ProcessModel, ToolState};

@@ -265,7 +265,10 @@ impl CantileverBeam {
 
     /// Integrates the elastica of the loaded span [0, a] under a tip force
     /// `(fx, fz)` on the beam (fixed direction), from the clamp with initial
-    /// curvature `kappa0`. Returns (x(a), z(a), theta(a), theta'(a)).
+    /// curvature `kappa0`. Returns (x(a), z(a), theta(a), theta'(a)). The
+    /// solver uses [`integrate_with_derivatives`](Self::integrate_with_derivatives);
+    /// this plain form checks it.
+    #[cfg(test)]
     fn integrate(&self, a: f64, kappa0: f64, fx: f64, fz: f64) -> [f64; 4] {
         let ei = self.bending_stiffness();
         // State: x, z, theta, theta'. EI theta'' = -cos(theta) fz + sin(theta) fx.
@@ -295,12 +298,118 @@ impl CantileverBeam {
         y
     }
 
+    /// [`integrate`](Self::integrate) together with the derivatives of
+    /// (x(a), z(a), theta(a), theta'(a)) with respect to (kappa0, a, fx, fz)
+    /// (columns), from the variational equations integrated by the same RK4
+    /// steps: RK4 commutes with linearisation, so these are the exact
+    /// derivatives of the discrete solution, at the cost of one augmented
+    /// integration instead of eight more integrations for central
+    /// differences. The length `a` enters through the step `a / n`: with
+    /// `s = a t`, `dS_a/ds = (dF/dy) S_a + F / a`.
+    fn integrate_with_derivatives(
+        &self,
+        a: f64,
+        kappa0: f64,
+        fx: f64,
+        fz: f64,
+    ) -> ([f64; 4], [[f64; 4]; 4]) {
+        let ei = self.bending_stiffness();
+        // State: y (4), then the four sensitivity columns (4 each).
+        let rhs = |s: &[f64; 20]| -> [f64; 20] {
+            let (sin, cos) = s[2].sin_cos();
+            let f = [cos, sin, s[3], (-cos * fz + sin * fx) / ei];
+            let d_theta = (sin * fz + cos * fx) / ei;
+            let mut out = [0.0; 20];
+            out[..4].copy_from_slice(&f);
+            for p in 0..4 {
+                let c = &s[4 + 4 * p..8 + 4 * p];
+                let o = &mut out[4 + 4 * p..8 + 4 * p];
+                o[0] = -sin * c[2];
+                o[1] = cos * c[2];
+                o[2] = c[3];
+                o[3] = d_theta * c[2];
+            }
+            for i in 0..4 {
+                out[8 + i] += f[i] / a;
+            }
+            out[15] += sin / ei;
+            out[19] -= cos / ei;
+            out
+        };
+        let h = a / ELASTICA_STEPS as f64;
+        let mut y = [0.0; 20];
+        y[3] = kappa0;
+        // d theta'(0) / d kappa0 = 1.
+        y[7] = 1.0;
+        let add = |y: &[f64; 20], k: &[f64; 20], f: f64| -> [f64; 20] {
+            std::array::from_fn(|i| y[i] + f * k[i])
+        };
+        for _ in 0..ELASTICA_STEPS {
+            let k1 = rhs(&y);
+            let k2 = rhs(&add(&y, &k1, h / 2.0));
+            let k3 = rhs(&add(&y, &k2, h / 2.0));
+            let k4 = rhs(&add(&y, &k3, h));
+            for i in 0..20 {
+                y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+        }
+        let state = [y[0], y[1], y[2], y[3]];
+        let columns = std::array::from_fn(|p| std::array::from_fn(|i| y[4 + 4 * p + i]));
+        (state, columns)
+    }
+
+    /// Residuals of the large-deflection equilibrium (see
+    /// [`large_deflection`](Self::large_deflection)) and their Jacobian with
+    /// respect to u = (kappa0, a, N, phi), rows as the residuals.
+    fn equilibrium_residual(
+        &self,
+        u: &[f64; 4],
+        tool: (f64, f64),
+        mu: f64,
+    ) -> ([f64; 4], nalgebra::Matrix4<f64>) {
+        let (x_t, z_t) = tool;
+        let (kappa0, a, n, phi) = (u[0], u[1], u[2], u[3]);
+        // Force on the beam: -N along the upward normal (-sin, cos), friction
+        // -mu N along the tangent (cos, sin).
+        let (sin, cos) = phi.sin_cos();
+        let fx = n * sin - mu * n * cos;
+        let fz = -n * cos - mu * n * sin;
+        let (y, d) = self.integrate_with_derivatives(a, kappa0, fx, fz);
+        let length = self.length_m;
+        let r = [
+            y[3] * a,
+            (y[0] - x_t) / length,
+            (y[1] - z_t) / length,
+            y[2] - phi,
+        ];
+        // d(fx, fz)/dN and d(fx, fz)/dphi.
+        let dforce_dn = (sin - mu * cos, -cos - mu * sin);
+        let dforce_dphi = (n * cos + mu * n * sin, n * sin - mu * n * cos);
+        // dy/du, column by unknown.
+        let dy: [[f64; 4]; 4] = [
+            d[0],
+            d[1],
+            std::array::from_fn(|i| d[2][i] * dforce_dn.0 + d[3][i] * dforce_dn.1),
+            std::array::from_fn(|i| d[2][i] * dforce_dphi.0 + d[3][i] * dforce_dphi.1),
+        ];
+        let mut jac = nalgebra::Matrix4::zeros();
+        for (j, column) in dy.iter().enumerate() {
+            jac[(0, j)] = column[3] * a;
+            jac[(1, j)] = column[0] / length;
+            jac[(2, j)] = column[1] / length;
+            jac[(3, j)] = column[2];
+        }
+        jac[(0, 1)] += y[3];
+        jac[(3, 3)] -= 1.0;
+        (r, jac)
+    }
+
     /// Large-deflection equilibrium with the tool tip at (x_t, z_t), z_t < 0.
     /// Unknowns u = (kappa0, a, N, phi): clamp curvature, contact arc length,
     /// normal force magnitude, slope at the contact. Residuals: free-moment
     /// condition theta'(a) = 0, contact position = tool position, and phi =
-    /// theta(a). Solved by Newton with a finite-difference Jacobian, started
-    /// from the small-deflection solution.
+    /// theta(a). Solved by Newton with the exact Jacobian of the discretised
+    /// elastica, started from the small-deflection solution.
     fn large_deflection(&self, tool: &ToolState) -> Result<Vector6<f64>, ProcessError> {
         let (x_t, z_t) = (tool.position.x, tool.position.z);
         let fail = |why| ProcessError::NoEquilibrium {
@@ -314,31 +423,8 @@ impl CantileverBeam {
         let n0 = self.small_deflection_force(x_t, w);
         // Linear theory: theta'(0) = -N a / EI, slope at the tip -N a^2 / (2 EI).
         let mut u = [-n0 * x_t / ei, x_t, n0, -n0 * x_t * x_t / (2.0 * ei)];
-        // Scales make the finite-difference steps and convergence test unit-free.
-        let scale = [
-            (n0 * x_t / ei).abs().max(1e-9),
-            self.length_m,
-            n0.abs().max(1.0),
-            0.01,
-        ];
-        let residual = |u: &[f64; 4]| -> [f64; 4] {
-            let (kappa0, a, n, phi) = (u[0], u[1], u[2], u[3]);
-            // Force on the beam: -N along the upward normal, friction along the tangent.
-            let (sin, cos) = phi.sin_cos();
-            let normal = (-sin, cos);
-            let tangent = (cos, sin);
-            let fx = -n * normal.0 - mu * n * tangent.0;
-            let fz = -n * normal.1 - mu * n * tangent.1;
-            let y = self.integrate(a, kappa0, fx, fz);
-            [
-                y[3] * a,
-                (y[0] - x_t) / self.length_m,
-                (y[1] - z_t) / self.length_m,
-                y[2] - phi,
-            ]
-        };
         for _ in 0..50 {
-            let r = residual(&u);
+            let (r, jac) = self.equilibrium_residual(&u, (x_t, z_t), mu);
             let norm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
             if norm < 1e-12 {
                 if u[1] > self.length_m * (1.0 + 1e-9) {
@@ -350,18 +436,6 @@ impl CantileverBeam {
                 let fx = n * (-sin) + mu * n * cos;
                 let fz = n * cos + mu * n * sin;
                 return Ok(Vector6::new(fx, 0.0, fz, 0.0, 0.0, 0.0));
-            }
-            let mut jac = nalgebra::Matrix4::<f64>::zeros();
-            for j in 0..4 {
-                let mut up = u;
-                let mut um = u;
-                let h = 1e-6 * scale[j];
-                up[j] += h;
-                um[j] -= h;
-                let (rp, rm) = (residual(&up), residual(&um));
-                for i in 0..4 {
-                    jac[(i, j)] = (rp[i] - rm[i]) / (2.0 * h);
-                }
             }
             let rhs = nalgebra::Vector4::new(-r[0], -r[1], -r[2], -r[3]);
             let step = jac
@@ -525,5 +599,47 @@ mod tests {
         let y = beam.integrate(a, f * a / ei, 0.0, f);
         assert_relative_eq!(y[1], f * a.powi(3) / (3.0 * ei), max_relative = 1e-6);
         assert!(y[3].abs() < 1e-9);
+    }
+
+    #[test]
+    fn equilibrium_jacobian_matches_central_differences() {
+        let mut beam = CantileverBeam::reference(BeamTheory::LargeDeflection);
+        beam.friction_coefficient = 0.15;
+        let ei = beam.bending_stiffness();
+        // A state near the equilibrium of a 25 mm push at 400 mm, and one off it.
+        let n = 900.0;
+        for u in [
+            [-n * 0.4 / ei, 0.4, n, -n * 0.16 / (2.0 * ei)],
+            [-1.3 * n * 0.4 / ei, 0.37, 0.8 * n, -0.05],
+        ] {
+            for mu in [0.0, -0.15] {
+                let tool = (0.4, -0.025);
+                let (_, jac) = beam.equilibrium_residual(&u, tool, mu);
+                let scale = [1e-3 * u[0].abs(), 1e-3, 1e-3 * n, 1e-3];
+                for j in 0..4 {
+                    let h = 1e-3 * scale[j];
+                    let (mut up, mut um) = (u, u);
+                    up[j] += h;
+                    um[j] -= h;
+                    let (rp, _) = beam.equilibrium_residual(&up, tool, mu);
+                    let (rm, _) = beam.equilibrium_residual(&um, tool, mu);
+                    for i in 0..4 {
+                        let fd = (rp[i] - rm[i]) / (2.0 * h);
+                        let size = jac.column(j).amax().max(1e-12);
+                        assert!(
+                            (fd - jac[(i, j)]).abs() <= 1e-6 * size,
+                            "d r{i} / d u{j}: analytic {} vs differences {fd}",
+                            jac[(i, j)]
+                        );
+                    }
+                }
+                // The state part equals the plain integration.
+                let (sin, cos) = u[3].sin_cos();
+                let fx = u[2] * sin - mu * u[2] * cos;
+                let fz = -u[2] * cos - mu * u[2] * sin;
+                let (y, _) = beam.integrate_with_derivatives(u[1], u[0], fx, fz);
+                assert_eq!(y, beam.integrate(u[1], u[0], fx, fz));
+            }
+        }
     }
 }
