@@ -6,8 +6,9 @@
 //! the ones of the criterion benchmarks (`cargo bench`), which give the same
 //! figures with confidence intervals; the IR-663 compensation fixtures (one
 //! point solved from scratch, the 10 000-point forming travel with the fuzzy
-//! and the FE model, with and without the cantilever beam) are compiled from
-//! the very source file of `cargo bench -p flexcal-twin --bench compensation`.
+//! and the FE model, with and without the cantilever beam) are those of
+//! `cargo bench -p flexcal-twin --bench compensation`
+//! ([`flexcal_twin::bench_fixtures`]).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -18,12 +19,7 @@ use flexcal_kinematics::{Data, RobotDescription, forward_pose, param_jacobian_in
 use nalgebra::{DMatrix, Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::Serialize;
 
-// The fixtures of the criterion bench `compensation` of flexcal-twin,
-// included from its source so that both time exactly the same work.
-#[path = "../../flexcal-twin/benches/fixtures/compensation.rs"]
-mod compensation_fixtures;
-
-use compensation_fixtures::{Elastic, PATH_POINTS};
+use flexcal_twin::bench_fixtures::{self as compensation_fixtures, Elastic, PATH_POINTS};
 
 /// Arguments of `flexcal bench`.
 #[derive(clap::Args, Debug)]

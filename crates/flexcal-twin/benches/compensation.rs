@@ -7,7 +7,7 @@
 //! Goals: the 10 000-point path in <= 50 ms with the fuzzy model and <= 1 s
 //! with the FE model. Run with
 //! `cargo bench -p flexcal-twin --bench compensation`; `flexcal bench`
-//! times the same fixtures (benches/fixtures/compensation.rs).
+//! times the same fixtures (`flexcal_twin::bench_fixtures`).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -16,10 +16,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use flexcal_kinematics::Data;
 use nalgebra::Vector3;
 
-#[path = "fixtures/compensation.rs"]
-mod fixtures;
-
-use fixtures::{CompensationFixture, Elastic, PATH_POINTS};
+use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, PATH_POINTS};
 
 fn bench(c: &mut Criterion) {
     let fixture = CompensationFixture::new(PATH_POINTS).expect("built-in fixture");

@@ -1,4 +1,20 @@
-//! flexcal-twin: see the crate description. Under construction.
+//! # flexcal-twin
+//!
+//! The virtual robot on which flexcal proves its identification and
+//! compensation: a KUKA IR-663 whose behaviour is richer than the models
+//! identified from it (true geometric errors of Appendix C, slider-crank
+//! screws as configuration-dependent springs, flexible links, measurement
+//! noise), and the campaigns of the reference paper simulated on it: the
+//! geometric campaign of section 3.2 (27 + 16 poses in box (59), equations
+//! (48)-(53)), the elastic campaign of section 3.3.1 (63 poses of grid (65),
+//! 8 load sets) and the forming experiment of section 4 (Figure 17).
+//!
+//! ## Limitations
+//! - Three points of grid (65) cannot be reached with the tool down by the
+//!   geometry of Table 2 ([`elastic::GridCorner`] says what replaces them).
+//! - The geometric error before calibration is 2.85 mm mean, not the
+//!   paper's 0.96 mm: the printed errors of Appendix C alone move the TCP by
+//!   more than 1 mm (see [`geometric`]).
 
 /// The virtual IR-663's geometric campaign (paper section 3.2): true
 /// parameters from Appendix C, simulated photogrammetry, identification and
@@ -14,3 +30,8 @@ pub mod elastic;
 /// clamped beam bent by the tool under a 920 N dead weight, commanded with
 /// and without elasto-geometrical compensation, "measured" by the twin.
 pub mod forming;
+
+/// The fixtures of the compensation benchmarks (the forming travel in the
+/// twin's cell with the fuzzy and FE elastic models), shared by `cargo bench`
+/// and `flexcal bench`.
+pub mod bench_fixtures;
