@@ -277,7 +277,17 @@ impl<'a> GeometricErrorModel<'a> {
     /// # Errors
     /// [`CalibError::Kinematics`] naming the pose.
     pub fn predict(&self, x: &[f64], k: usize) -> Result<Isometry3<f64>, CalibError> {
-        let (x_meas_base, x_tcp_target) = self.frames(x);
+        self.predict_in(&self.frames(x), x, k)
+    }
+
+    /// [`GeometricErrorModel::predict`] with the frames of `x` already at
+    /// hand (they cost two exponential maps: once per evaluation, not per pose).
+    fn predict_in(
+        &self,
+        (x_meas_base, x_tcp_target): &(Isometry3<f64>, Isometry3<f64>),
+        x: &[f64],
+        k: usize,
+    ) -> Result<Isometry3<f64>, CalibError> {
         let m = &self.set.measurements()[k];
         let xi = &x[..self.model.n_params()];
         let mut buffers = self.deflection.borrow_mut();
@@ -312,8 +322,9 @@ impl Residuals for GeometricErrorModel<'_> {
     }
     fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
         let rows = self.rows_per_pose();
+        let frames = self.frames(x);
         for k in 0..self.set.len() {
-            let predicted = self.predict(x, k)?;
+            let predicted = self.predict_in(&frames, x, k)?;
             self.write_residual(k, &predicted, &mut out[k * rows..(k + 1) * rows]);
         }
         Ok(())
@@ -324,7 +335,24 @@ impl Residuals for GeometricErrorModel<'_> {
 }
 
 impl Jacobian for GeometricErrorModel<'_> {
-    fn jacobian(&self, x: &[f64], mut out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+    fn jacobian(&self, x: &[f64], out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+        self.jacobian_rows(x, 0..self.set.len(), out)
+    }
+}
+
+impl GeometricErrorModel<'_> {
+    /// The Jacobian rows of the poses `poses` only (row 0 of `out` is the
+    /// first row of pose `poses.start`): for factorisations that stream the
+    /// stacked Jacobian block by block instead of holding it whole.
+    ///
+    /// # Errors
+    /// [`CalibError::Kinematics`] naming the pose.
+    pub fn jacobian_rows(
+        &self,
+        x: &[f64],
+        poses: std::ops::Range<usize>,
+        mut out: MatMut<'_, f64>,
+    ) -> Result<(), ProblemError> {
         let np = self.model.n_params();
         let xi = &x[..np];
         let (x_meas_base, x_tcp_target) = self.frames(x);
@@ -349,7 +377,9 @@ impl Jacobian for GeometricErrorModel<'_> {
         let n_elastic = if self.gravity.is_some() { na + 4 } else { 0 };
         // TCP twists of the elastic unknowns, one column each.
         let mut elastic = Matrix6xX::<f64>::zeros(n_elastic);
-        for (k, m) in self.set.measurements().iter().enumerate() {
+        let first = poses.start;
+        for k in poses {
+            let m = &self.set.measurements()[k];
             let kinematics_error = |source| CalibError::Kinematics {
                 pose: k,
                 pose_id: m.label(k),
@@ -384,7 +414,7 @@ impl Jacobian for GeometricErrorModel<'_> {
             let r_bt = x_base_tcp.rotation.to_rotation_matrix().into_inner();
             let offset_base = r_bt * x_tcp_target.translation.vector;
             let target_base = x_base_tcp.translation.vector + offset_base;
-            let r0 = k * rows;
+            let r0 = (k - first) * rows;
             // Robot parameters and elastic unknowns: moving the TCP by
             // (v, w) moves the target by v + w x offset.
             let lever = skew(&offset_base);

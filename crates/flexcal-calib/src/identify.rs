@@ -6,7 +6,7 @@ use faer::prelude::SolveLstsq;
 use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{
     ColumnScaling, Control, GaussNewton, IdentifiabilityOptions, IdentifiabilityReport,
-    IterationState, Jacobian, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport,
+    IterationState, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport,
     analyze_identifiability,
 };
 use nalgebra::Isometry3;
@@ -115,7 +115,9 @@ pub struct CalibrationOptions {
     /// Maximum solver iterations (default 100; `>= 1`).
     pub max_iterations: usize,
     /// Stop when an accepted step lowers the cost by less than this fraction
-    /// (default 1e-8: far below what measurement noise can resolve; `>= 0`).
+    /// (default 1e-6: far below what measurement noise can resolve, the
+    /// cost of m residuals being uncertain by about sqrt(2/m) relative;
+    /// `>= 0`).
     pub cost_tolerance: f64,
 }
 
@@ -142,7 +144,7 @@ impl Default for CalibrationOptions {
             gravity: None,
             require_full_rank: false,
             max_iterations: 100,
-            cost_tolerance: 1e-8,
+            cost_tolerance: 1e-6,
         }
     }
 }
@@ -767,10 +769,15 @@ pub fn calibrate(
         })?;
         let mut base = analysis.base.clone();
         base.sort_unstable();
+        // A later round starts from the previous fit, its newly frozen
+        // unknowns put back at their starting values: the base set changes
+        // by a few unknowns, so most of the way is already done.
+        let mut warm: Option<(Vec<f64>, Vec<bool>)> = None;
         if let Some((previous_base, report, frozen)) = previous.take() {
             if previous_base == base || round > 4 {
                 break (report, frozen);
             }
+            warm = Some((report.x, frozen));
         }
         let mut frozen = vec![true; n];
         for &b in &analysis.base {
@@ -789,7 +796,15 @@ pub fn calibrate(
                     .collect(),
             });
         }
-        let report = solve(&x_start, &frozen)?;
+        let mut x0 = x_start.clone();
+        if let Some((x_previous, frozen_previous)) = &warm {
+            for j in 0..n {
+                if !frozen[j] && !frozen_previous[j] {
+                    x0[j] = x_previous[j];
+                }
+            }
+        }
+        let report = solve(&x0, &frozen)?;
         cost_history.extend(&report.cost_history);
         if absolute {
             break (report, frozen);
@@ -960,22 +975,42 @@ impl AnalysisContext<'_> {
     /// (they differ by the orthogonal `Q`), at a fraction of the cost for
     /// thousands of poses.
     fn reduced(&self, x: &[f64]) -> Result<Mat<f64>, CalibError> {
-        let m = self.problem.n_residuals();
         let n = self.problem.n_unknowns();
-        let mut full = Mat::<f64>::zeros(m, n);
-        self.problem
-            .jacobian(x, full.as_mut())
-            .map_err(problem_error)?;
-        for j in 0..n {
-            for i in 0..m {
-                full[(i, j)] *= self.weights[i];
+        let rows = self.problem.rows_per_pose();
+        let poses = self.weights.len() / rows;
+        // Streamed by blocks of poses: R of [R_so_far; W J_block] (a few
+        // hundred rows), so the whole stacked Jacobian is never held.
+        let block = (320 / rows).max(1);
+        let mut r = Mat::<f64>::zeros(0, n);
+        let mut start = 0;
+        while start < poses {
+            let end = (start + block).min(poses);
+            let m_block = (end - start) * rows;
+            let top = r.nrows();
+            let mut stacked = Mat::<f64>::zeros(top + m_block, n);
+            for j in 0..n {
+                for i in 0..top {
+                    stacked[(i, j)] = r[(i, j)];
+                }
             }
+            self.problem
+                .jacobian_rows(x, start..end, stacked.as_mut().subrows_mut(top, m_block))
+                .map_err(problem_error)?;
+            for j in 0..n {
+                for i in 0..m_block {
+                    stacked[(top + i, j)] *= self.weights[start * rows + i];
+                }
+            }
+            let qr = stacked.qr();
+            let thin = qr.thin_R();
+            r = Mat::<f64>::from_fn(
+                thin.nrows(),
+                n,
+                |i, j| if i <= j { thin[(i, j)] } else { 0.0 },
+            );
+            start = end;
         }
-        let qr = full.qr();
-        let r = qr.thin_R();
-        Ok(Mat::<f64>::from_fn(r.nrows(), n, |i, j| {
-            if i <= j { r[(i, j)] } else { 0.0 }
-        }))
+        Ok(r)
     }
 
     /// `K` with `J_N = J_B K` (weighted least squares at `x`), so that
