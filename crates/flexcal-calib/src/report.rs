@@ -119,8 +119,18 @@ pub struct ValidationJson {
     /// What was re-fitted on the validation data.
     pub note: String,
     /// Actuated coordinates that leave the identification poses' range on
-    /// some validation poses, with the fraction of those poses (0-1).
-    pub extrapolated_coordinates: Vec<(String, f64)>,
+    /// some validation poses.
+    pub extrapolated_coordinates: Vec<ExtrapolationJson>,
+}
+
+/// An actuated coordinate that the validation poses take outside the
+/// identification poses' range.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ExtrapolationJson {
+    /// Name of the actuated coordinate.
+    pub coordinate: String,
+    /// Fraction of the validation poses outside the range (0-1).
+    pub fraction_outside: f64,
 }
 
 /// The whole report.
@@ -210,7 +220,14 @@ impl CalibrationReportJson {
             after: StatisticsJson::from(&v.after),
             before: StatisticsJson::from(&v.before),
             note: v.frame_note.clone(),
-            extrapolated_coordinates: v.extrapolated_coordinates.clone(),
+            extrapolated_coordinates: v
+                .extrapolated_coordinates
+                .iter()
+                .map(|(coordinate, fraction)| ExtrapolationJson {
+                    coordinate: coordinate.clone(),
+                    fraction_outside: *fraction,
+                })
+                .collect(),
         });
         Self {
             robot: robot.to_string(),

@@ -314,6 +314,11 @@ fn elasto_geometric_calibration_end_to_end() {
     let validation = &json["validation"];
     assert!(validation["position_mean_mm"].as_f64().unwrap() < 1e-3);
     assert!(validation["note"].as_str().unwrap().contains("re-fitted"));
+    for entry in validation["extrapolated_coordinates"].as_array().unwrap() {
+        let fraction = entry["fraction_outside"].as_f64().unwrap();
+        assert!(entry["coordinate"].as_str().unwrap().starts_with("theta"));
+        assert!(fraction > 0.0 && fraction <= 1.0);
+    }
 
     // A robot without a built-in mass table, and a malformed table.
     let out = flexcal(&[
