@@ -1165,6 +1165,14 @@ mod tests {
         )
     }
 
+    /// The part frame of the path tests, with a payload (N, N.m in R0).
+    fn part_cell(payload_base: Vector6<f64>) -> Cell {
+        Cell {
+            x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
+            payload_base,
+        }
+    }
+
     /// A configuration near the targets of these tests (elbow up, tool down).
     const SEED: [f64; 6] = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
 
@@ -1381,16 +1389,12 @@ mod tests {
             calls: 0.into(),
         };
         let beam = CantileverBeam::reference(BeamTheory::SmallDeflection);
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: with_beam.then_some(&beam as &dyn ProcessModel),
-            cell: Cell {
-                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
-                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
-            },
-        };
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &model,
+            &elastic,
+            with_beam.then_some(&beam as &dyn ProcessModel),
+            part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
+        );
         let points = 1000;
         let path = fine_travel(points);
         let cold = cold_path(&egm, &mut data, &path);
@@ -1444,16 +1448,12 @@ mod tests {
         let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
         let mut data = Data::new(&model);
         let elastic = compliance();
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: None,
-            cell: Cell {
-                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
-                payload_base: Vector6::zeros(),
-            },
-        };
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &model,
+            &elastic,
+            None,
+            part_cell(Vector6::zeros()),
+        );
         let outcomes = egm.compensate_path(&mut data, &fine_travel(50), &SEED, &Default::default());
         for o in &outcomes {
             let c = o.result.as_ref().unwrap();
@@ -1468,16 +1468,12 @@ mod tests {
         let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
         let mut data = Data::new(&model);
         let elastic = compliance();
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: None,
-            cell: Cell {
-                x_base_part: Isometry3::translation(0.3, 0.25, 0.2),
-                payload_base: Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),
-            },
-        };
+        let egm = ElastoGeometricModel::with_nominal_geometry(
+            &model,
+            &elastic,
+            None,
+            part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
+        );
         let mut options = CompensationOptions::default();
         options.inverse.target = InverseTarget::PositionAndToolAxis;
         let path = fine_travel(100);
