@@ -14,7 +14,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use flexcal_compensate::compensation::{Cell, ConstantCompliance, ElastoGeometricModel};
-use flexcal_fuzzy::{FuzzyModel, FuzzyStructure, Partition};
+use flexcal_fuzzy::FuzzyModel;
 use flexcal_kinematics::{Data, RobotDescription, forward_pose, param_jacobian_into};
 use nalgebra::{DMatrix, Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::Serialize;
@@ -83,13 +83,7 @@ fn time(name: &str, budget: Duration, per_call: u64, mut op: impl FnMut()) -> Ti
 pub fn twelve_rule_model() -> anyhow::Result<FuzzyModel> {
     // Modal values in rad over the IR-663's joint 2 and 8 ranges; conclusions
     // of the order of the robot's compliance (m/N).
-    let structure = FuzzyStructure::new(
-        vec!["theta2".into(), "theta8".into()],
-        vec![
-            Partition::new(vec![-1.2, -0.6, -0.1, 0.5])?,
-            Partition::new(vec![-0.5, 0.4, 1.3])?,
-        ],
-    )?;
+    let structure = compensation_fixtures::paper_structure().map_err(|e| anyhow::anyhow!(e))?;
     let conclusions: Vec<f64> = (0..12).map(|i| 1e-6 * (1.0 + 0.1 * i as f64)).collect();
     Ok(FuzzyModel::new(structure, "C_xx".into(), conclusions)?)
 }
@@ -203,11 +197,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         ));
         for with_beam in [false, true] {
             let egm = fixture.model(elastic, with_beam);
-            let load = if with_beam {
-                "920 N + cantilever beam"
-            } else {
-                "920 N"
-            };
+            let load = compensation_fixtures::load_label(with_beam);
             let path = time(
                 &format!(
                     "ir663: compensation of a {PATH_POINTS}-point path, {}, {load}",

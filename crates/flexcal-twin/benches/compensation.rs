@@ -16,7 +16,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use flexcal_kinematics::Data;
 use nalgebra::Vector3;
 
-use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, PATH_POINTS};
+use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, PATH_POINTS, load_label};
 
 fn bench(c: &mut Criterion) {
     let fixture = CompensationFixture::new(PATH_POINTS).expect("built-in fixture");
@@ -43,11 +43,7 @@ fn bench(c: &mut Criterion) {
         );
         for with_beam in [false, true] {
             let egm = fixture.model(elastic, with_beam);
-            let load = if with_beam {
-                "920 N + cantilever beam"
-            } else {
-                "920 N"
-            };
+            let load = load_label(with_beam);
             // What is timed must be a successful compensation of every point.
             let check =
                 egm.compensate_path(&mut data, &fixture.path, &fixture.seed, &fixture.options);
