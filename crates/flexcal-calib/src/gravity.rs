@@ -11,7 +11,9 @@
 //! This is the static equilibrium of the joint-spring model of the paper's
 //! section 2.2 (equations (13)-(16), rigid links, load = gravity) to first
 //! order in the deflection; the calibration then predicts the pose at
-//! `FK(q + dq, xi)`.
+//! `FK(q + dq, xi)`. A test (`tests/gravity_fem.rs`) checks the predicted
+//! TCP deflection against flexcal-fem's frame model of the same robot (stiff
+//! beams, joint springs, the weights as nodal loads): they agree to 0.2 %.
 //!
 //! The payload enters linearly through its mass `m` (kg) and first moment
 //! `m c` (kg.m, centre `c` in the TCP frame), so that
