@@ -356,16 +356,27 @@ impl Calibration {
         };
         let mut notes = Vec::new();
         let np = self.xi.len();
-        let robot: Vec<&str> = self.unknowns[..np]
-            .iter()
-            .filter(not_identified)
-            .map(|u| u.name.as_str())
-            .collect();
-        if !robot.is_empty() {
+        let robot = |status: UnknownStatus| -> Vec<&str> {
+            self.unknowns[..np]
+                .iter()
+                .filter(|u| u.status == status)
+                .map(|u| u.name.as_str())
+                .collect()
+        };
+        let exact = robot(UnknownStatus::NonIdentifiable);
+        if !exact.is_empty() {
             notes.push(format!(
-                "{} of {np} robot parameters are not identified by these poses and stay at nominal ({}); the identified ones stand for combinations that hold near these poses",
-                robot.len(),
-                robot.join(", ")
+                "{} of {np} robot parameters are exactly dependent on others with these poses and stay at nominal ({}); the identified ones stand for the combinations listed",
+                exact.len(),
+                exact.join(", ")
+            ));
+        }
+        let poor = robot(UnknownStatus::PoorlyIdentifiable);
+        if !poor.is_empty() {
+            notes.push(format!(
+                "{} more are too weakly seen by these poses and stay at nominal ({}): predictions far from these poses carry their errors",
+                poor.len(),
+                poor.join(", ")
             ));
         }
         let target = names("target_");
