@@ -236,6 +236,10 @@ impl<'a> GeometricErrorModel<'a> {
         }
         kinds
     }
+    /// The measurements the model predicts.
+    pub fn measurements(&self) -> &[crate::Measurement] {
+        self.set.measurements()
+    }
     /// Rows per pose: 3 (position) or 6 (position and orientation).
     pub fn rows_per_pose(&self) -> usize {
         if self.use_orientation { 6 } else { 3 }

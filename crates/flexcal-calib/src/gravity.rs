@@ -21,9 +21,7 @@
 //! nominal geometry (a geometric error of a millimetre changes them by about
 //! 0.1 %, far below what gravity deflection can resolve).
 
-use flexcal_kinematics::{
-    ActuatedKind, Data, Model, PointLoad, actuated_forces_into, joint_jacobian_into,
-};
+use flexcal_kinematics::{Data, Model, PointLoad, actuated_forces_into, joint_jacobian_into};
 use nalgebra::{Matrix6xX, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -414,13 +412,5 @@ impl GravityCompliance {
             what: "mass table",
             message: e.to_string(),
         })
-    }
-}
-
-/// Unit of the compliance of an actuated coordinate, for reports.
-pub fn compliance_unit(kind: ActuatedKind) -> &'static str {
-    match kind {
-        ActuatedKind::Revolute => "rad/N.m",
-        ActuatedKind::Prismatic | ActuatedKind::Screw => "m/N",
     }
 }

@@ -13,7 +13,7 @@ use nalgebra::Isometry3;
 
 use crate::error_model::{GeometricErrorModel, UnknownKind, register_measurement_frame};
 use crate::gravity::GravityCompliance;
-use crate::validate::{ErrorStatistics, FramePolicy, error_statistics, evaluate_errors};
+use crate::validate::{ErrorStatistics, error_statistics, pose_errors};
 use crate::{CalibError, MeasurementSet};
 
 /// The iterative solver of the identification.
@@ -758,7 +758,8 @@ pub fn calibrate(
         }
     }
     // The nominal robot with its frames fitted: the "before" of the report.
-    let (x_meas_base_nominal, x_tcp_target_nominal) = problem.frames(&x_start);
+    let x_nominal_robot = x_start.clone();
+    let (_, x_tcp_target_nominal) = problem.frames(&x_start);
     let excluded = |j: usize| fixed[j] || no_influence[j];
     // Unknowns beyond the numerical rank whatever the noise (exact dependencies).
     let reduced_start = context.reduced(&x_start)?;
@@ -864,26 +865,10 @@ pub fn calibrate(
         .gravity
         .as_ref()
         .map(|g| (g.clone(), x[te..].to_vec()));
-    // The starting model: nominal geometry (and starting compliances).
-    let elastic_start = options.gravity.as_ref().map(|g| (g, &x_initial[te..]));
-    let training_before = error_statistics(&evaluate_errors(
-        model,
-        set,
-        model.nominal_params(),
-        elastic_start,
-        &x_tcp_target_nominal,
-        FramePolicy::Fixed(x_meas_base_nominal),
-        use_orientation,
-    )?);
-    let training_after = error_statistics(&evaluate_errors(
-        model,
-        set,
-        &xi,
-        elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
-        &x_tcp_target,
-        FramePolicy::Fixed(x_meas_base),
-        use_orientation,
-    )?);
+    // Before: the starting model (nominal geometry, and starting compliances)
+    // with its frames fitted; after: the fit. Both on the same error model.
+    let training_before = error_statistics(&pose_errors(&problem, &x_nominal_robot)?);
+    let training_after = error_statistics(&pose_errors(&problem, &x)?);
     Ok(Calibration {
         xi,
         nominal_xi: model.nominal_params().to_vec(),

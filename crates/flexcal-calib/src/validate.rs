@@ -125,8 +125,8 @@ pub fn evaluate_errors(
         }
         Ok((problem, x))
     };
-    let (x_meas_base, x_tcp_target) = match policy {
-        FramePolicy::Fixed(x) => (x, *x_tcp_target),
+    let (problem, x) = match policy {
+        FramePolicy::Fixed(x_meas_base) => problem_at(x_meas_base, *x_tcp_target)?,
         FramePolicy::Refit { refit_target } => {
             let start = register_measurement_frame(model, set, xi, x_tcp_target)?;
             let (problem, x0) = problem_at(start, *x_tcp_target)?;
@@ -154,23 +154,37 @@ pub fn evaluate_errors(
                 fixed,
                 ..ProblemSetup::default()
             };
+            // The robot is frozen: its parameter Jacobian is not needed.
+            problem.set_robot_columns(false);
             let report = LevenbergMarquardt::params()
                 .solve(&problem, &x0, &setup, &mut ())
                 .map_err(CalibError::optim(
                     "validation re-fit of the measurement frame",
                 ))?;
-            problem.frames(&report.x)
+            (problem, report.x)
         }
     };
-    let (problem, x) = problem_at(x_meas_base, x_tcp_target)?;
+    pose_errors(&problem, &x)
+}
+
+/// Per-pose errors of the error model `problem` at unknowns `x` (its frames
+/// included).
+///
+/// # Errors
+/// [`CalibError::Kinematics`] naming the pose.
+pub(crate) fn pose_errors(
+    problem: &GeometricErrorModel<'_>,
+    x: &[f64],
+) -> Result<Vec<PoseError>, CalibError> {
     debug_assert_eq!(x.len(), problem.n_params());
-    set.measurements()
+    problem
+        .measurements()
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let predicted = problem.predict(&x, k)?;
+            let predicted = problem.predict(x, k)?;
             let position = (predicted.translation.vector - m.position).norm();
-            let orientation = if use_orientation {
+            let orientation = if problem.rows_per_pose() == 6 {
                 let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
                 Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
             } else {
