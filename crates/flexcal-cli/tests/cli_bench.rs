@@ -1,15 +1,12 @@
 //! `flexcal bench` end to end: every core operation is timed and reported.
 
-use std::process::Command;
+mod common;
+use common::{flexcal, stderr};
 
 #[test]
 fn bench_times_every_core_operation() {
-    let out = Command::new(env!("CARGO_BIN_EXE_flexcal"))
-        .args(["bench", "--json", "--budget-ms", "1"])
-        .output()
-        .expect("the flexcal binary runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let out = flexcal(&["bench", "--json", "--budget-ms", "1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let operations = json["operations"].as_array().unwrap();
     let names: Vec<&str> = operations

@@ -2,14 +2,10 @@
 //! end to end on temporary files, and bad input.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn flexcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-        .args(args)
-        .output()
-        .expect("the flexcal binary runs")
-}
+mod common;
+use common::flexcal;
 
 fn text(output: &Output) -> (String, String) {
     (

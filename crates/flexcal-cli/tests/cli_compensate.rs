@@ -1,21 +1,13 @@
 //! `flexcal twin forming` and `flexcal compensate` run end to end on temporary files.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn flexcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-        .args(args)
-        .output()
-        .expect("the flexcal binary runs")
-}
+mod common;
+use common::{flexcal, stderr};
 
 fn text(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 /// Header and rows of a CSV file written by `compensate`.

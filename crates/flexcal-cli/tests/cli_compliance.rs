@@ -13,9 +13,8 @@ use flexcal_elastic::metrics::per_load_metrics;
 use flexcal_elastic::model::ElasticModel;
 use flexcal_kinematics::RobotDescription;
 
-fn flexcal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-}
+mod common;
+use common::command as flexcal;
 
 fn run(command: &mut Command) -> Output {
     let out = command.output().unwrap();

@@ -2,14 +2,8 @@
 //! self-contained report, and figures equal to those of the individual
 //! commands run on the demo's own files.
 
-use std::process::Command;
-
-fn flexcal(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-        .args(args)
-        .output()
-        .expect("the flexcal binary runs")
-}
+mod common;
+use common::flexcal;
 
 #[test]
 fn demo_writes_its_folder_and_matches_the_individual_commands() {

@@ -1,7 +1,9 @@
 //! `flexcal fem solve` and `flexcal fem condense` run end to end on temporary files.
 
 use std::path::Path;
-use std::process::{Command, Output};
+
+mod common;
+use common::flexcal;
 
 const E: f64 = 2.0e11;
 const IZ: f64 = 1e-6;
@@ -17,13 +19,6 @@ load_cases = [
   { name = "side", nodal_loads = { tip = [0.0, 0.0, 50.0, 0.0, 0.0, 0.0] } },
 ]
 "#;
-
-fn flexcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-        .args(args)
-        .output()
-        .expect("the flexcal binary runs")
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let path = dir.join(name);

@@ -1,10 +1,7 @@
 //! `flexcal fuzzy fit`, `eval --json` and `export`, end to end on a CSV file.
 
-use std::process::Command;
-
-fn flexcal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-}
+mod common;
+use common::command as flexcal;
 
 /// A smooth function of two inputs on a seeded-free regular grid (the grid
 /// itself is the data; no random draw is involved).

@@ -1,11 +1,8 @@
 //! `flexcal twin elastic` then `flexcal identify stiffness`, end to end, and
 //! bad input.
 
-use std::process::Command;
-
-fn flexcal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-}
+mod common;
+use common::command as flexcal;
 
 #[test]
 fn twin_elastic_then_identify_stiffness() {

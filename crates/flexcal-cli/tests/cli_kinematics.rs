@@ -1,22 +1,9 @@
 //! End-to-end runs of `flexcal robot`, `flexcal fk` and `flexcal ik`.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn flexcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-        .args(args)
-        .output()
-        .expect("the flexcal binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{flexcal, stderr, stdout};
 
 fn path_str(p: &Path) -> &str {
     p.to_str().expect("temp paths are UTF-8")
