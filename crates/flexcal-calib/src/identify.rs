@@ -244,6 +244,14 @@ pub struct UnknownEstimate {
     pub value: f64,
     /// Standard error, in the unit of `kind`, when identified.
     pub standard_error: Option<f64>,
+    /// When identified: its standard error divided by the one that as many
+    /// poses drawn uniformly over the robot's joint ranges would give with
+    /// the same noise (dimensionless; 1 = as well determined as by a spread
+    /// design, 10 = ten times worse). Poses clustered in a small region
+    /// determine many parameters only in combinations that hold there: a
+    /// large ratio warns that predictions elsewhere are extrapolations even
+    /// when the standard error itself is small.
+    pub spread_ratio: Option<f64>,
     /// What became of it.
     pub status: UnknownStatus,
 }
@@ -374,15 +382,32 @@ impl Calibration {
         let poor = robot(UnknownStatus::PoorlyIdentifiable);
         if !poor.is_empty() {
             notes.push(format!(
-                "{} more are too weakly seen by these poses and stay at nominal ({}): predictions far from these poses carry their errors",
+                "{} more too weakly seen by these poses stay at nominal ({}): predictions far from these poses carry their errors",
                 poor.len(),
                 poor.join(", ")
+            ));
+        }
+        let weak: Vec<String> = self
+            .unknowns
+            .iter()
+            .enumerate()
+            .filter(|(j, u)| *j < np || u.name.starts_with("target_"))
+            .filter_map(|(_, u)| {
+                u.spread_ratio
+                    .filter(|r| *r > WEAK_SPREAD_RATIO)
+                    .map(|r| format!("{} x{r:.0}", u.name))
+            })
+            .collect();
+        if !weak.is_empty() {
+            notes.push(format!(
+                "determined more than {WEAK_SPREAD_RATIO:.0} times less precisely than by as many poses spread over the joint ranges (standard error ratio): {}; these poses see them mostly in combinations that hold near them, so predictions for poses unlike them (other joint ranges) are extrapolations",
+                weak.join(", ")
             ));
         }
         let target = names("target_");
         if !target.is_empty() {
             notes.push(format!(
-                "the target (probe) offset is not identified along {}: it stays at its starting value, and its error goes into every prediction away from these poses (vary the tool orientation more to identify it)",
+                "the target (probe) offset is not identified along {}: it stays at its starting value, and its error goes into every prediction away from these poses (vary the tool orientation more to identify it, or start from an offset known from elsewhere)",
                 target.join(", ")
             ));
         }
@@ -831,6 +856,15 @@ pub fn calibrate(
     // geometric errors of millimetres the difference from the solution is of
     // second order, and the start's factor is at hand.
     let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
+    let spread_ratios = SpreadInputs {
+        model,
+        set,
+        options,
+        use_orientation,
+        frames: (x_meas_base0, x_tcp_target0),
+        context: &context,
+    }
+    .ratios(&reduced_start, &x_start, &identified)?;
     let unknowns: Vec<UnknownEstimate> = (0..n)
         .map(|j| {
             let status = if fixed[j] {
@@ -854,6 +888,7 @@ pub fn calibrate(
                 } else {
                     None
                 },
+                spread_ratio: spread_ratios[j],
                 status,
             }
         })
@@ -1114,4 +1149,169 @@ pub fn combination_check(
             Some((u.name.clone(), value, u.value, u.standard_error))
         })
         .collect()
+}
+
+/// Most poses drawn for the spread reference of
+/// [`UnknownEstimate::spread_ratio`] (its standard errors are rescaled to the
+/// number of identification poses).
+pub const SPREAD_REFERENCE_POSES: usize = 400;
+/// Seed of the spread reference's draws: the same data give the same report.
+const SPREAD_REFERENCE_SEED: u64 = 9283;
+/// A robot parameter whose standard error is more than this many times the
+/// one of the spread reference is reported as weakly determined by the poses.
+pub const WEAK_SPREAD_RATIO: f64 = 10.0;
+
+/// Diagonal of `(S^T S)^-1` for the columns `cols` of `s` (the unit-noise
+/// covariance of those unknowns), or `None` when they are not independent.
+fn unit_covariance_diagonal(s: &Mat<f64>, cols: &[usize]) -> Option<Vec<f64>> {
+    let k = cols.len();
+    let norms: Vec<f64> = cols.iter().map(|&j| s.col(j).norm_l2()).collect();
+    if norms.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
+        return None;
+    }
+    // Scaled columns: lengths and angles on the same footing for the factor.
+    let mut normal = nalgebra::DMatrix::<f64>::zeros(k, k);
+    for a in 0..k {
+        for b in a..k {
+            let dot: f64 = (0..s.nrows())
+                .map(|i| s[(i, cols[a])] * s[(i, cols[b])])
+                .sum::<f64>()
+                / (norms[a] * norms[b]);
+            normal[(a, b)] = dot;
+            normal[(b, a)] = dot;
+        }
+    }
+    let inverse = normal.cholesky()?.inverse();
+    let diagonal: Vec<f64> = (0..k)
+        .map(|a| inverse[(a, a)] / (norms[a] * norms[a]))
+        .collect();
+    diagonal
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0)
+        .then_some(diagonal)
+}
+
+/// What the spread reference needs from the identification.
+struct SpreadInputs<'a> {
+    model: &'a Model,
+    set: &'a MeasurementSet,
+    options: &'a CalibrationOptions,
+    use_orientation: bool,
+    frames: (Isometry3<f64>, Isometry3<f64>),
+    context: &'a AnalysisContext<'a>,
+}
+
+impl SpreadInputs<'_> {
+    /// For each unknown of `identified`, its standard error with these poses
+    /// divided by the one that as many poses spread over the robot's joint
+    /// ranges would give, both with the same noise (see
+    /// [`UnknownEstimate::spread_ratio`]). `None` everywhere when no
+    /// reference can be drawn (a closed loop that rarely closes) or the
+    /// reference cannot separate them either.
+    fn ratios(
+        &self,
+        reduced: &Mat<f64>,
+        x: &[f64],
+        identified: &[usize],
+    ) -> Result<Vec<Option<f64>>, CalibError> {
+        use rand::{Rng, SeedableRng};
+        let n = reduced.ncols();
+        let mut out = vec![None; n];
+        let Some(training) = unit_covariance_diagonal(reduced, identified) else {
+            return Ok(out);
+        };
+        let rows = self.context.problem.rows_per_pose();
+        let poses = self.set.len();
+        // The reference rows weigh what the identification rows weigh on
+        // average (RMS per row kind).
+        let mut weight = vec![0.0; rows];
+        for pose in self.context.weights.chunks(rows) {
+            for (w, v) in weight.iter_mut().zip(pose) {
+                *w += v * v / poses as f64;
+            }
+        }
+        weight.iter_mut().for_each(|w| *w = w.sqrt());
+        // Revolute coordinates over their limits; prismatic ones (whose
+        // default limits are not a workspace) over the identification range.
+        let ranges: Vec<(f64, f64)> = self
+            .model
+            .actuated_limits()
+            .iter()
+            .zip(self.model.actuated_kinds())
+            .enumerate()
+            .map(|(i, (&limits, kind))| match kind {
+                flexcal_kinematics::ActuatedKind::Revolute => limits,
+                _ => self
+                    .set
+                    .measurements()
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                        (lo.min(m.q[i]), hi.max(m.q[i]))
+                    }),
+            })
+            .collect();
+        let count = poses.min(SPREAD_REFERENCE_POSES);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SPREAD_REFERENCE_SEED);
+        let mut data = flexcal_kinematics::Data::new(self.model);
+        let mut drawn = Vec::with_capacity(count);
+        let mut tries = 0;
+        while drawn.len() < count && tries < 50 * count {
+            tries += 1;
+            let q: Vec<f64> = ranges
+                .iter()
+                .map(|&(lo, hi)| {
+                    if lo < hi {
+                        rng.random_range(lo..hi)
+                    } else {
+                        lo
+                    }
+                })
+                .collect();
+            // A closed loop that cannot close at q: draw again.
+            if flexcal_kinematics::forward_pose(
+                self.model,
+                &mut data,
+                &q,
+                &x[..self.model.n_params()],
+            )
+            .is_err()
+            {
+                continue;
+            }
+            let mut m = crate::Measurement::new(q, nalgebra::Vector3::zeros());
+            if self.use_orientation {
+                m.orientation = Some(nalgebra::Vector3::zeros());
+            }
+            drawn.push(m);
+        }
+        if drawn.len() < count {
+            return Ok(out);
+        }
+        let reference = MeasurementSet::new("spread reference", drawn)?;
+        let mut problem = GeometricErrorModel::new(
+            self.model,
+            &reference,
+            self.use_orientation,
+            self.frames.0,
+            self.frames.1,
+        )?;
+        if let Some(gravity) = &self.options.gravity {
+            problem = problem.with_gravity(gravity)?;
+        }
+        let weights: Vec<f64> = (0..count * rows).map(|i| weight[i % rows]).collect();
+        let context = AnalysisContext {
+            problem: &problem,
+            weights: &weights,
+            ..*self.context
+        };
+        let Some(spread) = unit_covariance_diagonal(&context.reduced(x)?, identified) else {
+            return Ok(out);
+        };
+        // Covariances scale as 1 / poses: compare at the same number.
+        let scale = count as f64 / poses as f64;
+        for (c, &j) in identified.iter().enumerate() {
+            out[j] = Some((training[c] / (spread[c] * scale)).sqrt());
+        }
+        Ok(out)
+    }
 }

@@ -73,6 +73,13 @@
 //!   pivoting order can be steered ([`CalibrationOptions::deferred`]); for the
 //!   IR-663 the default defers the paper's six non-identifiable parameters
 //!   `kappa8 kappa2 r8p d9 r2 r7` (section 3.2.3).
+//! - Beyond the paper, each identified unknown gets a spread ratio
+//!   ([`UnknownEstimate::spread_ratio`]): its standard error over the one
+//!   that as many poses drawn uniformly over the joint ranges would give
+//!   (seeded, at most [`SPREAD_REFERENCE_POSES`] poses). Poses clustered in
+//!   part of the joint space can identify a parameter with a small standard
+//!   error yet only in a combination that holds there; ratios above
+//!   [`WEAK_SPREAD_RATIO`] are named in [`Calibration::identifiability_notes`].
 //! - Iterative identification (12): Gauss-Newton re-linearisation or
 //!   Levenberg-Marquardt ([`Method`]); the cost history is Figure 7's data.
 //! - Sensitivity indices (55)-(58) are in `flexcal-kinematics`; observability
@@ -156,7 +163,8 @@ pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{GravityCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
 pub use identify::{
     Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
-    ResidualNorms, UnknownEstimate, UnknownStatus, Weighting, calibrate, combination_check,
+    ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,
+    Weighting, calibrate, combination_check,
 };
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
 pub use report::CalibrationReportJson;

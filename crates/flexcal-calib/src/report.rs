@@ -58,6 +58,10 @@ pub struct ParameterJson {
     pub delta: f64,
     /// Standard error in `unit` (identified unknowns only).
     pub standard_error: Option<f64>,
+    /// Standard error over the one of as many poses spread over the joint
+    /// ranges (identified unknowns only; see
+    /// [`crate::UnknownEstimate::spread_ratio`]).
+    pub spread_ratio: Option<f64>,
     /// `identified`, `fixed`, `non-identifiable`, `poorly-identifiable`, `no-influence`.
     pub status: &'static str,
 }
@@ -176,6 +180,7 @@ impl CalibrationReportJson {
                     identified: u.value * scale,
                     delta: (u.value - u.initial) * scale,
                     standard_error: u.standard_error.map(|s| s * scale),
+                    spread_ratio: u.spread_ratio,
                     status: status_name(u.status),
                 }
             })

@@ -3,7 +3,7 @@
 
 use flexcal_kinematics::Model;
 use flexcal_optim::{LevenbergMarquardt, ProblemSetup, Residuals};
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 
 use crate::error_model::{GeometricErrorModel, register_measurement_frame};
 use crate::geometry::{rotation_from_vector, vector_from_rotation};
@@ -33,6 +33,9 @@ pub enum FramePolicy {
 pub struct PoseError {
     /// `|p_predicted - p_measured|` (m).
     pub position: f64,
+    /// `p_measured - p_predicted` in the measurement frame (m): what the
+    /// model misses, component by component.
+    pub position_vector: Vector3<f64>,
     /// Angle of `R_predicted R_measured^T` (rad), when used.
     pub orientation: Option<f64>,
 }
@@ -183,7 +186,7 @@ pub(crate) fn pose_errors(
         .enumerate()
         .map(|(k, m)| {
             let predicted = problem.predict(x, k)?;
-            let position = (predicted.translation.vector - m.position).norm();
+            let position_vector = m.position - predicted.translation.vector;
             let orientation = if problem.rows_per_pose() == 6 {
                 let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
                 Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
@@ -191,7 +194,8 @@ pub(crate) fn pose_errors(
                 None
             };
             Ok(PoseError {
-                position,
+                position: position_vector.norm(),
+                position_vector,
                 orientation,
             })
         })

@@ -10,6 +10,7 @@ use flexcal_calib::{
     calibrate,
 };
 use flexcal_kinematics::{Model, RobotDescription};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 /// Measurement file formats.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,6 +98,13 @@ pub struct CalibrateArgs {
     /// On validation, re-fit the target offset too (not only the measurement frame).
     #[arg(long)]
     pub refit_target: bool,
+    /// Starting position of the target in the end frame, `x,y,z` (mm),
+    /// instead of the file's nominal (the IPA probe offset) or the TCP: a
+    /// probe offset known from elsewhere (hand-eye calibration, another
+    /// series). It stays there along the directions the poses cannot
+    /// identify, and everywhere with --fixed-target.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub target_mm: Vec<f64>,
     /// Noise-aware rank: a length unknown whose standard error would exceed
     /// this is kept at nominal (mm; default 5).
     #[arg(long)]
@@ -178,6 +186,25 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     if args.fixed_target {
         options.target = FrameTreatment::Fixed;
     }
+    if !args.target_mm.is_empty() {
+        let [x, y, z] = args.target_mm[..] else {
+            anyhow::bail!(
+                "--target-mm takes three values x,y,z (mm), got {}",
+                args.target_mm.len()
+            );
+        };
+        if ![x, y, z].iter().all(|v| v.is_finite()) {
+            anyhow::bail!("--target-mm: values must be finite, got {x},{y},{z}");
+        }
+        let rotation = data
+            .nominal_target
+            .map(|t| t.rotation)
+            .unwrap_or_else(UnitQuaternion::identity);
+        options.target_value = Some(Isometry3::from_parts(
+            Translation3::new(x * 1e-3, y * 1e-3, z * 1e-3),
+            rotation,
+        ));
+    }
     options.require_full_rank = args.strict;
     if let Some(v) = args.max_se_length_mm {
         options.max_standard_error_length = v * 1e-3;
@@ -223,15 +250,20 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     };
     print_temperature_analysis(per_pose_name, per_pose_set, &per_pose);
     if let Some(path) = &args.residuals {
-        let mut text = String::from("pose,temperature_c,position_error_mm,orientation_error_deg\n");
+        let mut text = String::from(
+            "pose,temperature_c,position_error_mm,orientation_error_deg,dx_mm,dy_mm,dz_mm\n",
+        );
         for (k, (e, m)) in per_pose.iter().zip(per_pose_set.measurements()).enumerate() {
             let optional = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
             text.push_str(&format!(
-                "{},{},{},{}\n",
+                "{},{},{},{},{},{},{}\n",
                 m.label(k).replace(',', ";"),
                 optional(m.temperature_c),
                 e.position * 1e3,
-                optional(e.orientation.map(f64::to_degrees))
+                optional(e.orientation.map(f64::to_degrees)),
+                e.position_vector.x * 1e3,
+                e.position_vector.y * 1e3,
+                e.position_vector.z * 1e3
             ));
         }
         flexcal_io::write_atomic(path, text)?;
@@ -267,8 +299,8 @@ fn print_identification(c: &Calibration) {
     println!();
     println!("Identifiability and identified values");
     println!(
-        "{:<16} {:>9} {:>13} {:>14} {:>12} {:>12}  status",
-        "unknown", "unit", "nominal", "identified", "delta", "std error"
+        "{:<16} {:>9} {:>13} {:>14} {:>12} {:>12} {:>9}  status",
+        "unknown", "unit", "nominal", "identified", "delta", "std error", "vs spread"
     );
     for u in &c.unknowns {
         let (unit, scale) = u.kind.display_unit();
@@ -276,8 +308,12 @@ fn print_identification(c: &Calibration) {
             .standard_error
             .map(|s| format!("{:12.5}", s * scale))
             .unwrap_or_else(|| format!("{:>12}", "-"));
+        let ratio = u
+            .spread_ratio
+            .map(|r| format!("{r:9.1}"))
+            .unwrap_or_else(|| format!("{:>9}", "-"));
         println!(
-            "{:<16} {unit:>9} {:>13.5} {:>14.5} {:>12.5} {se}  {}",
+            "{:<16} {unit:>9} {:>13.5} {:>14.5} {:>12.5} {se} {ratio}  {}",
             u.name,
             u.initial * scale,
             u.value * scale,

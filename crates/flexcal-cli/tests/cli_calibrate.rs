@@ -82,6 +82,49 @@ fn twin_files_calibrate_end_to_end() {
     }
     assert!(v["position_mean_mm"].as_f64().unwrap() < 0.1);
     assert!(v["before"]["position_mean_mm"].as_f64().unwrap() > 0.5);
+    // Identified unknowns carry their spread ratio, the others none.
+    let parameter = |report: &serde_json::Value, name: &str| -> serde_json::Value {
+        report["identification"]["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap_or_else(|| panic!("{name} in the report"))
+            .clone()
+    };
+    for p in id["parameters"].as_array().unwrap() {
+        let identified = p["status"] == "identified";
+        assert_eq!(p["spread_ratio"].as_f64().is_some(), identified, "{p}");
+        if identified {
+            assert!(p["spread_ratio"].as_f64().unwrap() > 0.0, "{p}");
+        }
+    }
+    // A target 5 mm further along the tool axis, kept fixed: the robot's
+    // tool length rE takes the difference, to the micrometre.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ir663",
+        "--data",
+        &path(d, "identification.csv"),
+        "--fixed-frame",
+        "--fixed-target",
+        "--target-mm",
+        "0,0,5",
+        "--report",
+        &path(d, "report_target.json"),
+    ]);
+    assert!(out.status.success(), "{:?}", text(&out));
+    let shifted: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("report_target.json")).unwrap())
+            .unwrap();
+    let re = |r: &serde_json::Value| parameter(r, "rE")["identified"].as_f64().unwrap();
+    assert!(
+        (re(&report) - re(&shifted) - 5.0).abs() < 1e-3,
+        "rE {} and {}",
+        re(&report),
+        re(&shifted)
+    );
     // The calibrated robot loads back.
     let out = flexcal(&[
         "calibrate",
@@ -187,6 +230,8 @@ fn bad_input_gives_clear_errors() {
     );
     let err = run(&deficient, &["--fix", "nonsense"]);
     assert!(err.contains("unknown parameter `nonsense`"), "{err}");
+    let err = run(&deficient, &["--target-mm", "1,2"]);
+    assert!(err.contains("--target-mm takes three values"), "{err}");
 }
 
 /// `calibrate --model elasto-geometric` end to end: UR10 poses from `flexcal
@@ -269,13 +314,17 @@ fn elasto_geometric_calibration_end_to_end() {
     assert!(stdout.contains("elasto-geometric") && stdout.contains("compliance_theta2"));
     // Per-pose errors of the validation set, one row per pose.
     let rows = std::fs::read_to_string(&residuals).unwrap();
-    assert!(rows.starts_with("pose,temperature_c,position_error_mm,orientation_error_deg\n"));
+    assert!(rows.starts_with(
+        "pose,temperature_c,position_error_mm,orientation_error_deg,dx_mm,dy_mm,dz_mm\n"
+    ));
     assert_eq!(rows.lines().count(), 61);
-    assert!(
-        rows.lines()
-            .skip(1)
-            .all(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap() < 1e-3)
-    );
+    for line in rows.lines().skip(1) {
+        let field = |i: usize| line.split(',').nth(i).unwrap().parse::<f64>().unwrap();
+        assert!(field(2) < 1e-3, "{line}");
+        // The norm column is the norm of the component columns.
+        let norm = (field(4).powi(2) + field(5).powi(2) + field(6).powi(2)).sqrt();
+        assert!((norm - field(2)).abs() <= 1e-9 + 1e-9 * field(2), "{line}");
+    }
     assert!(stdout.contains("pos RMS mm"), "{stdout}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
