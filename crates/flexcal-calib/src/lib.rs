@@ -142,6 +142,14 @@
 //!   weighting by them ([`Weighting::FromFile`]) over-trusts some poses; the
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
+//! - The spread ratio compares with poses drawn over the joint limits, not
+//!   over a collision-free or task workspace; a robot whose useful workspace
+//!   is a small part of its joint ranges scores high everywhere.
+//! - The fuzzy residual model ([`ResidualModel`], section 2.2.2's models
+//!   applied to what a calibration leaves) maps a few actuated coordinates
+//!   to a position correction; it is clamped outside the training range and
+//!   knows nothing of loads, temperature or the measurement system, so it
+//!   only carries over to poses like the training ones.
 
 #![deny(missing_docs)]
 
@@ -152,6 +160,7 @@ pub mod gravity;
 pub mod identify;
 pub mod measurement;
 pub mod report;
+pub mod residual;
 pub mod select;
 pub mod validate;
 
@@ -167,7 +176,8 @@ pub use identify::{
     Weighting, calibrate, combination_check,
 };
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
-pub use report::CalibrationReportJson;
+pub use report::{CalibrationReportJson, ResidualModelJson};
+pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use validate::{
     ErrorStatistics, FramePolicy, PoseError, ValidationReport, error_statistics, evaluate_errors,

@@ -148,6 +148,40 @@ pub struct CalibrationReportJson {
     pub identification: IdentificationJson,
     /// Validation results, when a validation set was given.
     pub validation: Option<ValidationJson>,
+    /// The fuzzy residual model, when one was fitted (reported apart from
+    /// the calibration: it is not part of the robot model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_model: Option<ResidualModelJson>,
+}
+
+/// The `residual_model` object.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ResidualModelJson {
+    /// Actuated coordinates used as inputs.
+    pub inputs: Vec<String>,
+    /// Rules of the x, y and z models.
+    pub rules: [usize; 3],
+    /// RMS error of each axis model on its held-out identification poses (mm).
+    pub held_out_rmse_mm: [f64; 3],
+    /// Validation errors with the residual model added (validation given).
+    pub validation: Option<StatisticsJson>,
+}
+
+impl ResidualModelJson {
+    /// The object for `residual`, fitted on a model with actuated coordinates
+    /// `names`, and its validation.
+    pub fn new(
+        names: &[String],
+        residual: &crate::ResidualModel,
+        validation: Option<&ValidationReport>,
+    ) -> Self {
+        Self {
+            inputs: residual.inputs.iter().map(|&i| names[i].clone()).collect(),
+            rules: residual.rule_counts(),
+            held_out_rmse_mm: [0, 1, 2].map(|a| residual.reports[a].test.rmse * 1e3),
+            validation: validation.map(|v| StatisticsJson::from(&v.after)),
+        }
+    }
 }
 
 fn status_name(s: UnknownStatus) -> &'static str {
@@ -243,6 +277,7 @@ impl CalibrationReportJson {
             },
             identification,
             validation,
+            residual_model: None,
         }
     }
 

@@ -101,6 +101,28 @@ pub fn evaluate_errors(
     policy: FramePolicy,
     use_orientation: bool,
 ) -> Result<Vec<PoseError>, CalibError> {
+    evaluate_errors_and_frame(
+        model,
+        set,
+        xi,
+        elastic,
+        x_tcp_target,
+        policy,
+        use_orientation,
+    )
+    .map(|(errors, _)| errors)
+}
+
+/// [`evaluate_errors`], with the measurement frame used (fixed or re-fitted).
+fn evaluate_errors_and_frame(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    elastic: Option<(&GravityCompliance, &[f64])>,
+    x_tcp_target: &Isometry3<f64>,
+    policy: FramePolicy,
+    use_orientation: bool,
+) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
     // The error model at given robot unknowns: geometric or elasto-geometric.
     let problem_at = |x_meas_base: Isometry3<f64>,
@@ -167,7 +189,8 @@ pub fn evaluate_errors(
             (problem, report.x)
         }
     };
-    pose_errors(&problem, &x)
+    let (x_meas_base, _) = problem.frames(&x);
+    Ok((pose_errors(&problem, &x)?, x_meas_base))
 }
 
 /// Per-pose errors of the error model `problem` at unknowns `x` (its frames
@@ -212,6 +235,9 @@ pub struct ValidationReport {
     pub after: ErrorStatistics,
     /// Per-pose errors after calibration.
     pub after_per_pose: Vec<PoseError>,
+    /// Measurement frame `x_meas_base` of the "after" errors: re-fitted on
+    /// the validation data, or the identification's when it was fixed.
+    pub measurement_frame: Isometry3<f64>,
     /// How the measurement frame was obtained, in words.
     pub frame_note: String,
     /// Per actuated coordinate outside the identification range on some
@@ -286,7 +312,7 @@ impl Calibration {
             policy,
             self.use_orientation,
         )?);
-        let after_per_pose = evaluate_errors(
+        let (after_per_pose, measurement_frame) = evaluate_errors_and_frame(
             model,
             set,
             &self.xi,
@@ -318,6 +344,7 @@ impl Calibration {
             before,
             after: error_statistics(&after_per_pose),
             after_per_pose,
+            measurement_frame,
             frame_note,
             extrapolated_coordinates,
         })

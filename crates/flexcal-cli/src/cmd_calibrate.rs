@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use flexcal_calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics, FrameTreatment,
-    GravityCompliance, MeasurementSet, Method, UnknownStatus, ValidationReport, Weighting,
-    calibrate,
+    GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson, UnknownStatus,
+    ValidationReport, Weighting, calibrate,
 };
+use flexcal_fuzzy::FuzzyParams;
 use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
@@ -115,6 +116,12 @@ pub struct CalibrateArgs {
     /// Fail instead of freezing non-identifiable parameters.
     #[arg(long)]
     pub strict: bool,
+    /// Also fit a fuzzy residual model of the remaining position errors over
+    /// these actuated coordinates (comma-separated, e.g. theta2,theta3), on
+    /// the identification poses only, and report the validation with it
+    /// separately.
+    #[arg(long, value_delimiter = ',')]
+    pub residual_model: Vec<String>,
     /// Write the calibrated robot description here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -240,6 +247,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         .transpose()
         .context("validation")?;
     print_before_after(&calibration, validation.as_ref());
+    let residual = fit_residual_model(&args, &model, &calibration, &data, validation_set.as_ref())?;
     let (per_pose, per_pose_set, per_pose_name) = match (&validation, &validation_set) {
         (Some(v), Some(set)) => (v.after_per_pose.clone(), set, "validation"),
         _ => (
@@ -278,11 +286,63 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         println!("calibrated robot written to {}", out.display());
     }
     if let Some(path) = &args.report {
-        let report = CalibrationReportJson::new(model.name(), &calibration, validation.as_ref());
+        let mut report =
+            CalibrationReportJson::new(model.name(), &calibration, validation.as_ref());
+        report.residual_model = residual
+            .as_ref()
+            .map(|(r, v)| ResidualModelJson::new(model.actuated_names(), r, v.as_ref()));
         flexcal_io::write_atomic(path, report.to_json_string()?)?;
         println!("report written to {}", path.display());
     }
     Ok(())
+}
+
+/// `--residual-model`: the fuzzy residual model and, with a validation
+/// set, its validation; printed apart from the calibration's figures.
+fn fit_residual_model(
+    args: &CalibrateArgs,
+    model: &Model,
+    calibration: &Calibration,
+    data: &MeasurementSet,
+    validation_set: Option<&MeasurementSet>,
+) -> anyhow::Result<Option<(ResidualModel, Option<ValidationReport>)>> {
+    let inputs: Vec<&str> = args
+        .residual_model
+        .iter()
+        .map(|s| s.trim())
+        .filter(|s| !s.is_empty())
+        .collect();
+    if inputs.is_empty() {
+        return Ok(None);
+    }
+    let residual = ResidualModel::fit(
+        model,
+        calibration,
+        data,
+        &inputs,
+        &FuzzyParams::default(),
+        1,
+    )
+    .context("--residual-model")?;
+    println!();
+    println!(
+        "Fuzzy residual model over {} (fitted on the identification poses; not part of the robot model): {:?} rules for x, y, z; held-out RMS {:.4} / {:.4} / {:.4} mm",
+        inputs.join(", "),
+        residual.rule_counts(),
+        residual.reports[0].test.rmse * 1e3,
+        residual.reports[1].test.rmse * 1e3,
+        residual.reports[2].test.rmse * 1e3
+    );
+    let validation = validation_set
+        .map(|set| {
+            calibration.validate_with_residual_model(model, set, &residual, args.refit_target)
+        })
+        .transpose()
+        .context("validation with the residual model")?;
+    if let Some(v) = &validation {
+        row("validation, + residual", &v.after);
+    }
+    Ok(Some((residual, validation)))
 }
 
 fn status(s: UnknownStatus) -> &'static str {

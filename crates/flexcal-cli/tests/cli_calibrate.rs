@@ -398,4 +398,44 @@ fn elasto_geometric_calibration_end_to_end() {
     let (_, stderr) = text(&out);
     assert!(!out.status.success() && !stderr.contains("panicked"));
     assert!(stderr.contains("bad.toml:2"), "{stderr}");
+
+    // The fuzzy residual model, reported apart: these measurements are
+    // exact, so it has nothing to add and the validation stays exact.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &train,
+        "--validate",
+        &validate,
+        "--residual-model",
+        "theta2,theta3",
+        "--report",
+        &report,
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("validation, + residual"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let residual = &json["residual_model"];
+    assert_eq!(residual["inputs"], serde_json::json!(["theta2", "theta3"]));
+    assert_eq!(residual["rules"].as_array().unwrap().len(), 3);
+    assert!(residual["validation"]["position_mean_mm"].as_f64().unwrap() < 1e-3);
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &train,
+        "--residual-model",
+        "theta9",
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success() && !stderr.contains("panicked"));
+    assert!(
+        stderr.contains("--residual-model") && stderr.contains("theta9"),
+        "{stderr}"
+    );
 }
