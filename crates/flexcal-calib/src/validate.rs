@@ -87,34 +87,13 @@ pub fn error_statistics(errors: &[PoseError]) -> ErrorStatistics {
 /// the measurement frame taken or re-fitted according to `policy`. With
 /// `elastic`, the robot deflects under gravity with the given elastic
 /// unknowns (compliances, payload mass, first moment: see
-/// [`GravityCompliance::unknown_names`]).
+/// [`GravityCompliance::unknown_names`]). Also returns the measurement
+/// frame `x_meas_base` used (the fixed one, or the re-fitted one).
 ///
 /// # Errors
 /// Mismatched coordinates, a model failure at a pose, a degenerate
 /// registration, a failing re-fit.
 pub fn evaluate_errors(
-    model: &Model,
-    set: &MeasurementSet,
-    xi: &[f64],
-    elastic: Option<(&GravityCompliance, &[f64])>,
-    x_tcp_target: &Isometry3<f64>,
-    policy: FramePolicy,
-    use_orientation: bool,
-) -> Result<Vec<PoseError>, CalibError> {
-    evaluate_errors_and_frame(
-        model,
-        set,
-        xi,
-        elastic,
-        x_tcp_target,
-        policy,
-        use_orientation,
-    )
-    .map(|(errors, _)| errors)
-}
-
-/// [`evaluate_errors`], with the measurement frame used (fixed or re-fitted).
-fn evaluate_errors_and_frame(
     model: &Model,
     set: &MeasurementSet,
     xi: &[f64],
@@ -265,6 +244,7 @@ impl Calibration {
             FramePolicy::Fixed(self.x_meas_base),
             self.use_orientation,
         )
+        .map(|(errors, _)| errors)
     }
 
     /// Validates on a separate set. If the identification kept the
@@ -303,7 +283,7 @@ impl Calibration {
                 ),
             )
         };
-        let before = error_statistics(&evaluate_errors(
+        let (before, _) = evaluate_errors(
             model,
             set,
             &self.nominal_xi,
@@ -311,8 +291,9 @@ impl Calibration {
             &self.x_tcp_target_nominal_robot,
             policy,
             self.use_orientation,
-        )?);
-        let (after_per_pose, measurement_frame) = evaluate_errors_and_frame(
+        )?;
+        let before = error_statistics(&before);
+        let (after_per_pose, measurement_frame) = evaluate_errors(
             model,
             set,
             &self.xi,

@@ -61,13 +61,7 @@ fn simulate(
     });
     let measurements = (0..n)
         .map(|_| {
-            let q: Vec<f64> = (0..6)
-                .map(|k| match k {
-                    1 => rng.random_range(-2.6..-0.5),
-                    2 => rng.random_range(-2.2..2.2),
-                    _ => rng.random_range(-2.5..2.5),
-                })
-                .collect();
+            let q = common::ur10_configuration(&mut rng);
             let mut tau = vec![0.0; 6];
             actuated_forces_into(
                 model,

@@ -11,9 +11,11 @@ use flexcal_calib::{
 use flexcal_fuzzy::FuzzyParams;
 use flexcal_kinematics::{Data, Model, RobotDescription, forward_pose};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+
+mod common;
 
 fn ur10() -> Model {
     RobotDescription::builtin("ur10").unwrap().build().unwrap()
@@ -36,13 +38,7 @@ fn measure(model: &Model, frame: &Isometry3<f64>, n: usize, seed: u64) -> Measur
     let mut data = Data::new(model);
     let measurements = (0..n)
         .map(|_| {
-            let q: Vec<f64> = (0..6)
-                .map(|k| match k {
-                    1 => rng.random_range(-2.6..-0.5),
-                    2 => rng.random_range(-2.2..2.2),
-                    _ => rng.random_range(-2.5..2.5),
-                })
-                .collect();
+            let q = common::ur10_configuration(&mut rng);
             let tcp = forward_pose(model, &mut data, &q, model.nominal_params()).unwrap();
             let p = tcp.translation.vector + unmodelled(&q);
             let measured =

@@ -290,14 +290,15 @@ fn elasto_geometric_calibration_end_to_end() {
         "payload_mass_kg = 1.0\npayload_center_mm = [0.0, 0.0, 100.0]\ninitial_compliance_urad_per_nm = 10.0\n\n[[mass]]\nname = \"upper arm\"\nframe = \"2\"\nmass_kg = 12.93\ncenter_mm = [-306.0, 0.0, 0.0]\n\n[[mass]]\nname = \"forearm\"\nframe = \"3\"\nmass_kg = 3.87\ncenter_mm = [-286.15, 0.0, 0.0]\n",
     )
     .unwrap();
+    // `flexcal calibrate --robot ur10 --data train.csv` and `extra`.
+    let calibrate_ur10 = |extra: &[&str]| {
+        let mut args = vec!["calibrate", "--robot", "ur10", "--data", &train];
+        args.extend_from_slice(extra);
+        flexcal(&args)
+    };
     let report = path(d, "report.json");
     let residuals = path(d, "residuals.csv");
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ur10",
-        "--data",
-        &train,
+    let out = calibrate_ur10(&[
         "--validate",
         &validate,
         "--model",
@@ -384,29 +385,14 @@ fn elasto_geometric_calibration_end_to_end() {
         "payload_mass_kg = 1.0\npayload_center_mm = [0.0, 0.0]\n",
     )
     .unwrap();
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ur10",
-        "--data",
-        &train,
-        "--model",
-        "elasto-geometric",
-        "--masses",
-        &bad,
-    ]);
+    let out = calibrate_ur10(&["--model", "elasto-geometric", "--masses", &bad]);
     let (_, stderr) = text(&out);
     assert!(!out.status.success() && !stderr.contains("panicked"));
     assert!(stderr.contains("bad.toml:2"), "{stderr}");
 
     // The fuzzy residual model, reported apart: these measurements are
     // exact, so it has nothing to add and the validation stays exact.
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ur10",
-        "--data",
-        &train,
+    let out = calibrate_ur10(&[
         "--validate",
         &validate,
         "--residual-model",
@@ -423,15 +409,7 @@ fn elasto_geometric_calibration_end_to_end() {
     assert_eq!(residual["inputs"], serde_json::json!(["theta2", "theta3"]));
     assert_eq!(residual["rules"].as_array().unwrap().len(), 3);
     assert!(residual["validation"]["position_mean_mm"].as_f64().unwrap() < 1e-3);
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ur10",
-        "--data",
-        &train,
-        "--residual-model",
-        "theta9",
-    ]);
+    let out = calibrate_ur10(&["--residual-model", "theta9"]);
     let (_, stderr) = text(&out);
     assert!(!out.status.success() && !stderr.contains("panicked"));
     assert!(

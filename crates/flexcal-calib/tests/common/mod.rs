@@ -1,8 +1,12 @@
-//! Shared checks of the integration tests.
+//! Shared checks and draws of the integration tests (each test file uses
+//! part of them).
+#![allow(dead_code)]
 
 use faer::Mat;
 use flexcal_calib::GeometricErrorModel;
 use flexcal_optim::{Jacobian, Residuals};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
 
 /// Asserts that the analytic Jacobian of `problem` at `x` matches central
 /// differences with step `step(j)` per unknown: entry by entry within
@@ -38,4 +42,17 @@ pub fn assert_jacobian_matches(
         }
     }
     jac
+}
+
+/// A UR10 configuration (rad) drawn over a working range: shoulder from
+/// -2.6 to -0.5 rad (arm above the base), elbow within +-2.2 rad, the other
+/// joints within +-2.5 rad.
+pub fn ur10_configuration(rng: &mut ChaCha8Rng) -> Vec<f64> {
+    (0..6)
+        .map(|k| match k {
+            1 => rng.random_range(-2.6..-0.5),
+            2 => rng.random_range(-2.2..2.2),
+            _ => rng.random_range(-2.5..2.5),
+        })
+        .collect()
 }
