@@ -769,9 +769,12 @@ pub fn calibrate(
         .collect();
     if !frame_unknowns.is_empty() {
         let sigma = noise_at(&x_start, frame_unknowns.len())?;
-        let analysis = context.analyse(&context.reduced(&x_start)?, Some(sigma), &|j| {
-            !frame_unknowns.contains(&j)
-        })?;
+        // Only the frame columns are analysed: skip the robot's.
+        problem.set_robot_columns(false);
+        let reduced = context.reduced(&x_start);
+        problem.set_robot_columns(true);
+        let analysis =
+            context.analyse(&reduced?, Some(sigma), &|j| !frame_unknowns.contains(&j))?;
         let mut frozen = vec![true; n];
         for &j in &analysis.base {
             frozen[analysis_index(&analysis, j, &names)] = false;
@@ -1154,7 +1157,7 @@ pub fn combination_check(
 /// Most poses drawn for the spread reference of
 /// [`UnknownEstimate::spread_ratio`] (its standard errors are rescaled to the
 /// number of identification poses).
-pub const SPREAD_REFERENCE_POSES: usize = 400;
+pub const SPREAD_REFERENCE_POSES: usize = 256;
 /// Seed of the spread reference's draws: the same data give the same report.
 const SPREAD_REFERENCE_SEED: u64 = 9283;
 /// A robot parameter whose standard error is more than this many times the
@@ -1268,13 +1271,14 @@ impl SpreadInputs<'_> {
                 })
                 .collect();
             // A closed loop that cannot close at q: draw again.
-            if flexcal_kinematics::forward_pose(
-                self.model,
-                &mut data,
-                &q,
-                &x[..self.model.n_params()],
-            )
-            .is_err()
+            if !self.model.is_serial()
+                && flexcal_kinematics::forward_pose(
+                    self.model,
+                    &mut data,
+                    &q,
+                    &x[..self.model.n_params()],
+                )
+                .is_err()
             {
                 continue;
             }
