@@ -80,6 +80,11 @@
 //!   part of the joint space can identify a parameter with a small standard
 //!   error yet only in a combination that holds there; ratios above
 //!   [`WEAK_SPREAD_RATIO`] are named in [`Calibration::identifiability_notes`].
+//! - Beyond the paper, its zero-order Takagi-Sugeno models (33)-(37) of
+//!   section 2.2.2 applied to what a calibration leaves: [`ResidualModel`]
+//!   maps chosen actuated coordinates to a position correction in the base
+//!   frame, fitted on the identification poses, validated with
+//!   [`Calibration::validate_with_residual_model`].
 //! - Iterative identification (12): Gauss-Newton re-linearisation or
 //!   Levenberg-Marquardt ([`Method`]); the cost history is Figure 7's data.
 //! - Sensitivity indices (55)-(58) are in `flexcal-kinematics`; observability

@@ -45,9 +45,9 @@ impl ResidualModel {
     /// held-out poses of the structure search.
     ///
     /// # Errors
-    /// [`CalibError::UnknownParameter`] for an input that is not an actuated
-    /// coordinate; [`CalibError::InvalidOption`] when the fuzzy fit fails
-    /// (too few poses for the rules, a constant input).
+    /// [`CalibError::InvalidOption`] for an input that is not an actuated
+    /// coordinate, or when the fuzzy fit fails (too few poses for the rules,
+    /// a constant input).
     pub fn fit(
         model: &Model,
         calibration: &Calibration,
@@ -63,9 +63,13 @@ impl ResidualModel {
                 names
                     .iter()
                     .position(|n| n == name)
-                    .ok_or_else(|| CalibError::UnknownParameter {
-                        name: name.to_string(),
-                        known: names.join(", "),
+                    .ok_or_else(|| CalibError::InvalidOption {
+                        name: "residual model",
+                        reason: format!(
+                            "`{name}` is not an actuated coordinate of `{}` (those are {})",
+                            model.name(),
+                            names.join(", ")
+                        ),
                     })
             })
             .collect::<Result<Vec<usize>, CalibError>>()?;
