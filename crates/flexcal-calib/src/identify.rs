@@ -245,9 +245,10 @@ pub struct UnknownEstimate {
     /// Standard error, in the unit of `kind`, when identified.
     pub standard_error: Option<f64>,
     /// When identified: its standard error divided by the one that as many
-    /// poses drawn uniformly over the robot's joint ranges would give with
-    /// the same noise (dimensionless; 1 = as well determined as by a spread
-    /// design, 10 = ten times worse). Poses clustered in a small region
+    /// poses drawn uniformly over the robot's joint ranges (revolute joints
+    /// over their limits, prismatic ones over the identification range)
+    /// would give with the same noise (dimensionless; 1 = as well determined
+    /// as by a spread design, 10 = ten times worse). Poses clustered in a small region
     /// determine many parameters only in combinations that hold there: a
     /// large ratio warns that predictions elsewhere are extrapolations even
     /// when the standard error itself is small.
@@ -382,7 +383,7 @@ impl Calibration {
         let poor = robot(UnknownStatus::PoorlyIdentifiable);
         if !poor.is_empty() {
             notes.push(format!(
-                "{} more too weakly seen by these poses stay at nominal ({}): predictions far from these poses carry their errors",
+                "{} more stay at nominal because these poses see them too weakly ({}): predictions far from these poses carry their errors",
                 poor.len(),
                 poor.join(", ")
             ));
