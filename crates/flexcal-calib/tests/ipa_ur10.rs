@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use flexcal_calib::{
     CalibrationOptions, GravityCompliance, MeasurementSet, UnknownStatus, Weighting, calibrate,
 };
-use flexcal_kinematics::RobotDescription;
+use flexcal_kinematics::{Model, RobotDescription};
 
 fn series(name: &str, file: &str) -> Option<PathBuf> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -22,20 +22,27 @@ fn series(name: &str, file: &str) -> Option<PathBuf> {
     }
 }
 
-#[test]
-fn series_b_to_c_matches_the_dh_baseline() {
-    let (Some(b), Some(c)) = (
-        series("Series_B", "measurements_joint_configurations.csv"),
-        series("Series_C", "measurements_random_poses.csv"),
-    ) else {
-        return;
-    };
+/// The UR10, the options of the dataset's protocol (positions, uniform
+/// weights) and the two series, or `None` (with a message) without data.
+fn setup(files: [(&str, &str); 2]) -> Option<(Model, CalibrationOptions, [MeasurementSet; 2])> {
+    let [a, b] = files.map(|(name, file)| series(name, file));
+    let (a, b) = (a?, b?);
     let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-    let train = MeasurementSet::read_ipa(&b).unwrap();
-    let validate = MeasurementSet::read_ipa(&c).unwrap();
     let mut options = CalibrationOptions::for_model(&model);
     options.use_orientation = Some(false);
     options.weighting = Weighting::Uniform;
+    let sets = [a, b].map(|path| MeasurementSet::read_ipa(&path).unwrap());
+    Some((model, options, sets))
+}
+
+#[test]
+fn series_b_to_c_matches_the_dh_baseline() {
+    let Some((model, mut options, [train, validate])) = setup([
+        ("Series_B", "measurements_joint_configurations.csv"),
+        ("Series_C", "measurements_random_poses.csv"),
+    ]) else {
+        return;
+    };
     let calibration = calibrate(&model, &train, &options).unwrap();
     let report = calibration.validate(&model, &validate, false).unwrap();
     println!(
@@ -99,18 +106,12 @@ fn series_b_to_c_matches_the_dh_baseline() {
 /// B -> C or C -> B fit: the offset is all that D lacks.
 #[test]
 fn series_d_lacks_only_the_probe_offset() {
-    let (Some(b), Some(d)) = (
-        series("Series_B", "measurements_joint_configurations.csv"),
-        series("Series_D", "measurements_iso_cubes.csv"),
-    ) else {
+    let Some((model, options, [set_b, set_d])) = setup([
+        ("Series_B", "measurements_joint_configurations.csv"),
+        ("Series_D", "measurements_iso_cubes.csv"),
+    ]) else {
         return;
     };
-    let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-    let set_b = MeasurementSet::read_ipa(&b).unwrap();
-    let set_d = MeasurementSet::read_ipa(&d).unwrap();
-    let mut options = CalibrationOptions::for_model(&model);
-    options.use_orientation = Some(false);
-    options.weighting = Weighting::Uniform;
     let from_d = calibrate(&model, &set_d, &options).unwrap();
     let status = |name: &str| {
         from_d

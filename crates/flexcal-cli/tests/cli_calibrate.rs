@@ -39,12 +39,14 @@ fn twin_files_calibrate_end_to_end() {
     ] {
         assert!(d.join(f).exists(), "{f} written");
     }
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ir663",
-        "--data",
-        &path(d, "identification.csv"),
+    // `flexcal calibrate --robot ir663 --data identification.csv` and `extra`.
+    let identification = path(d, "identification.csv");
+    let calibrate_twin = |extra: &[&str]| {
+        let mut args = vec!["calibrate", "--robot", "ir663", "--data", &identification];
+        args.extend_from_slice(extra);
+        flexcal(&args)
+    };
+    let out = calibrate_twin(&[
         "--validate",
         &path(d, "validation.csv"),
         "--fixed-frame",
@@ -101,12 +103,7 @@ fn twin_files_calibrate_end_to_end() {
     }
     // A target 5 mm further along the tool axis, kept fixed: the robot's
     // tool length rE takes the difference, to the micrometre.
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ir663",
-        "--data",
-        &path(d, "identification.csv"),
+    let out = calibrate_twin(&[
         "--fixed-frame",
         "--fixed-target",
         "--target-mm",
