@@ -167,7 +167,10 @@ impl Calibration {
             .iter()
             .map(|m| residual.correction(&m.q))
             .collect::<Result<Vec<_>, _>>()?;
+        // Before, notes and extrapolation as without the model; the "after"
+        // is then recomputed with the corrections.
         let mut report = self.validate(model, set, refit_target)?;
+        let (policy, _) = self.validation_policy(refit_target);
         let rounds = if self.measurement_frame_fixed { 1 } else { 3 };
         for _ in 0..rounds {
             let rotation = report.measurement_frame.rotation;
@@ -185,9 +188,8 @@ impl Calibration {
                 .collect();
             let mut corrected = MeasurementSet::new(&set.source, moved)?;
             corrected.nominal_target = set.nominal_target;
-            let before = report.before;
-            report = self.validate(model, &corrected, refit_target)?;
-            report.before = before;
+            (report.after_per_pose, report.measurement_frame) =
+                self.errors_after(model, &corrected, policy)?;
         }
         report.after = error_statistics(&report.after_per_pose);
         Ok(report)

@@ -235,32 +235,34 @@ impl Calibration {
         model: &Model,
         set: &MeasurementSet,
     ) -> Result<Vec<PoseError>, CalibError> {
+        self.errors_after(model, set, FramePolicy::Fixed(self.x_meas_base))
+            .map(|(errors, _)| errors)
+    }
+
+    /// Per-pose errors of the calibrated robot on `set` and the measurement
+    /// frame used, taken or re-fitted according to `policy`.
+    pub(crate) fn errors_after(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+        policy: FramePolicy,
+    ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
         evaluate_errors(
             model,
             set,
             &self.xi,
             self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
             &self.x_tcp_target,
-            FramePolicy::Fixed(self.x_meas_base),
+            policy,
             self.use_orientation,
         )
-        .map(|(errors, _)| errors)
     }
 
-    /// Validates on a separate set. If the identification kept the
-    /// measurement frame fixed, the same frame is used; otherwise only the
-    /// measurement frame (and, with `refit_target`, the target position) is
-    /// re-fitted on the validation data, robot parameters frozen.
-    ///
-    /// # Errors
-    /// As [`evaluate_errors`].
-    pub fn validate(
-        &self,
-        model: &Model,
-        set: &MeasurementSet,
-        refit_target: bool,
-    ) -> Result<ValidationReport, CalibError> {
-        let (policy, frame_note) = if self.measurement_frame_fixed {
+    /// How validation treats the measurement frame, and that in words: the
+    /// identification's frame when it was fixed, else re-fitted (with the
+    /// target position when `refit_target`).
+    pub(crate) fn validation_policy(&self, refit_target: bool) -> (FramePolicy, String) {
+        if self.measurement_frame_fixed {
             (
                 FramePolicy::Fixed(self.x_meas_base),
                 "measurement frame fixed (as in the identification); nothing re-fitted".to_string(),
@@ -282,7 +284,23 @@ impl Calibration {
                     }
                 ),
             )
-        };
+        }
+    }
+
+    /// Validates on a separate set. If the identification kept the
+    /// measurement frame fixed, the same frame is used; otherwise only the
+    /// measurement frame (and, with `refit_target`, the target position) is
+    /// re-fitted on the validation data, robot parameters frozen.
+    ///
+    /// # Errors
+    /// As [`evaluate_errors`].
+    pub fn validate(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+        refit_target: bool,
+    ) -> Result<ValidationReport, CalibError> {
+        let (policy, frame_note) = self.validation_policy(refit_target);
         let (before, _) = evaluate_errors(
             model,
             set,
@@ -293,15 +311,7 @@ impl Calibration {
             self.use_orientation,
         )?;
         let before = error_statistics(&before);
-        let (after_per_pose, measurement_frame) = evaluate_errors(
-            model,
-            set,
-            &self.xi,
-            self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
-            &self.x_tcp_target,
-            policy,
-            self.use_orientation,
-        )?;
+        let (after_per_pose, measurement_frame) = self.errors_after(model, set, policy)?;
         // Extrapolation: which coordinates of the validation poses leave the
         // identification poses' ranges (a joint whose motion does not change
         // the errors, like a vertical first axis, may do so harmlessly).

@@ -118,14 +118,7 @@ fn truth(model: &Model, seed: u64) -> Truth {
 fn elastic_columns_match_central_differences() {
     let model = ur10();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
-    let frame = Isometry3::from_parts(
-        Translation3::new(0.3, -3.1, 0.2),
-        rotation_from_vector(&Vector3::new(0.1, -0.2, 2.0)),
-    );
-    let target = Isometry3::from_parts(
-        Translation3::new(0.01, 0.02, 0.11),
-        rotation_from_vector(&Vector3::new(0.3, 0.1, -1.2)),
-    );
+    let (frame, target) = common::generic_frame_and_target();
     let mut set = simulate(&model, &gravity, &truth(&model, 1), &frame, 5, 0.0, 2);
     // Orientation rows too: measured orientations near the predicted ones.
     let measurements: Vec<Measurement> = set

@@ -63,14 +63,7 @@ fn jacobian_matches_central_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     for robot in ["ur10", "ir663"] {
         let model = RobotDescription::builtin(robot).unwrap().build().unwrap();
-        let frame = Isometry3::from_parts(
-            Translation3::new(0.3, -3.1, 0.2),
-            rotation_from_vector(&Vector3::new(0.1, -0.2, 2.0)),
-        );
-        let target = Isometry3::from_parts(
-            Translation3::new(0.01, 0.02, 0.11),
-            rotation_from_vector(&Vector3::new(0.3, 0.1, -1.2)),
-        );
+        let (frame, target) = common::generic_frame_and_target();
         let set = if robot == "ir663" {
             // Configurations the four-bar can close: around the working start.
             let start = flexcal_kinematics::actuated_from_joint_angles(

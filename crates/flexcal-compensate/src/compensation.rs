@@ -1158,6 +1158,30 @@ mod tests {
         ConstantCompliance { compliance: c }
     }
 
+    /// The UR10 of these tests and the compliance above.
+    struct Ur10 {
+        model: Model,
+        elastic: ConstantCompliance,
+    }
+
+    impl Ur10 {
+        fn new() -> Self {
+            Self {
+                model: RobotDescription::builtin("ur10").unwrap().build().unwrap(),
+                elastic: compliance(),
+            }
+        }
+
+        /// Its elasto-geometric model: nominal geometry, `process`, `cell`.
+        fn egm<'a>(
+            &'a self,
+            process: Option<&'a dyn ProcessModel>,
+            cell: Cell,
+        ) -> ElastoGeometricModel<'a> {
+            ElastoGeometricModel::with_nominal_geometry(&self.model, &self.elastic, process, cell)
+        }
+    }
+
     fn tool_down_at(p: Vector3<f64>) -> Isometry3<f64> {
         Isometry3::from_parts(
             Translation3::from(p),
@@ -1187,15 +1211,9 @@ mod tests {
 
     #[test]
     fn zero_load_compensation_is_the_inverse_model() {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let elastic = compliance();
-        let egm = ElastoGeometricModel::with_nominal_geometry(
-            &model,
-            &elastic,
-            None,
-            Cell::payload_only(Vector6::zeros()),
-        );
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
+        let egm = ur10.egm(None, Cell::payload_only(Vector6::zeros()));
         let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
         let c = compensate_at_rest(&egm, &mut data, &target);
         assert_eq!(c.iterations, 0);
@@ -1205,12 +1223,9 @@ mod tests {
 
     #[test]
     fn payload_is_compensated_to_solver_tolerance() {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let elastic = compliance();
-        let egm = ElastoGeometricModel::with_nominal_geometry(
-            &model,
-            &elastic,
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
+        let egm = ur10.egm(
             None,
             Cell::payload_only(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
         );
@@ -1226,22 +1241,18 @@ mod tests {
 
     #[test]
     fn forming_beam_and_robot_are_solved_together() {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let elastic = compliance();
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
         let beam = CantileverBeam::reference(BeamTheory::LargeDeflection);
         // Beam along base x, clamp at x = 0.3, top surface at z = 0.2.
         let x_base_part = Isometry3::translation(0.3, 0.25, 0.2);
-        let egm = ElastoGeometricModel {
-            model: &model,
-            xi: model.nominal_params().to_vec(),
-            elastic: &elastic,
-            process: Some(&beam),
-            cell: Cell {
+        let egm = ur10.egm(
+            Some(&beam),
+            Cell {
                 x_base_part,
                 payload_base: Vector6::zeros(),
             },
-        };
+        );
         let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
         let path: Vec<PathPoint> = (0..5)
             .map(|i| PathPoint {
@@ -1265,7 +1276,8 @@ mod tests {
             // At equilibrium the wrench equals the beam's reaction at the reached point.
             let reached = displace(
                 &c.commanded_base,
-                &elastic
+                &ur10
+                    .elastic
                     .tcp_displacement(&c.q_commanded, &c.wrench_base)
                     .unwrap(),
             );
@@ -1279,18 +1291,12 @@ mod tests {
 
     #[test]
     fn unreachable_points_are_reported_per_point() {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let elastic = compliance();
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
         let constant = ConstantWrench {
             wrench: Vector6::new(0.0, 0.0, 100.0, 0.0, 0.0, 0.0),
         };
-        let egm = ElastoGeometricModel::with_nominal_geometry(
-            &model,
-            &elastic,
-            Some(&constant),
-            Cell::payload_only(Vector6::zeros()),
-        );
+        let egm = ur10.egm(Some(&constant), Cell::payload_only(Vector6::zeros()));
         let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
         let path = vec![
             PathPoint {
@@ -1381,16 +1387,16 @@ mod tests {
     }
 
     fn assert_tracked_equals_cold(with_beam: bool) {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let compliance = compliance();
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
         let elastic = Counting {
-            inner: &compliance,
+            inner: &ur10.elastic,
             calls: 0.into(),
         };
         let beam = CantileverBeam::reference(BeamTheory::SmallDeflection);
+        // The counting wrapper, not the plain compliance.
         let egm = ElastoGeometricModel::with_nominal_geometry(
-            &model,
+            &ur10.model,
             &elastic,
             with_beam.then_some(&beam as &dyn ProcessModel),
             part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
@@ -1445,15 +1451,9 @@ mod tests {
 
     #[test]
     fn tracked_path_without_load_is_the_inverse_model() {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let elastic = compliance();
-        let egm = ElastoGeometricModel::with_nominal_geometry(
-            &model,
-            &elastic,
-            None,
-            part_cell(Vector6::zeros()),
-        );
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
+        let egm = ur10.egm(None, part_cell(Vector6::zeros()));
         let outcomes = egm.compensate_path(&mut data, &fine_travel(50), &SEED, &Default::default());
         for o in &outcomes {
             let c = o.result.as_ref().unwrap();
@@ -1465,12 +1465,9 @@ mod tests {
 
     #[test]
     fn tracked_path_with_a_free_tool_rotation_meets_the_tolerances() {
-        let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
-        let mut data = Data::new(&model);
-        let elastic = compliance();
-        let egm = ElastoGeometricModel::with_nominal_geometry(
-            &model,
-            &elastic,
+        let ur10 = Ur10::new();
+        let mut data = Data::new(&ur10.model);
+        let egm = ur10.egm(
             None,
             part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
         );
@@ -1482,9 +1479,13 @@ mod tests {
             let c = o.result.as_ref().unwrap();
             assert!(converged(&c.residual, &options), "{:?}", c.residual);
             // The uncompensated command reaches the target's position.
-            let reached =
-                flexcal_kinematics::forward_pose(&model, &mut data, &c.q_uncompensated, &egm.xi)
-                    .unwrap();
+            let reached = flexcal_kinematics::forward_pose(
+                &ur10.model,
+                &mut data,
+                &c.q_uncompensated,
+                &egm.xi,
+            )
+            .unwrap();
             let target = egm.cell.x_base_part * p.x_part_tcp;
             assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
         }

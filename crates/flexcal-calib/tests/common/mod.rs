@@ -4,7 +4,9 @@
 
 use faer::Mat;
 use flexcal_calib::GeometricErrorModel;
+use flexcal_calib::rotation_from_vector;
 use flexcal_optim::{Jacobian, Residuals};
+use nalgebra::{Isometry3, Translation3, Vector3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
@@ -55,4 +57,20 @@ pub fn ur10_configuration(rng: &mut ChaCha8Rng) -> Vec<f64> {
             _ => rng.random_range(-2.5..2.5),
         })
         .collect()
+}
+
+/// A measurement frame (tracker 3 m away, turned) and a target offset
+/// (turned, off the TCP) generic enough that no Jacobian entry vanishes by
+/// symmetry.
+pub fn generic_frame_and_target() -> (Isometry3<f64>, Isometry3<f64>) {
+    (
+        Isometry3::from_parts(
+            Translation3::new(0.3, -3.1, 0.2),
+            rotation_from_vector(&Vector3::new(0.1, -0.2, 2.0)),
+        ),
+        Isometry3::from_parts(
+            Translation3::new(0.01, 0.02, 0.11),
+            rotation_from_vector(&Vector3::new(0.3, 0.1, -1.2)),
+        ),
+    )
 }
