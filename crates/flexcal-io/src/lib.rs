@@ -205,7 +205,7 @@ impl CsvTable {
         let mut lines = Vec::new();
         for record in reader.records() {
             let record = record.map_err(|e| {
-                let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
+                let line = e.position().map_or(0, |p| line_at(text, p, options.comment));
                 let message = match e.kind() {
                     csv::ErrorKind::UnequalLengths {
                         expected_len, len, ..
@@ -214,7 +214,7 @@ impl CsvTable {
                 };
                 malformed(line, message)
             })?;
-            let line = record.position().map(|p| p.line() as usize).unwrap_or(0);
+            let line = record.position().map_or(0, |p| line_at(text, p, options.comment));
             rows.push(record.iter().map(str::to_string).collect());
             lines.push(line);
         }
@@ -336,6 +336,29 @@ pub fn format_csv(header: &[&str], rows: impl IntoIterator<Item = Vec<f64>>) -> 
     out
 }
 
+/// 1-based line on which the record at `position` starts. The reader's
+/// position is where it began to read: possibly the `\n` of a CRLF line end,
+/// blank lines or comment lines before the record, which its own line count
+/// also gets wrong. Skip those and count the line ends before the record.
+fn line_at(text: &str, position: &csv::Position, comment: Option<u8>) -> usize {
+    let bytes = text.as_bytes();
+    let mut at = (position.byte() as usize).min(bytes.len());
+    loop {
+        while at < bytes.len() && matches!(bytes[at], b'\r' | b'\n') {
+            at += 1;
+        }
+        if at < bytes.len() && Some(bytes[at]) == comment {
+            at = bytes[at..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(bytes.len(), |n| at + n + 1);
+        } else {
+            break;
+        }
+    }
+    1 + bytes[..at].iter().filter(|&&b| b == b'\n').count()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -349,6 +372,26 @@ mod tests {
         assert!(err.contains("'b'"), "{err}");
         let nan = CsvTable::from_str("a\nNaN\n", "n.csv", &CsvOptions::default()).unwrap();
         assert!(nan.column_f64("a").is_err());
+    }
+
+    #[test]
+    fn lines_are_counted_right_with_crlf_ends() {
+        let text = "a;b\r\n1;2\r\n# note\r\n3;x\r\n4;5;6\r\n";
+        let options = CsvOptions {
+            delimiter: b';',
+            ..CsvOptions::default()
+        };
+        let err = CsvTable::from_str(text, "w.csv", &options)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("w.csv:5"), "{err}");
+        let t = CsvTable::from_str("a;b\r\n1;2\r\n\r\n3;x\r\n", "w.csv", &options).unwrap();
+        assert_eq!((t.line_of(0), t.line_of(1)), (2, 4));
+        let err = t.column_f64("b").unwrap_err().to_string();
+        assert!(err.contains("w.csv:4"), "{err}");
+        // The same with LF ends: a comment line before the record.
+        let t = CsvTable::from_str("a;b\n1;2\n# note\n\n3;x\n", "l.csv", &options).unwrap();
+        assert_eq!((t.line_of(0), t.line_of(1)), (2, 5));
     }
 
     #[test]
