@@ -44,6 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut elastic = geometric.clone();
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
     println!("| train -> validate | nominal | geometric | elasto-geometric |\n|---|---|---|---|");
+    let mut faults = Vec::new();
     for (train_name, train) in &sets {
         let start = Instant::now();
         let g = calibrate(&model, train, &geometric)?;
@@ -70,8 +71,63 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.training_after.position_mean * 1e3,
             (end - middle).as_secs_f64() * 1e3
         );
-        for note in e.identifiability_notes() {
+        for note in e
+            .identifiability_notes()
+            .into_iter()
+            .chain(e.data_checks.notes("training"))
+        {
             eprintln!("  {note}");
+        }
+        // The series' own suspect poses, from its own elasto-geometric fit.
+        let suspects: Vec<String> = e
+            .data_checks
+            .suspect_poses
+            .iter()
+            .map(|s| s.pose.clone())
+            .collect();
+        faults.push(suspects);
+    }
+
+    // The pairs again with each series' suspect poses left out, where it has any.
+    let clean: Vec<(&str, MeasurementSet)> = sets
+        .iter()
+        .zip(&faults)
+        .map(|((name, set), f)| {
+            Ok((
+                *name,
+                if f.is_empty() {
+                    set.clone()
+                } else {
+                    set.excluding(f)?
+                },
+            ))
+        })
+        .collect::<Result<_, flexcal_calib::CalibError>>()?;
+    println!("\nWithout each series' suspect poses ({}):", {
+        let named: Vec<String> = sets
+            .iter()
+            .zip(&faults)
+            .filter(|(_, f)| !f.is_empty())
+            .map(|((name, _), f)| format!("{name}: {}", f.join(", ")))
+            .collect();
+        named.join("; ")
+    });
+    println!("| train -> validate | nominal | geometric | elasto-geometric |\n|---|---|---|---|");
+    for (t, (train_name, train)) in clean.iter().enumerate() {
+        let g = calibrate(&model, train, &geometric)?;
+        let e = calibrate(&model, train, &elastic)?;
+        for (v, (validate_name, validate)) in clean.iter().enumerate() {
+            if t == v || (faults[t].is_empty() && faults[v].is_empty()) {
+                continue;
+            }
+            let g_report = g.validate(&model, validate, false)?;
+            let e_report = e.validate(&model, validate, false)?;
+            println!(
+                "| {train_name} -> {validate_name} | {} | {} | {} |",
+                cell(&g_report.before),
+                cell(&g_report.after),
+                cell(&e_report.after)
+            );
         }
     }
     Ok(())

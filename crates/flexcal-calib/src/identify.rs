@@ -13,6 +13,7 @@ use nalgebra::Isometry3;
 
 use crate::error_model::{GeometricErrorModel, UnknownKind, register_measurement_frame};
 use crate::gravity::GravityCompliance;
+use crate::screen::DataChecks;
 use crate::validate::{ErrorStatistics, error_statistics, pose_errors};
 use crate::{CalibError, MeasurementSet};
 
@@ -320,6 +321,9 @@ pub struct Calibration {
     pub training_before: ErrorStatistics,
     /// Errors on the identification set after identification.
     pub training_after: ErrorStatistics,
+    /// Repeated readings and suspect poses of the identification set
+    /// (after the fit).
+    pub data_checks: DataChecks,
     /// Number of poses used.
     pub n_poses: usize,
     /// Range `(min, max)` of each actuated coordinate over the identification
@@ -907,7 +911,9 @@ pub fn calibrate(
     // Before: the starting model (nominal geometry, and starting compliances)
     // with its frames fitted; after: the fit. Both on the same error model.
     let training_before = error_statistics(&pose_errors(&problem, &x_nominal_robot)?);
-    let training_after = error_statistics(&pose_errors(&problem, &x)?);
+    let errors_after = pose_errors(&problem, &x)?;
+    let training_after = error_statistics(&errors_after);
+    let data_checks = DataChecks::new(set, &errors_after);
     Ok(Calibration {
         xi,
         nominal_xi: model.nominal_params().to_vec(),
@@ -931,6 +937,7 @@ pub fn calibrate(
         residual_history: residual_history.into_inner(),
         training_before,
         training_after,
+        data_checks,
         n_poses: set.len(),
         actuated_ranges: (0..model.n_actuated())
             .map(|i| {

@@ -80,6 +80,12 @@
 //!   part of the joint space can identify a parameter with a small standard
 //!   error yet only in a combination that holds there; ratios above
 //!   [`WEAK_SPREAD_RATIO`] are named in [`Calibration::identifiability_notes`].
+//! - Beyond the paper, data checks ([`DataChecks`], in
+//!   [`Calibration::data_checks`] and [`ValidationReport::data_checks`]):
+//!   pairs of poses at different joint coordinates with the identical
+//!   measurement (a stale reading), and poses whose error after the fit
+//!   exceeds [`SUSPECT_ERROR_RATIO`] times the RMS error; poses are left out
+//!   by label with [`MeasurementSet::excluding`].
 //! - Beyond the paper, its zero-order Takagi-Sugeno models (33)-(37) of
 //!   section 2.2.2 applied to what a calibration leaves: [`ResidualModel`]
 //!   maps chosen actuated coordinates to a position correction in the base
@@ -166,6 +172,7 @@ pub mod identify;
 pub mod measurement;
 pub mod report;
 pub mod residual;
+pub mod screen;
 pub mod select;
 pub mod validate;
 
@@ -183,6 +190,9 @@ pub use identify::{
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
 pub use report::{CalibrationReportJson, ResidualModelJson};
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
+pub use screen::{
+    DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
+};
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use validate::{
     ErrorStatistics, FramePolicy, PoseError, ValidationReport, error_statistics, evaluate_errors,

@@ -4,6 +4,7 @@ use serde::Serialize;
 
 use crate::CalibError;
 use crate::identify::{Calibration, UnknownStatus};
+use crate::screen::DataChecks;
 use crate::validate::{ErrorStatistics, ValidationReport};
 
 /// Error figures in mm and deg.
@@ -109,6 +110,8 @@ pub struct IdentificationJson {
     pub orientation_rms_history_deg: Option<Vec<f64>>,
     /// Every unknown.
     pub parameters: Vec<ParameterJson>,
+    /// Repeated readings and suspect poses of the identification set.
+    pub data_checks: DataChecks,
 }
 
 /// The `validation` object.
@@ -125,6 +128,8 @@ pub struct ValidationJson {
     /// Actuated coordinates that leave the identification poses' range on
     /// some validation poses.
     pub extrapolated_coordinates: Vec<ExtrapolationJson>,
+    /// Repeated readings and suspect poses of the validation set.
+    pub data_checks: DataChecks,
 }
 
 /// An actuated coordinate that the validation poses take outside the
@@ -254,6 +259,7 @@ impl CalibrationReportJson {
                 .map(|h| h.orientation_rms.map(f64::to_degrees))
                 .collect(),
             parameters,
+            data_checks: calibration.data_checks.clone(),
         };
         let validation = validation.map(|v| ValidationJson {
             after: StatisticsJson::from(&v.after),
@@ -267,6 +273,7 @@ impl CalibrationReportJson {
                     fraction_outside: *fraction,
                 })
                 .collect(),
+            data_checks: v.data_checks.clone(),
         });
         Self {
             robot: robot.to_string(),

@@ -9,6 +9,7 @@ use crate::error_model::{GeometricErrorModel, register_measurement_frame};
 use crate::geometry::{rotation_from_vector, vector_from_rotation};
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
+use crate::screen::DataChecks;
 use crate::{CalibError, MeasurementSet};
 
 /// How the measurement frame is obtained when errors are evaluated.
@@ -222,6 +223,9 @@ pub struct ValidationReport {
     /// Per actuated coordinate outside the identification range on some
     /// validation poses: `(name, fraction of the validation poses outside)`.
     pub extrapolated_coordinates: Vec<(String, f64)>,
+    /// Repeated readings and suspect poses of the validation set (with the
+    /// calibrated robot).
+    pub data_checks: DataChecks,
 }
 
 impl Calibration {
@@ -334,6 +338,7 @@ impl Calibration {
         Ok(ValidationReport {
             before,
             after: error_statistics(&after_per_pose),
+            data_checks: DataChecks::new(set, &after_per_pose),
             after_per_pose,
             measurement_frame,
             frame_note,

@@ -116,6 +116,14 @@ pub struct CalibrateArgs {
     /// Fail instead of freezing non-identifiable parameters.
     #[arg(long)]
     pub strict: bool,
+    /// Leave these identification poses out, comma-separated, by the label
+    /// the reports print (`line 534` for the IPA format, a pose_id or `#k`);
+    /// a bare number N stands for `line N`.
+    #[arg(long, value_delimiter = ',')]
+    pub exclude: Vec<String>,
+    /// The same for the validation poses.
+    #[arg(long, value_delimiter = ',')]
+    pub exclude_validation: Vec<String>,
     /// Also fit a fuzzy residual model of the remaining position errors over
     /// these actuated coordinates (comma-separated, e.g. theta2,theta3), on
     /// the identification poses only, and report the validation with it
@@ -154,14 +162,52 @@ fn read_set(path: &Path, format: DataFormat) -> anyhow::Result<MeasurementSet> {
     })
 }
 
+/// `set` without the poses labelled in `labels` (nothing to leave out: the
+/// set itself), saying how many were left out.
+fn excluding(
+    set: MeasurementSet,
+    labels: &[String],
+    option: &str,
+) -> anyhow::Result<MeasurementSet> {
+    let labels: Vec<String> = labels
+        .iter()
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect();
+    if labels.is_empty() {
+        return Ok(set);
+    }
+    let kept = set.excluding(&labels).with_context(|| option.to_string())?;
+    println!(
+        "{option}: {} of the {} poses of {} left out",
+        set.len() - kept.len(),
+        set.len(),
+        set.source
+    );
+    Ok(kept)
+}
+
 /// Runs `flexcal calibrate`.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let model = load_robot(&args.robot)?;
-    let data = read_set(&args.data, args.format)?;
+    let data = excluding(
+        read_set(&args.data, args.format)?,
+        &args.exclude,
+        "--exclude",
+    )?;
+    if !args.exclude_validation.is_empty() && args.validate.is_none() {
+        anyhow::bail!("--exclude-validation needs --validate");
+    }
     let validation_set = args
         .validate
         .as_deref()
-        .map(|p| read_set(p, args.format))
+        .map(|p| {
+            excluding(
+                read_set(p, args.format)?,
+                &args.exclude_validation,
+                "--exclude-validation",
+            )
+        })
         .transpose()?;
     let mut options = CalibrationOptions::for_model(&model);
     options.method = match args.method {
@@ -520,5 +566,14 @@ fn print_before_after(c: &Calibration, validation: Option<&ValidationReport>) {
                 list.join(", ")
             );
         }
+    }
+    let validation_notes = validation.map(|v| v.data_checks.notes("validation"));
+    for note in c
+        .data_checks
+        .notes("identification")
+        .iter()
+        .chain(validation_notes.iter().flatten())
+    {
+        println!("data check: {note}");
     }
 }

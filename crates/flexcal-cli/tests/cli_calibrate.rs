@@ -122,6 +122,41 @@ fn twin_files_calibrate_end_to_end() {
         re(&report),
         re(&shifted)
     );
+    // Poses left out by their pose_id: the report counts what is left.
+    let out = calibrate_twin(&[
+        "--fixed-frame",
+        "--fixed-target",
+        "--exclude",
+        "identification-3,identification-9",
+        "--validate",
+        &path(d, "validation.csv"),
+        "--exclude-validation",
+        "validation-1",
+        "--report",
+        &path(d, "report_excluded.json"),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("--exclude: 2 of the 27 poses"), "{stdout}");
+    let excluded: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("report_excluded.json")).unwrap())
+            .unwrap();
+    assert_eq!(excluded["identification"]["n_poses"], 25);
+    assert_eq!(excluded["validation"]["n_poses"], 15);
+    // The twin's noise is Gaussian: no data check fires.
+    for set in ["identification", "validation"] {
+        let checks = &excluded[set]["data_checks"];
+        assert_eq!(
+            checks["suspect_poses"].as_array().unwrap().len(),
+            0,
+            "{checks}"
+        );
+        assert_eq!(
+            checks["repeated_readings"].as_array().unwrap().len(),
+            0,
+            "{checks}"
+        );
+    }
     // The calibrated robot loads back.
     let out = flexcal(&[
         "calibrate",
@@ -229,6 +264,16 @@ fn bad_input_gives_clear_errors() {
     assert!(err.contains("unknown parameter `nonsense`"), "{err}");
     let err = run(&deficient, &["--target-mm", "1,2"]);
     assert!(err.contains("--target-mm takes three values"), "{err}");
+    let err = run(&deficient, &["--exclude", "#3,line 99"]);
+    assert!(
+        err.contains("no pose `line 99`") && err.contains("deficient.csv"),
+        "{err}"
+    );
+    let err = run(&deficient, &["--exclude-validation", "#3"]);
+    assert!(
+        err.contains("--exclude-validation needs --validate"),
+        "{err}"
+    );
 }
 
 /// `calibrate --model elasto-geometric` end to end: UR10 poses from `flexcal

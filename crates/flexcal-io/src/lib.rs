@@ -205,7 +205,9 @@ impl CsvTable {
         let mut lines = Vec::new();
         for record in reader.records() {
             let record = record.map_err(|e| {
-                let line = e.position().map_or(0, |p| line_at(text, p, options.comment));
+                let line = e
+                    .position()
+                    .map_or(0, |p| line_at(text, p, options.comment));
                 let message = match e.kind() {
                     csv::ErrorKind::UnequalLengths {
                         expected_len, len, ..
@@ -214,7 +216,9 @@ impl CsvTable {
                 };
                 malformed(line, message)
             })?;
-            let line = record.position().map_or(0, |p| line_at(text, p, options.comment));
+            let line = record
+                .position()
+                .map_or(0, |p| line_at(text, p, options.comment));
             rows.push(record.iter().map(str::to_string).collect());
             lines.push(line);
         }
