@@ -9,7 +9,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use flexcal_calib::{
-    CalibrationOptions, ErrorStatistics, GravityCompliance, MeasurementSet, Weighting, calibrate,
+    Calibration, CalibrationOptions, ErrorStatistics, GravityCompliance, MeasurementSet, Weighting,
+    calibrate,
 };
 use flexcal_kinematics::RobotDescription;
 
@@ -43,6 +44,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     geometric.weighting = Weighting::Uniform;
     let mut elastic = geometric.clone();
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
+    // One table row: nominal, geometric and elasto-geometric on `validate`.
+    let row = |train_name: &str,
+               validate_name: &str,
+               g: &Calibration,
+               e: &Calibration,
+               validate: &MeasurementSet|
+     -> Result<(), flexcal_calib::CalibError> {
+        let g_report = g.validate(&model, validate, false)?;
+        let e_report = e.validate(&model, validate, false)?;
+        println!(
+            "| {train_name} -> {validate_name} | {} | {} | {} |",
+            cell(&g_report.before),
+            cell(&g_report.after),
+            cell(&e_report.after)
+        );
+        Ok(())
+    };
     println!("| train -> validate | nominal | geometric | elasto-geometric |\n|---|---|---|---|");
     let mut faults = Vec::new();
     for (train_name, train) in &sets {
@@ -55,14 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if validate_name == train_name {
                 continue;
             }
-            let g_report = g.validate(&model, validate, false)?;
-            let e_report = e.validate(&model, validate, false)?;
-            println!(
-                "| {train_name} -> {validate_name} | {} | {} | {} |",
-                cell(&g_report.before),
-                cell(&g_report.after),
-                cell(&e_report.after)
-            );
+            row(train_name, validate_name, &g, &e, validate)?;
         }
         eprintln!(
             "trained on {train_name}: geometric {:.3} mm mean on the training set ({:.1} ms), elasto-geometric {:.3} mm ({:.1} ms)",
@@ -120,14 +131,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if t == v || (faults[t].is_empty() && faults[v].is_empty()) {
                 continue;
             }
-            let g_report = g.validate(&model, validate, false)?;
-            let e_report = e.validate(&model, validate, false)?;
-            println!(
-                "| {train_name} -> {validate_name} | {} | {} | {} |",
-                cell(&g_report.before),
-                cell(&g_report.after),
-                cell(&e_report.after)
-            );
+            row(train_name, validate_name, &g, &e, validate)?;
         }
     }
     Ok(())

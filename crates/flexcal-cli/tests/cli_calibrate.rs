@@ -18,6 +18,10 @@ fn path(dir: &Path, name: &str) -> String {
     dir.join(name).display().to_string()
 }
 
+fn read_json(path: impl AsRef<Path>) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
 #[test]
 fn twin_files_calibrate_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
@@ -62,8 +66,7 @@ fn twin_files_calibrate_end_to_end() {
         stdout.contains("NON-IDENTIFIABLE") && stdout.contains("validation after"),
         "{stdout}"
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("report.json")).unwrap()).unwrap();
+    let report: serde_json::Value = read_json(d.join("report.json"));
     let id = &report["identification"];
     // Every robot parameter is identified, non-identifiable or poorly identifiable.
     let rank = id["rank"].as_u64().unwrap() as usize;
@@ -112,9 +115,7 @@ fn twin_files_calibrate_end_to_end() {
         &path(d, "report_target.json"),
     ]);
     assert!(out.status.success(), "{:?}", text(&out));
-    let shifted: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("report_target.json")).unwrap())
-            .unwrap();
+    let shifted: serde_json::Value = read_json(d.join("report_target.json"));
     let re = |r: &serde_json::Value| parameter(r, "rE")["identified"].as_f64().unwrap();
     assert!(
         (re(&report) - re(&shifted) - 5.0).abs() < 1e-3,
@@ -138,9 +139,7 @@ fn twin_files_calibrate_end_to_end() {
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("--exclude: 2 of the 27 poses"), "{stdout}");
-    let excluded: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("report_excluded.json")).unwrap())
-            .unwrap();
+    let excluded: serde_json::Value = read_json(d.join("report_excluded.json"));
     assert_eq!(excluded["identification"]["n_poses"], 25);
     assert_eq!(excluded["validation"]["n_poses"], 15);
     // The twin's noise is Gaussian: no data check fires.
@@ -369,8 +368,7 @@ fn elasto_geometric_calibration_end_to_end() {
         assert!((norm - field(2)).abs() <= 1e-9 + 1e-9 * field(2), "{line}");
     }
     assert!(stdout.contains("pos RMS mm"), "{stdout}");
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let json: serde_json::Value = read_json(&report);
     assert_eq!(json["model"], "elasto-geometric");
     let identification = &json["identification"];
     let non: Vec<&str> = identification["non_identifiable"]
@@ -445,8 +443,7 @@ fn elasto_geometric_calibration_end_to_end() {
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("validation, + residual"), "{stdout}");
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let json: serde_json::Value = read_json(&report);
     let residual = &json["residual_model"];
     assert_eq!(residual["inputs"], serde_json::json!(["theta2", "theta3"]));
     assert_eq!(residual["rules"].as_array().unwrap().len(), 3);
