@@ -86,6 +86,11 @@
 //!   measurement (a stale reading), and poses whose error after the fit
 //!   exceeds [`SUSPECT_ERROR_RATIO`] times the RMS error; poses are left out
 //!   by label with [`MeasurementSet::excluding`].
+//! - Beyond the paper, a split-half check of the standard errors
+//!   ([`SplitCheck`]): the identified unknowns again on odd / even and first /
+//!   second halves of the poses; where the halves differ by more than the
+//!   standard errors allow, what the model leaves is not independent noise
+//!   and the standard errors understate the uncertainty.
 //! - Beyond the paper, its zero-order Takagi-Sugeno models (33)-(37) of
 //!   section 2.2.2 applied to what a calibration leaves: [`ResidualModel`]
 //!   maps chosen actuated coordinates to a position correction in the base
@@ -174,6 +179,7 @@ pub mod report;
 pub mod residual;
 pub mod screen;
 pub mod select;
+pub mod split;
 pub mod validate;
 
 pub use error::CalibError;
@@ -194,6 +200,7 @@ pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
+pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use validate::{
     ErrorStatistics, FramePolicy, PoseError, ValidationReport, error_statistics, evaluate_errors,
 };

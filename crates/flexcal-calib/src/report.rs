@@ -157,6 +157,9 @@ pub struct CalibrationReportJson {
     /// the calibration: it is not part of the robot model).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub residual_model: Option<ResidualModelJson>,
+    /// The split-half check of the standard errors, when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_check: Option<crate::SplitCheck>,
 }
 
 /// The `residual_model` object.
@@ -285,6 +288,7 @@ impl CalibrationReportJson {
             identification,
             validation,
             residual_model: None,
+            split_check: None,
         }
     }
 

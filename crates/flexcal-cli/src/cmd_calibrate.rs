@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use flexcal_calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics, FrameTreatment,
-    GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson, UnknownStatus,
-    ValidationReport, Weighting, calibrate,
+    GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson, SplitCheck,
+    UnknownStatus, ValidationReport, Weighting, calibrate,
 };
 use flexcal_fuzzy::FuzzyParams;
 use flexcal_kinematics::{Model, RobotDescription};
@@ -124,6 +124,11 @@ pub struct CalibrateArgs {
     /// The same for the validation poses.
     #[arg(long, value_delimiter = ',')]
     pub exclude_validation: Vec<String>,
+    /// Check the standard errors: identify the same unknowns on odd / even
+    /// and first / second halves of the poses and compare (about twice the
+    /// identification time).
+    #[arg(long)]
+    pub split_check: bool,
     /// Also fit a fuzzy residual model of the remaining position errors over
     /// these actuated coordinates (comma-separated, e.g. theta2,theta3), on
     /// the identification poses only, and report the validation with it
@@ -287,6 +292,14 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     );
     let calibration = calibrate(&model, &data, &options).context("identification")?;
     print_identification(&calibration);
+    let split = args
+        .split_check
+        .then(|| SplitCheck::new(&model, &data, &options, &calibration))
+        .transpose()
+        .context("split-half check on halves of the poses")?;
+    if let Some(split) = &split {
+        print_split_check(split);
+    }
     let validation = validation_set
         .as_ref()
         .map(|set| calibration.validate(&model, set, args.refit_target))
@@ -334,6 +347,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.report {
         let mut report =
             CalibrationReportJson::new(model.name(), &calibration, validation.as_ref());
+        report.split_check = split;
         report.residual_model = residual
             .as_ref()
             .map(|(r, v)| ResidualModelJson::new(model.actuated_names(), r, v.as_ref()));
@@ -541,6 +555,34 @@ fn print_temperature_analysis(
         ste * ste / (stt * see),
         ste / stt
     );
+}
+
+fn print_split_check(split: &SplitCheck) {
+    println!();
+    println!("Split-half check (identified again on odd / even and first / second halves)");
+    println!(
+        "{:<16} {:>9} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
+        "unknown", "unit", "std error", "odd", "even", "first", "second", "split err", "ratio"
+    );
+    let optional = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
+    for u in &split.unknowns {
+        println!(
+            "{:<16} {:>9} {:>12.5} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
+            u.name,
+            u.unit,
+            u.standard_error,
+            optional(u.half_values[0]),
+            optional(u.half_values[1]),
+            optional(u.half_values[2]),
+            optional(u.half_values[3]),
+            optional(u.split_error),
+            u.ratio
+                .map_or_else(|| "-".to_string(), |r| format!("{r:.1}"))
+        );
+    }
+    for note in split.notes() {
+        println!("note: {note}");
+    }
 }
 
 fn print_before_after(c: &Calibration, validation: Option<&ValidationReport>) {

@@ -133,6 +133,7 @@ fn twin_files_calibrate_end_to_end() {
         &path(d, "validation.csv"),
         "--exclude-validation",
         "validation-1",
+        "--split-check",
         "--report",
         &path(d, "report_excluded.json"),
     ]);
@@ -142,6 +143,18 @@ fn twin_files_calibrate_end_to_end() {
     let excluded: serde_json::Value = read_json(d.join("report_excluded.json"));
     assert_eq!(excluded["identification"]["n_poses"], 25);
     assert_eq!(excluded["validation"]["n_poses"], 15);
+    // The split-half check: the twin's noise is independent, so the halves
+    // agree about as the standard errors predict.
+    assert!(stdout.contains("Split-half check"), "{stdout}");
+    let mut ratios: Vec<f64> = excluded["split_check"]["unknowns"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|u| u["ratio"].as_f64())
+        .collect();
+    assert!(ratios.len() > 25, "{ratios:?}");
+    ratios.sort_by(f64::total_cmp);
+    assert!(ratios[ratios.len() / 2] < 1.5, "{ratios:?}");
     // The twin's noise is Gaussian: no data check fires.
     for set in ["identification", "validation"] {
         let checks = &excluded[set]["data_checks"];

@@ -1,0 +1,172 @@
+//! Split-half check of the standard errors.
+//!
+//! The standard errors of [`crate::UnknownEstimate`] come from the
+//! covariance of the linearised fit, which assumes independent measurement
+//! noise. When what the model leaves is systematic (compliance it lacks,
+//! thermal drift, a tracker that drifts), neighbouring poses share their
+//! errors and those standard errors are too small. The check measures the
+//! uncertainty another way: it identifies the same unknowns on complementary
+//! halves of the poses (odd / even, first / second half in file order) and
+//! compares. If the errors are independent, two complementary halves differ
+//! by twice the full set's standard error on average (each half has twice
+//! its variance), so `|difference| / 2` estimates it; the
+//! split error is the RMS of that over the two splits. A ratio well above 1
+//! (with two splits, above about 2.5 is beyond chance) says the standard
+//! error understates the uncertainty by that factor. The first / second
+//! split also sees drift over the campaign and regions of the workspace
+//! visited at different times.
+
+use flexcal_kinematics::Model;
+use serde::Serialize;
+
+use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
+use crate::{CalibError, MeasurementSet};
+
+/// A split error above this many standard errors is named in
+/// [`SplitCheck::notes`]: with two splits and independent errors, the
+/// squared ratio is a chi-square with 2 degrees of freedom over 2, which
+/// exceeds 2.5^2 with a probability of 0.2 %.
+pub const SPLIT_RATIO_WARNING: f64 = 2.5;
+
+/// One unknown compared over the halves.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SplitEstimate {
+    /// Name of the unknown.
+    pub name: String,
+    /// Display unit (`mm`, `deg`, `urad/N.m`, ...).
+    pub unit: &'static str,
+    /// Standard error of the full identification (display unit).
+    pub standard_error: f64,
+    /// Values identified on the odd, even, first-half and second-half poses
+    /// (display unit); `None` where a half did not identify it.
+    pub half_values: [Option<f64>; 4],
+    /// RMS of half the differences of the two complementary pairs (display
+    /// unit), when every half identified the unknown.
+    pub split_error: Option<f64>,
+    /// `split_error / standard_error`.
+    pub ratio: Option<f64>,
+}
+
+/// The split-half check of a calibration.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SplitCheck {
+    /// The identified robot, target and elastic unknowns (the measurement
+    /// frame is re-registered on each half, so its unknowns are not compared).
+    pub unknowns: Vec<SplitEstimate>,
+}
+
+impl SplitCheck {
+    /// Identifies the unknowns that `calibration` (made from `set` with
+    /// `options`) identified again on four halves of `set`, every other
+    /// unknown kept at its starting value, and compares.
+    ///
+    /// # Errors
+    /// [`CalibError::TooFewPoses`] when a half has too few poses, or what
+    /// [`calibrate`] returns on a half.
+    pub fn new(
+        model: &Model,
+        set: &MeasurementSet,
+        options: &CalibrationOptions,
+        calibration: &Calibration,
+    ) -> Result<Self, CalibError> {
+        let mut half_options = options.clone();
+        half_options.fixed = calibration
+            .unknowns
+            .iter()
+            .filter(|u| u.status != UnknownStatus::Identified && !u.name.starts_with("frame_"))
+            .filter(|u| u.status != UnknownStatus::NoInfluence)
+            .map(|u| u.name.clone())
+            .collect();
+        let n = set.len();
+        let halves: [Box<dyn Fn(usize) -> bool>; 4] = [
+            Box::new(|k| k % 2 == 1),
+            Box::new(|k| k % 2 == 0),
+            Box::new(move |k| k < n / 2),
+            Box::new(move |k| k >= n / 2),
+        ];
+        let mut fits = Vec::with_capacity(4);
+        for keep in &halves {
+            let poses = set
+                .measurements()
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| keep(*k))
+                .map(|(_, m)| m.clone())
+                .collect();
+            let mut half = MeasurementSet::new(&set.source, poses)?;
+            half.nominal_target = set.nominal_target;
+            fits.push(calibrate(model, &half, &half_options)?);
+        }
+        let unknowns = calibration
+            .unknowns
+            .iter()
+            .enumerate()
+            .filter(|(_, u)| u.status == UnknownStatus::Identified && !u.name.starts_with("frame_"))
+            .map(|(j, u)| {
+                let (unit, scale) = u.kind.display_unit();
+                let half_values = [0, 1, 2, 3].map(|h| {
+                    let v = &fits[h].unknowns[j];
+                    debug_assert_eq!(v.name, u.name);
+                    (v.status == UnknownStatus::Identified).then_some(v.value * scale)
+                });
+                let split_error = match half_values {
+                    [Some(a), Some(b), Some(c), Some(d)] => Some(
+                        (((a - b) / 2.0).powi(2) + ((c - d) / 2.0).powi(2)).sqrt() / 2f64.sqrt(),
+                    ),
+                    _ => None,
+                };
+                let standard_error = u.standard_error.unwrap_or(f64::NAN) * scale;
+                SplitEstimate {
+                    name: u.name.clone(),
+                    unit,
+                    standard_error,
+                    half_values,
+                    split_error,
+                    ratio: split_error.map(|s| s / standard_error),
+                }
+            })
+            .collect();
+        Ok(Self { unknowns })
+    }
+
+    /// What the check found, in sentences.
+    pub fn notes(&self) -> Vec<String> {
+        let ratios: Vec<f64> = self.unknowns.iter().filter_map(|u| u.ratio).collect();
+        let mut notes = Vec::new();
+        if ratios.is_empty() {
+            return notes;
+        }
+        let mut sorted = ratios.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted[sorted.len() / 2];
+        let flagged: Vec<String> = self
+            .unknowns
+            .iter()
+            .filter(|u| u.ratio.is_some_and(|r| r > SPLIT_RATIO_WARNING))
+            .map(|u| format!("{} x{:.1}", u.name, u.ratio.unwrap_or_default()))
+            .collect();
+        notes.push(format!(
+            "split-half check: the halves' estimates differ by {median:.1} times what the standard errors predict (median over {} unknowns)",
+            ratios.len()
+        ));
+        if !flagged.is_empty() {
+            notes.push(format!(
+                "standard errors understated (split error above {SPLIT_RATIO_WARNING} standard errors): {}; what the model leaves is shared by neighbouring poses, not independent noise",
+                flagged.join(", ")
+            ));
+        }
+        let missing: Vec<&str> = self
+            .unknowns
+            .iter()
+            .filter(|u| u.split_error.is_none())
+            .map(|u| u.name.as_str())
+            .collect();
+        if !missing.is_empty() {
+            notes.push(format!(
+                "not compared (some half does not identify them): {}",
+                missing.join(", ")
+            ));
+        }
+        notes
+    }
+}
