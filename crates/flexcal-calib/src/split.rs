@@ -43,7 +43,8 @@ pub struct SplitEstimate {
     /// RMS of half the differences of the two complementary pairs (display
     /// unit), when every half identified the unknown.
     pub split_error: Option<f64>,
-    /// `split_error / standard_error`.
+    /// `split_error / standard_error`, when both are known and the standard
+    /// error is not zero.
     pub ratio: Option<f64>,
 }
 
@@ -122,7 +123,10 @@ impl SplitCheck {
                     standard_error,
                     half_values,
                     split_error,
-                    ratio: split_error.map(|s| s / standard_error),
+                    // No ratio against a zero standard error (noise-free data).
+                    ratio: split_error
+                        .filter(|_| standard_error > 0.0)
+                        .map(|s| s / standard_error),
                 }
             })
             .collect();
