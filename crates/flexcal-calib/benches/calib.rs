@@ -1,7 +1,8 @@
 //! Full iterative identification of the UR10 from the 2 773 poses of IPA
 //! series C: geometric (goal <= 50 ms) and elasto-geometric (joint
-//! compliances under gravity, goal <= 0.5 s). Skipped with a message when
-//! the data is absent.
+//! compliances under gravity, goal <= 0.5 s), and reading that file (1 MB,
+//! CRLF line ends: the line numbers of the rows are counted once through
+//! the text). Skipped with a message when the data is absent.
 
 use std::path::PathBuf;
 
@@ -36,6 +37,12 @@ fn bench(c: &mut Criterion) {
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model).expect("ur10 mass table"));
     group.bench_function("ur10_series_c_2773_poses_elasto_geometric", |b| {
         b.iter(|| calibrate(&model, &set, &elastic).expect("calibration succeeds"))
+    });
+    group.finish();
+    let mut group = c.benchmark_group("read");
+    group.sample_size(10);
+    group.bench_function("ipa_series_c_2773_poses", |b| {
+        b.iter(|| MeasurementSet::read_ipa(&path).expect("series C reads"))
     });
     group.finish();
 }

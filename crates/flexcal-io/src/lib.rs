@@ -203,11 +203,10 @@ impl CsvTable {
             .collect();
         let mut rows = Vec::new();
         let mut lines = Vec::new();
+        let mut counter = LineCounter::new(text, options.comment);
         for record in reader.records() {
             let record = record.map_err(|e| {
-                let line = e
-                    .position()
-                    .map_or(0, |p| line_at(text, p, options.comment));
+                let line = e.position().map_or(0, |p| counter.line_at(p));
                 let message = match e.kind() {
                     csv::ErrorKind::UnequalLengths {
                         expected_len, len, ..
@@ -216,9 +215,7 @@ impl CsvTable {
                 };
                 malformed(line, message)
             })?;
-            let line = record
-                .position()
-                .map_or(0, |p| line_at(text, p, options.comment));
+            let line = record.position().map_or(0, |p| counter.line_at(p));
             rows.push(record.iter().map(str::to_string).collect());
             lines.push(line);
         }
@@ -340,27 +337,60 @@ pub fn format_csv(header: &[&str], rows: impl IntoIterator<Item = Vec<f64>>) -> 
     out
 }
 
-/// 1-based line on which the record at `position` starts. The reader's
-/// position is where it began to read: possibly the `\n` of a CRLF line end,
-/// blank lines or comment lines before the record, which its own line count
-/// also gets wrong. Skip those and count the line ends before the record.
-fn line_at(text: &str, position: &csv::Position, comment: Option<u8>) -> usize {
-    let bytes = text.as_bytes();
-    let mut at = (position.byte() as usize).min(bytes.len());
-    loop {
-        while at < bytes.len() && matches!(bytes[at], b'\r' | b'\n') {
-            at += 1;
-        }
-        if at < bytes.len() && Some(bytes[at]) == comment {
-            at = bytes[at..]
-                .iter()
-                .position(|&b| b == b'\n')
-                .map_or(bytes.len(), |n| at + n + 1);
-        } else {
-            break;
+/// Line numbers of records from their byte positions, counted once through
+/// the text (records come in file order).
+struct LineCounter<'a> {
+    bytes: &'a [u8],
+    comment: Option<u8>,
+    /// Bytes before this offset are counted...
+    counted_to: usize,
+    /// ...and hold this many line ends.
+    line_ends: usize,
+}
+
+impl<'a> LineCounter<'a> {
+    fn new(text: &'a str, comment: Option<u8>) -> Self {
+        Self {
+            bytes: text.as_bytes(),
+            comment,
+            counted_to: 0,
+            line_ends: 0,
         }
     }
-    1 + bytes[..at].iter().filter(|&&b| b == b'\n').count()
+
+    /// 1-based line on which the record at `position` starts. The reader's
+    /// position is where it began to read: possibly the `\n` of a CRLF line
+    /// end, blank lines or comment lines before the record, which its own
+    /// line count also gets wrong. Skip those and count the line ends
+    /// before the record.
+    fn line_at(&mut self, position: &csv::Position) -> usize {
+        let bytes = self.bytes;
+        let mut at = (position.byte() as usize).min(bytes.len());
+        loop {
+            while at < bytes.len() && matches!(bytes[at], b'\r' | b'\n') {
+                at += 1;
+            }
+            if at < bytes.len() && Some(bytes[at]) == self.comment {
+                at = bytes[at..]
+                    .iter()
+                    .position(|&b| b == b'\n')
+                    .map_or(bytes.len(), |n| at + n + 1);
+            } else {
+                break;
+            }
+        }
+        if at < self.counted_to {
+            // Out of order (not expected): count from the start.
+            self.counted_to = 0;
+            self.line_ends = 0;
+        }
+        self.line_ends += bytes[self.counted_to..at]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        self.counted_to = at;
+        1 + self.line_ends
+    }
 }
 
 #[cfg(test)]
@@ -457,6 +487,31 @@ mod tests {
             let text = format_csv(&["v"], values.iter().map(|v| vec![*v]));
             let t = CsvTable::from_str(&text, "p.csv", &CsvOptions::default()).unwrap();
             proptest::prop_assert_eq!(t.column_f64("v").unwrap(), values);
+        }
+
+        /// Each data row is found on its line whatever the line ends and
+        /// whatever blank and comment lines stand between the rows.
+        #[test]
+        fn rows_are_found_on_their_lines(
+            kinds in proptest::collection::vec(0u8..4, 1..40),
+            crlf in proptest::bool::ANY,
+        ) {
+            let end = if crlf { "\r\n" } else { "\n" };
+            let mut text = format!("a,b{end}");
+            let mut expected = Vec::new();
+            for (k, kind) in kinds.iter().enumerate() {
+                match kind {
+                    0 => text.push_str(end),
+                    1 => text.push_str(&format!("# note {k}{end}")),
+                    _ => {
+                        expected.push(text.matches('\n').count() + 1);
+                        text.push_str(&format!("{k},{}{end}", 2 * k));
+                    }
+                }
+            }
+            let t = CsvTable::from_str(&text, "l.csv", &CsvOptions::default()).unwrap();
+            let found: Vec<usize> = (0..t.len()).map(|r| t.line_of(r)).collect();
+            proptest::prop_assert_eq!(found, expected);
         }
     }
 }
