@@ -11,7 +11,8 @@
 //!   [`SUSPECT_ERROR_RATIO`] times the set's RMS position error. For
 //!   isotropic Gaussian errors that happens with probability below 1e-9 per
 //!   pose (the norm would exceed 6.9 standard deviations per axis), so such
-//!   a pose is a measurement fault or an effect the model lacks.
+//!   a pose is a measurement fault or an effect the model lacks (unless the
+//!   fit is exact to round-off: [`ROUND_OFF_RMS`]).
 //!
 //! Poses can then be left out by label ([`MeasurementSet::excluding`]).
 
@@ -23,6 +24,10 @@ use crate::{CalibError, MeasurementSet};
 /// A pose whose position error exceeds this many times the set's RMS
 /// position error is reported as suspect.
 pub const SUSPECT_ERROR_RATIO: f64 = 4.0;
+
+/// Below this RMS position error (m) a fit is exact to round-off (simulated
+/// data without noise) and no pose is called suspect.
+pub const ROUND_OFF_RMS: f64 = 1e-9;
 
 /// Two poses with different actuated coordinates and the identical
 /// measurement.
@@ -65,7 +70,7 @@ impl DataChecks {
         let suspect_poses = errors
             .iter()
             .enumerate()
-            .filter(|(_, e)| rms > 0.0 && e.position > SUSPECT_ERROR_RATIO * rms)
+            .filter(|(_, e)| rms > ROUND_OFF_RMS && e.position > SUSPECT_ERROR_RATIO * rms)
             .map(|(k, e)| SuspectPose {
                 pose: set.measurements()[k].label(k),
                 position_error_mm: e.position * 1e3,
@@ -271,6 +276,10 @@ mod tests {
         let notes = checks.notes("validation");
         assert_eq!(notes.len(), 1);
         assert!(notes[0].contains("#19 (2.00 mm)"), "{notes:?}");
+        // Errors of round-off size are never suspect.
+        let mut tiny = vec![error(1e-10); 19];
+        tiny.push(error(1e-8));
+        assert!(DataChecks::new(&set, &tiny).suspect_poses.is_empty());
         // At 0.7 mm the outlier is 3.8 times the RMS: nothing to report.
         errors[19] = error(0.7);
         assert!(DataChecks::new(&set, &errors).suspect_poses.is_empty());

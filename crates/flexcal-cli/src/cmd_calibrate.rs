@@ -618,4 +618,19 @@ fn print_before_after(c: &Calibration, validation: Option<&ValidationReport>) {
     {
         println!("data check: {note}");
     }
+    let checks = std::iter::once(("--exclude", &c.data_checks))
+        .chain(validation.map(|v| ("--exclude-validation", &v.data_checks)));
+    for (option, checks) in checks {
+        if !checks.suspect_poses.is_empty() {
+            let labels: Vec<&str> = checks
+                .suspect_poses
+                .iter()
+                .map(|s| s.pose.strip_prefix("line ").unwrap_or(&s.pose))
+                .collect();
+            println!(
+                "data check: to compare without the suspect poses, run again with {option} '{}'",
+                labels.join(",")
+            );
+        }
+    }
 }

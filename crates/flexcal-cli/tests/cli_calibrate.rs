@@ -155,6 +155,40 @@ fn twin_files_calibrate_end_to_end() {
     assert!(ratios.len() > 25, "{ratios:?}");
     ratios.sort_by(f64::total_cmp);
     assert!(ratios[ratios.len() / 2] < 1.5, "{ratios:?}");
+    // A pose measured 3 mm off: named as suspect, with the option that
+    // leaves it out; left out, the fit is back to the noise.
+    let text_in = std::fs::read_to_string(d.join("identification.csv")).unwrap();
+    let mut lines: Vec<String> = text_in.lines().map(String::from).collect();
+    let x_col = lines[0].split(',').position(|h| h == "x_mm").unwrap();
+    let mut cells: Vec<String> = lines[5].split(',').map(String::from).collect();
+    cells[x_col] = (cells[x_col].parse::<f64>().unwrap() + 3.0).to_string();
+    lines[5] = cells.join(",");
+    std::fs::write(d.join("outlier.csv"), lines.join("\n") + "\n").unwrap();
+    let outlier = path(d, "outlier.csv");
+    let with_outlier = |extra: &[&str]| {
+        let mut args = vec![
+            "calibrate",
+            "--robot",
+            "ir663",
+            "--data",
+            &outlier,
+            "--fixed-frame",
+            "--fixed-target",
+        ];
+        args.extend_from_slice(extra);
+        let out = flexcal(&args);
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{stdout}\n{stderr}");
+        stdout
+    };
+    let stdout = with_outlier(&[]);
+    assert!(
+        stdout.contains("1 pose with a position error above 4 times the RMS error")
+            && stdout.contains("run again with --exclude 'identification-5'"),
+        "{stdout}"
+    );
+    let stdout = with_outlier(&["--exclude", "identification-5"]);
+    assert!(!stdout.contains("data check"), "{stdout}");
     // The twin's noise is Gaussian: no data check fires.
     for set in ["identification", "validation"] {
         let checks = &excluded[set]["data_checks"];
@@ -383,6 +417,9 @@ fn elasto_geometric_calibration_end_to_end() {
     assert!(stdout.contains("pos RMS mm"), "{stdout}");
     let json: serde_json::Value = read_json(&report);
     assert_eq!(json["model"], "elasto-geometric");
+    // An exact fit (errors of round-off size) has no suspect poses.
+    let suspects = &json["identification"]["data_checks"]["suspect_poses"];
+    assert_eq!(suspects.as_array().unwrap().len(), 0, "{suspects}");
     let identification = &json["identification"];
     let non: Vec<&str> = identification["non_identifiable"]
         .as_array()
