@@ -8,7 +8,9 @@ use flexcal_kinematics::{
     Data, Model, ParamKind, forward_pose, joint_jacobian_into, param_jacobian_into,
 };
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
-use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Point3, Translation3, Vector3};
+use nalgebra::{
+    DMatrix, Isometry3, Matrix3, Matrix6xX, Point3, Translation3, UnitQuaternion, Vector3,
+};
 
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
@@ -499,21 +501,71 @@ pub fn predicted_target_positions(
     xi: &[f64],
     x_tcp_target: &Isometry3<f64>,
 ) -> Result<Vec<Vector3<f64>>, CalibError> {
+    Ok(tcp_poses(model, set, xi)?
+        .iter()
+        .map(|x_base_tcp| (x_base_tcp * x_tcp_target * Point3::origin()).coords)
+        .collect())
+}
+
+/// The TCP pose `x_base_tcp` of every pose of `set` with the robot at `xi`.
+///
+/// # Errors
+/// [`CalibError::Kinematics`] naming the pose.
+fn tcp_poses(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+) -> Result<Vec<Isometry3<f64>>, CalibError> {
     let mut data = Data::new(model);
     set.measurements()
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let x_base_tcp = forward_pose(model, &mut data, &m.q, xi).map_err(|source| {
-                CalibError::Kinematics {
-                    pose: k,
-                    pose_id: m.label(k),
-                    source,
-                }
-            })?;
-            Ok((x_base_tcp * x_tcp_target * Point3::origin()).coords)
+            forward_pose(model, &mut data, &m.q, xi).map_err(|source| CalibError::Kinematics {
+                pose: k,
+                pose_id: m.label(k),
+                source,
+            })
         })
         .collect()
+}
+
+/// Closed-form start of the target's orientation on the tool when
+/// orientations are measured: with the measurement frame `x_meas_base` and
+/// the robot at `xi`, each pose gives `R_tcp_target = (R_meas_base
+/// R_base_tcp)^T R_meas_target`; their mean rotation
+/// ([`crate::geometry::mean_rotation`]). A probe whose frame is turned
+/// against the one its nominal offset assumes (a quarter turn about the
+/// tool axis, say) then starts where the data put it.
+///
+/// # Errors
+/// [`CalibError::BadMeasurement`] when the set has no orientations, a model
+/// failure at a pose, a degenerate mean.
+pub fn register_target_rotation(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    x_meas_base: &Isometry3<f64>,
+) -> Result<UnitQuaternion<f64>, CalibError> {
+    let rotations = set
+        .measurements()
+        .iter()
+        .zip(tcp_poses(model, set, xi)?)
+        .enumerate()
+        .map(|(k, (m, x_base_tcp))| {
+            let orientation = m.orientation.ok_or_else(|| CalibError::BadMeasurement {
+                source_name: set.source.clone(),
+                line: 0,
+                what: format!(
+                    "pose {}: no orientation to register the target's",
+                    m.label(k)
+                ),
+            })?;
+            Ok((x_meas_base.rotation * x_base_tcp.rotation).inverse()
+                * rotation_from_vector(&orientation))
+        })
+        .collect::<Result<Vec<_>, CalibError>>()?;
+    crate::geometry::mean_rotation(&rotations)
 }
 
 /// Closed-form start of the measurement frame: the rigid registration of the

@@ -11,7 +11,9 @@ use flexcal_optim::{
 };
 use nalgebra::Isometry3;
 
-use crate::error_model::{GeometricErrorModel, UnknownKind, register_measurement_frame};
+use crate::error_model::{
+    GeometricErrorModel, UnknownKind, register_measurement_frame, register_target_rotation,
+};
 use crate::gravity::GravityCompliance;
 use crate::screen::DataChecks;
 use crate::validate::{ErrorStatistics, error_statistics, pose_errors};
@@ -595,6 +597,17 @@ pub fn calibrate(
         (false, None) => {
             register_measurement_frame(model, set, model.nominal_params(), &x_tcp_target0)?
         }
+    };
+    // Measured orientations: the target's orientation starts where the data
+    // put it (unless fixed or given), as the measurement frame does.
+    let x_tcp_target0 = if use_orientation
+        && options.target != FrameTreatment::Fixed
+        && options.target_value.is_none()
+    {
+        let rotation = register_target_rotation(model, set, model.nominal_params(), &x_meas_base0)?;
+        Isometry3::from_parts(x_tcp_target0.translation, rotation)
+    } else {
+        x_tcp_target0
     };
     let mut problem =
         GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?;

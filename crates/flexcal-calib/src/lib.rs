@@ -44,6 +44,10 @@
 //! ones — Kabsch/Horn by SVD) and the target offset t (6: `target_x..target_rz`;
 //! the rotation only when orientations are measured). Either frame may be
 //! fixed ([`FrameTreatment`]), any parameter masked ([`CalibrationOptions::fixed`]).
+//! With orientations used and the target free, the target's rotation starts
+//! from the data, the mean over the poses of the rotation each implies
+//! ([`error_model::register_target_rotation`]), as the measurement frame
+//! starts from a registration of the positions.
 //! Residuals are `predicted - measured` positions (m) and rotation vectors
 //! `log(R_pred R_meas^T)` (rad), weighted by `1/sigma` per axis.
 //!

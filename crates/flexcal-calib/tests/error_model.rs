@@ -315,3 +315,55 @@ fn pose_selection_beats_an_arbitrary_subset() {
     let bad = vec![vec![0.0; 3]];
     assert!(select_calibration_poses(&model, &bad, 1, ObservabilityIndex::O1, false, &[]).is_err());
 }
+
+/// Orientations measured, the probe turned by a quarter turn about the tool
+/// axis against the nominal offset it starts from (as the IPA T-Mac is
+/// against its nominal transform): the target's orientation is registered
+/// from the data first, and the identification reaches the exact fit. A
+/// fixed target keeps its nominal orientation.
+#[test]
+fn target_orientation_starts_where_the_data_put_it() {
+    let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    let truth = perturbed(&model, &mut rng, 0.5e-3, 1e-3);
+    let (frame, _) = common::generic_frame_and_target();
+    let quarter = |sign: f64| {
+        Isometry3::from_parts(
+            Translation3::new(0.0, 0.0, 0.109),
+            rotation_from_vector(&Vector3::new(0.0, 0.0, sign * std::f64::consts::FRAC_PI_2)),
+        )
+    };
+    let set = simulate(&model, &truth, &frame, &quarter(-1.0), 60, true, 8);
+    let mut options = CalibrationOptions::for_model(&model);
+    options.use_orientation = Some(true);
+    let mut nominal_set = set.clone();
+    nominal_set.nominal_target = Some(quarter(1.0));
+    let calibration = calibrate(&model, &nominal_set, &options).unwrap();
+    assert!(
+        calibration.training_after.position_max < 1e-9
+            && calibration
+                .training_after
+                .orientation_mean_rms_max
+                .unwrap()
+                .2
+                < 1e-9,
+        "{:?}",
+        calibration.training_after
+    );
+    // The right quarter turn; what is left of it (0.15 mrad) is a turn
+    // about the tool axis, which theta6 takes (their sum is what the
+    // poses identify).
+    let off = calibration.x_tcp_target.rotation.inverse() * quarter(-1.0).rotation;
+    assert!(
+        off.angle() < 1e-3,
+        "target orientation off by {} rad",
+        off.angle()
+    );
+    let axis = off.axis().unwrap();
+    assert!(axis.z.abs() > 1.0 - 1e-6, "{axis:?}");
+    // Fixed, the target stays at the nominal turn and the fit cannot close.
+    options.target = FrameTreatment::Fixed;
+    let fixed = calibrate(&model, &nominal_set, &options).unwrap();
+    assert_eq!(fixed.x_tcp_target.rotation, quarter(1.0).rotation);
+    assert!(fixed.training_after.orientation_mean_rms_max.unwrap().0 > 1.0);
+}

@@ -89,6 +89,10 @@ pub struct CalibrateArgs {
     /// Ignore measured orientations.
     #[arg(long)]
     pub position_only: bool,
+    /// With --format ipa, use the probe's measured orientations too (the
+    /// dataset's protocol, and the default, uses positions only).
+    #[arg(long, conflicts_with = "position_only")]
+    pub with_orientation: bool,
     /// The measurements are already in the robot base frame: do not identify
     /// the measurement frame.
     #[arg(long)]
@@ -226,7 +230,12 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         WeightsKind::File => Weighting::FromFile,
         WeightsKind::Uniform => Weighting::Uniform,
     };
-    if args.position_only || args.format == DataFormat::Ipa {
+    if args.with_orientation && args.format != DataFormat::Ipa {
+        anyhow::bail!(
+            "--with-orientation is for --format ipa (flexcal's own files use their orientation columns when present)"
+        );
+    }
+    if args.position_only || (args.format == DataFormat::Ipa && !args.with_orientation) {
         options.use_orientation = Some(false);
     }
     options.fixed = args

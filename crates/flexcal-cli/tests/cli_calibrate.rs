@@ -315,6 +315,16 @@ fn bad_input_gives_clear_errors() {
         err.contains("no pose `line 99`") && err.contains("deficient.csv"),
         "{err}"
     );
+    let err = run(&deficient, &["--with-orientation"]);
+    assert!(
+        err.contains("--with-orientation is for --format ipa"),
+        "{err}"
+    );
+    let err = run(
+        &deficient,
+        &["--format", "ipa", "--with-orientation", "--position-only"],
+    );
+    assert!(err.contains("cannot be used with"), "{err}");
     let err = run(&deficient, &["--exclude-validation", "#3"]);
     assert!(
         err.contains("--exclude-validation needs --validate"),
