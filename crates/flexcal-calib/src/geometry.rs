@@ -155,7 +155,7 @@ mod tests {
         // off by about 0.6 mrad / sqrt(200) per axis.
         assert!((mean.inverse() * center).angle() < 2e-4);
         assert!(mean_rotation(&[]).is_err());
-        // Two opposite half turns about one axis sum to a singular matrix.
+        // The identity and the half turns about x, y and z sum to zero.
         let half = |axis: Vector3<f64>| rotation_from_vector(&(axis * std::f64::consts::PI));
         let opposite = [
             UnitQuaternion::identity(),
