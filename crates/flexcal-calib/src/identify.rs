@@ -16,7 +16,7 @@ use crate::error_model::{
 };
 use crate::gravity::GravityCompliance;
 use crate::screen::DataChecks;
-use crate::validate::{ErrorStatistics, error_statistics, pose_errors};
+use crate::validate::{ErrorStatistics, PoseError, error_statistics, pose_errors};
 use crate::{CalibError, MeasurementSet};
 
 /// The iterative solver of the identification.
@@ -323,6 +323,8 @@ pub struct Calibration {
     pub training_before: ErrorStatistics,
     /// Errors on the identification set after identification.
     pub training_after: ErrorStatistics,
+    /// Per-pose errors on the identification set after identification.
+    pub training_after_per_pose: Vec<PoseError>,
     /// Repeated readings and suspect poses of the identification set
     /// (after the fit).
     pub data_checks: DataChecks,
@@ -877,9 +879,20 @@ pub fn calibrate(
     // geometric errors of millimetres the difference from the solution is of
     // second order, and the start's factor is at hand.
     let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
+    // Range (min, max) of each actuated coordinate over the poses.
+    let actuated_ranges: Vec<(f64, f64)> = (0..model.n_actuated())
+        .map(|i| {
+            set.measurements()
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                    (lo.min(m.q[i]), hi.max(m.q[i]))
+                })
+        })
+        .collect();
     let spread_ratios = SpreadInputs {
         model,
         set,
+        actuated_ranges: &actuated_ranges,
         options,
         use_orientation,
         frames: (x_meas_base0, x_tcp_target0),
@@ -950,17 +963,10 @@ pub fn calibrate(
         residual_history: residual_history.into_inner(),
         training_before,
         training_after,
+        training_after_per_pose: errors_after,
         data_checks,
         n_poses: set.len(),
-        actuated_ranges: (0..model.n_actuated())
-            .map(|i| {
-                set.measurements()
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-                        (lo.min(m.q[i]), hi.max(m.q[i]))
-                    })
-            })
-            .collect(),
+        actuated_ranges,
     })
 }
 
@@ -1219,6 +1225,8 @@ fn unit_covariance_diagonal(s: &Mat<f64>, cols: &[usize]) -> Option<Vec<f64>> {
 struct SpreadInputs<'a> {
     model: &'a Model,
     set: &'a MeasurementSet,
+    /// Range of each actuated coordinate over the identification poses.
+    actuated_ranges: &'a [(f64, f64)],
     options: &'a CalibrationOptions,
     use_orientation: bool,
     frames: (Isometry3<f64>, Isometry3<f64>),
@@ -1262,16 +1270,10 @@ impl SpreadInputs<'_> {
             .actuated_limits()
             .iter()
             .zip(self.model.actuated_kinds())
-            .enumerate()
-            .map(|(i, (&limits, kind))| match kind {
+            .zip(self.actuated_ranges)
+            .map(|((&limits, kind), &seen)| match kind {
                 flexcal_kinematics::ActuatedKind::Revolute => limits,
-                _ => self
-                    .set
-                    .measurements()
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-                        (lo.min(m.q[i]), hi.max(m.q[i]))
-                    }),
+                _ => seen,
             })
             .collect();
         let count = poses.min(SPREAD_REFERENCE_POSES);

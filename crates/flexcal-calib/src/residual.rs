@@ -13,6 +13,7 @@ use flexcal_kinematics::Model;
 use nalgebra::Vector3;
 
 use crate::identify::Calibration;
+use crate::screen::DataChecks;
 use crate::validate::{ValidationReport, error_statistics};
 use crate::{CalibError, Measurement, MeasurementSet};
 
@@ -192,6 +193,7 @@ impl Calibration {
                 self.errors_after(model, &corrected, policy)?;
         }
         report.after = error_statistics(&report.after_per_pose);
+        report.data_checks = DataChecks::new(set, &report.after_per_pose);
         Ok(report)
     }
 }

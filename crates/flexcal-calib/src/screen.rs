@@ -18,7 +18,7 @@
 
 use serde::Serialize;
 
-use crate::validate::PoseError;
+use crate::validate::{PoseError, error_statistics};
 use crate::{CalibError, MeasurementSet};
 
 /// A pose whose position error exceeds this many times the set's RMS
@@ -65,8 +65,7 @@ impl DataChecks {
     /// (in the order of the set).
     pub fn new(set: &MeasurementSet, errors: &[PoseError]) -> Self {
         debug_assert_eq!(set.len(), errors.len());
-        let n = errors.len().max(1) as f64;
-        let rms = (errors.iter().map(|e| e.position * e.position).sum::<f64>() / n).sqrt();
+        let rms = error_statistics(errors).position_rms;
         let suspect_poses = errors
             .iter()
             .enumerate()
@@ -163,13 +162,13 @@ impl MeasurementSet {
     /// # Errors
     /// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches
     /// no pose of the set; [`CalibError::BadMeasurement`] when nothing is left.
-    pub fn excluding(&self, labels: &[String]) -> Result<Self, CalibError> {
+    pub fn excluding(&self, labels: &[impl AsRef<str>]) -> Result<Self, CalibError> {
         let labels_now: Vec<String> = (0..self.len())
             .map(|k| self.measurements()[k].label(k))
             .collect();
         let mut drop = vec![false; self.len()];
         for raw in labels {
-            let raw = raw.trim();
+            let raw = raw.as_ref().trim();
             let wanted = if raw.chars().all(|c| c.is_ascii_digit()) && !raw.is_empty() {
                 format!("line {raw}")
             } else {
@@ -194,16 +193,8 @@ impl MeasurementSet {
                 drop[k] = true;
             }
         }
-        let kept: Vec<_> = self
-            .measurements()
-            .iter()
-            .zip(&drop)
-            .filter(|(_, d)| !**d)
-            .map(|(m, _)| m.clone())
-            .collect();
-        let mut set = MeasurementSet::new(&self.source, kept)?;
-        set.nominal_target = self.nominal_target;
-        Ok(set)
+        let kept: Vec<usize> = (0..self.len()).filter(|&k| !drop[k]).collect();
+        self.subset(&kept)
     }
 }
 

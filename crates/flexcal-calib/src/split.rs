@@ -78,26 +78,20 @@ impl SplitCheck {
             .filter(|u| u.status != UnknownStatus::NoInfluence)
             .map(|u| u.name.clone())
             .collect();
+        // Odd, even, first-half and second-half poses.
         let n = set.len();
-        let halves: [Box<dyn Fn(usize) -> bool>; 4] = [
-            Box::new(|k| k % 2 == 1),
-            Box::new(|k| k % 2 == 0),
-            Box::new(move |k| k < n / 2),
-            Box::new(move |k| k >= n / 2),
-        ];
-        let mut fits = Vec::with_capacity(4);
-        for keep in &halves {
-            let poses = set
-                .measurements()
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| keep(*k))
-                .map(|(_, m)| m.clone())
-                .collect();
-            let mut half = MeasurementSet::new(&set.source, poses)?;
-            half.nominal_target = set.nominal_target;
-            fits.push(calibrate(model, &half, &half_options)?);
-        }
+        let in_half = |h: usize, k: usize| match h {
+            0 => k % 2 == 1,
+            1 => k % 2 == 0,
+            2 => k < n / 2,
+            _ => k >= n / 2,
+        };
+        let fits = (0..4)
+            .map(|h| {
+                let poses: Vec<usize> = (0..n).filter(|&k| in_half(h, k)).collect();
+                calibrate(model, &set.subset(&poses)?, &half_options)
+            })
+            .collect::<Result<Vec<_>, CalibError>>()?;
         let unknowns = calibration
             .unknowns
             .iter()

@@ -178,11 +178,7 @@ fn excluding(
     labels: &[String],
     option: &str,
 ) -> anyhow::Result<MeasurementSet> {
-    let labels: Vec<String> = labels
-        .iter()
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .collect();
+    let labels = crate::list_items(labels);
     if labels.is_empty() {
         return Ok(set);
     }
@@ -238,11 +234,9 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     if args.position_only || (args.format == DataFormat::Ipa && !args.with_orientation) {
         options.use_orientation = Some(false);
     }
-    options.fixed = args
-        .fix
-        .iter()
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
+    options.fixed = crate::list_items(&args.fix)
+        .into_iter()
+        .map(String::from)
         .collect();
     if !args.defer.is_empty() {
         options.deferred = args.defer.iter().map(|s| s.trim().to_string()).collect();
@@ -317,14 +311,14 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     print_before_after(&calibration, validation.as_ref());
     let residual = fit_residual_model(&args, &model, &calibration, &data, validation_set.as_ref())?;
     let (per_pose, per_pose_set, per_pose_name) = match (&validation, &validation_set) {
-        (Some(v), Some(set)) => (v.after_per_pose.clone(), set, "validation"),
+        (Some(v), Some(set)) => (&v.after_per_pose, set, "validation"),
         _ => (
-            calibration.training_errors(&model, &data)?,
+            &calibration.training_after_per_pose,
             &data,
             "identification",
         ),
     };
-    print_temperature_analysis(per_pose_name, per_pose_set, &per_pose);
+    print_temperature_analysis(per_pose_name, per_pose_set, per_pose);
     if let Some(path) = &args.residuals {
         let mut text = String::from(
             "pose,temperature_c,position_error_mm,orientation_error_deg,dx_mm,dy_mm,dz_mm\n",
@@ -375,12 +369,7 @@ fn fit_residual_model(
     data: &MeasurementSet,
     validation_set: Option<&MeasurementSet>,
 ) -> anyhow::Result<Option<(ResidualModel, Option<ValidationReport>)>> {
-    let inputs: Vec<&str> = args
-        .residual_model
-        .iter()
-        .map(|s| s.trim())
-        .filter(|s| !s.is_empty())
-        .collect();
+    let inputs = crate::list_items(&args.residual_model);
     if inputs.is_empty() {
         return Ok(None);
     }

@@ -100,12 +100,7 @@ fn read_dataset(path: &PathBuf, inputs: &[&str], output: &str) -> anyhow::Result
 }
 
 fn fit(args: FitArgs) -> anyhow::Result<()> {
-    let inputs: Vec<&str> = args
-        .inputs
-        .iter()
-        .map(|s| s.trim())
-        .filter(|s| !s.is_empty())
-        .collect();
+    let inputs = crate::list_items(&args.inputs);
     if inputs.is_empty() {
         bail!("--inputs names no column");
     }

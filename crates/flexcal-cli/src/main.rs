@@ -66,6 +66,15 @@ enum Command {
     // <wire: new subcommand variants go above this line>
 }
 
+/// The items of a comma-separated option, trimmed, empty ones dropped.
+pub(crate) fn list_items(values: &[String]) -> Vec<&str> {
+    values
+        .iter()
+        .map(|s| s.trim())
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
