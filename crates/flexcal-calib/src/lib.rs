@@ -95,6 +95,9 @@
 //!   second halves of the poses; where the halves differ by more than the
 //!   standard errors allow, what the model leaves is not independent noise
 //!   and the standard errors understate the uncertainty.
+//! - Beyond the paper, a cross-series check ([`CrossCheck`]): the identified
+//!   unknowns again on the validation set, compared in combined standard
+//!   errors; values the two campaigns disagree on do not transfer.
 //! - Beyond the paper, its zero-order Takagi-Sugeno models (33)-(37) of
 //!   section 2.2.2 applied to what a calibration leaves: [`ResidualModel`]
 //!   maps chosen actuated coordinates to a position correction in the base
@@ -173,6 +176,7 @@
 
 #![deny(missing_docs)]
 
+pub mod cross;
 mod error;
 pub mod error_model;
 pub mod geometry;
@@ -186,6 +190,7 @@ pub mod select;
 pub mod split;
 pub mod validate;
 
+pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
 pub use error_model::{
     FRAME_PARAMETER_NAMES, GeometricErrorModel, TARGET_PARAMETER_NAMES, UnknownKind,

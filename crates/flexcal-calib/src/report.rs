@@ -160,6 +160,9 @@ pub struct CalibrationReportJson {
     /// The split-half check of the standard errors, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub split_check: Option<crate::SplitCheck>,
+    /// The cross-series check against the validation set, when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cross_check: Option<crate::CrossCheck>,
 }
 
 /// The `residual_model` object.
@@ -289,6 +292,7 @@ impl CalibrationReportJson {
             validation,
             residual_model: None,
             split_check: None,
+            cross_check: None,
         }
     }
 

@@ -19,7 +19,7 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
+use crate::identify::{Calibration, CalibrationOptions, UnknownEstimate, UnknownStatus, calibrate};
 use crate::{CalibError, MeasurementSet};
 
 /// A split error above this many standard errors is named in
@@ -27,6 +27,44 @@ use crate::{CalibError, MeasurementSet};
 /// squared ratio is a chi-square with 2 degrees of freedom over 2, which
 /// exceeds 2.5^2 with a probability of 0.2 %.
 pub const SPLIT_RATIO_WARNING: f64 = 2.5;
+
+/// Options that identify again, on other poses, what `calibration`
+/// identified with `options`: every unknown it did not identify stays at
+/// its starting value; the measurement frame is registered anew (other
+/// poses may come from another tracker position).
+pub(crate) fn reidentification_options(
+    options: &CalibrationOptions,
+    calibration: &Calibration,
+) -> CalibrationOptions {
+    let mut reidentify = options.clone();
+    reidentify.fixed = calibration
+        .unknowns
+        .iter()
+        .filter(|u| u.status != UnknownStatus::Identified && !u.name.starts_with("frame_"))
+        .filter(|u| u.status != UnknownStatus::NoInfluence)
+        .map(|u| u.name.clone())
+        .collect();
+    reidentify
+}
+
+/// The unknowns a re-identification compares, with their index: those
+/// `calibration` identified, the measurement frame's excepted.
+pub(crate) fn compared_unknowns(
+    calibration: &Calibration,
+) -> impl Iterator<Item = (usize, &UnknownEstimate)> {
+    calibration
+        .unknowns
+        .iter()
+        .enumerate()
+        .filter(|(_, u)| u.status == UnknownStatus::Identified && !u.name.starts_with("frame_"))
+}
+
+/// The median of `values` (the upper one of an even count), sorting them;
+/// `None` when empty.
+pub(crate) fn median(values: &mut [f64]) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied()
+}
 
 /// One unknown compared over the halves.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -70,14 +108,7 @@ impl SplitCheck {
         options: &CalibrationOptions,
         calibration: &Calibration,
     ) -> Result<Self, CalibError> {
-        let mut half_options = options.clone();
-        half_options.fixed = calibration
-            .unknowns
-            .iter()
-            .filter(|u| u.status != UnknownStatus::Identified && !u.name.starts_with("frame_"))
-            .filter(|u| u.status != UnknownStatus::NoInfluence)
-            .map(|u| u.name.clone())
-            .collect();
+        let half_options = reidentification_options(options, calibration);
         // Odd, even, first-half and second-half poses.
         let n = set.len();
         let in_half = |h: usize, k: usize| match h {
@@ -92,11 +123,7 @@ impl SplitCheck {
                 calibrate(model, &set.subset(&poses)?, &half_options)
             })
             .collect::<Result<Vec<_>, CalibError>>()?;
-        let unknowns = calibration
-            .unknowns
-            .iter()
-            .enumerate()
-            .filter(|(_, u)| u.status == UnknownStatus::Identified && !u.name.starts_with("frame_"))
+        let unknowns = compared_unknowns(calibration)
             .map(|(j, u)| {
                 let (unit, scale) = u.kind.display_unit();
                 let half_values = [0, 1, 2, 3].map(|h| {
@@ -129,14 +156,11 @@ impl SplitCheck {
 
     /// What the check found, in sentences.
     pub fn notes(&self) -> Vec<String> {
-        let ratios: Vec<f64> = self.unknowns.iter().filter_map(|u| u.ratio).collect();
+        let mut ratios: Vec<f64> = self.unknowns.iter().filter_map(|u| u.ratio).collect();
         let mut notes = Vec::new();
-        if ratios.is_empty() {
+        let Some(median) = median(&mut ratios) else {
             return notes;
-        }
-        let mut sorted = ratios.clone();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted[sorted.len() / 2];
+        };
         let flagged: Vec<String> = self
             .unknowns
             .iter()

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use flexcal_calib::{
-    Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics, FrameTreatment,
-    GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson, SplitCheck,
-    UnknownStatus, ValidationReport, Weighting, calibrate,
+    Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ErrorStatistics,
+    FrameTreatment, GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson,
+    SplitCheck, UnknownStatus, ValidationReport, Weighting, calibrate,
 };
 use flexcal_fuzzy::FuzzyParams;
 use flexcal_kinematics::{Model, RobotDescription};
@@ -133,6 +133,11 @@ pub struct CalibrateArgs {
     /// identification time).
     #[arg(long)]
     pub split_check: bool,
+    /// Check what transfers: identify the same unknowns again on the
+    /// validation set and compare them in combined standard errors
+    /// (needs --validate).
+    #[arg(long, requires = "validate")]
+    pub cross_check: bool,
     /// Also fit a fuzzy residual model of the remaining position errors over
     /// these actuated coordinates (comma-separated, e.g. theta2,theta3), on
     /// the identification poses only, and report the validation with it
@@ -309,6 +314,16 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         .transpose()
         .context("validation")?;
     print_before_after(&calibration, validation.as_ref());
+    let cross = match (&validation_set, args.cross_check) {
+        (Some(set), true) => Some(
+            CrossCheck::new(&model, set, &options, &calibration)
+                .context("cross-series check on the validation poses")?,
+        ),
+        _ => None,
+    };
+    if let Some(cross) = &cross {
+        print_cross_check(cross);
+    }
     let residual = fit_residual_model(&args, &model, &calibration, &data, validation_set.as_ref())?;
     let (per_pose, per_pose_set, per_pose_name) = match (&validation, &validation_set) {
         (Some(v), Some(set)) => (&v.after_per_pose, set, "validation"),
@@ -351,6 +366,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         let mut report =
             CalibrationReportJson::new(model.name(), &calibration, validation.as_ref());
         report.split_check = split;
+        report.cross_check = cross;
         report.residual_model = residual
             .as_ref()
             .map(|(r, v)| ResidualModelJson::new(model.actuated_names(), r, v.as_ref()));
@@ -555,6 +571,11 @@ fn print_temperature_analysis(
     );
 }
 
+/// `v` with `digits` decimals, or `-` when there is none.
+fn dash_or(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+}
+
 fn print_split_check(split: &SplitCheck) {
     println!();
     println!("Split-half check (identified again on odd / even and first / second halves)");
@@ -562,23 +583,48 @@ fn print_split_check(split: &SplitCheck) {
         "{:<16} {:>9} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
         "unknown", "unit", "std error", "odd", "even", "first", "second", "split err", "ratio"
     );
-    let optional = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
     for u in &split.unknowns {
         println!(
             "{:<16} {:>9} {:>12.5} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
             u.name,
             u.unit,
             u.standard_error,
-            optional(u.half_values[0]),
-            optional(u.half_values[1]),
-            optional(u.half_values[2]),
-            optional(u.half_values[3]),
-            optional(u.split_error),
-            u.ratio
-                .map_or_else(|| "-".to_string(), |r| format!("{r:.1}"))
+            dash_or(u.half_values[0], 5),
+            dash_or(u.half_values[1], 5),
+            dash_or(u.half_values[2], 5),
+            dash_or(u.half_values[3], 5),
+            dash_or(u.split_error, 5),
+            dash_or(u.ratio, 1)
         );
     }
     for note in split.notes() {
+        println!("note: {note}");
+    }
+}
+
+fn print_cross_check(cross: &CrossCheck) {
+    println!();
+    println!(
+        "Cross-series check (identified again on the {} validation poses)",
+        cross.other_poses
+    );
+    println!(
+        "{:<18} {:>9} {:>14} {:>12} {:>14} {:>12} {:>7}",
+        "unknown", "unit", "identified", "std error", "validation set", "std error", "z"
+    );
+    for u in &cross.unknowns {
+        println!(
+            "{:<18} {:>9} {:>14.5} {:>12.5} {:>14} {:>12} {:>7}",
+            u.name,
+            u.unit,
+            u.value,
+            u.standard_error,
+            dash_or(u.other_value, 5),
+            dash_or(u.other_standard_error, 5),
+            dash_or(u.z, 1)
+        );
+    }
+    for note in cross.notes() {
         println!("note: {note}");
     }
 }

@@ -134,6 +134,7 @@ fn twin_files_calibrate_end_to_end() {
         "--exclude-validation",
         "validation-1",
         "--split-check",
+        "--cross-check",
         "--report",
         &path(d, "report_excluded.json"),
     ]);
@@ -155,6 +156,20 @@ fn twin_files_calibrate_end_to_end() {
     assert!(ratios.len() > 25, "{ratios:?}");
     ratios.sort_by(f64::total_cmp);
     assert!(ratios[ratios.len() / 2] < 1.5, "{ratios:?}");
+    // The cross-series check: the validation poses are of the same robot
+    // with independent noise, so both identifications agree within their
+    // standard errors (at most one |z| above 3 by chance).
+    assert!(stdout.contains("Cross-series check"), "{stdout}");
+    let cross = &excluded["cross_check"];
+    assert_eq!(cross["other_poses"], 15);
+    let z: Vec<f64> = cross["unknowns"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|u| u["z"].as_f64())
+        .collect();
+    assert!(z.len() > 25, "{cross}");
+    assert!(z.iter().filter(|z| z.abs() > 3.0).count() <= 1, "{z:?}");
     // A pose measured 3 mm off: named as suspect, with the option that
     // leaves it out; left out, the fit is back to the noise.
     let text_in = std::fs::read_to_string(d.join("identification.csv")).unwrap();
@@ -328,6 +343,11 @@ fn bad_input_gives_clear_errors() {
     let err = run(&deficient, &["--exclude-validation", "#3"]);
     assert!(
         err.contains("--exclude-validation needs --validate"),
+        "{err}"
+    );
+    let err = run(&deficient, &["--cross-check"]);
+    assert!(
+        err.contains("--cross-check") && err.contains("--validate"),
         "{err}"
     );
 }
