@@ -4,7 +4,8 @@
 //! elasto-geometric (joint compliances under gravity) models side by side.
 //!
 //! Printed again without each series' suspect poses (its own fit's data
-//! checks), and with the probe's measured orientations in the fits.
+//! checks), with the probe's measured orientations in the fits, and with
+//! both.
 //!
 //! `cargo run --release -p flexcal-calib --example ipa_table`
 
@@ -139,11 +140,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
 
     // All pairs again with the T-Mac's measured orientations in the fits
-    // (calibrate --with-orientation); the figures stay position errors.
-    println!("\nWith the probe's orientations (position errors; mean orientation error in deg):");
-    println!(
-        "| train -> validate | geometric | elasto-geometric | deg, geometric / elasto-geometric |\n|---|---|---|---|"
-    );
+    // (calibrate --with-orientation), then also without each series'
+    // suspect poses; the figures stay position errors.
     let (mut geometric, mut elastic) = (geometric, elastic);
     geometric.use_orientation = Some(true);
     elastic.use_orientation = Some(true);
@@ -151,22 +149,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.orientation_mean_rms_max
             .map_or(f64::NAN, |o| o.0.to_degrees())
     };
-    for (train_name, train) in &sets {
-        let g = calibrate(&model, train, &geometric)?;
-        let e = calibrate(&model, train, &elastic)?;
-        for (validate_name, validate) in &sets {
-            if validate_name == train_name {
-                continue;
+    for (title, series) in [
+        ("With the probe's orientations", &sets),
+        (
+            "With the probe's orientations, without the suspect poses",
+            &clean,
+        ),
+    ] {
+        println!("\n{title} (position errors; mean orientation error in deg):");
+        println!(
+            "| train -> validate | geometric | elasto-geometric | deg, geometric / elasto-geometric |\n|---|---|---|---|"
+        );
+        for (train_name, train) in series {
+            let g = calibrate(&model, train, &geometric)?;
+            let e = calibrate(&model, train, &elastic)?;
+            for (validate_name, validate) in series {
+                if validate_name == train_name {
+                    continue;
+                }
+                let g_report = g.validate(&model, validate, false)?;
+                let e_report = e.validate(&model, validate, false)?;
+                println!(
+                    "| {train_name} -> {validate_name} | {} | {} | {:.3} / {:.3} |",
+                    cell(&g_report.after),
+                    cell(&e_report.after),
+                    degrees(&g_report.after),
+                    degrees(&e_report.after)
+                );
             }
-            let g_report = g.validate(&model, validate, false)?;
-            let e_report = e.validate(&model, validate, false)?;
-            println!(
-                "| {train_name} -> {validate_name} | {} | {} | {:.3} / {:.3} |",
-                cell(&g_report.after),
-                cell(&e_report.after),
-                degrees(&g_report.after),
-                degrees(&e_report.after)
-            );
         }
     }
     Ok(())
