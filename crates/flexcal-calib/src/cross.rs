@@ -15,15 +15,20 @@
 //! [`CROSS_Z_WARNING`] = 3 with a probability of 0.27 %. A value with a
 //! larger `|z|` stands for something that differs between the two pose sets
 //! (an effect the model lacks, which the two campaigns weight differently,
-//! or a change of the robot between them): it does not transfer. When the
-//! split-half check ([`crate::SplitCheck`]) finds the standard errors
-//! understated by a factor, `|z|` is overstated by about that factor.
+//! or a change of the robot between them): it does not transfer.
+//!
+//! The standard errors assume independent errors. When the split-half check
+//! ([`crate::SplitCheck`]) finds them understated by a factor, `|z|` is
+//! overstated by about that factor; given the identification's split check,
+//! the check runs one on the other set too and also reports `z_split`, with
+//! each standard error raised to its split error where that is larger, and
+//! judges by it.
 
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
 use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
-use crate::split::{compared_unknowns, median, reidentification_options};
+use crate::split::{SplitCheck, compared_unknowns, median, reidentification_options};
 use crate::{CalibError, MeasurementSet};
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard
@@ -49,6 +54,20 @@ pub struct CrossEstimate {
     /// `(other - value) / sqrt(se^2 + se_other^2)` (dimensionless), when
     /// both are identified with a non-zero combined standard error.
     pub z: Option<f64>,
+    /// Split error of `value` (display unit), with the split checks.
+    pub split_error: Option<f64>,
+    /// Split error of `other_value` (display unit), with the split checks.
+    pub other_split_error: Option<f64>,
+    /// `z` with each standard error raised to its split error where that is
+    /// larger (dimensionless), when both split errors are known.
+    pub z_split: Option<f64>,
+}
+
+impl CrossEstimate {
+    /// The `z` the check judges by: `z_split` when known, else `z`.
+    pub fn judged_z(&self) -> Option<f64> {
+        self.z_split.or(self.z)
+    }
 }
 
 /// The cross-series check of a calibration against another measurement set.
@@ -66,22 +85,30 @@ pub struct CrossCheck {
 impl CrossCheck {
     /// Identifies the unknowns that `calibration` (made with `options`)
     /// identified again on `other`, every other unknown kept at its starting
-    /// value and the measurement frame registered anew, and compares.
+    /// value and the measurement frame registered anew, and compares. With
+    /// `split`, the split-half check of `calibration`, the other set gets a
+    /// split check of its own and the estimates their `z_split`.
     ///
     /// # Errors
     /// What [`calibrate`] returns on `other` (too few poses, a kinematic
-    /// failure naming the pose).
+    /// failure naming the pose) or on its halves.
     pub fn new(
         model: &Model,
         other: &MeasurementSet,
         options: &CalibrationOptions,
         calibration: &Calibration,
+        split: Option<&SplitCheck>,
     ) -> Result<Self, CalibError> {
-        let refit = calibrate(
-            model,
-            other,
-            &reidentification_options(options, calibration),
-        )?;
+        let other_options = reidentification_options(options, calibration);
+        let refit = calibrate(model, other, &other_options)?;
+        let other_split = split
+            .map(|_| SplitCheck::new(model, other, &other_options, &refit))
+            .transpose()?;
+        let split_error = |check: Option<&SplitCheck>, name: &str| {
+            check
+                .and_then(|c| c.unknowns.iter().find(|u| u.name == name))
+                .and_then(|u| u.split_error)
+        };
         let unknowns = compared_unknowns(calibration)
             .map(|(_, u)| {
                 let (unit, scale) = u.kind.display_unit();
@@ -90,24 +117,34 @@ impl CrossCheck {
                     .unknowns
                     .iter()
                     .find(|o| o.name == u.name && o.status == UnknownStatus::Identified);
+                let value = u.value * scale;
                 let standard_error = u.standard_error.unwrap_or(f64::NAN) * scale;
                 let other_value = other.map(|o| o.value * scale);
                 let other_standard_error = other.and_then(|o| o.standard_error).map(|s| s * scale);
-                let z = match (other_value, other_standard_error) {
-                    (Some(v), Some(s)) => {
-                        let combined = standard_error.hypot(s);
-                        (combined > 0.0).then(|| (v - u.value * scale) / combined)
-                    }
-                    _ => None,
+                let z = |se: f64, other_se: f64| {
+                    let combined = se.hypot(other_se);
+                    other_value
+                        .filter(|_| combined > 0.0)
+                        .map(|v| (v - value) / combined)
                 };
+                let (first_split, second_split) = (
+                    split_error(split, &u.name),
+                    split_error(other_split.as_ref(), &u.name),
+                );
                 CrossEstimate {
                     name: u.name.clone(),
                     unit,
-                    value: u.value * scale,
+                    value,
                     standard_error,
                     other_value,
                     other_standard_error,
-                    z,
+                    z: other_standard_error.and_then(|s| z(standard_error, s)),
+                    split_error: first_split,
+                    other_split_error: second_split,
+                    z_split: match (first_split, second_split, other_standard_error) {
+                        (Some(a), Some(b), Some(s)) => z(standard_error.max(a), s.max(b)),
+                        _ => None,
+                    },
                 }
             })
             .collect();
@@ -122,22 +159,28 @@ impl CrossCheck {
     pub fn disagreeing(&self) -> impl Iterator<Item = &CrossEstimate> {
         self.unknowns
             .iter()
-            .filter(|u| u.z.is_some_and(|z| z.abs() > CROSS_Z_WARNING))
+            .filter(|u| u.judged_z().is_some_and(|z| z.abs() > CROSS_Z_WARNING))
     }
 
     /// What the check found, in sentences.
     pub fn notes(&self) -> Vec<String> {
         let mut notes = Vec::new();
+        let with_split = self.unknowns.iter().any(|u| u.z_split.is_some());
         let mut magnitudes: Vec<f64> = self
             .unknowns
             .iter()
-            .filter_map(|u| u.z.map(f64::abs))
+            .filter_map(|u| u.judged_z().map(f64::abs))
             .collect();
         let Some(median) = median(&mut magnitudes) else {
             return notes;
         };
+        let errors = if with_split {
+            "combined standard errors, each raised to its split error where larger"
+        } else {
+            "combined standard errors"
+        };
         notes.push(format!(
-            "cross-series check on {}: the two identifications differ by {median:.1} combined standard errors (median |z| over {} unknowns; 0.67 when both sets hold the same robot and independent noise)",
+            "cross-series check on {}: the two identifications differ by {median:.1} {errors} (median |z| over {} unknowns; 0.67 when both sets hold the same robot and independent noise)",
             self.other_set,
             magnitudes.len()
         ));
@@ -150,13 +193,13 @@ impl CrossCheck {
                     u.value,
                     u.other_value.unwrap_or(f64::NAN),
                     u.unit,
-                    u.z.unwrap_or(f64::NAN)
+                    u.judged_z().unwrap_or(f64::NAN)
                 )
             })
             .collect();
         if !disagreeing.is_empty() {
             notes.push(format!(
-                "the sets disagree beyond {CROSS_Z_WARNING} combined standard errors on {}: these values stand for something that differs between the two pose sets (an effect the model lacks, weighted differently by each) and do not transfer from one to the other",
+                "the sets disagree beyond {CROSS_Z_WARNING} {errors} on {}: these values stand for something that differs between the two pose sets (an effect the model lacks, weighted differently by each) and do not transfer from one to the other",
                 disagreeing.join(", ")
             ));
         }

@@ -7,7 +7,8 @@
 mod common;
 
 use flexcal_calib::{
-    CROSS_Z_WARNING, CalibrationOptions, CrossCheck, Measurement, MeasurementSet, calibrate,
+    CROSS_Z_WARNING, CalibrationOptions, CrossCheck, Measurement, MeasurementSet, SplitCheck,
+    calibrate,
 };
 use flexcal_kinematics::{Data, Model, RobotDescription, forward_pose};
 use nalgebra::Vector3;
@@ -51,7 +52,7 @@ fn campaign(
 fn check(model: &Model, first: &MeasurementSet, other: &MeasurementSet) -> CrossCheck {
     let options = CalibrationOptions::for_model(model);
     let calibration = calibrate(model, first, &options).unwrap();
-    CrossCheck::new(model, other, &options, &calibration).unwrap()
+    CrossCheck::new(model, other, &options, &calibration, None).unwrap()
 }
 
 fn z(check: &CrossCheck, name: &str) -> f64 {
@@ -101,11 +102,11 @@ fn same_robot_agrees_and_an_unmodelled_sag_does_not_transfer() {
         dq[1] = 0.03f64.to_radians() * q[1].cos();
         dq
     };
-    let sagging = check(
-        &model,
-        &campaign(&model, 5, -2.6..-1.55, sag),
-        &campaign(&model, 6, -1.55..-0.5, sag),
+    let (low, high) = (
+        campaign(&model, 5, -2.6..-1.55, sag),
+        campaign(&model, 6, -1.55..-0.5, sag),
     );
+    let sagging = check(&model, &low, &high);
     println!(
         "unmodelled sag: z theta2 {:+.1}, d2 {:+.1}; {:?}",
         z(&sagging, "theta2"),
@@ -130,6 +131,30 @@ fn same_robot_agrees_and_an_unmodelled_sag_does_not_transfer() {
         theta2.z.unwrap().signum(),
         (theta2.other_value.unwrap() - theta2.value).signum()
     );
+
+    // With the split checks: within each campaign the sag's residue is
+    // spread over the poses in random order, so the halves agree, the split
+    // errors stay near the standard errors and the disagreement stands.
+    let options = CalibrationOptions::for_model(&model);
+    let calibration = calibrate(&model, &low, &options).unwrap();
+    let split = SplitCheck::new(&model, &low, &options, &calibration).unwrap();
+    let widened = CrossCheck::new(&model, &high, &options, &calibration, Some(&split)).unwrap();
+    for u in &widened.unknowns {
+        if let (Some(z), Some(z_split)) = (u.z, u.z_split) {
+            assert!(z_split.abs() <= z.abs() + 1e-12, "{u:?}");
+        }
+    }
+    let theta2 = widened
+        .unknowns
+        .iter()
+        .find(|u| u.name == "theta2")
+        .unwrap();
+    assert!(
+        theta2.z_split.unwrap().abs() > 2.0 * CROSS_Z_WARNING,
+        "{theta2:?}"
+    );
+    assert!(widened.disagreeing().any(|u| u.name == "theta2"));
+    assert!(widened.notes()[0].contains("raised to its split error"));
 }
 
 #[test]
@@ -139,7 +164,7 @@ fn another_set_too_small_to_identify_is_an_error() {
     let options = CalibrationOptions::for_model(&model);
     let calibration = calibrate(&model, &first, &options).unwrap();
     let tiny = first.subset(&[0, 1, 2]).unwrap();
-    let error = CrossCheck::new(&model, &tiny, &options, &calibration).unwrap_err();
+    let error = CrossCheck::new(&model, &tiny, &options, &calibration, None).unwrap_err();
     let text = error.to_string();
     println!("{text}");
     assert!(text.contains("poses"), "{text}");

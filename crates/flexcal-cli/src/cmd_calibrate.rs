@@ -316,7 +316,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     print_before_after(&calibration, validation.as_ref());
     let cross = match (&validation_set, args.cross_check) {
         (Some(set), true) => Some(
-            CrossCheck::new(&model, set, &options, &calibration)
+            CrossCheck::new(&model, set, &options, &calibration, split.as_ref())
                 .context("cross-series check on the validation poses")?,
         ),
         _ => None,
@@ -605,23 +605,29 @@ fn print_split_check(split: &SplitCheck) {
 fn print_cross_check(cross: &CrossCheck) {
     println!();
     println!(
-        "Cross-series check (identified again on the {} validation poses)",
-        cross.other_poses
+        "Cross-series check (identified again on the {} validation poses{})",
+        cross.other_poses,
+        if cross.unknowns.iter().any(|u| u.z_split.is_some()) {
+            "; z split: each standard error raised to its split error where larger"
+        } else {
+            ""
+        }
     );
     println!(
-        "{:<18} {:>9} {:>14} {:>12} {:>14} {:>12} {:>7}",
-        "unknown", "unit", "identified", "std error", "validation set", "std error", "z"
+        "{:<18} {:>9} {:>14} {:>12} {:>14} {:>12} {:>7} {:>8}",
+        "unknown", "unit", "identified", "std error", "validation set", "std error", "z", "z split"
     );
     for u in &cross.unknowns {
         println!(
-            "{:<18} {:>9} {:>14.5} {:>12.5} {:>14} {:>12} {:>7}",
+            "{:<18} {:>9} {:>14.5} {:>12.5} {:>14} {:>12} {:>7} {:>8}",
             u.name,
             u.unit,
             u.value,
             u.standard_error,
             dash_or(u.other_value, 5),
             dash_or(u.other_standard_error, 5),
-            dash_or(u.z, 1)
+            dash_or(u.z, 1),
+            dash_or(u.z_split, 1)
         );
     }
     for note in cross.notes() {
