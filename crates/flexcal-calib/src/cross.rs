@@ -80,6 +80,10 @@ pub struct CrossCheck {
     /// The robot, target and elastic unknowns the identification identified
     /// (the measurement frames are each set's own and not compared).
     pub unknowns: Vec<CrossEstimate>,
+    /// Why the other set has no split-half check when one was asked for
+    /// (too few poses to halve); `z_split` is then unknown.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub other_split_failure: Option<String>,
 }
 
 impl CrossCheck {
@@ -91,7 +95,9 @@ impl CrossCheck {
     ///
     /// # Errors
     /// What [`calibrate`] returns on `other` (too few poses, a kinematic
-    /// failure naming the pose) or on its halves.
+    /// failure naming the pose) or on its halves (but too few poses there,
+    /// which leaves `z_split` unknown and says why in
+    /// [`CrossCheck::other_split_failure`]).
     pub fn new(
         model: &Model,
         other: &MeasurementSet,
@@ -101,9 +107,14 @@ impl CrossCheck {
     ) -> Result<Self, CalibError> {
         let other_options = reidentification_options(options, calibration);
         let refit = calibrate(model, other, &other_options)?;
-        let other_split = split
-            .map(|_| SplitCheck::new(model, other, &other_options, &refit))
-            .transpose()?;
+        // A set too small to halve gets no split check: z alone, and a note.
+        let (other_split, other_split_failure) =
+            match split.map(|_| SplitCheck::new(model, other, &other_options, &refit)) {
+                Some(Ok(check)) => (Some(check), None),
+                Some(Err(e @ CalibError::TooFewPoses { .. })) => (None, Some(e.to_string())),
+                Some(Err(e)) => return Err(e),
+                None => (None, None),
+            };
         let split_error = |check: Option<&SplitCheck>, name: &str| {
             check
                 .and_then(|c| c.unknowns.iter().find(|u| u.name == name))
@@ -152,6 +163,7 @@ impl CrossCheck {
             other_set: other.source.clone(),
             other_poses: other.len(),
             unknowns,
+            other_split_failure,
         })
     }
 
@@ -213,6 +225,11 @@ impl CrossCheck {
             notes.push(format!(
                 "not compared (the other set does not identify them): {}",
                 missing.join(", ")
+            ));
+        }
+        if let Some(why) = &self.other_split_failure {
+            notes.push(format!(
+                "no split-half check on the other set ({why}): judged by the plain standard errors"
             ));
         }
         notes

@@ -158,7 +158,7 @@ fn same_robot_agrees_and_an_unmodelled_sag_does_not_transfer() {
 }
 
 #[test]
-fn another_set_too_small_to_identify_is_an_error() {
+fn sets_too_small_to_identify_or_to_halve() {
     let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
     let first = campaign(&model, 5, -2.6..-0.5, |_| vec![0.0; 6]);
     let options = CalibrationOptions::for_model(&model);
@@ -168,4 +168,20 @@ fn another_set_too_small_to_identify_is_an_error() {
     let text = error.to_string();
     println!("{text}");
     assert!(text.contains("poses"), "{text}");
+
+    // Twelve poses identify the robot but cannot be halved: with the split
+    // checks asked for, the check stands on the plain standard errors and
+    // says why.
+    let split = SplitCheck::new(&model, &first, &options, &calibration).unwrap();
+    let small = first.subset(&(0..12).collect::<Vec<_>>()).unwrap();
+    let cross = CrossCheck::new(&model, &small, &options, &calibration, Some(&split)).unwrap();
+    let why = cross.other_split_failure.as_deref().unwrap();
+    assert!(why.contains("too few measurements"), "{why}");
+    assert!(cross.unknowns.iter().all(|u| u.z_split.is_none()));
+    assert!(cross.unknowns.iter().any(|u| u.z.is_some()));
+    let notes = cross.notes().join("\n");
+    assert!(
+        notes.contains("no split-half check on the other set"),
+        "{notes}"
+    );
 }
