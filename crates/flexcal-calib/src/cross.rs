@@ -28,7 +28,9 @@ use flexcal_kinematics::Model;
 use serde::Serialize;
 
 use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
-use crate::split::{SplitCheck, compared_unknowns, median, reidentification_options};
+use crate::split::{
+    SplitCheck, compared_unknowns, median, not_compared_note, reidentification_options,
+};
 use crate::{CalibError, MeasurementSet};
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard
@@ -215,18 +217,13 @@ impl CrossCheck {
                 disagreeing.join(", ")
             ));
         }
-        let missing: Vec<&str> = self
-            .unknowns
-            .iter()
-            .filter(|u| u.other_value.is_none())
-            .map(|u| u.name.as_str())
-            .collect();
-        if !missing.is_empty() {
-            notes.push(format!(
-                "not compared (the other set does not identify them): {}",
-                missing.join(", ")
-            ));
-        }
+        notes.extend(not_compared_note(
+            "the other set does not identify them",
+            self.unknowns
+                .iter()
+                .filter(|u| u.other_value.is_none())
+                .map(|u| u.name.as_str()),
+        ));
         if let Some(why) = &self.other_split_failure {
             notes.push(format!(
                 "no split-half check on the other set ({why}): judged by the plain standard errors"

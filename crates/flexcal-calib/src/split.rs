@@ -66,6 +66,15 @@ pub(crate) fn median(values: &mut [f64]) -> Option<f64> {
     values.get(values.len() / 2).copied()
 }
 
+/// `not compared (why): names`, when there are names.
+pub(crate) fn not_compared_note<'a>(
+    why: &str,
+    names: impl Iterator<Item = &'a str>,
+) -> Option<String> {
+    let names: Vec<&str> = names.collect();
+    (!names.is_empty()).then(|| format!("not compared ({why}): {}", names.join(", ")))
+}
+
 /// One unknown compared over the halves.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SplitEstimate {
@@ -177,18 +186,13 @@ impl SplitCheck {
                 flagged.join(", ")
             ));
         }
-        let missing: Vec<&str> = self
-            .unknowns
-            .iter()
-            .filter(|u| u.split_error.is_none())
-            .map(|u| u.name.as_str())
-            .collect();
-        if !missing.is_empty() {
-            notes.push(format!(
-                "not compared (some half does not identify them): {}",
-                missing.join(", ")
-            ));
-        }
+        notes.extend(not_compared_note(
+            "some half does not identify them",
+            self.unknowns
+                .iter()
+                .filter(|u| u.split_error.is_none())
+                .map(|u| u.name.as_str()),
+        ));
         notes
     }
 }
