@@ -14,6 +14,15 @@
 //! [`compensate`] (process models and compensation of tool paths) and
 //! [`twin`] (the virtual robots that stand in for a real robot and
 //! instrument).
+//!
+//! A robot argument (built-in name or description file) is resolved by one
+//! rule, [`RobotSpec`]; [`load_robot`] reads and builds it.
+
+mod error;
+pub mod robot;
+
+pub use error::{Error, Result};
+pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot};
 
 pub use flexcal_calib as calib;
 pub use flexcal_compensate as compensate;
