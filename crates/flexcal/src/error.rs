@@ -50,6 +50,9 @@ pub enum Error {
     /// Elastic models and their identification.
     #[error(transparent)]
     Elastic(#[from] flexcal_elastic::ElasticError),
+    /// Identification workflows on a campaign directory.
+    #[error(transparent)]
+    Workflow(#[from] flexcal_elastic::workflow::WorkflowError),
     /// Fuzzy compliance models.
     #[error(transparent)]
     FuzzyCompliance(#[from] flexcal_elastic::fuzzy_compliance::FuzzyComplianceError),

@@ -16,10 +16,15 @@
 //! instrument).
 //!
 //! A robot argument (built-in name or description file) is resolved by one
-//! rule, [`RobotSpec`]; [`load_robot`] reads and builds it.
+//! rule, [`RobotSpec`]; [`load_robot`] reads and builds it. The reference
+//! study behind `flexcal demo` is [`study::run_study`], which returns typed
+//! results and a [`study::Summary`]; [`study::study_report`] lays them out
+//! as a self-contained HTML page ([`report`]).
 
 mod error;
+pub mod report;
 pub mod robot;
+pub mod study;
 
 pub use error::{Error, Result};
 pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot};
