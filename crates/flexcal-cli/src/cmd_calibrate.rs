@@ -4,15 +4,15 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use flexcal_calib::temperature::{TemperatureCheck, write_pose_errors};
-use flexcal_calib::{
+use flexcal::calib::temperature::{TemperatureCheck, write_pose_errors};
+use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ErrorStatistics,
     FrameTreatment, GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson,
     SplitCheck, UnknownStatus, ValidationReport, Weighting, calibrate,
 };
-use flexcal_fuzzy::FuzzyParams;
-use flexcal_kinematics::Model;
-use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use flexcal::fuzzy::FuzzyParams;
+use flexcal::kinematics::Model;
+use flexcal::nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 /// Measurement file formats.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -331,7 +331,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     }
     if let Some(out) = &args.out {
         let description = calibration.description(&model)?;
-        flexcal_io::write_atomic(out, description.to_toml_string())?;
+        flexcal::io::write_atomic(out, description.to_toml_string())?;
         println!("calibrated robot written to {}", out.display());
     }
     if let Some(path) = &args.report {
@@ -342,7 +342,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         report.residual_model = residual
             .as_ref()
             .map(|(r, v)| ResidualModelJson::new(model.actuated_names(), r, v.as_ref()));
-        flexcal_io::write_atomic(path, report.to_json_string()?)?;
+        flexcal::io::write_atomic(path, report.to_json_string()?)?;
         println!("report written to {}", path.display());
     }
     Ok(())
@@ -505,7 +505,7 @@ fn row(label: &str, s: &ErrorStatistics) {
 fn print_temperature_analysis(
     name: &str,
     set: &MeasurementSet,
-    errors: &[flexcal_calib::PoseError],
+    errors: &[flexcal::calib::PoseError],
 ) {
     let Some(check) = TemperatureCheck::of(set, errors) else {
         return;

@@ -13,9 +13,9 @@ use flexcal::compensation::{
     CompensationSetup, ElasticSpec, ProcessSpec, calibrated_xi as facade_calibrated_xi,
     compensate_path_file, default_start_joints, load_elastic, parse_numbers, pose_mm_deg,
 };
-use flexcal_elastic::workflow::StiffnessReport;
-use flexcal_kinematics::Model;
-use nalgebra::{Isometry3, Vector6};
+use flexcal::elastic::workflow::StiffnessReport;
+use flexcal::kinematics::Model;
+use flexcal::nalgebra::{Isometry3, Vector6};
 
 use crate::robot_arg::load_model;
 
@@ -83,7 +83,7 @@ fn parse_part_pose(text: &str) -> anyhow::Result<Isometry3<f64>> {
 /// JSON file, checked by name against the elastic model's parameters.
 pub(crate) fn read_gamma_report(
     path: &Path,
-    model: &flexcal_elastic::model::ElasticModel,
+    model: &flexcal::elastic::model::ElasticModel,
 ) -> anyhow::Result<Vec<f64>> {
     Ok(StiffnessReport::read(path)?.gamma_for(model, path)?)
 }
@@ -137,9 +137,9 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         Some(_) => Some(commanded.to_krl()?),
         None => None,
     };
-    flexcal_io::write_atomic(&args.out, commanded.to_csv(model.n_actuated()))?;
+    flexcal::io::write_atomic(&args.out, commanded.to_csv(model.n_actuated()))?;
     if let (Some(path), Some(text)) = (&args.krl, krl) {
-        flexcal_io::write_atomic(path, text)?;
+        flexcal::io::write_atomic(path, text)?;
     }
     println!(
         "compensated {} points with {} and {}: max predicted deviation {:.4} mm, max residual {:.3e} mm",
@@ -159,7 +159,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Vector3;
+    use flexcal::nalgebra::Vector3;
 
     #[test]
     fn part_pose_is_read_in_mm_and_deg() {

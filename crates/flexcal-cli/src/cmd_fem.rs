@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal_fem::{Dof, FemError, FemModel, condensation_json, displacements_json};
+use flexcal::fem::{Dof, FemError, FemModel, condensation_json, displacements_json};
 
 /// Subcommands of `flexcal fem`.
 #[derive(clap::Subcommand, Debug)]
@@ -88,7 +88,7 @@ fn solve(args: SolveArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn print_matrix(title: &str, m: &nalgebra::Matrix6<f64>) {
+fn print_matrix(title: &str, m: &flexcal::nalgebra::Matrix6<f64>) {
     println!("{title}");
     for r in 0..6 {
         print!("  {:<3}", Dof::from_index(r).name());

@@ -8,9 +8,9 @@
 //! joint of a closed loop (rad or m).
 
 use anyhow::{Context, bail};
-use flexcal_io::{CsvOptions, CsvTable, write_atomic};
-use flexcal_kinematics::{Data, InverseOptions, Model, forward_pose, inverse_pose};
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+use flexcal::io::{CsvOptions, CsvTable, write_atomic};
+use flexcal::kinematics::{Data, InverseOptions, Model, forward_pose, inverse_pose};
+use flexcal::nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

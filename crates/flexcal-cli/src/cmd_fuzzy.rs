@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use flexcal_fuzzy::{
+use flexcal::fuzzy::{
     Dataset, FuzzyError, FuzzyModel, FuzzyParams, SearchPhase, SearchProgress,
     StructureSearchParams,
 };
-use flexcal_io::{CsvOptions, CsvTable};
+use flexcal::io::{CsvOptions, CsvTable};
 
 /// Subcommands of `flexcal fuzzy`.
 #[derive(clap::Subcommand, Debug)]
@@ -112,7 +112,7 @@ fn fit(args: FitArgs) -> anyhow::Result<()> {
     let params = FuzzyParams {
         search: StructureSearchParams {
             max_rules: args.max_rules,
-            placement: flexcal_optim::solis_wets::SolisWetsParams {
+            placement: flexcal::optim::solis_wets::SolisWetsParams {
                 seed: args.seed,
                 ..defaults.placement.clone()
             },

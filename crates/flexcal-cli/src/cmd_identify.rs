@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal_elastic::description::ElasticDescription;
-use flexcal_elastic::workflow::{
+use flexcal::elastic::description::ElasticDescription;
+use flexcal::elastic::workflow::{
     StiffnessOutcome, StiffnessWorkflowOptions, identify_stiffness_in_dir,
 };
 

@@ -4,8 +4,8 @@
 
 use std::path::PathBuf;
 
-use flexcal_elastic::fuzzy_compliance::ComplianceComponent;
-use flexcal_elastic::workflow::{
+use flexcal::elastic::fuzzy_compliance::ComplianceComponent;
+use flexcal::elastic::workflow::{
     ComplianceOutcome, ComplianceReport, ComplianceStructure, ComplianceWorkflowOptions,
     identify_compliance_in_dir,
 };

@@ -2,8 +2,8 @@
 
 use std::path::PathBuf;
 
-use flexcal_calib::{read_configurations, select_calibration_poses};
-use flexcal_optim::ObservabilityIndex;
+use flexcal::calib::{read_configurations, select_calibration_poses};
+use flexcal::optim::ObservabilityIndex;
 
 use crate::robot_arg::load_model;
 
@@ -100,8 +100,8 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
         let header: Vec<String> = (1..=model.n_actuated()).map(|i| format!("q{i}")).collect();
         let header: Vec<&str> = header.iter().map(String::as_str).collect();
         let text =
-            flexcal_io::format_csv(&header, s.selected.iter().map(|&i| candidates[i].clone()));
-        flexcal_io::write_atomic(out, text)?;
+            flexcal::io::format_csv(&header, s.selected.iter().map(|&i| candidates[i].clone()));
+        flexcal::io::write_atomic(out, text)?;
         println!("selected configurations written to {}", out.display());
     }
     Ok(())

@@ -1,7 +1,7 @@
 //! `flexcal robot`: list the built-in robots, show a robot's parameters.
 
 use crate::robot_arg::load_description;
-use flexcal_kinematics::{ActuatedKind, ParamKind, builtin_robot_names};
+use flexcal::kinematics::{ActuatedKind, ParamKind, builtin_robot_names};
 
 /// Subcommands of `flexcal robot`.
 #[derive(clap::Subcommand, Debug)]
@@ -23,7 +23,7 @@ pub fn run(command: RobotCommand) -> anyhow::Result<()> {
     match command {
         RobotCommand::List => {
             for name in builtin_robot_names() {
-                let description = flexcal_kinematics::RobotDescription::builtin(name)?;
+                let description = flexcal::kinematics::RobotDescription::builtin(name)?;
                 let model = description.build()?;
                 println!(
                     "{name:<10} {} actuated, {} parameters{}",

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use flexcal_twin::geometric::{
+use flexcal::twin::geometric::{
     GeometricCampaignOptions, geometric_campaign, write_geometric_campaign,
 };
 
@@ -46,17 +46,17 @@ pub struct FormingArgs {
 }
 
 fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
-    use flexcal_twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
+    use flexcal::twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
     let robot = crate::robot_arg::load_model("ir663")?;
-    let true_xi = flexcal_twin::geometric::ir663_true_params(&robot)?;
-    let truth_description = flexcal_twin::elastic::ir663_elastic_truth()?;
-    let truth_model = flexcal_elastic::model::ElasticModel::new(&robot, &truth_description)?;
+    let true_xi = flexcal::twin::geometric::ir663_true_params(&robot)?;
+    let truth_description = flexcal::twin::elastic::ir663_elastic_truth()?;
+    let truth_model = flexcal::elastic::model::ElasticModel::new(&robot, &truth_description)?;
     let truth_gamma = truth_model.nominal_gamma();
     let truth = FeTcpModel::new(truth_model, true_xi.clone(), truth_gamma, "twin truth")?;
     let xi = crate::cmd_compensate::calibrated_xi(&robot, args.calibrated.as_deref())?;
     // The FE model the user would have: the built-in description, not the twin's truth.
-    let description = flexcal_elastic::description::ElasticDescription::builtin("ir663")?;
-    let fe_model = flexcal_elastic::model::ElasticModel::new(&robot, &description)?;
+    let description = flexcal::elastic::description::ElasticDescription::builtin("ir663")?;
+    let fe_model = flexcal::elastic::model::ElasticModel::new(&robot, &description)?;
     let (gamma, origin) = match &args.fe_report {
         Some(path) => (
             crate::cmd_compensate::read_gamma_report(path, &fe_model)?,
@@ -68,9 +68,9 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     let fe = FeTcpModel::new(fe_model, xi.clone(), gamma, fe_label.clone())?;
     let fuzzy = match &args.fuzzy {
         Some(path) => {
-            let compliance = flexcal_elastic::fuzzy_compliance::FuzzyCompliance::load(path)?;
+            let compliance = flexcal::elastic::fuzzy_compliance::FuzzyCompliance::load(path)?;
             Some(
-                flexcal_elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
+                flexcal::elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
                     compliance,
                     robot.clone(),
                 )?,
@@ -78,7 +78,7 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let mut models: Vec<(&str, &dyn flexcal_compensate::compensation::ElasticModel)> = Vec::new();
+    let mut models: Vec<(&str, &dyn flexcal::compensate::compensation::ElasticModel)> = Vec::new();
     if let Some(f) = &fuzzy {
         models.push(("compensated, fuzzy model", f));
     }
@@ -94,11 +94,11 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
         true_elastic: &truth,
     };
     let result = run_forming(&twin, &xi, &models, &options)?;
-    flexcal_io::write_atomic(
+    flexcal::io::write_atomic(
         args.out.join("target_path.csv"),
-        flexcal_compensate::path::target_path_to_csv(&forming_path(&options)),
+        flexcal::compensate::path::target_path_to_csv(&forming_path(&options)),
     )?;
-    flexcal_io::write_atomic(
+    flexcal::io::write_atomic(
         args.out.join("forming_result.json"),
         serde_json::to_string_pretty(&result)? + "\n",
     )?;
@@ -121,9 +121,9 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
             ]);
         }
     }
-    flexcal_io::write_atomic(
+    flexcal::io::write_atomic(
         args.out.join("forming_paths.csv"),
-        flexcal_io::format_csv(
+        flexcal::io::format_csv(
             &[
                 "path",
                 "point",
@@ -162,11 +162,11 @@ pub struct ElasticArgs {
 }
 
 fn run_elastic(args: ElasticArgs) -> anyhow::Result<()> {
-    let options = flexcal_twin::elastic::ElasticCampaignOptions {
+    let options = flexcal::twin::elastic::ElasticCampaignOptions {
         seed: args.seed,
         ..Default::default()
     };
-    let summary = flexcal_twin::elastic::write_elastic_campaign(&args.out, &options)?;
+    let summary = flexcal::twin::elastic::write_elastic_campaign(&args.out, &options)?;
     println!(
         "virtual IR-663 elastic campaign (seed {}): {} data files and the truth written to {}",
         args.seed,

@@ -1,7 +1,7 @@
 //! A `--robot NAME|FILE` argument, resolved by the library's one rule
 //! ([`flexcal::RobotSpec`]).
 
-use flexcal_kinematics::{Model, RobotDescription};
+use flexcal::kinematics::{Model, RobotDescription};
 
 /// Loads a robot description: a built-in name (`ur10`, `ir663`, ...) or a
 /// description file.

@@ -5,13 +5,13 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use flexcal_elastic::campaign::{DeflectionMeasurement, read_campaign_dir};
-use flexcal_elastic::description::ElasticDescription;
-use flexcal_elastic::fuzzy_compliance::FuzzyCompliance;
-use flexcal_elastic::identify::residual_samples;
-use flexcal_elastic::metrics::per_load_metrics;
-use flexcal_elastic::model::ElasticModel;
-use flexcal_kinematics::RobotDescription;
+use flexcal::elastic::campaign::{DeflectionMeasurement, read_campaign_dir};
+use flexcal::elastic::description::ElasticDescription;
+use flexcal::elastic::fuzzy_compliance::FuzzyCompliance;
+use flexcal::elastic::identify::residual_samples;
+use flexcal::elastic::metrics::per_load_metrics;
+use flexcal::elastic::model::ElasticModel;
+use flexcal::kinematics::RobotDescription;
 
 mod common;
 use common::command as flexcal;

@@ -93,8 +93,8 @@ fn fit_eval_export_end_to_end() {
         String::from_utf8_lossy(&out.stderr)
     );
     let fis_text = std::fs::read_to_string(&fis).unwrap();
-    let from_fis = flexcal_fuzzy::FuzzyModel::from_fis_str(&fis_text).unwrap();
-    let from_toml = flexcal_fuzzy::FuzzyModel::load(&model).unwrap();
+    let from_fis = flexcal::fuzzy::FuzzyModel::from_fis_str(&fis_text).unwrap();
+    let from_toml = flexcal::fuzzy::FuzzyModel::load(&model).unwrap();
     assert_eq!(from_fis, from_toml);
 }
 

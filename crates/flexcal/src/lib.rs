@@ -70,3 +70,6 @@ pub use flexcal_io as io;
 pub use flexcal_kinematics as kinematics;
 pub use flexcal_optim as optim;
 pub use flexcal_twin as twin;
+
+/// The linear algebra crate of flexcal's types (poses, twists, wrenches, Jacobians).
+pub use nalgebra;
