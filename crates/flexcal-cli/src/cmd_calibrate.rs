@@ -6,13 +6,12 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use flexcal::calib::temperature::{TemperatureCheck, write_pose_errors};
 use flexcal::calib::{
-    Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ErrorStatistics,
-    FrameTreatment, GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson,
-    SplitCheck, UnknownStatus, ValidationReport, Weighting, calibrate,
+    Calibration, CalibrationOptions, CrossCheck, ErrorStatistics, FrameTreatment,
+    GravityCompliance, MeasurementSet, Method, SplitCheck, UnknownStatus, ValidationReport,
+    Weighting,
 };
-use flexcal::fuzzy::FuzzyParams;
+use flexcal::calibration::{CalibrationConfig, CalibrationRun, MeasurementFormat, run_calibration};
 use flexcal::kinematics::Model;
-use flexcal::nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 /// Measurement file formats.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,57 +156,43 @@ pub struct CalibrateArgs {
     pub residuals: Option<PathBuf>,
 }
 
-fn read_set(path: &Path, format: DataFormat) -> anyhow::Result<MeasurementSet> {
-    Ok(match format {
-        DataFormat::Own => MeasurementSet::read_csv(path)?,
-        DataFormat::Ipa => MeasurementSet::read_ipa(path)?,
-    })
-}
-
-/// `set` without the poses labelled in `labels` (nothing to leave out: the
-/// set itself), saying how many were left out.
-fn excluding(
-    set: MeasurementSet,
-    labels: &[String],
-    option: &str,
-) -> anyhow::Result<MeasurementSet> {
-    let labels = crate::list_items(labels);
-    if labels.is_empty() {
-        return Ok(set);
-    }
-    let kept = set.excluding(&labels).with_context(|| option.to_string())?;
-    println!(
-        "{option}: {} of the {} poses of {} left out",
-        set.len() - kept.len(),
-        set.len(),
-        set.source
-    );
-    Ok(kept)
-}
-
-/// Runs `flexcal calibrate`.
+/// Runs `flexcal calibrate`: flags -> [`CalibrationConfig`] ->
+/// [`run_calibration`] -> print and write.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let model = crate::robot_arg::load_model(&args.robot)?;
-    let data = excluding(
-        read_set(&args.data, args.format)?,
-        &args.exclude,
-        "--exclude",
-    )?;
+    let config = config(&args, &model)?;
+    let run = run_calibration(&model, &config)?;
+    print_run(&model, &args.data, &run);
+    let (per_pose_name, per_pose_set, per_pose) = run.per_pose();
+    if let Some(path) = &args.residuals {
+        write_pose_errors(path, per_pose_set, per_pose)?;
+        println!(
+            "per-pose errors of the {per_pose_name} set written to {}",
+            path.display()
+        );
+    }
+    if let Some(out) = &args.out {
+        let description = run.calibration.description(&model)?;
+        flexcal::io::write_atomic(out, description.to_toml_string())?;
+        println!("calibrated robot written to {}", out.display());
+    }
+    if let Some(path) = &args.report {
+        flexcal::io::write_atomic(path, run.report(&model).to_json_string()?)?;
+        println!("report written to {}", path.display());
+    }
+    Ok(())
+}
+
+/// The validated configuration of a run from the flags.
+fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConfig> {
     if !args.exclude_validation.is_empty() && args.validate.is_none() {
         crate::usage_bail!("--exclude-validation needs --validate");
     }
-    let validation_set = args
-        .validate
-        .as_deref()
-        .map(|p| {
-            excluding(
-                read_set(p, args.format)?,
-                &args.exclude_validation,
-                "--exclude-validation",
-            )
-        })
-        .transpose()?;
-    let mut options = CalibrationOptions::for_model(&model);
+    let format = match args.format {
+        DataFormat::Own => MeasurementFormat::Own,
+        DataFormat::Ipa => MeasurementFormat::Ipa,
+    };
+    let mut options = CalibrationOptions::for_model(model);
     options.method = match args.method {
         SolverKind::Lm => Method::LevenbergMarquardt,
         SolverKind::Gn => Method::GaussNewton,
@@ -240,25 +225,14 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     if args.fixed_target {
         options.target = FrameTreatment::Fixed;
     }
-    if !args.target_mm.is_empty() {
-        let [x, y, z] = args.target_mm[..] else {
-            crate::usage_bail!(
-                "--target-mm takes three values x,y,z (mm), got {}",
-                args.target_mm.len()
-            );
-        };
-        if ![x, y, z].iter().all(|v| v.is_finite()) {
-            crate::usage_bail!("--target-mm: values must be finite, got {x},{y},{z}");
-        }
-        let rotation = data
-            .nominal_target
-            .map(|t| t.rotation)
-            .unwrap_or_else(UnitQuaternion::identity);
-        options.target_value = Some(Isometry3::from_parts(
-            Translation3::new(x * 1e-3, y * 1e-3, z * 1e-3),
-            rotation,
-        ));
-    }
+    let target_mm = match args.target_mm[..] {
+        [] => None,
+        [x, y, z] => Some([x, y, z]),
+        _ => crate::usage_bail!(
+            "--target-mm takes three values x,y,z (mm), got {}",
+            args.target_mm.len()
+        ),
+    };
     options.require_full_rank = args.strict;
     if let Some(v) = args.max_se_length_mm {
         options.max_standard_error_length = v * 1e-3;
@@ -269,126 +243,73 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     if args.model == ModelKind::ElastoGeometric {
         options.gravity = Some(match &args.masses {
             Some(path) => GravityCompliance::from_toml_file(path)?,
-            None => GravityCompliance::builtin(&model).context("--model elasto-geometric")?,
+            None => GravityCompliance::builtin(model).context("--model elasto-geometric")?,
         });
     } else if args.masses.is_some() {
         crate::usage_bail!("--masses is for --model elasto-geometric");
+    }
+    let items = |v: &[String]| -> Vec<String> {
+        crate::list_items(v).into_iter().map(String::from).collect()
+    };
+    Ok(CalibrationConfig {
+        format,
+        validate: args.validate.clone(),
+        exclude: items(&args.exclude),
+        exclude_validation: items(&args.exclude_validation),
+        target_mm,
+        refit_target: args.refit_target,
+        split_check: args.split_check,
+        cross_check: args.cross_check,
+        residual_inputs: items(&args.residual_model),
+        ..CalibrationConfig::new(&args.data, options)
+    })
+}
+
+/// Prints a run in the order of its steps.
+fn print_run(model: &Model, data: &Path, run: &CalibrationRun) {
+    for e in &run.exclusions {
+        println!(
+            "{}: {} of the {} poses of {} left out",
+            e.option, e.left_out, e.total, e.source
+        );
     }
     println!(
         "Calibrating `{}` ({} parameters{}) from {} poses of {}",
         model.name(),
         model.n_params(),
-        if options.gravity.is_some() {
+        if run.options.gravity.is_some() {
             ", elasto-geometric: joint compliances under gravity and the payload"
         } else {
             ""
         },
-        data.len(),
-        args.data.display()
+        run.data.len(),
+        data.display()
     );
-    let calibration = calibrate(&model, &data, &options).context("identification")?;
-    print_identification(&calibration);
-    let split = args
-        .split_check
-        .then(|| SplitCheck::new(&model, &data, &options, &calibration))
-        .transpose()
-        .context("split-half check on halves of the poses")?;
-    if let Some(split) = &split {
+    print_identification(&run.calibration);
+    if let Some(split) = &run.split {
         print_split_check(split);
     }
-    let validation = validation_set
-        .as_ref()
-        .map(|set| calibration.validate(&model, set, args.refit_target))
-        .transpose()
-        .context("validation")?;
-    print_before_after(&calibration, validation.as_ref());
-    let cross = match (&validation_set, args.cross_check) {
-        (Some(set), true) => Some(
-            CrossCheck::new(&model, set, &options, &calibration, split.as_ref())
-                .context("cross-series check on the validation poses")?,
-        ),
-        _ => None,
-    };
-    if let Some(cross) = &cross {
+    print_before_after(&run.calibration, run.validation.as_ref());
+    if let Some(cross) = &run.cross {
         print_cross_check(cross);
     }
-    let residual = fit_residual_model(&args, &model, &calibration, &data, validation_set.as_ref())?;
-    let (per_pose, per_pose_set, per_pose_name) = match (&validation, &validation_set) {
-        (Some(v), Some(set)) => (&v.after_per_pose, set, "validation"),
-        _ => (
-            &calibration.training_after_per_pose,
-            &data,
-            "identification",
-        ),
-    };
-    print_temperature_analysis(per_pose_name, per_pose_set, per_pose);
-    if let Some(path) = &args.residuals {
-        write_pose_errors(path, per_pose_set, per_pose)?;
+    if let Some(fit) = &run.residual {
+        let r = &fit.model;
+        println!();
         println!(
-            "per-pose errors of the {per_pose_name} set written to {}",
-            path.display()
+            "Fuzzy residual model over {} (fitted on the identification poses; not part of the robot model): {:?} rules for x, y, z; held-out RMS {:.4} / {:.4} / {:.4} mm",
+            fit.inputs.join(", "),
+            r.rule_counts(),
+            r.reports[0].test.rmse * 1e3,
+            r.reports[1].test.rmse * 1e3,
+            r.reports[2].test.rmse * 1e3
         );
+        if let Some(v) = &fit.validation {
+            row("validation, + residual", &v.after);
+        }
     }
-    if let Some(out) = &args.out {
-        let description = calibration.description(&model)?;
-        flexcal::io::write_atomic(out, description.to_toml_string())?;
-        println!("calibrated robot written to {}", out.display());
-    }
-    if let Some(path) = &args.report {
-        let mut report =
-            CalibrationReportJson::new(model.name(), &calibration, validation.as_ref());
-        report.split_check = split;
-        report.cross_check = cross;
-        report.residual_model = residual
-            .as_ref()
-            .map(|(r, v)| ResidualModelJson::new(model.actuated_names(), r, v.as_ref()));
-        flexcal::io::write_atomic(path, report.to_json_string()?)?;
-        println!("report written to {}", path.display());
-    }
-    Ok(())
-}
-
-/// `--residual-model`: the fuzzy residual model and, with a validation
-/// set, its validation; printed apart from the calibration's figures.
-fn fit_residual_model(
-    args: &CalibrateArgs,
-    model: &Model,
-    calibration: &Calibration,
-    data: &MeasurementSet,
-    validation_set: Option<&MeasurementSet>,
-) -> anyhow::Result<Option<(ResidualModel, Option<ValidationReport>)>> {
-    let inputs = crate::list_items(&args.residual_model);
-    if inputs.is_empty() {
-        return Ok(None);
-    }
-    let residual = ResidualModel::fit(
-        model,
-        calibration,
-        data,
-        &inputs,
-        &FuzzyParams::default(),
-        1,
-    )
-    .context("--residual-model")?;
-    println!();
-    println!(
-        "Fuzzy residual model over {} (fitted on the identification poses; not part of the robot model): {:?} rules for x, y, z; held-out RMS {:.4} / {:.4} / {:.4} mm",
-        inputs.join(", "),
-        residual.rule_counts(),
-        residual.reports[0].test.rmse * 1e3,
-        residual.reports[1].test.rmse * 1e3,
-        residual.reports[2].test.rmse * 1e3
-    );
-    let validation = validation_set
-        .map(|set| {
-            calibration.validate_with_residual_model(model, set, &residual, args.refit_target)
-        })
-        .transpose()
-        .context("validation with the residual model")?;
-    if let Some(v) = &validation {
-        row("validation, + residual", &v.after);
-    }
-    Ok(Some((residual, validation)))
+    let (name, set, errors) = run.per_pose();
+    print_temperature_analysis(name, set, errors);
 }
 
 fn status(s: UnknownStatus) -> &'static str {

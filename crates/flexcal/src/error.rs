@@ -51,6 +51,14 @@ pub enum Error {
         /// One message per failed point (file, line, reason).
         failures: Vec<String>,
     },
+    /// A step of the calibration workflow that failed, with its cause.
+    #[error("{step}: {source}")]
+    CalibrationStep {
+        /// The step (`identification`, `validation`, `--exclude`, ...).
+        step: &'static str,
+        /// Why it failed.
+        source: flexcal_calib::CalibError,
+    },
     /// Kinematics (robot descriptions, forward and inverse models).
     #[error(transparent)]
     Kinematics(#[from] flexcal_kinematics::KinematicsError),

@@ -52,6 +52,7 @@
 //! results and a [`study::Summary`]; [`study::study_report`] lays them out
 //! as a self-contained HTML page ([`report`]).
 
+pub mod calibration;
 pub mod compensation;
 mod error;
 pub mod report;

@@ -1,0 +1,319 @@
+//! The calibration workflow behind `flexcal calibrate`: read the
+//! identification (and validation) measurements, leave out the poses the
+//! user names, identify (geometric or elasto-geometric model, paper section
+//! 3), validate on the second set, and run the optional checks (split-half,
+//! cross-series, fuzzy residual model), in one call that returns every
+//! typed result; [`CalibrationRun::report`] gathers them into the JSON
+//! report ([`calib::CalibrationReportJson`]).
+//!
+//! The options of the identification itself are a
+//! [`calib::CalibrationOptions`] inside [`CalibrationConfig`]; the workflow
+//! adds what needs the measurement files (the target's starting position
+//! keeps the files' nominal orientation).
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use serde::{Deserialize, Serialize};
+
+use crate::calib::{
+    self, Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, MeasurementSet,
+    PoseError, ResidualModel, ResidualModelJson, SplitCheck, ValidationReport,
+};
+use crate::{Error, Result};
+
+/// Format of a measurement file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum MeasurementFormat {
+    /// flexcal's CSV (`q1..qn, x_mm, y_mm, z_mm, ...`, `docs/file-formats.md`).
+    #[default]
+    Own,
+    /// The IPA laser-tracker export (`;`, decimal comma, T-Mac probe pose).
+    Ipa,
+}
+
+impl MeasurementFormat {
+    /// Reads the measurement file `path` in this format.
+    ///
+    /// # Errors
+    /// The file's read or parse error, naming the file and line.
+    pub fn read(self, path: &Path) -> Result<MeasurementSet> {
+        Ok(match self {
+            Self::Own => MeasurementSet::read_csv(path)?,
+            Self::Ipa => MeasurementSet::read_ipa(path)?,
+        })
+    }
+}
+
+/// Everything a calibration run needs besides the robot.
+#[derive(Debug, Clone)]
+pub struct CalibrationConfig {
+    /// Identification measurements.
+    pub data: PathBuf,
+    /// Format of both measurement files.
+    pub format: MeasurementFormat,
+    /// Validation measurements (same format), ideally other poses.
+    pub validate: Option<PathBuf>,
+    /// Identification poses to leave out, by label (`line 534`, a
+    /// `pose_id`, `#k`; a bare number N stands for `line N`).
+    pub exclude: Vec<String>,
+    /// Validation poses to leave out, by label.
+    pub exclude_validation: Vec<String>,
+    /// Options of the identification (model, unknowns, solver, weighting).
+    pub options: CalibrationOptions,
+    /// Starting position of the target in the end frame (mm), instead of
+    /// the file's nominal or the TCP; the orientation stays the file's.
+    pub target_mm: Option<[f64; 3]>,
+    /// On validation, re-fit the target offset too (not only the
+    /// measurement frame).
+    pub refit_target: bool,
+    /// Run the split-half check of the standard errors.
+    pub split_check: bool,
+    /// Identify again on the validation set and compare (needs `validate`).
+    pub cross_check: bool,
+    /// Actuated coordinates of the fuzzy residual model (none: no model).
+    pub residual_inputs: Vec<String>,
+}
+
+impl CalibrationConfig {
+    /// A geometric calibration of `data` with `options` and no checks.
+    pub fn new(data: impl Into<PathBuf>, options: CalibrationOptions) -> Self {
+        Self {
+            data: data.into(),
+            format: MeasurementFormat::Own,
+            validate: None,
+            exclude: Vec::new(),
+            exclude_validation: Vec::new(),
+            options,
+            target_mm: None,
+            refit_target: false,
+            split_check: false,
+            cross_check: false,
+            residual_inputs: Vec::new(),
+        }
+    }
+}
+
+/// Poses left out of a set on the user's request.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Exclusion {
+    /// The configuration field (`--exclude` or `--exclude-validation`).
+    pub option: String,
+    /// Number of poses left out.
+    pub left_out: usize,
+    /// Number of poses of the set before.
+    pub total: usize,
+    /// The set's file.
+    pub source: String,
+}
+
+/// The fuzzy residual model and its validation.
+#[derive(Debug, Clone)]
+pub struct ResidualFit {
+    /// The inputs (actuated coordinates).
+    pub inputs: Vec<String>,
+    /// The model, fitted on the identification poses.
+    pub model: ResidualModel,
+    /// The validation with the model's correction added.
+    pub validation: Option<ValidationReport>,
+}
+
+/// Every result of a calibration run.
+#[derive(Debug, Clone)]
+pub struct CalibrationRun {
+    /// The identification set (exclusions applied).
+    pub data: MeasurementSet,
+    /// The validation set (exclusions applied).
+    pub validation_set: Option<MeasurementSet>,
+    /// The poses left out of each set.
+    pub exclusions: Vec<Exclusion>,
+    /// The identification options actually used.
+    pub options: CalibrationOptions,
+    /// The identification.
+    pub calibration: Calibration,
+    /// The split-half check, when asked for.
+    pub split: Option<SplitCheck>,
+    /// The validation, with a validation set.
+    pub validation: Option<ValidationReport>,
+    /// The cross-series check, when asked for.
+    pub cross: Option<CrossCheck>,
+    /// The fuzzy residual model, when asked for.
+    pub residual: Option<ResidualFit>,
+}
+
+impl CalibrationRun {
+    /// The per-pose errors after calibration: of the validation set when
+    /// there is one, else of the identification set; with the set's name
+    /// (`validation`, `identification`) and the set.
+    pub fn per_pose(&self) -> (&'static str, &MeasurementSet, &[PoseError]) {
+        match (&self.validation, &self.validation_set) {
+            (Some(v), Some(set)) => ("validation", set, &v.after_per_pose),
+            _ => (
+                "identification",
+                &self.data,
+                &self.calibration.training_after_per_pose,
+            ),
+        }
+    }
+
+    /// The JSON report of the run (`docs/calibration-report.md`).
+    pub fn report(&self, robot: &crate::kinematics::Model) -> CalibrationReportJson {
+        let mut report =
+            CalibrationReportJson::new(robot.name(), &self.calibration, self.validation.as_ref());
+        report.split_check = self.split.clone();
+        report.cross_check = self.cross.clone();
+        report.residual_model = self.residual.as_ref().map(|r| {
+            ResidualModelJson::new(robot.actuated_names(), &r.model, r.validation.as_ref())
+        });
+        report
+    }
+}
+
+/// Names the workflow step of a calibration error.
+fn step(step: &'static str) -> impl FnOnce(calib::CalibError) -> Error {
+    move |source| Error::CalibrationStep { step, source }
+}
+
+fn read_excluding(
+    path: &Path,
+    format: MeasurementFormat,
+    labels: &[String],
+    option: &'static str,
+    exclusions: &mut Vec<Exclusion>,
+) -> Result<MeasurementSet> {
+    let set = format.read(path)?;
+    if labels.is_empty() {
+        return Ok(set);
+    }
+    let kept = set.excluding(labels).map_err(step(option))?;
+    exclusions.push(Exclusion {
+        option: option.to_string(),
+        left_out: set.len() - kept.len(),
+        total: set.len(),
+        source: set.source.clone(),
+    });
+    Ok(kept)
+}
+
+/// Runs a calibration of `robot` as `config` says.
+///
+/// # Errors
+/// Unreadable measurement files (file and line), labels that name no pose,
+/// a non-finite `target_mm`, `cross_check` or `exclude_validation` without a
+/// validation set, and every error of the identification and its checks,
+/// named by step (`identification`, `validation`, ...): a rank-deficient
+/// system with `require_full_rank`, unknown parameter names.
+pub fn run_calibration(
+    robot: &crate::kinematics::Model,
+    config: &CalibrationConfig,
+) -> Result<CalibrationRun> {
+    let invalid = |parameter: &str, message: String| Error::InvalidParameter {
+        parameter: parameter.to_string(),
+        message,
+    };
+    if config.validate.is_none() {
+        if !config.exclude_validation.is_empty() {
+            return Err(invalid(
+                "exclude_validation",
+                "needs a validation set".into(),
+            ));
+        }
+        if config.cross_check {
+            return Err(invalid("cross_check", "needs a validation set".into()));
+        }
+    }
+    let mut exclusions = Vec::new();
+    let data = read_excluding(
+        &config.data,
+        config.format,
+        &config.exclude,
+        "--exclude",
+        &mut exclusions,
+    )?;
+    let validation_set = config
+        .validate
+        .as_deref()
+        .map(|p| {
+            read_excluding(
+                p,
+                config.format,
+                &config.exclude_validation,
+                "--exclude-validation",
+                &mut exclusions,
+            )
+        })
+        .transpose()?;
+    let mut options = config.options.clone();
+    if let Some([x, y, z]) = config.target_mm {
+        if ![x, y, z].iter().all(|v| v.is_finite()) {
+            return Err(invalid(
+                "--target-mm",
+                format!("values must be finite, got {x},{y},{z}"),
+            ));
+        }
+        let rotation = data
+            .nominal_target
+            .map(|t| t.rotation)
+            .unwrap_or_else(UnitQuaternion::identity);
+        options.target_value = Some(Isometry3::from_parts(
+            Translation3::new(x * 1e-3, y * 1e-3, z * 1e-3),
+            rotation,
+        ));
+    }
+    let calibration = calib::calibrate(robot, &data, &options).map_err(step("identification"))?;
+    let split = config
+        .split_check
+        .then(|| SplitCheck::new(robot, &data, &options, &calibration))
+        .transpose()
+        .map_err(step("split-half check on halves of the poses"))?;
+    let validation = validation_set
+        .as_ref()
+        .map(|set| calibration.validate(robot, set, config.refit_target))
+        .transpose()
+        .map_err(step("validation"))?;
+    let cross = match (&validation_set, config.cross_check) {
+        (Some(set), true) => Some(
+            CrossCheck::new(robot, set, &options, &calibration, split.as_ref())
+                .map_err(step("cross-series check on the validation poses"))?,
+        ),
+        _ => None,
+    };
+    let residual = if config.residual_inputs.is_empty() {
+        None
+    } else {
+        let inputs: Vec<&str> = config.residual_inputs.iter().map(String::as_str).collect();
+        let model = ResidualModel::fit(
+            robot,
+            &calibration,
+            &data,
+            &inputs,
+            &crate::fuzzy::FuzzyParams::default(),
+            1,
+        )
+        .map_err(step("--residual-model"))?;
+        let validation = validation_set
+            .as_ref()
+            .map(|set| {
+                calibration.validate_with_residual_model(robot, set, &model, config.refit_target)
+            })
+            .transpose()
+            .map_err(step("validation with the residual model"))?;
+        Some(ResidualFit {
+            inputs: config.residual_inputs.clone(),
+            model,
+            validation,
+        })
+    };
+    Ok(CalibrationRun {
+        data,
+        validation_set,
+        exclusions,
+        options,
+        calibration,
+        split,
+        validation,
+        cross,
+        residual,
+    })
+}
