@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexcal_compensate::compensation::{
-    Cell, CompensatedPoint, CompensationOptions, ElasticModel as TcpElastic, ElastoGeometricModel,
+    Cell, CompensatedPoint, CompensationOptions, DynTcpDeflection, ElastoGeometricModel,
     Method, position_norm,
 };
 use flexcal_compensate::path::{KrlOptions, krl_program, read_target_path, rotation_from_abc};
@@ -254,7 +254,7 @@ fn load_elastic(
     model: &Model,
     xi: &[f64],
     gamma_report: Option<&Path>,
-) -> anyhow::Result<Box<dyn TcpElastic>> {
+) -> anyhow::Result<Box<dyn DynTcpDeflection>> {
     let (kind, value) = spec
         .split_once(':')
         .with_context(|| format!("--elastic '{spec}': expected fe:NAME|FILE or fuzzy:FILE"))?;
@@ -270,7 +270,7 @@ fn load_elastic(
                 None => (elastic.nominal_gamma(), "nominal Gamma"),
             };
             let label = format!("FE beam model '{}' ({origin})", description.name);
-            Ok(Box::new(flexcal_twin::forming::FeTcpModel::new(
+            Ok(Box::new(flexcal_elastic::tcp::FeTcpModel::new(
                 elastic,
                 xi.to_vec(),
                 gamma,
@@ -281,7 +281,7 @@ fn load_elastic(
             if gamma_report.is_some() {
                 bail!("--gamma-report applies to an fe: elastic model, not fuzzy:");
             }
-            let compliance = flexcal_elastic::fuzzy_compliance::FuzzyCompliance::load(value)
+            let compliance = flexcal_elastic::fuzzy_compliance::FuzzyCompliance::read(value)
                 .with_context(|| format!("--elastic fuzzy:{value}"))?;
             Ok(Box::new(
                 flexcal_elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
@@ -388,8 +388,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
             payload_base: payload,
         },
     };
-    let mut data = Data::new(&model);
-    let outcomes = system.compensate_path(&mut data, &path, &seed, &CompensationOptions::default());
+    let outcomes = system.compensate_path_parallel(&path, &seed, &CompensationOptions::default())?;
     let total = outcomes.len();
     let mut done = Vec::with_capacity(total);
     let mut failures = Vec::new();

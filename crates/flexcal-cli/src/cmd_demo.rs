@@ -547,7 +547,7 @@ fn elastic_step(out: &Path, seed: u64) -> anyhow::Result<ElasticStep> {
     fuzzy
         .fitted
         .compliance
-        .save(dir.join("fuzzy_compliance.toml"))?;
+        .write(dir.join("fuzzy_compliance.toml"))?;
     let grid: Vec<String> = fuzzy.fitted.compliance.models()[0]
         .structure()
         .membership_counts()

@@ -184,8 +184,8 @@ fn compliance_file_round_trips() {
     let fitted = fit(&plane_campaign(smooth, 900.0, 30e-6, 3));
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("compliance.toml");
-    fitted.compliance.save(&path).unwrap();
-    let back = FuzzyCompliance::load(&path).unwrap();
+    fitted.compliance.write(&path).unwrap();
+    let back = FuzzyCompliance::read(&path).unwrap();
     assert_eq!(back, fitted.compliance);
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(
