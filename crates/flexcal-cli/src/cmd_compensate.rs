@@ -10,12 +10,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexcal_compensate::compensation::{
-    Cell, CompensatedPoint, CompensationOptions, DynTcpDeflection, ElastoGeometricModel,
-    Method, position_norm,
+    Cell, CompensatedPoint, CompensationMethod, CompensationOptions, DynTcpDeflection,
+    ElastoGeometricModel, position_norm,
 };
 use flexcal_compensate::path::{KrlOptions, krl_program, read_target_path, rotation_from_abc};
 use flexcal_compensate::process::{BeamTheory, CantileverBeam, ConstantWrench, ProcessModel};
-use flexcal_kinematics::{Data, Model, actuated_from_joint_angles};
+use flexcal_kinematics::{Model, actuated_from_joint_angles};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 
 use crate::robot_arg::load_model;
@@ -347,8 +347,8 @@ fn output_csv(model: &Model, points: &[(usize, CompensatedPoint)]) -> String {
         row.push(p.iterations.to_string());
         row.push(
             match p.method {
-                Method::FixedPoint => "fixed_point",
-                Method::Newton => "newton",
+                CompensationMethod::FixedPoint => "fixed_point",
+                CompensationMethod::Newton => "newton",
             }
             .into(),
         );
@@ -388,7 +388,8 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
             payload_base: payload,
         },
     };
-    let outcomes = system.compensate_path_parallel(&path, &seed, &CompensationOptions::default())?;
+    let outcomes =
+        system.compensate_path_parallel(&path, &seed, &CompensationOptions::default())?;
     let total = outcomes.len();
     let mut done = Vec::with_capacity(total);
     let mut failures = Vec::new();
@@ -435,7 +436,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         .fold(0.0, f64::max);
     println!(
         "compensated {total} points with {} and {}: max predicted deviation {:.4} mm, max residual {:.3e} mm",
-        elastic.describe(),
+        elastic.describe_dyn(),
         process.as_dyn().describe(),
         max_pred * 1e3,
         max_res * 1e3

@@ -78,7 +78,10 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let mut models: Vec<(&str, &dyn flexcal_compensate::compensation::DynTcpDeflection)> = Vec::new();
+    let mut models: Vec<(
+        &str,
+        &dyn flexcal_compensate::compensation::DynTcpDeflection,
+    )> = Vec::new();
     if let Some(f) = &fuzzy {
         models.push(("compensated, fuzzy model", f));
     }

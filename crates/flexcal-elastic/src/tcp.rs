@@ -281,7 +281,8 @@ impl TcpDeflection for FeTcpModel {
         // factorization per configuration, a 6 x 6 product per wrench.
         if workspace.q.as_slice() != q {
             workspace.q.clear();
-            workspace.c_eq = tcp_compliance(&self.model, &mut workspace.data, q, &self.xi, &self.gamma)?;
+            workspace.c_eq =
+                tcp_compliance(&self.model, &mut workspace.data, q, &self.xi, &self.gamma)?;
             workspace.q.extend_from_slice(q);
         }
         Ok(workspace.c_eq * wrench_base)

@@ -15,13 +15,13 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
 
-use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, PATH_POINTS, load_label};
+use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, Load, PATH_POINTS};
 
 fn bench(c: &mut Criterion) {
     let fixture = CompensationFixture::new(PATH_POINTS).expect("built-in fixture");
     let mut group = c.benchmark_group("ir663 compensation");
     for elastic in [Elastic::Fuzzy, Elastic::Fe] {
-        let egm = fixture.model(elastic, false);
+        let egm = fixture.model(elastic, Load::DeadWeight);
         let mut data = egm.data().expect("workspace");
         group.sample_size(50);
         group.measurement_time(Duration::from_secs(3));
@@ -40,9 +40,9 @@ fn bench(c: &mut Criterion) {
                 })
             },
         );
-        for with_beam in [false, true] {
-            let egm = fixture.model(elastic, with_beam);
-            let load = load_label(with_beam);
+        for load in Load::ALL {
+            let egm = fixture.model(elastic, load);
+            let load = load.label();
             let mut data = egm.data().expect("workspace");
             // What is timed must be a successful compensation of every point.
             let check =

@@ -24,3 +24,5 @@ pub use flexcal_io as io;
 pub use flexcal_kinematics as kinematics;
 pub use flexcal_optim as optim;
 pub use flexcal_twin as twin;
+
+pub mod bench;

@@ -9,7 +9,7 @@ use super::error::CompensationError;
 use super::model::{CompensationOptions, ElastoGeometricModel};
 use super::pose::displace;
 use super::workspace::CompensationData;
-use crate::process::ToolState;
+use crate::process::{ProcessWorkspace, ToolState};
 
 /// The pose the robot actually reaches for a command.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,6 +30,7 @@ pub struct ActualPose {
 impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
     fn total_wrench(
         &self,
+        process_workspace: &mut ProcessWorkspace,
         tcp_base: &Vector3<f64>,
         motion_base: &Vector3<f64>,
     ) -> Result<Vector6<f64>, CompensationError> {
@@ -40,7 +41,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
                 position: x_part_base.transform_point(&(*tcp_base).into()).coords,
                 motion: x_part_base.rotation * motion_base,
             };
-            let wp = process.wrench_on_tool(&tool)?;
+            let wp = process.wrench_on_tool_in(process_workspace, &tool)?;
             let r = self.cell.x_base_part.rotation;
             let f = r * Vector3::new(wp[0], wp[1], wp[2]);
             let m = r * Vector3::new(wp[3], wp[4], wp[5]);
@@ -54,11 +55,12 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
     fn reached(
         &self,
         elastic: &mut E::Workspace,
+        process: &mut ProcessWorkspace,
         q: &[f64],
         p: &Vector3<f64>,
         motion_base: &Vector3<f64>,
     ) -> Result<(Vector6<f64>, Vector6<f64>), CompensationError> {
-        let w = self.total_wrench(p, motion_base)?;
+        let w = self.total_wrench(process, p, motion_base)?;
         let d = self
             .elastic
             .tcp_displacement(elastic, q, &w)
@@ -97,6 +99,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
             flexcal_kinematics::forward_pose(self.model, &mut data.kinematics, q, &self.xi)?;
         self.actual_from_geometric(
             &mut data.elastic,
+            &mut data.process,
             q,
             geometric,
             motion_base,
@@ -105,9 +108,11 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
         )
     }
 
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn actual_from_geometric(
         &self,
         elastic: &mut E::Workspace,
+        process: &mut ProcessWorkspace,
         q: &[f64],
         geometric: Isometry3<f64>,
         motion_base: &Vector3<f64>,
@@ -122,7 +127,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
             (Some(_), Some(g)) if g.iter().all(|v| v.is_finite()) => p0 + g.fixed_rows::<3>(0),
             _ => p0,
         };
-        let (mut w, mut d) = self.reached(elastic, q, &start, motion_base)?;
+        let (mut w, mut d) = self.reached(elastic, process, q, &start, motion_base)?;
         let mut p = p0 + d.fixed_rows::<3>(0);
         let mut iterations = 1;
         let mut last_change = f64::INFINITY;
@@ -135,7 +140,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
         if self.process.is_some() && !(guessed && last_change <= tolerance) {
             let mut converged = false;
             while iterations < options.max_coupling_iterations {
-                let (w_new, d_new) = self.reached(elastic, q, &p, motion_base)?;
+                let (w_new, d_new) = self.reached(elastic, process, q, &p, motion_base)?;
                 let p_new = p0 + d_new.fixed_rows::<3>(0);
                 last_change = (p_new - p).norm();
                 w = w_new;
@@ -155,14 +160,15 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
                 p = p0 + d.fixed_rows::<3>(0);
                 for _ in 0..options.max_newton_iterations {
                     let r = |elastic: &mut E::Workspace,
+                             process: &mut ProcessWorkspace,
                              p: &Vector3<f64>|
                      -> Result<Vector3<f64>, CompensationError> {
-                        let (_, d) = self.reached(elastic, q, p, motion_base)?;
+                        let (_, d) = self.reached(elastic, process, q, p, motion_base)?;
                         Ok(p - p0 - d.fixed_rows::<3>(0))
                     };
-                    let r0 = r(elastic, &p)?;
+                    let r0 = r(elastic, process, &p)?;
                     if r0.norm() <= tolerance {
-                        let (w_n, d_n) = self.reached(elastic, q, &p, motion_base)?;
+                        let (w_n, d_n) = self.reached(elastic, process, q, &p, motion_base)?;
                         w = w_n;
                         d = d_n;
                         converged = true;
@@ -175,7 +181,8 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
                         let mut pm = p;
                         pp[j] += h;
                         pm[j] -= h;
-                        let col = (r(elastic, &pp)? - r(elastic, &pm)?) / (2.0 * h);
+                        let col =
+                            (r(elastic, process, &pp)? - r(elastic, process, &pm)?) / (2.0 * h);
                         jac.set_column(j, &col);
                     }
                     let step = jac.lu().solve(&(-r0)).ok_or(CompensationError::Singular)?;

@@ -64,7 +64,7 @@ pub use flexcal_elastic::tcp::{
     ConstantCompliance, DeflectionError, DynTcpDeflection, TcpDeflection,
 };
 pub use model::{Cell, CompensationOptions, ElastoGeometricModel};
-pub use point::{CompensatedPoint, Method};
+pub use point::{CompensatedPoint, CompensationMethod};
 pub use pose::{displace, pose_difference, position_norm};
 pub use tracking::PointOutcome;
 pub use workspace::CompensationData;

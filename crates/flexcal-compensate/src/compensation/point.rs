@@ -15,7 +15,7 @@ use super::workspace::CompensationData;
 
 /// How the commanded pose of a point was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
+pub enum CompensationMethod {
     /// Fixed-point iteration converged.
     FixedPoint,
     /// Newton on the coupled system was needed.
@@ -43,7 +43,7 @@ pub struct CompensatedPoint {
     /// Iterations (fixed point plus Newton).
     pub iterations: usize,
     /// Which solver finished.
-    pub method: Method,
+    pub method: CompensationMethod,
 }
 
 pub(crate) fn converged(e: &Vector6<f64>, options: &CompensationOptions) -> bool {
@@ -239,6 +239,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
         let q0 = uncompensated.q;
         let actual0 = self.actual_from_geometric(
             &mut data.elastic,
+            &mut data.process,
             &q0,
             uncompensated.pose,
             motion_base,
@@ -260,9 +261,9 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
             options,
             options.max_fixed_point_iterations,
         )?;
-        let mut method = Method::FixedPoint;
+        let mut method = CompensationMethod::FixedPoint;
         if !converged(&correction.error, options) {
-            method = Method::Newton;
+            method = CompensationMethod::Newton;
             let newton =
                 self.newton_command(data, target_base, &mut q, &mut actual, motion_base, options)?;
             correction = Correction {
@@ -294,7 +295,6 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
             inverse_error,
         })
     }
-
 }
 
 /// A solved path point with what the tracker needs to predict the next.
@@ -307,4 +307,3 @@ pub(crate) struct Solved {
     /// Geometric pose of the uncompensated command minus the target.
     pub(crate) inverse_error: Vector6<f64>,
 }
-

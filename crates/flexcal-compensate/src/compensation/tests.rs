@@ -1,7 +1,13 @@
 //! Unit tests of compensation.
 
 use super::*;
+use flexcal_kinematics::{InverseTarget, KinematicsError, Model};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
+
+use super::point::converged;
+use crate::path::PathPoint;
 use crate::process::{BeamTheory, CantileverBeam, ConstantWrench};
+use crate::process::{ProcessModel, ToolState};
 use flexcal_kinematics::RobotDescription;
 use nalgebra::Matrix6;
 
@@ -32,7 +38,7 @@ impl Ur10 {
         &'a self,
         process: Option<&'a dyn ProcessModel>,
         cell: Cell,
-    ) -> ElastoGeometricModel<'a> {
+    ) -> ElastoGeometricModel<'a, ConstantCompliance> {
         ElastoGeometricModel::with_nominal_geometry(&self.model, &self.elastic, process, cell)
     }
 }
@@ -56,8 +62,8 @@ fn part_cell(payload_base: Vector6<f64>) -> Cell {
 const SEED: [f64; 6] = [0.3, -1.2, 1.5, -1.9, -1.57, 0.0];
 
 fn compensate_at_rest(
-    egm: &ElastoGeometricModel<'_>,
-    data: &mut Data,
+    egm: &ElastoGeometricModel<'_, ConstantCompliance>,
+    data: &mut CompensationData<()>,
     target: &Isometry3<f64>,
 ) -> CompensatedPoint {
     egm.compensate_pose(data, target, &SEED, &Vector3::zeros(), &Default::default())
@@ -67,8 +73,8 @@ fn compensate_at_rest(
 #[test]
 fn zero_load_compensation_is_the_inverse_model() {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let egm = ur10.egm(None, Cell::payload_only(Vector6::zeros()));
+    let mut data = egm.data().unwrap();
     let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
     let c = compensate_at_rest(&egm, &mut data, &target);
     assert_eq!(c.iterations, 0);
@@ -79,11 +85,11 @@ fn zero_load_compensation_is_the_inverse_model() {
 #[test]
 fn payload_is_compensated_to_solver_tolerance() {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let egm = ur10.egm(
         None,
         Cell::payload_only(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
     );
+    let mut data = egm.data().unwrap();
     let target = tool_down_at(Vector3::new(0.6, 0.3, 0.4));
     let c = compensate_at_rest(&egm, &mut data, &target);
     // Uncompensated: 920 N x 1.5e-3 mm/N ~ 1.4 mm down.
@@ -97,7 +103,6 @@ fn payload_is_compensated_to_solver_tolerance() {
 #[test]
 fn forming_beam_and_robot_are_solved_together() {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let beam = CantileverBeam::reference(BeamTheory::LargeDeflection);
     // Beam along base x, clamp at x = 0.3, top surface at z = 0.2.
     let x_base_part = Isometry3::translation(0.3, 0.25, 0.2);
@@ -108,6 +113,7 @@ fn forming_beam_and_robot_are_solved_together() {
             payload_base: Vector6::zeros(),
         },
     );
+    let mut data = egm.data().unwrap();
     let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
     let path: Vec<PathPoint> = (0..5)
         .map(|i| PathPoint {
@@ -133,7 +139,7 @@ fn forming_beam_and_robot_are_solved_together() {
             &c.commanded_base,
             &ur10
                 .elastic
-                .tcp_displacement(&c.q_commanded, &c.wrench_base)
+                .tcp_displacement(&mut (), &c.q_commanded, &c.wrench_base)
                 .unwrap(),
         );
         let in_part = x_base_part.inverse() * reached;
@@ -147,11 +153,11 @@ fn forming_beam_and_robot_are_solved_together() {
 #[test]
 fn unreachable_points_are_reported_per_point() {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let constant = ConstantWrench {
         wrench: Vector6::new(0.0, 0.0, 100.0, 0.0, 0.0, 0.0),
     };
     let egm = ur10.egm(Some(&constant), Cell::payload_only(Vector6::zeros()));
+    let mut data = egm.data().unwrap();
     let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
     let path = vec![
         PathPoint {
@@ -178,23 +184,30 @@ fn unreachable_points_are_reported_per_point() {
 
 /// An elastic model that counts its evaluations.
 struct Counting<'a> {
-    inner: &'a dyn ElasticModel,
+    inner: &'a ConstantCompliance,
     calls: std::sync::atomic::AtomicUsize,
 }
 
-impl ElasticModel for Counting<'_> {
+impl TcpDeflection for Counting<'_> {
+    type Workspace = ();
+
     fn describe(&self) -> String {
         self.inner.describe()
     }
 
+    fn workspace(&self) -> Result<(), DeflectionError> {
+        Ok(())
+    }
+
     fn tcp_displacement(
         &self,
+        workspace: &mut (),
         q: &[f64],
         wrench_base: &Vector6<f64>,
-    ) -> Result<Vector6<f64>, ElasticEvalError> {
+    ) -> Result<Vector6<f64>, DeflectionError> {
         self.calls
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        self.inner.tcp_displacement(q, wrench_base)
+        self.inner.tcp_displacement(workspace, q, wrench_base)
     }
 }
 
@@ -216,8 +229,8 @@ fn fine_travel(points: usize) -> Vec<PathPoint> {
 /// Compensates every point on its own, seeded by the previous point's
 /// command: the reference the path tracker must reproduce.
 fn cold_path(
-    egm: &ElastoGeometricModel<'_>,
-    data: &mut Data,
+    egm: &ElastoGeometricModel<'_, Counting<'_>>,
+    data: &mut CompensationData<()>,
     path: &[PathPoint],
 ) -> Vec<CompensatedPoint> {
     let mut seed = SEED.to_vec();
@@ -243,7 +256,6 @@ fn cold_path(
 
 fn assert_tracked_equals_cold(with_beam: bool) {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let elastic = Counting {
         inner: &ur10.elastic,
         calls: 0.into(),
@@ -256,6 +268,7 @@ fn assert_tracked_equals_cold(with_beam: bool) {
         with_beam.then_some(&beam as &dyn ProcessModel),
         part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
     );
+    let mut data = egm.data().unwrap();
     let points = 1000;
     let path = fine_travel(points);
     let cold = cold_path(&egm, &mut data, &path);
@@ -307,8 +320,8 @@ fn tracked_path_equals_points_solved_from_scratch_with_the_beam() {
 #[test]
 fn tracked_path_without_load_is_the_inverse_model() {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let egm = ur10.egm(None, part_cell(Vector6::zeros()));
+    let mut data = egm.data().unwrap();
     let outcomes = egm.compensate_path(&mut data, &fine_travel(50), &SEED, &Default::default());
     for o in &outcomes {
         let c = o.result.as_ref().unwrap();
@@ -321,11 +334,11 @@ fn tracked_path_without_load_is_the_inverse_model() {
 #[test]
 fn tracked_path_with_a_free_tool_rotation_meets_the_tolerances() {
     let ur10 = Ur10::new();
-    let mut data = Data::new(&ur10.model);
     let egm = ur10.egm(
         None,
         part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
     );
+    let mut data = egm.data().unwrap();
     let mut options = CompensationOptions::default();
     options.inverse.target = InverseTarget::PositionAndToolAxis;
     let path = fine_travel(100);
@@ -336,12 +349,44 @@ fn tracked_path_with_a_free_tool_rotation_meets_the_tolerances() {
         // The uncompensated command reaches the target's position.
         let reached = flexcal_kinematics::forward_pose(
             &ur10.model,
-            &mut data,
+            &mut data.kinematics,
             &c.q_uncompensated,
             &egm.xi,
         )
         .unwrap();
         let target = egm.cell.x_base_part * p.x_part_tcp;
         assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
+    }
+}
+
+#[test]
+fn parallel_path_equals_the_path_tracked_in_one_thread() {
+    let ur10 = Ur10::new();
+    let beam = CantileverBeam::reference(BeamTheory::LargeDeflection);
+    let egm = ur10.egm(
+        Some(&beam),
+        part_cell(Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)),
+    );
+    let path = fine_travel(1200);
+    let mut data = egm.data().unwrap();
+    let serial = egm.compensate_path(&mut data, &path, &SEED, &Default::default());
+    // Four threads: four stretches of 300 points, whatever the machine.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build()
+        .unwrap();
+    let parallel = pool
+        .install(|| egm.compensate_path_parallel(&path, &SEED, &Default::default()))
+        .unwrap();
+    assert_eq!(parallel.len(), serial.len());
+    let options = CompensationOptions::default();
+    for (p, s) in parallel.iter().zip(&serial) {
+        assert_eq!(p.line, s.line);
+        let (p, s) = (p.result.as_ref().unwrap(), s.result.as_ref().unwrap());
+        assert!(converged(&p.residual, &options), "{:?}", p.residual);
+        for (a, b) in p.q_commanded.iter().zip(&s.q_commanded) {
+            assert!((a - b).abs() < 1e-7, "{a} vs {b}");
+        }
+        assert!((p.uncompensated_error - s.uncompensated_error).norm() < 1e-9);
     }
 }

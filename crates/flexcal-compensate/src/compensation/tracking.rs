@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::error::CompensationError;
 use super::jacobian::JACOBIAN_REFRESH_RATIO;
 use super::model::{CompensationOptions, ElastoGeometricModel};
-use super::point::{CompensatedPoint, Method, Solved, converged, inverse_converged};
+use super::point::{CompensatedPoint, CompensationMethod, Solved, converged, inverse_converged};
 use super::pose::{path_distance, pose_difference};
 use super::workspace::CompensationData;
 use crate::path::PathPoint;
@@ -296,6 +296,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
         let guess0 = tracker.extrapolate_vector(|s| &s.deflection_uncompensated);
         let actual0 = self.actual_from_geometric(
             &mut data.elastic,
+            &mut data.process,
             &q0,
             pose0,
             motion_base,
@@ -342,7 +343,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
                 residual: result.error,
                 wrench_base: actual.wrench_base,
                 iterations: result.iterations,
-                method: Method::FixedPoint,
+                method: CompensationMethod::FixedPoint,
             },
             deflection_uncompensated: deflection0,
             deflection_commanded: actual.deflection,
@@ -409,11 +410,9 @@ impl PathTracker {
         if !data.jacobian.is_empty() {
             // Polishing is an improvement only: a failed solve keeps the
             // commands as they are.
-            let _ = data.jacobian.correct(
-                &mut sample.q_uncompensated,
-                &solved.inverse_error,
-                None,
-            );
+            let _ = data
+                .jacobian
+                .correct(&mut sample.q_uncompensated, &solved.inverse_error, None);
             let _ = data
                 .jacobian
                 .correct(&mut sample.q_commanded, &point.residual, None);

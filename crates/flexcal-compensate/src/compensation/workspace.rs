@@ -3,6 +3,7 @@
 use flexcal_kinematics::Data;
 
 use super::jacobian::JacobianCache;
+use crate::process::ProcessWorkspace;
 
 /// Per-thread workspace of an
 /// [`ElastoGeometricModel`](super::ElastoGeometricModel): the kinematics
@@ -15,6 +16,8 @@ pub struct CompensationData<W> {
     pub kinematics: Data,
     /// Workspace of the elastic model.
     pub elastic: W,
+    /// Workspace of the process model.
+    pub process: ProcessWorkspace,
     pub(crate) jacobian: JacobianCache,
 }
 
@@ -23,6 +26,7 @@ impl<W> CompensationData<W> {
         Self {
             kinematics,
             elastic,
+            process: ProcessWorkspace::default(),
             jacobian: JacobianCache::new(n_actuated),
         }
     }

@@ -132,7 +132,6 @@ impl FuzzyCompliance {
         let text = flexcal_io::read_to_string(path)?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
-
 }
 
 #[derive(Serialize, Deserialize)]

@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use flexcal_fuzzy::{
-    ConclusionReport, ErrorStats, FuzzyError, FuzzyModel, FuzzyParams, FuzzyStructure, LinearCombinationSet,
-    SearchProgress, StructureScore, StructureSearchParams, StructureSearchReport,
-    fit_joint_conclusions, joint_error_stats, search_structure,
+    ConclusionReport, ErrorStats, FuzzyError, FuzzyModel, FuzzyParams, FuzzyStructure,
+    LinearCombinationSet, SearchProgress, StructureScore, StructureSearchParams,
+    StructureSearchReport, fit_joint_conclusions, joint_error_stats, search_structure,
 };
 use rand::SeedableRng;
 use rand::seq::SliceRandom;

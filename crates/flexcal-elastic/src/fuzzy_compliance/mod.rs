@@ -117,7 +117,9 @@ mod samples;
 pub use components::{Axis, ComplianceComponent, InputSpec, InputUnit};
 pub use error::{FuzzyComplianceError, Result};
 pub use file::COMPLIANCE_FORMAT;
-pub use identify::{ComplianceFitParams, ComplianceFitReport, FittedCompliance, identify_compliance};
+pub use identify::{
+    ComplianceFitParams, ComplianceFitReport, FittedCompliance, identify_compliance,
+};
 pub use inputs::{InputSource, RobotInputs};
 pub use model::FuzzyCompliance;
 pub use robot::{RobotFuzzyCompliance, RobotFuzzyWorkspace};

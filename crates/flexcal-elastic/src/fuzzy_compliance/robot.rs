@@ -131,6 +131,8 @@ impl TcpDeflection for RobotFuzzyCompliance {
         workspace.inputs.resize(self.inputs.specs().len(), 0.0);
         self.inputs
             .values_into(&self.robot, q, &mut workspace.inputs)?;
-        Ok(self.compliance.displacement(&workspace.inputs, wrench_base)?)
+        Ok(self
+            .compliance
+            .displacement(&workspace.inputs, wrench_base)?)
     }
 }
