@@ -6,8 +6,9 @@
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
     /// Print JSON (`{"operations": [{"name", "ns_per_op", "min_ns", "samples",
-    /// "iterations"}], "threads", "cores", "load_average"}`; `ns_per_op` is the
-    /// median over the samples).
+    /// "cpu_ns_per_op", "iterations"}], "threads", "cores", "load_average"}`;
+    /// `ns_per_op` is the median over the samples, `cpu_ns_per_op` the
+    /// processor time the timing thread received).
     #[arg(long)]
     pub json: bool,
     /// Time budget per operation (ms).
@@ -31,13 +32,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         .max()
         .unwrap_or(0);
     println!(
-        "{:<width$} {:>14} {:>14} {:>8}",
-        "operation", "min ns/op", "median ns/op", "samples"
+        "{:<width$} {:>14} {:>14} {:>8} {:>14}",
+        "operation", "min ns/op", "median ns/op", "samples", "cpu ns/op"
     );
     for t in &report.operations {
+        let cpu = t
+            .cpu_ns_per_op
+            .map_or_else(|| "-".to_string(), |ns| format!("{ns:.1}"));
         println!(
-            "{:<width$} {:>14.1} {:>14.1} {:>8}",
-            t.name, t.min_ns, t.ns_per_op, t.samples
+            "{:<width$} {:>14.1} {:>14.1} {:>8} {:>14}",
+            t.name, t.min_ns, t.ns_per_op, t.samples, cpu
         );
     }
     match report.load_average {

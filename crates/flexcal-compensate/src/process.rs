@@ -24,6 +24,7 @@ use nalgebra::{Vector3, Vector6};
 
 /// Errors of process models.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ProcessError {
     /// A model parameter is out of its range.
     #[error("process parameter {name} = {value}: {why}")]

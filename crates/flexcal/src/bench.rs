@@ -6,8 +6,10 @@
 //! tenth of the time budget); a [`Timing`] reports the minimum and the
 //! median time per operation over the samples and the sample count. The
 //! minimum is the machine's speed; a median well above it means the
-//! machine was busy (other processes competing for the cores), and the
-//! report carries the load average to say so.
+//! machine was busy (other processes competing for the cores). The report
+//! says so twice more: the load average, and (Linux) the processor time
+//! the timing thread received per operation, which stays at the machine's
+//! speed while the wall-clock time grows with the load.
 //!
 //! The operations and fixtures are those of the criterion benchmarks, which
 //! give the same figures with confidence intervals: the IR-663
@@ -61,6 +63,12 @@ pub struct Timing {
     pub min_ns: f64,
     /// Samples taken (each a batch of operations).
     pub samples: usize,
+    /// Median over the samples of the processor time the timing thread
+    /// spent per operation (ns; Linux only, `None` elsewhere and for
+    /// operations that run in several threads). Well below
+    /// [`ns_per_op`](Self::ns_per_op), the thread was waiting for a core:
+    /// the machine was busy.
+    pub cpu_ns_per_op: Option<f64>,
     /// Operations run in total.
     pub iterations: u64,
 }
@@ -128,23 +136,39 @@ pub fn time(name: &str, budget: Duration, per_call: u64, mut op: impl FnMut()) -
         9
     };
     let mut samples = Vec::with_capacity(batches);
+    let mut cpu_samples = Vec::with_capacity(batches);
     let mut total = 0;
     for _ in 0..batches {
+        let cpu = thread_cpu_ns();
         let t = Instant::now();
         for _ in 0..batch {
             op();
         }
-        samples.push(t.elapsed().as_secs_f64() / (batch * per_call) as f64);
+        let operations = (batch * per_call) as f64;
+        samples.push(t.elapsed().as_secs_f64() * 1e9 / operations);
+        if let (Some(before), Some(after)) = (cpu, thread_cpu_ns()) {
+            cpu_samples.push((after - before) / operations);
+        }
         total += batch * per_call;
     }
     samples.sort_by(f64::total_cmp);
+    cpu_samples.sort_by(f64::total_cmp);
     Timing {
         name: name.to_string(),
-        ns_per_op: samples[samples.len() / 2] * 1e9,
-        min_ns: samples[0] * 1e9,
+        ns_per_op: samples[samples.len() / 2],
+        min_ns: samples[0],
         samples: samples.len(),
+        cpu_ns_per_op: (cpu_samples.len() == samples.len())
+            .then(|| cpu_samples[cpu_samples.len() / 2]),
         iterations: total,
     }
+}
+
+/// Processor time this thread has run (ns), from Linux's
+/// `/proc/thread-self/schedstat`; `None` elsewhere.
+fn thread_cpu_ns() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
 }
 
 /// The load average of the machine (Linux), `None` where unknown.
@@ -342,10 +366,11 @@ fn compensation(budget: Duration, timings: &mut Vec<Timing>) -> Result<(), Bench
                 ns_per_op: serial.ns_per_op / PATH_POINTS as f64,
                 min_ns: serial.min_ns / PATH_POINTS as f64,
                 samples: serial.samples,
+                cpu_ns_per_op: serial.cpu_ns_per_op.map(|ns| ns / PATH_POINTS as f64),
                 iterations: serial.iterations * PATH_POINTS as u64,
             });
             timings.push(serial);
-            timings.push(time(
+            let mut parallel = time(
                 &format!(
                     "ir663: compensation of a {PATH_POINTS}-point path, parallel threads, {}, {load}",
                     elastic.label()
@@ -362,7 +387,10 @@ fn compensation(budget: Duration, timings: &mut Vec<Timing>) -> Result<(), Bench
                         .ok(),
                     );
                 },
-            ));
+            );
+            // The timing thread's processor time misses the other threads.
+            parallel.cpu_ns_per_op = None;
+            timings.push(parallel);
         }
     }
     // Compensation of one path point (payload only) with a constant compliance.

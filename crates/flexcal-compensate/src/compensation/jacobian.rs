@@ -14,12 +14,15 @@ use super::error::CompensationError;
 /// over many iterations and path points.
 pub(crate) const JACOBIAN_REFRESH_RATIO: f64 = 0.1;
 
-/// How the stored Jacobian is factored.
+/// How the stored Jacobian is factored. One lives in each workspace, so
+/// its size does not matter; boxing the LU would allocate at every refresh.
+#[allow(clippy::large_enum_variant)]
 enum JacobianFactor {
     /// No Jacobian yet.
     Empty,
-    /// Six actuated coordinates: LU of the square Jacobian.
-    Square(Box<nalgebra::LU<f64, nalgebra::U6, nalgebra::U6>>),
+    /// Six actuated coordinates: LU of the square Jacobian (on the stack,
+    /// so a refresh allocates nothing).
+    Square(nalgebra::LU<f64, nalgebra::U6, nalgebra::U6>),
     /// Redundant or deficient robots: least squares by SVD.
     LeastSquares(Box<nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>>),
 }
@@ -63,7 +66,7 @@ impl JacobianCache {
         let pose = joint_jacobian_into(model, data, q, xi, &mut self.jacobian)?;
         self.factor = if self.jacobian.ncols() == 6 {
             let m: nalgebra::Matrix6<f64> = self.jacobian.fixed_columns::<6>(0).into_owned();
-            JacobianFactor::Square(Box::new(m.lu()))
+            JacobianFactor::Square(m.lu())
         } else {
             let dj = nalgebra::DMatrix::from_column_slice(
                 6,

@@ -6,6 +6,7 @@ use flexcal_kinematics::KinematicsError;
 /// Errors of the fuzzy compliance model. Every variant names what it is
 /// about (input, component, sample, setting, file).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum FuzzyComplianceError {
     /// The fuzzy learner failed (too few samples, singular conclusions,
     /// invalid settings...).
