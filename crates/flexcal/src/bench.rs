@@ -64,8 +64,10 @@ pub struct Timing {
     /// Samples taken (each a batch of operations).
     pub samples: usize,
     /// Median over the samples of the processor time the timing thread
-    /// spent per operation (ns; Linux only, `None` elsewhere and for
-    /// operations that run in several threads). Well below
+    /// spent per operation (ns; Linux only, `None` elsewhere, for
+    /// operations that run in several threads, and when a sample saw no
+    /// processor time, as on kernels that account a thread's time only when
+    /// it is scheduled out). Well below
     /// [`ns_per_op`](Self::ns_per_op), the thread was waiting for a core:
     /// the machine was busy.
     pub cpu_ns_per_op: Option<f64>,
@@ -158,7 +160,9 @@ pub fn time(name: &str, budget: Duration, per_call: u64, mut op: impl FnMut()) -
         ns_per_op: samples[samples.len() / 2],
         min_ns: samples[0],
         samples: samples.len(),
-        cpu_ns_per_op: (cpu_samples.len() == samples.len())
+        // Some kernels account a running thread's time only when it is
+        // scheduled out: a sample that saw none says nothing.
+        cpu_ns_per_op: (cpu_samples.len() == samples.len() && cpu_samples[0] > 0.0)
             .then(|| cpu_samples[cpu_samples.len() / 2]),
         iterations: total,
     }
