@@ -110,9 +110,11 @@ pub mod campaign;
 pub mod description;
 pub mod error;
 pub mod fuzzy_compliance;
+pub mod grid;
 pub mod identify;
 pub mod metrics;
 pub mod model;
 pub mod tcp;
+pub mod workflow;
 
 pub use error::{ElasticError, Result};

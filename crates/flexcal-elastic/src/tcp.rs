@@ -18,7 +18,7 @@
 //!   onto the TCP for the last configuration, so that the robot-process
 //!   equilibrium (several wrenches in one configuration) assembles and
 //!   factors once per configuration.
-//! - [`crate::fuzzy_compliance::RobotFuzzyCompliance`]: the fuzzy compliance
+//! - `fuzzy_compliance::RobotFuzzyCompliance`: the fuzzy compliance
 //!   model (38), (70) bound to its robot.
 //! - [`ConstantCompliance`]: a configuration-independent compliance, a
 //!   stand-in and a test fixture.
