@@ -147,7 +147,7 @@ fn fit(args: FitArgs) -> anyhow::Result<()> {
     let fitted = params.fit(&train, &test, &mut on_progress);
     bar.finish_and_clear();
     let fitted = fitted?;
-    fitted.model.save(&args.out)?;
+    fitted.model.write(&args.out)?;
     let report = &fitted.report;
     println!(
         "{} rules {:?}, {} training / {} test samples, train rmse {:.6e}, test rmse {:.6e}, test max |error| {:.6e} ({:?} after {} evaluations); wrote {}",
@@ -166,7 +166,7 @@ fn fit(args: FitArgs) -> anyhow::Result<()> {
 }
 
 fn eval(args: EvalArgs) -> anyhow::Result<()> {
-    let model = FuzzyModel::load(&args.model)?;
+    let model = FuzzyModel::read(&args.model)?;
     let inputs: Vec<&str> = model.input_names().iter().map(String::as_str).collect();
     let data = read_dataset(&args.data, &inputs, model.output_name())?;
     let stats = model.error_stats(&data)?;
@@ -187,13 +187,13 @@ fn eval(args: EvalArgs) -> anyhow::Result<()> {
 }
 
 fn export(args: ExportArgs) -> anyhow::Result<()> {
-    let model = FuzzyModel::load(&args.model)?;
+    let model = FuzzyModel::read(&args.model)?;
     let name = args
         .model
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| model.output_name().to_string());
-    model.export_fis(&args.fis, &name)?;
+    model.write_fis(&args.fis, &name)?;
     println!("wrote {}", args.fis.display());
     Ok(())
 }

@@ -129,7 +129,7 @@ pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
         table.overall_rms_mm / floor_mm
     );
     if let Some(path) = &args.out {
-        model.save(path)?;
+        model.write(path)?;
         println!("model written to {}", path.display());
     }
     if let Some(path) = &args.report {

@@ -68,7 +68,7 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     let fe = FeTcpModel::new(fe_model, xi.clone(), gamma, fe_label.clone())?;
     let fuzzy = match &args.fuzzy {
         Some(path) => {
-            let compliance = flexcal::elastic::fuzzy_compliance::FuzzyCompliance::load(path)?;
+            let compliance = flexcal::elastic::fuzzy_compliance::FuzzyCompliance::read(path)?;
             Some(
                 flexcal::elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
                     compliance,
@@ -78,7 +78,10 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let mut models: Vec<(&str, &dyn flexcal::compensate::compensation::ElasticModel)> = Vec::new();
+    let mut models: Vec<(
+        &str,
+        &dyn flexcal::compensate::compensation::DynTcpDeflection,
+    )> = Vec::new();
     if let Some(f) = &fuzzy {
         models.push(("compensated, fuzzy model", f));
     }

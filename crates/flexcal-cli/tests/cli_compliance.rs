@@ -83,7 +83,7 @@ fn fuzzy_compliance_beats_the_parametric_model_on_the_twin_campaign() {
         "fuzzy RMS {overall} mm, floor {floor} mm"
     );
     // The saved model loads back and is the one that was reported.
-    let model = FuzzyCompliance::load(&model_path).unwrap();
+    let model = FuzzyCompliance::read(&model_path).unwrap();
     assert_eq!(model.models().len(), 4);
     assert_eq!(model.models()[0].conclusions().len(), rules);
 

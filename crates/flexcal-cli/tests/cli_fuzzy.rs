@@ -94,7 +94,7 @@ fn fit_eval_export_end_to_end() {
     );
     let fis_text = std::fs::read_to_string(&fis).unwrap();
     let from_fis = flexcal::fuzzy::FuzzyModel::from_fis_str(&fis_text).unwrap();
-    let from_toml = flexcal::fuzzy::FuzzyModel::load(&model).unwrap();
+    let from_toml = flexcal::fuzzy::FuzzyModel::read(&model).unwrap();
     assert_eq!(from_fis, from_toml);
 }
 

@@ -18,14 +18,16 @@
 //! * [`path`]: target path files (CSV) and the export of commanded paths to a
 //!   KUKA KRL program;
 //! * [`compensation`]: the elasto-geometrical model `S = f(q, xi) (+) h(q, W)`
-//!   behind one [`compensation::ElasticModel`] interface (FE, joint-compliance
-//!   or fuzzy models implement it), the actual pose with robot and process
+//!   with any elastic model seen from the TCP
+//!   ([`compensation::TcpDeflection`] of flexcal-elastic: the FE beam model,
+//!   the fuzzy compliance model), the actual pose with robot and process
 //!   solved together, and the commanded poses (fake poses) that bring the
 //!   deflected robot onto the target: fixed-point iteration, Newton fallback,
 //!   per-point predicted uncompensated error and residual; whole paths are
 //!   tracked point to point (prediction from the previous points, correction
 //!   with a stored Jacobian), which makes a 10 000-point path a matter of
-//!   tens of milliseconds with a fuzzy model.
+//!   tens of milliseconds with a fuzzy model; long paths run in parallel
+//!   threads sharing one model, each with its own workspace.
 //!
 //! ```
 //! use flexcal_compensate::process::{BeamTheory, CantileverBeam, ProcessModel, ToolState};

@@ -22,6 +22,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 /// Errors of path files.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PathError {
     /// The file could not be read, or a cell is malformed (names file, line, column).
     #[error(transparent)]

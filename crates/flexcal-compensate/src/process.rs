@@ -24,6 +24,7 @@ use nalgebra::{Vector3, Vector6};
 
 /// Errors of process models.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ProcessError {
     /// A model parameter is out of its range.
     #[error("process parameter {name} = {value}: {why}")]
@@ -74,6 +75,19 @@ impl ToolState {
     }
 }
 
+/// Per-thread state that a process model may keep from one evaluation to
+/// the next: for the large-deflection cantilever, the last equilibrium,
+/// from which Newton starts when the tool has moved little (along a path,
+/// two to three residual evaluations instead of five to seven). The
+/// result does not depend on it beyond the solver tolerance.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ProcessWorkspace {
+    /// Last large-deflection equilibrium: tool position (x, z) in the part
+    /// frame (m), friction coefficient with its sign, and the unknowns
+    /// (kappa0, a, N, phi).
+    last_equilibrium: Option<([f64; 3], [f64; 4])>,
+}
+
 /// A process that pushes on the tool.
 pub trait ProcessModel: Send + Sync {
     /// A short description for reports (`"cantilever, large deflection"`).
@@ -82,6 +96,21 @@ pub trait ProcessModel: Send + Sync {
     /// Wrench exerted on the tool, `[f; m]` in N and N.m, expressed in the
     /// part frame and reduced at the tool tip.
     fn wrench_on_tool(&self, tool: &ToolState) -> Result<Vector6<f64>, ProcessError>;
+
+    /// [`wrench_on_tool`](Self::wrench_on_tool) with a per-thread
+    /// workspace the model may start from (a model without iterations
+    /// ignores it, which is the default).
+    ///
+    /// # Errors
+    /// As [`wrench_on_tool`](Self::wrench_on_tool).
+    fn wrench_on_tool_in(
+        &self,
+        workspace: &mut ProcessWorkspace,
+        tool: &ToolState,
+    ) -> Result<Vector6<f64>, ProcessError> {
+        let _ = workspace;
+        self.wrench_on_tool(tool)
+    }
 }
 
 /// A wrench that does not depend on the tool position.
@@ -195,6 +224,13 @@ pub struct CantileverBeam {
 /// Number of RK4 steps along the loaded part of the beam. The elastica is
 /// smooth; 64 steps give relative errors below 1e-9 on the tip deflection.
 const ELASTICA_STEPS: usize = 64;
+
+/// Largest tool move (m) from the last large-deflection equilibrium from
+/// which Newton starts at that equilibrium: well inside its quadratic
+/// convergence region (the contact force changes by a few per cent over
+/// 5 mm), and wider than the distance between consecutive evaluations
+/// along a path (point spacing plus the deflection, about 1 mm).
+pub const WARM_START_DISTANCE_M: f64 = 5e-3;
 
 impl CantileverBeam {
     /// The beam of the reference paper with the chosen theory.
@@ -409,21 +445,50 @@ impl CantileverBeam {
     /// normal force magnitude, slope at the contact. Residuals: free-moment
     /// condition theta'(a) = 0, contact position = tool position, and phi =
     /// theta(a). Solved by Newton with the exact Jacobian of the discretised
-    /// elastica, started from the small-deflection solution.
-    fn large_deflection(&self, tool: &ToolState) -> Result<Vector6<f64>, ProcessError> {
+    /// elastica, started from the last equilibrium in `workspace` when the
+    /// tool has moved less than [`WARM_START_DISTANCE_M`] since, and from the
+    /// small-deflection solution otherwise (or when the warm start fails).
+    fn large_deflection(
+        &self,
+        workspace: &mut ProcessWorkspace,
+        tool: &ToolState,
+    ) -> Result<Vector6<f64>, ProcessError> {
         let (x_t, z_t) = (tool.position.x, tool.position.z);
+        let mu = self.friction_coefficient * Self::friction_sign(tool);
+        if let Some(([x, z, last_mu], u)) = workspace.last_equilibrium {
+            let near = (x - x_t).hypot(z - z_t) <= WARM_START_DISTANCE_M;
+            if near && last_mu == mu {
+                if let Ok((wrench, u)) = self.large_deflection_from(u, x_t, z_t, mu, 8) {
+                    workspace.last_equilibrium = Some(([x_t, z_t, mu], u));
+                    return Ok(wrench);
+                }
+            }
+        }
+        let ei = self.bending_stiffness();
+        let n0 = self.small_deflection_force(x_t, -z_t);
+        // Linear theory: theta'(0) = -N a / EI, slope at the tip -N a^2 / (2 EI).
+        let u = [-n0 * x_t / ei, x_t, n0, -n0 * x_t * x_t / (2.0 * ei)];
+        let (wrench, u) = self.large_deflection_from(u, x_t, z_t, mu, 50)?;
+        workspace.last_equilibrium = Some(([x_t, z_t, mu], u));
+        Ok(wrench)
+    }
+
+    /// Newton on the large-deflection equilibrium from the unknowns `u`, at
+    /// most `max_iterations` steps; the wrench on the tool and the solution.
+    fn large_deflection_from(
+        &self,
+        mut u: [f64; 4],
+        x_t: f64,
+        z_t: f64,
+        mu: f64,
+        max_iterations: usize,
+    ) -> Result<(Vector6<f64>, [f64; 4]), ProcessError> {
         let fail = |why| ProcessError::NoEquilibrium {
             x_mm: x_t * 1e3,
             z_mm: z_t * 1e3,
             why,
         };
-        let ei = self.bending_stiffness();
-        let mu = self.friction_coefficient * Self::friction_sign(tool);
-        let w = -z_t;
-        let n0 = self.small_deflection_force(x_t, w);
-        // Linear theory: theta'(0) = -N a / EI, slope at the tip -N a^2 / (2 EI).
-        let mut u = [-n0 * x_t / ei, x_t, n0, -n0 * x_t * x_t / (2.0 * ei)];
-        for _ in 0..50 {
+        for _ in 0..max_iterations {
             let (r, jac) = self.equilibrium_residual(&u, (x_t, z_t), mu);
             let norm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
             if norm < 1e-12 {
@@ -435,7 +500,7 @@ impl CantileverBeam {
                 // Force on the tool = minus force on the beam.
                 let fx = n * (-sin) + mu * n * cos;
                 let fz = n * cos + mu * n * sin;
-                return Ok(Vector6::new(fx, 0.0, fz, 0.0, 0.0, 0.0));
+                return Ok((Vector6::new(fx, 0.0, fz, 0.0, 0.0, 0.0), u));
             }
             let rhs = nalgebra::Vector4::new(-r[0], -r[1], -r[2], -r[3]);
             let step = jac
@@ -449,7 +514,7 @@ impl CantileverBeam {
                 return Err(fail("the equilibrium iteration diverged"));
             }
         }
-        Err(fail("no convergence in 50 Newton iterations"))
+        Err(fail("no convergence of the Newton iterations"))
     }
 }
 
@@ -478,6 +543,14 @@ impl ProcessModel for CantileverBeam {
     }
 
     fn wrench_on_tool(&self, tool: &ToolState) -> Result<Vector6<f64>, ProcessError> {
+        self.wrench_on_tool_in(&mut ProcessWorkspace::default(), tool)
+    }
+
+    fn wrench_on_tool_in(
+        &self,
+        workspace: &mut ProcessWorkspace,
+        tool: &ToolState,
+    ) -> Result<Vector6<f64>, ProcessError> {
         self.validate()?;
         check_finite(&tool.position)?;
         let p = tool.position;
@@ -492,7 +565,7 @@ impl ProcessModel for CantileverBeam {
                 let friction = self.friction_coefficient * Self::friction_sign(tool) * n;
                 Ok(Vector6::new(friction, 0.0, n, 0.0, 0.0, 0.0))
             }
-            BeamTheory::LargeDeflection => self.large_deflection(tool),
+            BeamTheory::LargeDeflection => self.large_deflection(workspace, tool),
         }
     }
 }

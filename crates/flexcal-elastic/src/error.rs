@@ -8,6 +8,7 @@ use std::path::PathBuf;
 /// Every variant names what it is about (node, element, parameter, file and
 /// line) so that the message alone points at the faulty input.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ElasticError {
     /// A value of the elastic description is out of its allowed range.
     #[error("{owner}: field '{field}': {message}")]

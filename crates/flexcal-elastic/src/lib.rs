@@ -41,6 +41,10 @@
 //!   evolution, then Levenberg-Marquardt) and the identifiability of Gamma by name.
 //! - [`metrics`]: the per-load table of the paper's Table 5, for any
 //!   elastic model (the fuzzy compliance model uses the same function).
+//! - [`tcp`]: the elastic models seen from the TCP, as compensation
+//!   evaluates them: the [`tcp::TcpDeflection`] trait (model shared by all
+//!   threads, one workspace per thread), the FE beam model
+//!   [`tcp::FeTcpModel`] and [`tcp::ConstantCompliance`].
 //! - [`fuzzy_compliance`]: compliance components as Takagi-Sugeno models of
 //!   joint coordinates, learnt jointly from deflections (equations (38), (70)).
 //!
@@ -110,6 +114,7 @@ pub mod grid;
 pub mod identify;
 pub mod metrics;
 pub mod model;
+pub mod tcp;
 pub mod workflow;
 
 pub use error::{ElasticError, Result};

@@ -598,6 +598,26 @@ pub fn tcp_condensation(
     })
 }
 
+/// The TCP compliance `C_eq = K_eq^-1` (13), (63) of the structure in
+/// configuration `q` (base axes, `[linear; angular]`): what
+/// [`tcp_condensation`] gives without the own-weight load vector, for callers
+/// that apply many wrenches in one configuration.
+///
+/// # Errors
+/// As [`tcp_condensation`].
+pub fn tcp_compliance(
+    model: &ElasticModel,
+    data: &mut ElasticData,
+    q: &[f64],
+    xi: &[f64],
+    gamma: &[f64],
+) -> Result<Matrix6<f64>> {
+    factor(model, data, q, xi, gamma)?;
+    data.factorization
+        .c_eq()
+        .map_err(|e| ElasticError::fem(format!("condensation at q = {q:?}"), e))
+}
+
 /// TCP elastic displacement `dS_E = C_eq F_eq` (28), (63)-(64) in
 /// configuration `q` for a wrench `wrench_tcp` applied at the TCP (base
 /// axes, [N; N.m]), with the own weight added when `with_gravity`.

@@ -2,7 +2,6 @@
 //! known configuration-dependent compliance (seeded noise), on the built-in
 //! IR-663's inputs, and on bad input.
 
-use flexcal_compensate::compensation::ElasticModel as _;
 use flexcal_elastic::campaign::DeflectionMeasurement;
 use flexcal_elastic::fuzzy_compliance::{
     Axis, ComplianceComponent, ComplianceFitParams, ComplianceSample, FuzzyCompliance,
@@ -10,6 +9,7 @@ use flexcal_elastic::fuzzy_compliance::{
     compliance_samples, identify_compliance, noise_floor_rms,
 };
 use flexcal_elastic::metrics::per_load_metrics;
+use flexcal_elastic::tcp::TcpDeflection;
 use flexcal_fuzzy::{FuzzyModel, FuzzyStructure, Partition};
 use flexcal_kinematics::{
     RobotDescription, actuated_from_joint_angles, joint_angles_from_actuated,
@@ -184,8 +184,8 @@ fn compliance_file_round_trips() {
     let fitted = fit(&plane_campaign(smooth, 900.0, 30e-6, 3));
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("compliance.toml");
-    fitted.compliance.save(&path).unwrap();
-    let back = FuzzyCompliance::load(&path).unwrap();
+    fitted.compliance.write(&path).unwrap();
+    let back = FuzzyCompliance::read(&path).unwrap();
     assert_eq!(back, fitted.compliance);
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(
@@ -315,10 +315,13 @@ fn ir663_inputs_are_joint_angles_and_the_elastic_interface_applies_the_complianc
     let wrench = Vector6::new(300.0, 50.0, -900.0, 1.0, 2.0, 3.0);
     let expected = compliance.displacement(&x, &wrench).unwrap();
     let bound = RobotFuzzyCompliance::new(compliance, robot.clone()).unwrap();
-    let got = bound.tcp_displacement(&q, &wrench).unwrap();
+    let mut workspace = bound.workspace().unwrap();
+    let got = bound.tcp_displacement(&mut workspace, &q, &wrench).unwrap();
     assert_eq!(got, expected);
     assert!(bound.describe().contains("c_xz") && bound.describe().contains("theta8"));
-    let err = bound.tcp_displacement(&q[..3], &wrench).unwrap_err();
+    let err = bound
+        .tcp_displacement(&mut workspace, &q[..3], &wrench)
+        .unwrap_err();
     assert!(err.to_string().contains("actuated"), "{err}");
 
     // Deflection measurements become samples of the inputs.

@@ -4,6 +4,7 @@ use flexcal_optim::solis_wets::SolisWetsError;
 
 /// What is wrong with the modal values of one partition.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PartitionError {
     /// A strong partition needs at least two membership functions.
     #[error("{count} modal value(s): a partition needs at least 2")]
@@ -36,6 +37,7 @@ pub enum PartitionError {
 /// Errors of flexcal-fuzzy. Every variant names what it concerns (input,
 /// rule, sample, file, setting).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum FuzzyError {
     /// A partition is invalid.
     #[error("input '{input}': {source}")]

@@ -99,13 +99,13 @@ impl FuzzyModel {
     }
 
     /// Writes the TOML text to `path` atomically.
-    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), FuzzyError> {
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<(), FuzzyError> {
         flexcal_io::write_atomic(path, self.to_toml_string())?;
         Ok(())
     }
 
-    /// Reads a model file written by [`save`](Self::save).
-    pub fn load(path: impl AsRef<Path>) -> Result<Self, FuzzyError> {
+    /// Reads a model file written by [`write`](Self::write).
+    pub fn read(path: impl AsRef<Path>) -> Result<Self, FuzzyError> {
         let path = path.as_ref();
         let text = flexcal_io::read_to_string(path)?;
         Self::from_toml_str(&text, &path.display().to_string())
@@ -189,7 +189,7 @@ impl FuzzyModel {
     }
 
     /// Writes the `.fis` text to `path` atomically.
-    pub fn export_fis(&self, path: impl AsRef<Path>, name: &str) -> Result<(), FuzzyError> {
+    pub fn write_fis(&self, path: impl AsRef<Path>, name: &str) -> Result<(), FuzzyError> {
         flexcal_io::write_atomic(path, self.to_fis_string(name))?;
         Ok(())
     }
@@ -452,8 +452,8 @@ mod tests {
         let m = table_4_model();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.toml");
-        m.save(&path).unwrap();
-        assert_eq!(FuzzyModel::load(&path).unwrap(), m);
+        m.write(&path).unwrap();
+        assert_eq!(FuzzyModel::read(&path).unwrap(), m);
     }
 
     #[test]

@@ -96,9 +96,9 @@
 //! 4 x 3 model, batch evaluation).
 //!
 //! # Files
-//! [`FuzzyModel::save`] / [`FuzzyModel::load`] use a small TOML format
+//! [`FuzzyModel::write`] / [`FuzzyModel::read`] use a small TOML format
 //! (input names and modal values, output name, conclusions);
-//! [`FuzzyModel::export_fis`] writes the `.fis` text format of classic fuzzy
+//! [`FuzzyModel::write_fis`] writes the `.fis` text format of classic fuzzy
 //! logic toolboxes (`sugeno`, `prod`, `wtaver`, `trimf` inputs, `constant`
 //! outputs), which [`FuzzyModel::from_fis_str`] reads back.
 //!

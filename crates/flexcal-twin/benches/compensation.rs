@@ -13,17 +13,16 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flexcal_kinematics::Data;
 use nalgebra::Vector3;
 
-use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, PATH_POINTS, load_label};
+use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, Load, PATH_POINTS};
 
 fn bench(c: &mut Criterion) {
     let fixture = CompensationFixture::new(PATH_POINTS).expect("built-in fixture");
-    let mut data = Data::new(&fixture.robot);
     let mut group = c.benchmark_group("ir663 compensation");
     for elastic in [Elastic::Fuzzy, Elastic::Fe] {
-        let egm = fixture.model(elastic, false);
+        let egm = fixture.model(elastic, Load::DeadWeight);
+        let mut data = egm.data().expect("workspace");
         group.sample_size(50);
         group.measurement_time(Duration::from_secs(3));
         group.bench_function(
@@ -41,9 +40,10 @@ fn bench(c: &mut Criterion) {
                 })
             },
         );
-        for with_beam in [false, true] {
-            let egm = fixture.model(elastic, with_beam);
-            let load = load_label(with_beam);
+        for load in Load::ALL {
+            let egm = fixture.model(elastic, load);
+            let load = load.label();
+            let mut data = egm.data().expect("workspace");
             // What is timed must be a successful compensation of every point.
             let check =
                 egm.compensate_path(&mut data, &fixture.path, &fixture.seed, &fixture.options);
@@ -73,6 +73,22 @@ fn bench(c: &mut Criterion) {
                             &fixture.seed,
                             &fixture.options,
                         )
+                    })
+                },
+            );
+            group.bench_function(
+                format!(
+                    "{PATH_POINTS}-point path in parallel threads, {}, {load}",
+                    elastic.label()
+                ),
+                |b| {
+                    b.iter(|| {
+                        egm.compensate_path_parallel(
+                            black_box(&fixture.path),
+                            &fixture.seed,
+                            &fixture.options,
+                        )
+                        .expect("workspaces")
                     })
                 },
             );

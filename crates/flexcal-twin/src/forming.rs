@@ -17,83 +17,20 @@
 //! Measured deviations are reported along the part frame's z axis (the
 //! paper's Figure 17), in millimetres.
 
-use std::sync::Mutex;
-
 use flexcal_compensate::compensation::{
-    Cell, CompensationError, CompensationOptions, ElasticEvalError, ElasticModel as TcpElastic,
+    Cell, CompensationData, CompensationError, CompensationOptions, DynTcpDeflection,
     ElastoGeometricModel,
 };
 use flexcal_compensate::path::PathPoint;
 use flexcal_compensate::process::{BeamTheory, CantileverBeam, ProcessModel};
-use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
-use flexcal_kinematics::{Data, Model, actuated_from_joint_angles, inverse_pose};
+/// The FE beam model seen from the TCP (it lives with the elastic models).
+pub use flexcal_elastic::tcp::FeTcpModel;
+use flexcal_kinematics::{Model, actuated_from_joint_angles, inverse_pose};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
-
-/// An FE elastic model seen from the TCP, for compensation: the TCP
-/// displacement under an external wrench (the robot's own weight is left out:
-/// it is part of what the geometric calibration absorbed, and the elastic
-/// campaign measures loaded minus unloaded poses).
-pub struct FeTcpModel {
-    model: ElasticModel,
-    xi: Vec<f64>,
-    gamma: Vec<f64>,
-    data: Mutex<ElasticData>,
-    label: String,
-}
-
-impl FeTcpModel {
-    /// Wraps an FE model with geometric parameters `xi` and stiffness
-    /// parameters `gamma`.
-    ///
-    /// # Errors
-    /// When the workspace cannot be built for the model.
-    pub fn new(
-        model: ElasticModel,
-        xi: Vec<f64>,
-        gamma: Vec<f64>,
-        label: impl Into<String>,
-    ) -> Result<Self, flexcal_elastic::ElasticError> {
-        model.check_gamma(&gamma)?;
-        let data = ElasticData::new(&model)?;
-        Ok(Self {
-            model,
-            xi,
-            gamma,
-            data: Mutex::new(data),
-            label: label.into(),
-        })
-    }
-}
-
-impl TcpElastic for FeTcpModel {
-    fn describe(&self) -> String {
-        self.label.clone()
-    }
-
-    fn tcp_displacement(
-        &self,
-        q: &[f64],
-        wrench_base: &Vector6<f64>,
-    ) -> Result<Vector6<f64>, ElasticEvalError> {
-        let mut data = self
-            .data
-            .lock()
-            .map_err(|_| "the FE workspace was poisoned by an earlier panic")?;
-        Ok(tcp_deflection(
-            &self.model,
-            &mut data,
-            q,
-            &self.xi,
-            &self.gamma,
-            wrench_base,
-            false,
-        )?)
-    }
-}
 
 /// Settings of the forming experiment.
 #[derive(Debug, Clone, PartialEq)]
@@ -213,6 +150,9 @@ pub enum FormingError {
     /// An option is out of range.
     #[error("invalid forming option: {0}")]
     InvalidOption(String),
+    /// An elastic model could not set up its workspace.
+    #[error("elastic model workspace: {0}")]
+    Workspace(CompensationError),
 }
 
 /// The cell as seen by the twin: true geometry, true elasticity, the beam and
@@ -223,7 +163,7 @@ pub struct TwinCell<'a> {
     /// True geometric parameters.
     pub true_xi: Vec<f64>,
     /// True elasticity (external wrench only).
-    pub true_elastic: &'a dyn TcpElastic,
+    pub true_elastic: &'a dyn DynTcpDeflection,
 }
 
 fn payload(options: &FormingOptions) -> Cell {
@@ -242,7 +182,7 @@ fn payload(options: &FormingOptions) -> Cell {
 pub fn run_forming(
     twin: &TwinCell<'_>,
     calibrated_xi: &[f64],
-    models: &[(&str, &dyn TcpElastic)],
+    models: &[(&str, &dyn DynTcpDeflection)],
     options: &FormingOptions,
 ) -> Result<FormingResult, FormingError> {
     if !(options.position_noise.is_finite() && options.position_noise >= 0.0) {
@@ -262,7 +202,7 @@ pub fn run_forming(
         cell: payload(options),
     };
     let compensation = CompensationOptions::default();
-    let mut data = Data::new(model);
+    let mut data = truth.data().map_err(FormingError::Workspace)?;
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     let noise = Normal::new(0.0, options.position_noise)
         .map_err(|e| FormingError::InvalidOption(e.to_string()))?;
@@ -285,7 +225,7 @@ pub fn run_forming(
     let mut measure = |label: &str,
                        commands: &[Vec<f64>],
                        predicted: Option<Vec<f64>>,
-                       data: &mut Data|
+                       data: &mut CompensationData<_>|
      -> Result<MeasuredPath, FormingError> {
         let mut dx = Vec::with_capacity(commands.len());
         let mut dz = Vec::with_capacity(commands.len());
@@ -319,7 +259,7 @@ pub fn run_forming(
     for (k, target) in targets.iter().enumerate() {
         let s = inverse_pose(
             model,
-            &mut data,
+            &mut data.kinematics,
             target,
             &seed,
             calibrated_xi,
@@ -342,7 +282,9 @@ pub fn run_forming(
             process: Some(beam),
             cell: payload(options),
         };
-        let outcomes = user.compensate_path(&mut data, &path, &uncompensated_q[0], &compensation);
+        let mut user_data = user.data().map_err(FormingError::Workspace)?;
+        let outcomes =
+            user.compensate_path(&mut user_data, &path, &uncompensated_q[0], &compensation);
         let mut commands = Vec::with_capacity(outcomes.len());
         let mut predicted = Vec::with_capacity(outcomes.len());
         for (k, o) in outcomes.into_iter().enumerate() {
@@ -392,6 +334,7 @@ mod twin_tests {
     use super::*;
     use crate::elastic::ir663_elastic_truth;
     use crate::geometric::ir663_true_params;
+    use flexcal_elastic::model::ElasticModel;
     use flexcal_kinematics::RobotDescription;
 
     fn truth_model(robot: &Model, xi: &[f64]) -> FeTcpModel {

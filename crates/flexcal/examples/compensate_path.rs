@@ -39,7 +39,7 @@ pub fn compensate_with_each_model(
     compliance
         .fitted
         .compliance
-        .save(out.join("compliance.toml"))?;
+        .write(out.join("compliance.toml"))?;
     let setup = CompensationSetup {
         x_base_part: pose_mm_deg(&[1200.0, 0.0, 1450.0, 0.0, 0.0, 0.0]),
         payload_base: nalgebra::Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0),

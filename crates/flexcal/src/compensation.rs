@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use flexcal_compensate::compensation::{
-    Cell, CompensatedPoint, CompensationOptions, ElasticModel as TcpElastic, ElastoGeometricModel,
-    Method, position_norm,
+    Cell, CompensatedPoint, CompensationMethod, CompensationOptions, DynTcpDeflection,
+    ElastoGeometricModel, position_norm,
 };
 use flexcal_compensate::path::{KrlOptions, krl_program, read_target_path};
 use flexcal_compensate::process::{BeamTheory, CantileverBeam, ConstantWrench, ProcessModel};
@@ -19,7 +19,7 @@ use flexcal_elastic::description::ElasticDescription;
 use flexcal_elastic::fuzzy_compliance::{FuzzyCompliance, RobotFuzzyCompliance};
 use flexcal_elastic::model::ElasticModel;
 use flexcal_elastic::workflow::StiffnessReport;
-use flexcal_kinematics::{Data, Model, actuated_from_joint_angles};
+use flexcal_kinematics::{Model, actuated_from_joint_angles};
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 
 use crate::{Error, Result};
@@ -73,7 +73,11 @@ impl FromStr for ElasticSpec {
 
 /// Builds the elastic model of `spec` for `model` with geometric parameters
 /// `xi` (the elastic-model factory).
-pub fn load_elastic(spec: &ElasticSpec, model: &Model, xi: &[f64]) -> Result<Box<dyn TcpElastic>> {
+pub fn load_elastic(
+    spec: &ElasticSpec,
+    model: &Model,
+    xi: &[f64],
+) -> Result<Box<dyn DynTcpDeflection>> {
     match spec {
         ElasticSpec::Fe {
             description,
@@ -89,7 +93,7 @@ pub fn load_elastic(spec: &ElasticSpec, model: &Model, xi: &[f64]) -> Result<Box
                 None => (elastic.nominal_gamma(), "nominal Gamma"),
             };
             let label = format!("FE beam model '{}' ({origin})", description.name);
-            Ok(Box::new(flexcal_twin::forming::FeTcpModel::new(
+            Ok(Box::new(flexcal_elastic::tcp::FeTcpModel::new(
                 elastic,
                 xi.to_vec(),
                 gamma,
@@ -97,7 +101,7 @@ pub fn load_elastic(spec: &ElasticSpec, model: &Model, xi: &[f64]) -> Result<Box
             )?))
         }
         ElasticSpec::Fuzzy(path) => {
-            let compliance = FuzzyCompliance::load(path)?;
+            let compliance = FuzzyCompliance::read(path)?;
             Ok(Box::new(RobotFuzzyCompliance::new(
                 compliance,
                 model.clone(),
@@ -316,7 +320,7 @@ pub struct CommandedPath {
 pub fn compensate_path_file(
     model: &Model,
     xi: Vec<f64>,
-    elastic: &dyn TcpElastic,
+    elastic: &dyn DynTcpDeflection,
     process: &dyn ProcessModel,
     setup: &CompensationSetup,
     path: &Path,
@@ -333,13 +337,12 @@ pub fn compensate_path_file(
             payload_base: setup.payload_base,
         },
     };
-    let mut data = Data::new(model);
-    let outcomes = system.compensate_path(
-        &mut data,
+    // Parallel threads sharing the model, each with its own workspace.
+    let outcomes = system.compensate_path_parallel(
         &targets,
         &setup.start_joints,
         &CompensationOptions::default(),
-    );
+    )?;
     let total = outcomes.len();
     let mut points = Vec::with_capacity(total);
     let mut failures = Vec::new();
@@ -358,7 +361,7 @@ pub fn compensate_path_file(
     }
     Ok(CommandedPath {
         points,
-        elastic: elastic.describe(),
+        elastic: elastic.describe_dyn(),
         process: process.describe(),
     })
 }
@@ -422,8 +425,8 @@ impl CommandedPath {
             row.push(p.iterations.to_string());
             row.push(
                 match p.method {
-                    Method::FixedPoint => "fixed_point",
-                    Method::Newton => "newton",
+                    CompensationMethod::FixedPoint => "fixed_point",
+                    CompensationMethod::Newton => "newton",
                 }
                 .into(),
             );

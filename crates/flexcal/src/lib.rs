@@ -25,7 +25,7 @@
 //! let calibration = calib::calibrate(&robot, &poses, &options)?;
 //! let validation = calibration.validate(&robot, &calib::MeasurementSet::read_csv(&dir.join("validation.csv"))?, false)?;
 //! let fuzzy = workflow::identify_compliance_in_dir(&robot, &dir.join("elastic"), &Default::default())?;
-//! fuzzy.fitted.compliance.save(dir.join("compliance.toml"))?;
+//! fuzzy.fitted.compliance.write(dir.join("compliance.toml"))?;
 //! let elastic = comp::load_elastic(&comp::ElasticSpec::Fuzzy(dir.join("compliance.toml")), &robot, &calibration.xi)?;
 //! let setup = comp::CompensationSetup { x_base_part: comp::pose_mm_deg(&[1200.0, 0.0, 1450.0, 0.0, 0.0, 0.0]), payload_base: nalgebra::Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0), start_joints: comp::default_start_joints(&robot) };
 //! let process: comp::ProcessSpec = "cantilever:585,50,14,al-5005".parse()?;
@@ -74,3 +74,4 @@ pub use flexcal_twin as twin;
 
 /// The linear algebra crate of flexcal's types (poses, twists, wrenches, Jacobians).
 pub use nalgebra;
+pub mod bench;

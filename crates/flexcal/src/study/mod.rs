@@ -497,7 +497,7 @@ fn elastic_step(out: &Path, seed: u64, observer: &mut dyn StudyObserver) -> Resu
     compliance
         .fitted
         .compliance
-        .save(dir.join("fuzzy_compliance.toml"))?;
+        .write(dir.join("fuzzy_compliance.toml"))?;
     let grid: Vec<String> = compliance.fitted.compliance.models()[0]
         .structure()
         .membership_counts()
