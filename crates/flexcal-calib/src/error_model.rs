@@ -16,6 +16,7 @@ use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
 use crate::gravity::{GravityCompliance, GravityTerms};
+use crate::metrics::PoseError;
 use crate::{CalibError, MeasurementSet};
 
 /// Names of the six unknowns of the measurement frame `x_meas_base`: a
@@ -582,4 +583,36 @@ pub fn register_measurement_frame(
     let predicted = predicted_target_positions(model, set, xi, x_tcp_target)?;
     let measured: Vec<Vector3<f64>> = set.measurements().iter().map(|m| m.position).collect();
     crate::geometry::register_points(&measured, &predicted)
+}
+
+/// Per-pose errors of the error model `problem` at unknowns `x` (its frames
+/// included).
+///
+/// # Errors
+/// [`CalibError::Kinematics`] naming the pose.
+pub(crate) fn pose_errors(
+    problem: &GeometricErrorModel<'_>,
+    x: &[f64],
+) -> Result<Vec<PoseError>, CalibError> {
+    debug_assert_eq!(x.len(), problem.n_params());
+    problem
+        .measurements()
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let predicted = problem.predict(x, k)?;
+            let position_vector = m.position - predicted.translation.vector;
+            let orientation = if problem.rows_per_pose() == 6 {
+                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
+                Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
+            } else {
+                None
+            };
+            Ok(PoseError {
+                position: position_vector.norm(),
+                position_vector,
+                orientation,
+            })
+        })
+        .collect()
 }

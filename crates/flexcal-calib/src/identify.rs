@@ -12,11 +12,12 @@ use flexcal_optim::{
 use nalgebra::Isometry3;
 
 use crate::error_model::{
-    GeometricErrorModel, UnknownKind, register_measurement_frame, register_target_rotation,
+    GeometricErrorModel, UnknownKind, pose_errors, register_measurement_frame,
+    register_target_rotation,
 };
 use crate::gravity::GravityCompliance;
 use crate::screen::DataChecks;
-use crate::validate::{ErrorStatistics, PoseError, error_statistics, pose_errors};
+use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::{CalibError, MeasurementSet};
 
 /// The iterative solver of the identification.

@@ -183,6 +183,7 @@ pub mod geometry;
 pub mod gravity;
 pub mod identify;
 pub mod measurement;
+pub mod metrics;
 pub mod report;
 pub mod residual;
 pub mod screen;
@@ -210,6 +211,5 @@ pub use screen::{
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
-pub use validate::{
-    ErrorStatistics, FramePolicy, PoseError, ValidationReport, error_statistics, evaluate_errors,
-};
+pub use metrics::{ErrorStatistics, PoseError, error_statistics};
+pub use validate::{FramePolicy, ValidationReport, evaluate_errors};

@@ -5,7 +5,8 @@ use serde::Serialize;
 use crate::CalibError;
 use crate::identify::{Calibration, UnknownStatus};
 use crate::screen::DataChecks;
-use crate::validate::{ErrorStatistics, ValidationReport};
+use crate::metrics::ErrorStatistics;
+use crate::validate::ValidationReport;
 
 /// Error figures in mm and deg.
 #[derive(Debug, Clone, Serialize, PartialEq)]
