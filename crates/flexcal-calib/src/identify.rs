@@ -16,6 +16,7 @@ use crate::error_model::{
     register_target_rotation,
 };
 use crate::gravity::GravityCompliance;
+use crate::joint_law::JointTerms;
 use crate::screen::DataChecks;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::{CalibError, MeasurementSet};
@@ -110,6 +111,14 @@ pub struct CalibrationOptions {
     pub max_standard_error_mass: f64,
     /// Same for the payload's first moment (kg.m; default 0.1; `> 0`).
     pub max_standard_error_first_moment: f64,
+    /// Same for the hardening of a joint spring (1/rad; default 1000: a
+    /// spring whose stiffness would be known only to within a doubling at
+    /// 0.5 mrad of deflection is left linear; `> 0`).
+    pub max_standard_error_hardening: f64,
+    /// Joint error terms beyond linear springs: the non-linear stiffness
+    /// law (needs `gravity`) and cyclic joint errors (default none; see
+    /// [`crate::joint_law`]).
+    pub joint_terms: JointTerms,
     /// Elasto-geometric model: joint compliances under gravity and the
     /// payload are identified with the geometry (default `None`: geometric).
     pub gravity: Option<GravityCompliance>,
@@ -145,6 +154,8 @@ impl Default for CalibrationOptions {
             max_standard_error_compliance: 10e-6,
             max_standard_error_mass: 1.0,
             max_standard_error_first_moment: 0.1,
+            max_standard_error_hardening: 1000.0,
+            joint_terms: JointTerms::default(),
             gravity: None,
             require_full_rank: false,
             max_iterations: 100,
@@ -193,6 +204,16 @@ impl CalibrationOptions {
             "max_standard_error_first_moment",
             self.max_standard_error_first_moment,
         )?;
+        positive(
+            "max_standard_error_hardening",
+            self.max_standard_error_hardening,
+        )?;
+        if self.joint_terms.law.is_some() && self.gravity.is_none() {
+            return Err(CalibError::InvalidOption {
+                name: "joint_terms",
+                reason: "the non-linear joint stiffness law needs the elasto-geometric model (gravity)".into(),
+            });
+        }
         if !(self.rank_tolerance > 0.0 && self.rank_tolerance < 1.0) {
             return Err(CalibError::InvalidOption {
                 name: "rank_tolerance",
@@ -302,6 +323,11 @@ pub struct Calibration {
     /// The gravity loading when the model is elasto-geometric, with the
     /// identified elastic unknowns (compliances, payload mass, first moment).
     pub elastic: Option<(GravityCompliance, Vec<f64>)>,
+    /// The joint error terms of the model ([`crate::joint_law`]).
+    pub joint_terms: JointTerms,
+    /// Their identified values, in the order of
+    /// [`JointTerms::unknown_names`] (1/rad, rad).
+    pub joint_term_values: Vec<f64>,
     /// Numerical identifiability analysis of the free unknowns (exact
     /// dependencies, at [`CalibrationOptions::rank_tolerance`]) at the start point.
     pub identifiability: IdentifiabilityReport,
@@ -443,6 +469,23 @@ impl Calibration {
                 if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
                 if not.is_empty() { "none".to_string() } else { not.join(", ") }
             ));
+            if self.joint_terms.law.is_some() {
+                for (prefix, what) in [
+                    ("hardening_", "hardening"),
+                    ("lost_motion_", "lost motion"),
+                ] {
+                    let identified: Vec<&str> = self
+                        .unknowns
+                        .iter()
+                        .filter(|u| u.name.starts_with(prefix) && u.status == UnknownStatus::Identified)
+                        .map(|u| u.name.as_str())
+                        .collect();
+                    notes.push(format!(
+                        "non-linear joint law, {what} identified: {}; the others stay at zero (not separable from the compliances and offsets, or too weakly seen, with these torques)",
+                        if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
+                    ));
+                }
+            }
             let payload = names("payload_");
             if !payload.is_empty() {
                 notes.push(format!(
@@ -564,6 +607,8 @@ pub fn calibrate(
         if options.gravity.is_some() {
             known.extend(elastic_names.iter().map(|s| s.as_str()));
         }
+        let joint_names = options.joint_terms.unknown_names(model);
+        known.extend(joint_names.iter().map(|s| s.as_str()));
         let mut free = vec![true; known.len()];
         let np = model.n_params();
         if frame_fixed {
@@ -616,6 +661,9 @@ pub fn calibrate(
         GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?;
     if let Some(gravity) = &options.gravity {
         problem = problem.with_gravity(gravity)?;
+    }
+    if options.joint_terms.any() {
+        problem = problem.with_joint_terms(&options.joint_terms)?;
     }
     let n = problem.n_unknowns();
     let names = problem.names().to_vec();
@@ -762,6 +810,7 @@ pub fn calibrate(
             UnknownKind::Compliance => options.max_standard_error_compliance,
             UnknownKind::Mass => options.max_standard_error_mass,
             UnknownKind::FirstMoment => options.max_standard_error_first_moment,
+            UnknownKind::Hardening => options.max_standard_error_hardening,
         })
         .collect();
     let context = AnalysisContext {
@@ -931,10 +980,12 @@ pub fn calibrate(
     let (x_meas_base, x_tcp_target) = problem.frames(&x);
     let np = model.n_params();
     let xi = x[..np].to_vec();
+    let joint_start = problem.joint_terms_offset().unwrap_or(n);
     let elastic = options
         .gravity
         .as_ref()
-        .map(|g| (g.clone(), x[te..].to_vec()));
+        .map(|g| (g.clone(), x[te..joint_start].to_vec()));
+    let joint_term_values = x[joint_start..].to_vec();
     // Before: the starting model (nominal geometry, and starting compliances)
     // with its frames fitted; after: the fit. Both on the same error model.
     let training_before = error_statistics(&pose_errors(&problem, &x_nominal_robot)?);
@@ -952,6 +1003,8 @@ pub fn calibrate(
         use_orientation,
         unknowns,
         elastic,
+        joint_terms: options.joint_terms,
+        joint_term_values,
         identifiability: numerical,
         combination_lines: combinations
             .iter()
@@ -1325,6 +1378,9 @@ impl SpreadInputs<'_> {
         )?;
         if let Some(gravity) = &self.options.gravity {
             problem = problem.with_gravity(gravity)?;
+        }
+        if self.options.joint_terms.any() {
+            problem = problem.with_joint_terms(&self.options.joint_terms)?;
         }
         let weights: Vec<f64> = (0..count * rows).map(|i| weight[i % rows]).collect();
         let context = AnalysisContext {

@@ -176,21 +176,25 @@
 
 #![deny(missing_docs)]
 
+pub mod accuracy;
 pub mod cross;
 mod error;
 pub mod error_model;
 pub mod geometry;
 pub mod gravity;
 pub mod identify;
+pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
 pub mod report;
 pub mod residual;
 pub mod screen;
 pub mod select;
+pub mod selection;
 pub mod split;
 pub mod validate;
 
+pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy};
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
 pub use error_model::{
@@ -209,7 +213,12 @@ pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
 };
+pub use selection::{
+    CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectionMethod, SelectionOptions,
+    SelectionReport, TermGroup, calibrate_selected, default_method, select_model,
+};
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
-pub use validate::{FramePolicy, ValidationReport, evaluate_errors};
+pub use joint_law::{JointLaw, JointTerms};
+pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};

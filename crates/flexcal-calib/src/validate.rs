@@ -8,6 +8,7 @@ use nalgebra::Isometry3;
 use crate::error_model::{GeometricErrorModel, pose_errors, register_measurement_frame};
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
+use crate::joint_law::JointTerms;
 use crate::screen::DataChecks;
 pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::{CalibError, MeasurementSet};
@@ -47,6 +48,35 @@ pub fn evaluate_errors(
     policy: FramePolicy,
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
+    evaluate_errors_with_terms(
+        model,
+        set,
+        xi,
+        elastic,
+        (&JointTerms::default(), &[]),
+        x_tcp_target,
+        policy,
+        use_orientation,
+    )
+}
+
+/// [`evaluate_errors`] with joint terms ([`crate::joint_law`]) and their
+/// values (in the order of [`JointTerms::unknown_names`]).
+///
+/// # Errors
+/// As [`evaluate_errors`]; [`CalibError::InvalidOption`] when the number of
+/// values does not match the terms.
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_errors_with_terms(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    elastic: Option<(&GravityCompliance, &[f64])>,
+    (joint_terms, joint_values): (&JointTerms, &[f64]),
+    x_tcp_target: &Isometry3<f64>,
+    policy: FramePolicy,
+    use_orientation: bool,
+) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
     // The error model at given robot unknowns: geometric or elasto-geometric.
     let problem_at = |x_meas_base: Isometry3<f64>,
@@ -57,20 +87,35 @@ pub fn evaluate_errors(
         if let Some((gravity, _)) = elastic {
             problem = problem.with_gravity(gravity)?;
         }
+        if joint_terms.any() {
+            problem = problem.with_joint_terms(joint_terms)?;
+        }
         let mut x = problem.initial_unknowns();
         x[..model.n_params()].copy_from_slice(xi);
+        let joint_start = problem.joint_terms_offset().unwrap_or(x.len());
+        if joint_values.len() != x.len() - joint_start {
+            return Err(CalibError::InvalidOption {
+                name: "joint_terms",
+                reason: format!(
+                    "{} joint-term values given, the model has {}",
+                    joint_values.len(),
+                    x.len() - joint_start
+                ),
+            });
+        }
+        x[joint_start..].copy_from_slice(joint_values);
         if let (Some((_, values)), Some(eo)) = (elastic, problem.elastic_offset()) {
-            if values.len() != x.len() - eo {
+            if values.len() != joint_start - eo {
                 return Err(CalibError::InvalidOption {
                     name: "elastic",
                     reason: format!(
                         "{} elastic values given, the model has {}",
                         values.len(),
-                        x.len() - eo
+                        joint_start - eo
                     ),
                 });
             }
-            x[eo..].copy_from_slice(values);
+            x[eo..joint_start].copy_from_slice(values);
         }
         Ok((problem, x))
     };
@@ -163,11 +208,12 @@ impl Calibration {
         set: &MeasurementSet,
         policy: FramePolicy,
     ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
-        evaluate_errors(
+        evaluate_errors_with_terms(
             model,
             set,
             &self.xi,
             self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
+            (&self.joint_terms, &self.joint_term_values),
             &self.x_tcp_target,
             policy,
             self.use_orientation,
