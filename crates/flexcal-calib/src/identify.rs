@@ -859,6 +859,11 @@ pub fn calibrate(
     let x_nominal_robot = x_start.clone();
     let (_, x_tcp_target_nominal) = problem.frames(&x_start);
     let excluded = |j: usize| fixed[j] || no_influence[j];
+    // Cyclic errors of a joint whose poses do not cover their period: over
+    // part of a period a harmonic is a smooth curve that geometry and the
+    // frames imitate, and it extrapolates to the rest of the turn without
+    // any data; they stay at zero (poorly identifiable).
+    let partial_period = crate::joint_law::partial_period_mask(model, set, &names);
     // Unknowns beyond the numerical rank whatever the noise (exact dependencies).
     let reduced_start = context.reduced(&x_start)?;
     let numerical = context.analyse(&reduced_start, None, &excluded)?;
@@ -875,7 +880,7 @@ pub fn calibrate(
     let (report, frozen) = loop {
         round += 1;
         let analysis = context.analyse(&reduced_start, Some(sigma), &|j| {
-            excluded(j) || exactly_dependent[j]
+            excluded(j) || exactly_dependent[j] || partial_period[j]
         })?;
         let mut base = analysis.base.clone();
         base.sort_unstable();
@@ -921,6 +926,33 @@ pub fn calibrate(
         }
         sigma = noise_at(&report.x, analysis.rank)?;
         previous = Some((base, report, frozen));
+    };
+    // The joint terms are non-linear in their unknowns (the law's hardening
+    // trades off against the compliance as it grows): the limits on the
+    // standard errors are checked again at the solution, and a term beyond
+    // them is put back to its starting value and the rest solved again.
+    let (report, frozen) = {
+        let (mut report, mut frozen) = (report, frozen);
+        let joint_start = problem.joint_terms_offset().unwrap_or(n);
+        for _ in 0..3 {
+            let beyond: Vec<usize> = (joint_start..n)
+                .filter(|&j| {
+                    !frozen[j]
+                        && report.standard_errors[j].is_none_or(|se| !(se <= limits[j]))
+                })
+                .collect();
+            if beyond.is_empty() {
+                break;
+            }
+            let mut x0 = report.x.clone();
+            for &j in &beyond {
+                frozen[j] = true;
+                x0[j] = x_start[j];
+            }
+            report = solve(&x0, &frozen)?;
+            cost_history.extend(&report.cost_history);
+        }
+        (report, frozen)
     };
     let x = report.x.clone();
     let identified: Vec<usize> = (0..n).filter(|&j| !frozen[j]).collect();

@@ -45,7 +45,12 @@
 //!
 //! (rad; unknowns `cyclic_<j>_sin1`, `_cos1`, `_sin2`, `_cos2`), with `q_i`
 //! the commanded (encoder) coordinate; the constant term is the joint
-//! offset `theta`. They are selected or rejected by the data
+//! offset `theta`. A harmonic is identified only when the poses span its
+//! period ([`partial_period_mask`]): over part of a period it is a smooth
+//! curve that geometry imitates, and what it predicts for the rest of the
+//! turn has no data behind it (on the IPA UR10 series, whose joints each
+//! span about 2.2-4.4 rad in B, such terms passed cross-validation and
+//! then missed the other series by millimetres). They are selected or rejected by the data
 //! ([`crate::selection`]).
 
 use flexcal_kinematics::{ActuatedKind, Model};
@@ -130,6 +135,41 @@ pub fn cyclic_joints(model: &Model) -> Vec<usize> {
         .enumerate()
         .filter(|(_, k)| matches!(k, ActuatedKind::Revolute))
         .map(|(i, _)| i)
+        .collect()
+}
+
+/// Share of a harmonic's period the poses must span for its amplitudes to
+/// be identified (a full turn sampled by finitely many poses spans a little
+/// less than the turn).
+pub const PERIOD_COVERAGE: f64 = 0.9;
+
+/// For each unknown named in `names`: whether it is a cyclic error of a
+/// joint whose coordinates in `set` do not cover [`PERIOD_COVERAGE`] of
+/// the harmonic's period (a full turn for the first harmonic, half a turn
+/// for the second).
+pub fn partial_period_mask(model: &Model, set: &crate::MeasurementSet, names: &[String]) -> Vec<bool> {
+    let range = |i: usize| {
+        let (lo, hi) = set
+            .measurements()
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| (a.min(m.q[i]), b.max(m.q[i])));
+        hi - lo
+    };
+    let turn = 2.0 * std::f64::consts::PI;
+    names
+        .iter()
+        .map(|name| {
+            let Some(rest) = name.strip_prefix("cyclic_") else {
+                return false;
+            };
+            model.actuated_names().iter().enumerate().any(|(i, joint)| {
+                let Some(suffix) = rest.strip_prefix(joint.as_str()).and_then(|r| r.strip_prefix('_')) else {
+                    return false;
+                };
+                let period = if suffix.ends_with('1') { turn } else { turn / 2.0 };
+                CYCLIC_SUFFIXES.contains(&suffix) && range(i) < PERIOD_COVERAGE * period
+            })
+        })
         .collect()
 }
 

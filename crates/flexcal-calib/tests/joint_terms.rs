@@ -39,17 +39,18 @@ struct Joints {
 /// torque segment, i.e. a hardening of a few hundred 1/rad at the
 /// milliradian deflections of the shoulder; a lost motion of 0.1 mrad
 /// (20 arcsec, a typical catalogue value) on the shoulder and elbow;
-/// encoder eccentricity errors of 10-50 urad (a few arcsec).
+/// encoder eccentricity errors of 10-50 urad (a few arcsec), on the base
+/// and wrist-1 joints (drawn over a full turn).
 fn joints() -> Joints {
     Joints {
         compliance: [0.0, 13e-6, 10e-6, 20e-6, 15e-6, 10e-6],
         hardening: [0.0, 400.0, 0.0, 0.0, 0.0, 0.0],
         lost_motion: [0.0, 1e-4, 0.0, 0.0, 0.0, 0.0],
         cyclic: [
-            [0.0; 4],
             [4e-5, -3e-5, 0.0, 0.0],
-            [0.0, 0.0, 2e-5, 0.0],
             [0.0; 4],
+            [0.0; 4],
+            [0.0, 0.0, 2e-5, 0.0],
             [0.0; 4],
             [0.0; 4],
         ],
@@ -100,7 +101,11 @@ fn simulate(
     let lost_motion_torque = JointLaw::default().lost_motion_torque;
     let measurements = (0..n)
         .map(|_| {
-            let q = common::ur10_configuration(&mut rng);
+            // Joints 1 and 4 over a full turn: cyclic errors are identified
+            // only over their period.
+            let mut q = common::ur10_configuration(&mut rng);
+            q[0] = rng.random_range(-3.14..3.14);
+            q[3] = rng.random_range(-3.14..3.14);
             let mut tau = vec![0.0; 6];
             actuated_forces_into(model, &mut data, &q, model.nominal_params(), &loads, &mut tau)
                 .unwrap();
@@ -188,7 +193,7 @@ fn joint_term_columns_match_central_differences() {
         &|column, _| 1e-5 * column.iter().fold(1e-12, |a: f64, v| a.max(v.abs())) + 1e-9,
     );
     // The new columns are not trivially zero.
-    for name in ["hardening_theta2", "lost_motion_theta2", "cyclic_theta3_cos2"] {
+    for name in ["hardening_theta2", "lost_motion_theta2", "cyclic_theta4_cos2"] {
         let j = problem.names().iter().position(|n| n == name).unwrap();
         assert!(
             (0..jac.nrows()).any(|i| jac[(i, j)].abs() > 1e-9),
@@ -314,9 +319,9 @@ fn identifies_a_hardening_joint_lost_motion_and_cyclic_errors() {
     for name in [
         "hardening_theta2",
         "lost_motion_theta2",
-        "cyclic_theta2_sin1",
-        "cyclic_theta2_cos1",
-        "cyclic_theta3_sin2",
+        "cyclic_theta1_sin1",
+        "cyclic_theta1_cos1",
+        "cyclic_theta4_sin2",
         "compliance_theta2",
         "compliance_theta3",
     ] {
