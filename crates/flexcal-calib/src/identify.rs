@@ -115,6 +115,11 @@ pub struct CalibrationOptions {
     /// spring whose stiffness would be known only to within a doubling at
     /// 0.5 mrad of deflection is left linear; `> 0`).
     pub max_standard_error_hardening: f64,
+    /// Compute each identified unknown's spread ratio
+    /// ([`UnknownEstimate::spread_ratio`]; default true). Off, the ratios
+    /// are `None` and the identification is faster (model selection's
+    /// fold fits need no ratios).
+    pub spread_reference: bool,
     /// Joint error terms beyond linear springs: the non-linear stiffness
     /// law (needs `gravity`) and cyclic joint errors (default none; see
     /// [`crate::joint_law`]).
@@ -156,6 +161,7 @@ impl Default for CalibrationOptions {
             max_standard_error_first_moment: 0.1,
             max_standard_error_hardening: 1000.0,
             joint_terms: JointTerms::default(),
+            spread_reference: true,
             gravity: None,
             require_full_rank: false,
             max_iterations: 100,
@@ -971,7 +977,10 @@ pub fn calibrate(
                 })
         })
         .collect();
-    let spread_ratios = SpreadInputs {
+    let spread_ratios = if !options.spread_reference {
+        vec![None; n]
+    } else {
+        SpreadInputs {
         model,
         set,
         actuated_ranges: &actuated_ranges,
@@ -980,7 +989,8 @@ pub fn calibrate(
         frames: (x_meas_base0, x_tcp_target0),
         context: &context,
     }
-    .ratios(&reduced_start, &x_start, &identified)?;
+    .ratios(&reduced_start, &x_start, &identified)?
+    };
     let unknowns: Vec<UnknownEstimate> = (0..n)
         .map(|j| {
             let status = if fixed[j] {

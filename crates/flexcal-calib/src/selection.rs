@@ -56,7 +56,9 @@ use crate::{CalibError, MeasurementSet};
 /// default of [`default_method`]: with the default 5 folds each held-out
 /// fold has at least 20 poses (its mean error known to about 20 %), and
 /// each training part 80 poses, 240 position equations for the 40-90
-/// unknowns of a rich 6-axis model. Below it, BIC.
+/// unknowns of a rich 6-axis model. Below it no selection by default:
+/// held-out folds too small to score, and BIC's independence assumption
+/// is what a small campaign cannot check (BIC stays available).
 pub const MIN_POSES_FOR_CROSS_VALIDATION: usize = 100;
 
 /// How the candidate models are scored.
@@ -154,12 +156,14 @@ impl Default for SelectionOptions {
 }
 
 /// Cross-validation when the set has at least
-/// [`MIN_POSES_FOR_CROSS_VALIDATION`] poses, else BIC.
+/// [`MIN_POSES_FOR_CROSS_VALIDATION`] poses, else none (every group the
+/// options allow is identified; the identifiability analysis alone
+/// decides, as without selection).
 pub fn default_method(set: &MeasurementSet) -> SelectionMethod {
     if set.len() >= MIN_POSES_FOR_CROSS_VALIDATION {
         SelectionMethod::CrossValidation
     } else {
-        SelectionMethod::Bic
+        SelectionMethod::None
     }
 }
 
@@ -478,6 +482,9 @@ fn cross_validate(
     folds: &[(MeasurementSet, MeasurementSet)],
     options: &CalibrationOptions,
 ) -> Result<(Vec<f64>, Vec<f64>, f64), CalibError> {
+    let mut options = options.clone();
+    options.spread_reference = false;
+    let options = &options;
     let results: Vec<Result<(Vec<f64>, usize), CalibError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = folds
             .iter()

@@ -413,3 +413,56 @@ fn selection_keeps_the_law_of_a_hardening_joint_and_rejects_absent_terms() {
         assert!(r.after.position_mean < 1.2 * noise_mean, "{:?}", r.after);
     }
 }
+
+/// Predicted accuracy on a simulated UR10 identified with the model of its
+/// truth: the 95 % bounds cover about 95 % of other measured poses, and the
+/// grid form gives the same bounds as the measured form at the same poses.
+#[test]
+fn predicted_95_percent_bounds_cover_about_95_percent_of_new_poses() {
+    let model = ur10();
+    let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
+    let (frame, _) = common::generic_frame_and_target();
+    let noise = 30e-6;
+    let xi = model.nominal_params().to_vec();
+    let truth = joints();
+    let train = simulate(&model, &gravity, &xi, &truth, &frame, 500, noise, 51);
+    let validation = simulate(&model, &gravity, &xi, &truth, &frame, 1000, noise, 52);
+    let mut options = CalibrationOptions::for_model(&model);
+    options.weighting = Weighting::Uniform;
+    options.default_position_std = noise;
+    options.target = FrameTreatment::Fixed;
+    options.gravity = Some(gravity);
+    options.fixed = flexcal_calib::PAYLOAD_PARAMETER_NAMES
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    options.joint_terms = JointTerms {
+        law: Some(JointLaw::default()),
+        cyclic: true,
+    };
+    let calibration = calibrate(&model, &train, &options).unwrap();
+    let map = calibration
+        .accuracy_coverage(&model, &validation, None)
+        .unwrap();
+    let coverage = map.coverage.unwrap();
+    eprintln!(
+        "coverage {:.3}, mean bound {:.4} mm, scatter {:.4} mm",
+        coverage, map.mean_bound_95_mm, map.residual_scatter_mm
+    );
+    // 1000 poses: the share's standard error is 0.7 %.
+    assert!((0.92..=0.98).contains(&coverage), "{coverage}");
+    // The scatter is the noise, per axis.
+    assert!((map.residual_scatter_mm / (noise * 1e3) - 1.0).abs() < 0.1);
+    let configurations: Vec<Vec<f64>> =
+        validation.measurements().iter().map(|m| m.q.clone()).collect();
+    let grid = calibration
+        .predicted_accuracy(&model, &configurations, None)
+        .unwrap();
+    for (a, b) in grid.poses.iter().zip(&map.poses) {
+        assert!((a.bound_95_mm - b.bound_95_mm).abs() < 1e-9);
+        assert!(a.model_uncertainty_mm > 0.0 && a.model_uncertainty_mm < a.bound_95_mm);
+    }
+    let csv = grid.to_csv_string();
+    assert_eq!(csv.lines().count(), 1 + configurations.len());
+    assert!(csv.starts_with("pose,q1,q2,q3,q4,q5,q6,model_uncertainty_mm,bound_95_mm"));
+}

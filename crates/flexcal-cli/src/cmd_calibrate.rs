@@ -7,7 +7,7 @@ use anyhow::Context;
 use flexcal_calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ErrorStatistics,
     FrameTreatment, GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson,
-    SplitCheck, UnknownStatus, ValidationReport, Weighting, calibrate,
+    SplitCheck, UnknownStatus, ValidationReport, Weighting,
 };
 use flexcal_fuzzy::FuzzyParams;
 use flexcal_kinematics::{Model, RobotDescription};
@@ -144,6 +144,16 @@ pub struct CalibrateArgs {
     /// separately.
     #[arg(long, value_delimiter = ',')]
     pub residual_model: Vec<String>,
+    /// Model selection on the training poses: which groups of unknowns
+    /// (offsets, tilts, compliances, joint law, cyclic errors) to identify,
+    /// by cross-validation (cv), BIC (bic) or none (default: cv from 100
+    /// poses, else none).
+    #[arg(long)]
+    pub select: Option<flexcal_calib::SelectionMethod>,
+    /// Predicted accuracy at the configurations of this CSV (columns
+    /// q1..qn), written beside it as <name>.accuracy.csv.
+    #[arg(long)]
+    pub accuracy_map: Option<PathBuf>,
     /// Write the calibrated robot description here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -298,7 +308,14 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         data.len(),
         args.data.display()
     );
-    let calibration = calibrate(&model, &data, &options).context("identification")?;
+    let selection = flexcal_calib::SelectionOptions {
+        method: args.select.unwrap_or(flexcal_calib::default_method(&data)),
+        ..Default::default()
+    };
+    let (calibration, selected, options) =
+        flexcal_calib::calibrate_selected(&model, &data, &options, &selection)
+            .context("identification")?;
+    selected.iter().flat_map(|s| s.lines()).for_each(|l| println!("{l}"));
     print_identification(&calibration);
     let split = args
         .split_check
@@ -314,6 +331,17 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         .transpose()
         .context("validation")?;
     print_before_after(&calibration, validation.as_ref());
+    if let Some(set) = &validation_set {
+        let map = calibration.accuracy_coverage(&model, set, split.as_ref())?;
+        println!("predicted 95 % bounds (mean {:.3} mm) cover {:.1} % of the validation poses", map.mean_bound_95_mm, 100.0 * map.coverage.unwrap_or(f64::NAN));
+    }
+    if let Some(grid) = &args.accuracy_map {
+        let configurations = flexcal_calib::read_configurations(grid)?;
+        let map = calibration.predicted_accuracy(&model, &configurations, split.as_ref())?;
+        let path = grid.with_extension("accuracy.csv");
+        map.write_csv(&path)?;
+        println!("predicted accuracy at {} poses written to {}", map.poses.len(), path.display());
+    }
     let cross = match (&validation_set, args.cross_check) {
         (Some(set), true) => Some(
             CrossCheck::new(&model, set, &options, &calibration, split.as_ref())
@@ -367,6 +395,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             CalibrationReportJson::new(model.name(), &calibration, validation.as_ref());
         report.split_check = split;
         report.cross_check = cross;
+        report.selection = selected;
         report.residual_model = residual
             .as_ref()
             .map(|(r, v)| ResidualModelJson::new(model.actuated_names(), r, v.as_ref()));
