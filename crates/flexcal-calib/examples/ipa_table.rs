@@ -107,7 +107,11 @@ fn selected_table(
         let g = calibrate(model, train, geometric)?;
         let split = SplitCheck::new(model, train, &chosen, &selected)?;
         let label = report.as_ref().map_or(String::new(), |r| {
-            r.chosen.iter().map(|g| g.label()).collect::<Vec<_>>().join(" + ")
+            r.chosen
+                .iter()
+                .map(|g| g.label())
+                .collect::<Vec<_>>()
+                .join(" + ")
         });
         for (t, v, [dh, dh_max, dhg, dhg_max]) in BASELINES {
             if t != train_name {
@@ -131,7 +135,9 @@ fn selected_table(
     println!(
         "\nJoint compliances (urad/N.m) +/- standard error / split error, per series; linear springs, then the non-linear law:"
     );
-    println!("| series | model | compliance_theta2 | compliance_theta3 | hardening_theta2 (1/mrad) | lost_motion_theta2 (mrad) |\n|---|---|---|---|---|---|");
+    println!(
+        "| series | model | compliance_theta2 | compliance_theta3 | hardening_theta2 (1/mrad) | lost_motion_theta2 (mrad) |\n|---|---|---|---|---|---|"
+    );
     for name in ["B", "C", "D"] {
         for (label, options) in [("linear", elastic), ("law", &richest)] {
             let mut options = options.clone();
@@ -184,8 +190,8 @@ fn earlier_tables(
                e: &Calibration,
                validate: &MeasurementSet|
      -> Result<(), flexcal_calib::CalibError> {
-        let g_report = g.validate(&model, validate, false)?;
-        let e_report = e.validate(&model, validate, false)?;
+        let g_report = g.validate(model, validate, false)?;
+        let e_report = e.validate(model, validate, false)?;
         println!(
             "| {train_name} -> {validate_name} | {} | {} | {} |",
             cell(&g_report.before),
@@ -198,9 +204,9 @@ fn earlier_tables(
     let mut faults = Vec::new();
     for (train_name, train) in &sets {
         let start = Instant::now();
-        let g = calibrate(&model, train, &geometric)?;
+        let g = calibrate(model, train, &geometric)?;
         let middle = Instant::now();
-        let e = calibrate(&model, train, &elastic)?;
+        let e = calibrate(model, train, &elastic)?;
         let end = Instant::now();
         for (validate_name, validate) in &sets {
             if validate_name == train_name {
@@ -258,8 +264,8 @@ fn earlier_tables(
     });
     println!("| train -> validate | nominal | geometric | elasto-geometric |\n|---|---|---|---|");
     for (t, (train_name, train)) in clean.iter().enumerate() {
-        let g = calibrate(&model, train, &geometric)?;
-        let e = calibrate(&model, train, &elastic)?;
+        let g = calibrate(model, train, &geometric)?;
+        let e = calibrate(model, train, &elastic)?;
         for (v, (validate_name, validate)) in clean.iter().enumerate() {
             if t == v || (faults[t].is_empty() && faults[v].is_empty()) {
                 continue;
@@ -290,14 +296,14 @@ fn earlier_tables(
             "| train -> validate | geometric | elasto-geometric | deg, geometric / elasto-geometric |\n|---|---|---|---|"
         );
         for (train_name, train) in series {
-            let g = calibrate(&model, train, &geometric)?;
-            let e = calibrate(&model, train, &elastic)?;
+            let g = calibrate(model, train, &geometric)?;
+            let e = calibrate(model, train, &elastic)?;
             for (validate_name, validate) in series {
                 if validate_name == train_name {
                     continue;
                 }
-                let g_report = g.validate(&model, validate, false)?;
-                let e_report = e.validate(&model, validate, false)?;
+                let g_report = g.validate(model, validate, false)?;
+                let e_report = e.validate(model, validate, false)?;
                 println!(
                     "| {train_name} -> {validate_name} | {} | {} | {:.3} / {:.3} |",
                     cell(&g_report.after),

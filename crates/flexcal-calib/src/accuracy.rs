@@ -92,7 +92,8 @@ impl AccuracyMap {
                 ",{:.6},{:.6},{}\n",
                 p.model_uncertainty_mm,
                 p.bound_95_mm,
-                p.actual_error_mm.map_or(String::new(), |e| format!("{e:.6}"))
+                p.actual_error_mm
+                    .map_or(String::new(), |e| format!("{e:.6}"))
             ));
         }
         out
@@ -165,11 +166,15 @@ impl Calibration {
         actual: Option<&[f64]>,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        let covariance = self.solve.covariance.as_ref().ok_or(CalibError::InvalidOption {
-            name: "accuracy",
-            reason: "the identification has no covariance (no more equations than unknowns)"
-                .into(),
-        })?;
+        let covariance = self
+            .solve
+            .covariance
+            .as_ref()
+            .ok_or(CalibError::InvalidOption {
+                name: "accuracy",
+                reason: "the identification has no covariance (no more equations than unknowns)"
+                    .into(),
+            })?;
         // The error model at the identified unknowns: frames at the
         // identified values (zero increments), orientations not used.
         let mut problem =
@@ -204,10 +209,9 @@ impl Calibration {
         let mut inflated = Vec::new();
         if let Some(split) = split {
             for s in &split.unknowns {
-                if let (Some(ratio), Some(j)) = (
-                    s.ratio,
-                    self.unknowns.iter().position(|u| u.name == s.name),
-                ) {
+                if let (Some(ratio), Some(j)) =
+                    (s.ratio, self.unknowns.iter().position(|u| u.name == s.name))
+                {
                     if ratio > 1.0 {
                         factor[j] = ratio;
                         inflated.push((s.name.clone(), ratio));
@@ -241,7 +245,8 @@ impl Calibration {
         let mut poses = Vec::with_capacity(set.len());
         let mut within = 0usize;
         for (k, label) in labels.into_iter().enumerate() {
-            let rows_k = DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
+            let rows_k =
+                DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
             let pred = &rows_k * &sigma * rows_k.transpose();
             let trace = pred.trace().max(0.0);
             let bound = (CHI2_3_95 * (trace / 3.0 + s2)).sqrt();

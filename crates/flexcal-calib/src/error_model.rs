@@ -292,7 +292,12 @@ impl<'a> GeometricErrorModel<'a> {
             }
         }
         if let (true, Some(lo)) = (self.joint_terms.cyclic, joint_offset) {
-            let co = lo + if self.joint_terms.law.is_some() { 2 * na } else { 0 };
+            let co = lo
+                + if self.joint_terms.law.is_some() {
+                    2 * na
+                } else {
+                    0
+                };
             for (s, &i) in self.cyclic_joints.iter().enumerate() {
                 state.q[i] += cyclic_error(q[i], &x[co + 4 * s..co + 4 * s + 4]);
             }
@@ -558,9 +563,11 @@ impl GeometricErrorModel<'_> {
                             elastic
                                 .column_mut(lo + i)
                                 .axpy(buffers.by_hardening[i], &column, 0.0);
-                            elastic
-                                .column_mut(lo + na + i)
-                                .axpy(buffers.by_lost_motion[i], &column, 0.0);
+                            elastic.column_mut(lo + na + i).axpy(
+                                buffers.by_lost_motion[i],
+                                &column,
+                                0.0,
+                            );
                         }
                     }
                 }

@@ -17,8 +17,8 @@ use crate::error_model::{
 };
 use crate::gravity::GravityCompliance;
 use crate::joint_law::JointTerms;
-use crate::screen::DataChecks;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::screen::DataChecks;
 use crate::{CalibError, MeasurementSet};
 
 /// The iterative solver of the identification.
@@ -217,7 +217,9 @@ impl CalibrationOptions {
         if self.joint_terms.law.is_some() && self.gravity.is_none() {
             return Err(CalibError::InvalidOption {
                 name: "joint_terms",
-                reason: "the non-linear joint stiffness law needs the elasto-geometric model (gravity)".into(),
+                reason:
+                    "the non-linear joint stiffness law needs the elasto-geometric model (gravity)"
+                        .into(),
             });
         }
         if !(self.rank_tolerance > 0.0 && self.rank_tolerance < 1.0) {
@@ -476,14 +478,14 @@ impl Calibration {
                 if not.is_empty() { "none".to_string() } else { not.join(", ") }
             ));
             if self.joint_terms.law.is_some() {
-                for (prefix, what) in [
-                    ("hardening_", "hardening"),
-                    ("lost_motion_", "lost motion"),
-                ] {
+                for (prefix, what) in [("hardening_", "hardening"), ("lost_motion_", "lost motion")]
+                {
                     let identified: Vec<&str> = self
                         .unknowns
                         .iter()
-                        .filter(|u| u.name.starts_with(prefix) && u.status == UnknownStatus::Identified)
+                        .filter(|u| {
+                            u.name.starts_with(prefix) && u.status == UnknownStatus::Identified
+                        })
                         .map(|u| u.name.as_str())
                         .collect();
                     notes.push(format!(
@@ -944,7 +946,7 @@ pub fn calibrate(
             let beyond: Vec<usize> = (joint_start..n)
                 .filter(|&j| {
                     !frozen[j]
-                        && report.standard_errors[j].is_none_or(|se| !(se <= limits[j]))
+                        && report.standard_errors[j].is_none_or(|se| se.is_nan() || se > limits[j])
                 })
                 .collect();
             if beyond.is_empty() {
@@ -981,15 +983,15 @@ pub fn calibrate(
         vec![None; n]
     } else {
         SpreadInputs {
-        model,
-        set,
-        actuated_ranges: &actuated_ranges,
-        options,
-        use_orientation,
-        frames: (x_meas_base0, x_tcp_target0),
-        context: &context,
-    }
-    .ratios(&reduced_start, &x_start, &identified)?
+            model,
+            set,
+            actuated_ranges: &actuated_ranges,
+            options,
+            use_orientation,
+            frames: (x_meas_base0, x_tcp_target0),
+            context: &context,
+        }
+        .ratios(&reduced_start, &x_start, &identified)?
     };
     let unknowns: Vec<UnknownEstimate> = (0..n)
         .map(|j| {

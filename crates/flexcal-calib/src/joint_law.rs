@@ -109,7 +109,12 @@ impl JointTerms {
         let mut names = Vec::new();
         if self.law.is_some() {
             for prefix in ["hardening_", "lost_motion_"] {
-                names.extend(model.actuated_names().iter().map(|n| format!("{prefix}{n}")));
+                names.extend(
+                    model
+                        .actuated_names()
+                        .iter()
+                        .map(|n| format!("{prefix}{n}")),
+                );
             }
         }
         if self.cyclic {
@@ -147,12 +152,18 @@ pub const PERIOD_COVERAGE: f64 = 0.9;
 /// joint whose coordinates in `set` do not cover [`PERIOD_COVERAGE`] of
 /// the harmonic's period (a full turn for the first harmonic, half a turn
 /// for the second).
-pub fn partial_period_mask(model: &Model, set: &crate::MeasurementSet, names: &[String]) -> Vec<bool> {
+pub fn partial_period_mask(
+    model: &Model,
+    set: &crate::MeasurementSet,
+    names: &[String],
+) -> Vec<bool> {
     let range = |i: usize| {
         let (lo, hi) = set
             .measurements()
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| (a.min(m.q[i]), b.max(m.q[i])));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
+                (a.min(m.q[i]), b.max(m.q[i]))
+            });
         hi - lo
     };
     let turn = 2.0 * std::f64::consts::PI;
@@ -163,10 +174,17 @@ pub fn partial_period_mask(model: &Model, set: &crate::MeasurementSet, names: &[
                 return false;
             };
             model.actuated_names().iter().enumerate().any(|(i, joint)| {
-                let Some(suffix) = rest.strip_prefix(joint.as_str()).and_then(|r| r.strip_prefix('_')) else {
+                let Some(suffix) = rest
+                    .strip_prefix(joint.as_str())
+                    .and_then(|r| r.strip_prefix('_'))
+                else {
                     return false;
                 };
-                let period = if suffix.ends_with('1') { turn } else { turn / 2.0 };
+                let period = if suffix.ends_with('1') {
+                    turn
+                } else {
+                    turn / 2.0
+                };
                 CYCLIC_SUFFIXES.contains(&suffix) && range(i) < PERIOD_COVERAGE * period
             })
         })
@@ -253,7 +271,10 @@ mod tests {
             let d = joint_deflection(tau, c, eta, 0.0, 5.0);
             let e = d.deflection;
             let spring = (e / c) * (1.0 + eta * e.abs());
-            assert!((spring - tau).abs() <= 1e-9 * tau.abs(), "{spring} vs {tau}");
+            assert!(
+                (spring - tau).abs() <= 1e-9 * tau.abs(),
+                "{spring} vs {tau}"
+            );
             let mut newton = c * tau;
             for _ in 0..50 {
                 let g = (newton / c) * (1.0 + eta * newton.abs()) - tau;
@@ -289,13 +310,33 @@ mod tests {
                 );
             };
             let h = 1e-4 * tau.abs().max(1.0);
-            check(d.by_torque, f(tau + h, c, eta, beta), f(tau - h, c, eta, beta), h);
+            check(
+                d.by_torque,
+                f(tau + h, c, eta, beta),
+                f(tau - h, c, eta, beta),
+                h,
+            );
             let h = 1e-4 * c;
-            check(d.by_compliance, f(tau, c + h, eta, beta), f(tau, c - h, eta, beta), h);
+            check(
+                d.by_compliance,
+                f(tau, c + h, eta, beta),
+                f(tau, c - h, eta, beta),
+                h,
+            );
             let h = 1e-3 * eta.abs().max(10.0);
-            check(d.by_hardening, f(tau, c, eta + h, beta), f(tau, c, eta - h, beta), h);
+            check(
+                d.by_hardening,
+                f(tau, c, eta + h, beta),
+                f(tau, c, eta - h, beta),
+                h,
+            );
             let h = 1e-6;
-            check(d.by_lost_motion, f(tau, c, eta, beta + h), f(tau, c, eta, beta - h), h);
+            check(
+                d.by_lost_motion,
+                f(tau, c, eta, beta + h),
+                f(tau, c, eta, beta - h),
+                h,
+            );
         }
     }
 
@@ -303,7 +344,10 @@ mod tests {
     fn zero_law_is_the_linear_spring_and_zero_load_no_deflection() {
         let d = joint_deflection(200.0, 10e-6, 0.0, 0.0, 5.0);
         assert!((d.deflection - 2e-3).abs() < 1e-15);
-        assert_eq!(joint_deflection(0.0, 10e-6, 900.0, 3e-4, 5.0).deflection, 0.0);
+        assert_eq!(
+            joint_deflection(0.0, 10e-6, 900.0, 3e-4, 5.0).deflection,
+            0.0
+        );
     }
 
     #[test]
@@ -314,6 +358,9 @@ mod tests {
         for (a, e) in b.iter().zip(expected) {
             assert!((a - e).abs() < 1e-15);
         }
-        assert!((cyclic_error(q, &[1.0, 0.0, 0.0, 2.0]) - (q.sin() + 2.0 * (2.0 * q).cos())).abs() < 1e-15);
+        assert!(
+            (cyclic_error(q, &[1.0, 0.0, 0.0, 2.0]) - (q.sin() + 2.0 * (2.0 * q).cos())).abs()
+                < 1e-15
+        );
     }
 }

@@ -207,18 +207,18 @@ pub use identify::{
     ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,
     Weighting, calibrate, combination_check,
 };
+pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
+pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{CalibrationReportJson, ResidualModelJson};
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
 };
+pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
     CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectionMethod, SelectionOptions,
     SelectionReport, TermGroup, calibrate_selected, default_method, select_model,
 };
-pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
-pub use metrics::{ErrorStatistics, PoseError, error_statistics};
-pub use joint_law::{JointLaw, JointTerms};
 pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};

@@ -4,8 +4,8 @@ use serde::Serialize;
 
 use crate::CalibError;
 use crate::identify::{Calibration, UnknownStatus};
-use crate::screen::DataChecks;
 use crate::metrics::ErrorStatistics;
+use crate::screen::DataChecks;
 use crate::validate::ValidationReport;
 
 /// Error figures in mm and deg.

@@ -13,8 +13,8 @@ use flexcal_kinematics::Model;
 use nalgebra::Vector3;
 
 use crate::identify::Calibration;
-use crate::screen::DataChecks;
 use crate::metrics::error_statistics;
+use crate::screen::DataChecks;
 use crate::validate::ValidationReport;
 use crate::{CalibError, Measurement, MeasurementSet};
 

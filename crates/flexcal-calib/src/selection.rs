@@ -233,7 +233,9 @@ impl SelectionReport {
                 },
                 self.fold_sizes
             ),
-            SelectionMethod::Bic => "Model selection by BIC, backward over groups of unknowns:".into(),
+            SelectionMethod::Bic => {
+                "Model selection by BIC, backward over groups of unknowns:".into()
+            }
             SelectionMethod::None => "No model selection.".into(),
         }];
         for c in &self.candidates {
@@ -246,7 +248,11 @@ impl SelectionReport {
                 (None, None, Some(b)) => format!("BIC {b:.1}"),
                 _ => String::new(),
             };
-            lines.push(format!("  {:<48} {score} ({:.0} identified)", c.label(), c.identified));
+            lines.push(format!(
+                "  {:<48} {score} ({:.0} identified)",
+                c.label(),
+                c.identified
+            ));
         }
         lines.extend(self.reasons.iter().map(|r| format!("  {r}")));
         let chosen = CandidateScore {
@@ -262,6 +268,10 @@ impl SelectionReport {
         lines
     }
 }
+
+/// A candidate's score and its per-fold means (cross-validation; empty for
+/// BIC).
+type Score = (f64, Vec<f64>);
 
 /// The options of the candidate with `groups` on, from `base` (whose
 /// `gravity` and `joint_terms` say what is available).
@@ -383,9 +393,8 @@ fn fold_assignment(
 /// too large to leave a training set.
 fn balanced_kmeans(points: &[Vec<f64>], k: usize, seed: u64) -> Vec<usize> {
     let n = points.len();
-    let distance = |a: &[f64], b: &[f64]| -> f64 {
-        a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
-    };
+    let distance =
+        |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum() };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut centres: Vec<Vec<f64>> = vec![points[rng.random_range(0..n)].clone()];
     while centres.len() < k {
@@ -471,7 +480,10 @@ fn balanced_kmeans(points: &[Vec<f64>], k: usize, seed: u64) -> Vec<usize> {
 }
 
 /// The subset of `set` whose poses have `keep(k)`.
-fn subset(set: &MeasurementSet, keep: impl Fn(usize) -> bool) -> Result<MeasurementSet, CalibError> {
+fn subset(
+    set: &MeasurementSet,
+    keep: impl Fn(usize) -> bool,
+) -> Result<MeasurementSet, CalibError> {
     let indices: Vec<usize> = (0..set.len()).filter(|&k| keep(k)).collect();
     set.subset(&indices)
 }
@@ -529,7 +541,10 @@ fn bic(calibration: &Calibration) -> f64 {
         .iter()
         .filter(|u| u.status == UnknownStatus::Identified)
         .count() as f64;
-    n * (2.0 * calibration.solve.cost / n).max(f64::MIN_POSITIVE).ln() + p * n.ln()
+    n * (2.0 * calibration.solve.cost / n)
+        .max(f64::MIN_POSITIVE)
+        .ln()
+        + p * n.ln()
 }
 
 /// Chooses from `set` alone which groups of unknowns to identify (module
@@ -561,7 +576,9 @@ pub fn select_model(
     };
     if selection.method == SelectionMethod::None {
         report.chosen = groups.clone();
-        report.reasons.push("no selection: every group identified".into());
+        report
+            .reasons
+            .push("no selection: every group identified".into());
         return Ok((report, candidate_options(model, base, &groups)));
     }
     let cv = selection.method == SelectionMethod::CrossValidation;
@@ -577,7 +594,13 @@ pub fn select_model(
                 ),
             });
         }
-        let assignment = fold_assignment(model, set, selection.folds, selection.scheme, selection.seed);
+        let assignment = fold_assignment(
+            model,
+            set,
+            selection.folds,
+            selection.scheme,
+            selection.seed,
+        );
         for f in 0..selection.folds {
             let train = subset(set, |k| assignment[k] != f)?;
             let held_out = subset(set, |k| assignment[k] == f)?;
@@ -586,9 +609,7 @@ pub fn select_model(
         }
     }
     // Score of a candidate: (score, uncertainty of differences, per-pose errors).
-    let score = |chosen: &[TermGroup],
-                     report: &mut SelectionReport|
-     -> Option<(f64, Vec<f64>)> {
+    let score = |chosen: &[TermGroup], report: &mut SelectionReport| -> Option<Score> {
         let mut sorted = chosen.to_vec();
         sorted.sort();
         let options = candidate_options(model, base, &sorted);
@@ -606,7 +627,8 @@ pub fn select_model(
                 let k = fold_means.len() as f64;
                 let mean = per_pose.iter().sum::<f64>() / per_pose.len().max(1) as f64;
                 let fm = fold_means.iter().sum::<f64>() / k;
-                let sd = (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
+                let sd =
+                    (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
                 candidate.cv_mean_error_mm = Some(mean * 1e3);
                 candidate.cv_standard_error_mm = Some(sd / k.sqrt() * 1e3);
                 candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
@@ -644,7 +666,7 @@ pub fn select_model(
     loop {
         // The removal that leaves the best score (the law goes with the
         // compliances it modifies).
-        let mut best: Option<(TermGroup, Vec<TermGroup>, (f64, Vec<f64>))> = None;
+        let mut best: Option<(TermGroup, Vec<TermGroup>, Score)> = None;
         for &g in &chosen {
             let trial: Vec<TermGroup> = chosen
                 .iter()
@@ -728,7 +750,10 @@ mod tests {
         let points: Vec<Vec<f64>> = (0..103)
             .map(|i| {
                 let centre = (i % 3) as f64 * 5.0;
-                vec![centre + rng.random_range(0.0..1.0), rng.random_range(0.0..1.0)]
+                vec![
+                    centre + rng.random_range(0.0..1.0),
+                    rng.random_range(0.0..1.0),
+                ]
             })
             .collect();
         let a = balanced_kmeans(&points, 5, 1);

@@ -9,8 +9,8 @@ use crate::error_model::{GeometricErrorModel, pose_errors, register_measurement_
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
 use crate::joint_law::JointTerms;
-use crate::screen::DataChecks;
 pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::screen::DataChecks;
 use crate::{CalibError, MeasurementSet};
 
 /// How the measurement frame is obtained when errors are evaluated.

@@ -16,6 +16,7 @@ use nalgebra::{Isometry3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use std::f64::consts::PI;
 
 mod common;
 
@@ -71,6 +72,7 @@ fn spring_deflection(tau: f64, c: f64, eta: f64) -> f64 {
     e
 }
 
+#[allow(clippy::too_many_arguments)]
 fn simulate(
     model: &Model,
     gravity: &GravityCompliance,
@@ -104,11 +106,18 @@ fn simulate(
             // Joints 1 and 4 over a full turn: cyclic errors are identified
             // only over their period.
             let mut q = common::ur10_configuration(&mut rng);
-            q[0] = rng.random_range(-3.14..3.14);
-            q[3] = rng.random_range(-3.14..3.14);
+            q[0] = rng.random_range(-PI..PI);
+            q[3] = rng.random_range(-PI..PI);
             let mut tau = vec![0.0; 6];
-            actuated_forces_into(model, &mut data, &q, model.nominal_params(), &loads, &mut tau)
-                .unwrap();
+            actuated_forces_into(
+                model,
+                &mut data,
+                &q,
+                model.nominal_params(),
+                &loads,
+                &mut tau,
+            )
+            .unwrap();
             let deflected: Vec<f64> = (0..6)
                 .map(|i| {
                     let [a1, b1, a2, b2] = joints.cyclic[i];
@@ -140,7 +149,16 @@ fn joint_term_columns_match_central_differences() {
     let model = ur10();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
     let (frame, target) = common::generic_frame_and_target();
-    let set = simulate(&model, &gravity, model.nominal_params(), &joints(), &frame, 6, 0.0, 2);
+    let set = simulate(
+        &model,
+        &gravity,
+        model.nominal_params(),
+        &joints(),
+        &frame,
+        6,
+        0.0,
+        2,
+    );
     let measurements: Vec<Measurement> = set
         .measurements()
         .iter()
@@ -193,7 +211,11 @@ fn joint_term_columns_match_central_differences() {
         &|column, _| 1e-5 * column.iter().fold(1e-12, |a: f64, v| a.max(v.abs())) + 1e-9,
     );
     // The new columns are not trivially zero.
-    for name in ["hardening_theta2", "lost_motion_theta2", "cyclic_theta4_cos2"] {
+    for name in [
+        "hardening_theta2",
+        "lost_motion_theta2",
+        "cyclic_theta4_cos2",
+    ] {
         let j = problem.names().iter().position(|n| n == name).unwrap();
         assert!(
             (0..jac.nrows()).any(|i| jac[(i, j)].abs() > 1e-9),
@@ -207,7 +229,16 @@ fn the_law_needs_gravity_and_bad_widths_are_named() {
     let model = ur10();
     let (frame, _) = common::generic_frame_and_target();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
-    let set = simulate(&model, &gravity, model.nominal_params(), &joints(), &frame, 40, 0.0, 3);
+    let set = simulate(
+        &model,
+        &gravity,
+        model.nominal_params(),
+        &joints(),
+        &frame,
+        40,
+        0.0,
+        3,
+    );
     let mut options = CalibrationOptions::for_model(&model);
     options.joint_terms.law = Some(JointLaw::default());
     let error = calibrate(&model, &set, &options).unwrap_err().to_string();
@@ -301,7 +332,9 @@ fn identifies_a_hardening_joint_lost_motion_and_cyclic_errors() {
         })
         .collect();
     let mut checked = 0;
-    for (name, true_combination, value, se) in flexcal_calib::combination_check(&rich, &truth_vector) {
+    for (name, true_combination, value, se) in
+        flexcal_calib::combination_check(&rich, &truth_vector)
+    {
         let joint_term = ["compliance_", "hardening_", "lost_motion_", "cyclic_"]
             .iter()
             .any(|p| name.starts_with(p));
@@ -391,9 +424,15 @@ fn selection_keeps_the_law_of_a_hardening_joint_and_rejects_absent_terms() {
         for line in report.lines() {
             eprintln!("{line}");
         }
-        assert!(report.chosen.contains(&TermGroup::Compliances), "{method:?}");
+        assert!(
+            report.chosen.contains(&TermGroup::Compliances),
+            "{method:?}"
+        );
         assert!(report.chosen.contains(&TermGroup::JointLaw), "{method:?}");
-        assert!(!report.chosen.contains(&TermGroup::CyclicErrors), "{method:?}");
+        assert!(
+            !report.chosen.contains(&TermGroup::CyclicErrors),
+            "{method:?}"
+        );
         // Every candidate scored is in the report, the chosen one among them.
         assert!(report.candidates.iter().any(|c| c.groups == report.chosen));
         let calibration = calibrate(&model, &train, &chosen).unwrap();
@@ -453,8 +492,11 @@ fn predicted_95_percent_bounds_cover_about_95_percent_of_new_poses() {
     assert!((0.92..=0.98).contains(&coverage), "{coverage}");
     // The scatter is the noise, per axis.
     assert!((map.residual_scatter_mm / (noise * 1e3) - 1.0).abs() < 0.1);
-    let configurations: Vec<Vec<f64>> =
-        validation.measurements().iter().map(|m| m.q.clone()).collect();
+    let configurations: Vec<Vec<f64>> = validation
+        .measurements()
+        .iter()
+        .map(|m| m.q.clone())
+        .collect();
     let grid = calibration
         .predicted_accuracy(&model, &configurations, None)
         .unwrap();

@@ -130,7 +130,11 @@ fn flexcal_calib_has_no_module_cycle() {
     let mut done = BTreeSet::new();
     for module in &modules {
         let cycle = visit(module, &edges, &mut Vec::new(), &mut done);
-        assert!(cycle.is_none(), "module cycle: {}", cycle.unwrap().join(" -> "));
+        assert!(
+            cycle.is_none(),
+            "module cycle: {}",
+            cycle.unwrap().join(" -> ")
+        );
     }
     // The check sees the dependencies it should.
     assert!(edges["validate"].contains("identify"), "{edges:?}");

@@ -315,7 +315,10 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let (calibration, selected, options) =
         flexcal_calib::calibrate_selected(&model, &data, &options, &selection)
             .context("identification")?;
-    selected.iter().flat_map(|s| s.lines()).for_each(|l| println!("{l}"));
+    selected
+        .iter()
+        .flat_map(|s| s.lines())
+        .for_each(|l| println!("{l}"));
     print_identification(&calibration);
     let split = args
         .split_check
@@ -333,14 +336,22 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     print_before_after(&calibration, validation.as_ref());
     if let Some(set) = &validation_set {
         let map = calibration.accuracy_coverage(&model, set, split.as_ref())?;
-        println!("predicted 95 % bounds (mean {:.3} mm) cover {:.1} % of the validation poses", map.mean_bound_95_mm, 100.0 * map.coverage.unwrap_or(f64::NAN));
+        println!(
+            "predicted 95 % bounds (mean {:.3} mm) cover {:.1} % of the validation poses",
+            map.mean_bound_95_mm,
+            100.0 * map.coverage.unwrap_or(f64::NAN)
+        );
     }
     if let Some(grid) = &args.accuracy_map {
         let configurations = flexcal_calib::read_configurations(grid)?;
         let map = calibration.predicted_accuracy(&model, &configurations, split.as_ref())?;
         let path = grid.with_extension("accuracy.csv");
         map.write_csv(&path)?;
-        println!("predicted accuracy at {} poses written to {}", map.poses.len(), path.display());
+        println!(
+            "predicted accuracy at {} poses written to {}",
+            map.poses.len(),
+            path.display()
+        );
     }
     let cross = match (&validation_set, args.cross_check) {
         (Some(set), true) => Some(

@@ -421,8 +421,14 @@ fn elasto_geometric_calibration_end_to_end() {
     let out = calibrate_ur10(&["--model", "elasto-geometric", "--masses", &masses]);
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
-    assert!(stdout.contains("Model selection by 5-fold cross-validation"), "{stdout}");
-    assert!(stdout.contains("chosen:") && !stdout.contains("compliance_theta2"), "{stdout}");
+    assert!(
+        stdout.contains("Model selection by 5-fold cross-validation"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("chosen:") && !stdout.contains("compliance_theta2"),
+        "{stdout}"
+    );
     let out = calibrate_ur10(&[
         "--validate",
         &validate,
