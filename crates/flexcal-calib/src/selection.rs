@@ -609,9 +609,15 @@ pub fn select_model(
         }
     }
     // Score of a candidate: (score, uncertainty of differences, per-pose errors).
-    let score = |chosen: &[TermGroup], report: &mut SelectionReport| -> Option<Score> {
+    // Each set of groups is scored once (backward steps reach some twice).
+    let mut scored: Vec<(Vec<TermGroup>, Option<Score>)> = Vec::new();
+    let mut score = |chosen: &[TermGroup], report: &mut SelectionReport| -> Option<Score> {
         let mut sorted = chosen.to_vec();
         sorted.sort();
+        if let Some((_, known)) = scored.iter().find(|(g, _)| *g == sorted) {
+            return known.clone();
+        }
+        let key = sorted.clone();
         let options = candidate_options(model, base, &sorted);
         let mut candidate = CandidateScore {
             groups: sorted,
@@ -651,6 +657,7 @@ pub fn select_model(
             }
         };
         report.candidates.push(candidate);
+        scored.push((key, out.clone()));
         out
     };
     let mut chosen: Vec<TermGroup> = groups.clone();
