@@ -59,6 +59,19 @@ pub enum UnknownKind {
 }
 
 impl UnknownKind {
+    /// The SI unit of this kind (`m`, `rad`, `rad/N.m`, `kg`, `kg.m`,
+    /// `1/rad`), in which the values are held.
+    pub fn si_unit(self) -> &'static str {
+        match self {
+            UnknownKind::Length => "m",
+            UnknownKind::Angle => "rad",
+            UnknownKind::Compliance => "rad/N.m",
+            UnknownKind::Mass => "kg",
+            UnknownKind::FirstMoment => "kg.m",
+            UnknownKind::Hardening => "1/rad",
+        }
+    }
+
     /// The unit in which files and reports show this kind, and the factor
     /// from SI to it: mm, deg, urad/N.m (um/N for linear joints), kg, kg.m.
     pub fn display_unit(self) -> (&'static str, f64) {
