@@ -209,6 +209,7 @@ pub mod screen;
 pub mod select;
 pub mod selection;
 pub mod split;
+pub mod temperature;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy};
