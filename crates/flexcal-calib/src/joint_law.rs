@@ -50,8 +50,8 @@
 //! curve that geometry imitates, and what it predicts for the rest of the
 //! turn has no data behind it (on the IPA UR10 series, whose joints each
 //! span about 2.2-4.4 rad in B, such terms passed cross-validation and
-//! then missed the other series by millimetres). They are selected or rejected by the data
-//! ([`crate::selection`]).
+//! then missed the other series by millimetres). They are selected or
+//! rejected by the data (model selection, `calibrate --select`).
 
 use flexcal_kinematics::{ActuatedKind, Model};
 use serde::{Deserialize, Serialize};
