@@ -1,13 +1,18 @@
 //! Full iterative identification of the UR10 from the 2 773 poses of IPA
 //! series C: geometric (goal <= 50 ms) and elasto-geometric (joint
-//! compliances under gravity, goal <= 0.5 s), and reading that file (1 MB,
+//! compliances under gravity, goal <= 0.5 s; the richer model with the
+//! non-linear joint law and cyclic errors, goal <= 0.5 s), model selection
+//! by 5-fold cross-validation (goal <= 5 s), and reading that file (1 MB,
 //! CRLF line ends: the line numbers of the rows are counted once through
 //! the text). Skipped with a message when the data is absent.
 
 use std::path::PathBuf;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flexcal_calib::{CalibrationOptions, GravityCompliance, MeasurementSet, Weighting, calibrate};
+use flexcal_calib::{
+    CalibrationOptions, GravityCompliance, JointLaw, JointTerms, MeasurementSet, SelectionOptions,
+    Weighting, calibrate, select_model,
+};
 use flexcal_kinematics::RobotDescription;
 
 fn series_c() -> Option<PathBuf> {
@@ -37,6 +42,20 @@ fn bench(c: &mut Criterion) {
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model).expect("ur10 mass table"));
     group.bench_function("ur10_series_c_2773_poses_elasto_geometric", |b| {
         b.iter(|| calibrate(&model, &set, &elastic).expect("calibration succeeds"))
+    });
+    let mut richer = elastic.clone();
+    richer.joint_terms = JointTerms {
+        law: Some(JointLaw::default()),
+        cyclic: true,
+    };
+    group.bench_function("ur10_series_c_2773_poses_joint_law_and_cyclic", |b| {
+        b.iter(|| calibrate(&model, &set, &richer).expect("calibration succeeds"))
+    });
+    group.bench_function("ur10_series_c_2773_poses_select_cv", |b| {
+        b.iter(|| {
+            select_model(&model, &set, &richer, &SelectionOptions::default())
+                .expect("selection succeeds")
+        })
     });
     group.finish();
     let mut group = c.benchmark_group("read");

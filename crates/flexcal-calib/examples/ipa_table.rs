@@ -7,15 +7,24 @@
 //! checks), with the probe's measured orientations in the fits, and with
 //! both.
 //!
+//! Last, the acceptance table of model selection (positions only, all
+//! poses: the dataset's protocol): the elasto-geometric model whose groups
+//! of unknowns cross-validation chose on the training series alone, against
+//! the full geometric model and the dataset README's `dh` and `dh+g`; the
+//! share of validation poses within the predicted 95 % bounds; and the
+//! joint compliances each series identifies with the non-linear joint law.
+//! `ipa_table selected` prints that part only.
+//!
 //! `cargo run --release -p flexcal-calib --example ipa_table`
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use flexcal_calib::{
-    Calibration, CalibrationOptions, ErrorStatistics, GravityCompliance, MeasurementSet, Weighting,
-    calibrate,
+    Calibration, CalibrationOptions, ErrorStatistics, GravityCompliance, JointLaw, MeasurementSet,
+    SelectionOptions, SplitCheck, UnknownStatus, Weighting, calibrate, calibrate_selected,
 };
+use flexcal_kinematics::Model;
 use flexcal_kinematics::RobotDescription;
 
 fn cell(s: &ErrorStatistics) -> String {
@@ -48,6 +57,145 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     geometric.weighting = Weighting::Uniform;
     let mut elastic = geometric.clone();
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
+    let selected_only = std::env::args().nth(1).as_deref() == Some("selected");
+    if !selected_only {
+        earlier_tables(&model, &sets, geometric.clone(), elastic.clone())?;
+    }
+    selected_table(&model, &sets, &geometric, &elastic)
+}
+
+/// The dataset README's baselines (`baseline.py`), validation mean / max
+/// (mm): `dh` and `dh+g`, for B -> C, B -> D, C -> B, C -> D.
+const BASELINES: [(&str, &str, [f64; 4]); 4] = [
+    ("B", "C", [0.570, 1.91, 0.512, 1.59]),
+    ("B", "D", [0.499, 1.22, 0.711, 1.83]),
+    ("C", "B", [0.842, 2.09, 0.478, 2.13]),
+    ("C", "D", [0.704, 2.21, 0.605, 1.65]),
+];
+
+/// Model selection on the training series, positions only, all poses.
+fn selected_table(
+    model: &Model,
+    sets: &[(&str, MeasurementSet)],
+    geometric: &CalibrationOptions,
+    elastic: &CalibrationOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let set = |name: &str| &sets.iter().find(|(n, _)| *n == name).expect("series").1;
+    // The richest model allowed: compliances, the non-linear law, cyclic errors.
+    let mut richest = elastic.clone();
+    richest.joint_terms.law = Some(JointLaw::default());
+    let selection = SelectionOptions::default();
+    println!(
+        "\nModel selection by cross-validation on the training series (positions only, all poses):"
+    );
+    println!(
+        "| pair | geometric | elasto-geometric, selected | dh | dh+g | within 95 % bound | chosen |\n|---|---|---|---|---|---|---|"
+    );
+    for train_name in ["B", "C"] {
+        let train = set(train_name);
+        let mut every_term = richest.clone();
+        every_term.joint_terms.cyclic = true;
+        let start = Instant::now();
+        let every = calibrate(model, train, &every_term)?;
+        eprintln!(
+            "{train_name}: identification with the law and cyclic errors {:.3} s ({} iterations in all, {:?})",
+            start.elapsed().as_secs_f64(),
+            every.cost_history.len(),
+            every.solve.termination
+        );
+        if std::env::var_os("FLEXCAL_TIMING_ONLY").is_some() {
+            continue;
+        }
+        let start = Instant::now();
+        let (selected, report, chosen) = calibrate_selected(model, train, &richest, &selection)?;
+        eprintln!(
+            "{train_name}: selection and identification {:.2} s",
+            start.elapsed().as_secs_f64()
+        );
+        if let Some(report) = &report {
+            for line in report.lines() {
+                eprintln!("{line}");
+            }
+        }
+        let g = calibrate(model, train, geometric)?;
+        let split = SplitCheck::new(model, train, &chosen, &selected)?;
+        let label = report.as_ref().map_or(String::new(), |r| {
+            r.chosen
+                .iter()
+                .map(|g| g.label())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        });
+        for (t, v, [dh, dh_max, dhg, dhg_max]) in BASELINES {
+            if t != train_name {
+                continue;
+            }
+            let validate = set(v);
+            let g_report = g.validate(model, validate, false)?;
+            let s_report = selected.validate(model, validate, false)?;
+            let map = selected.accuracy_coverage(model, validate, Some(&split))?;
+            println!(
+                "| {t} -> {v} | {:.3} / {:.2} | {:.3} / {:.2} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {:.1} % (mean bound {:.2} mm) | {label} |",
+                g_report.after.position_mean * 1e3,
+                g_report.after.position_max * 1e3,
+                s_report.after.position_mean * 1e3,
+                s_report.after.position_max * 1e3,
+                100.0 * map.coverage.unwrap_or(f64::NAN),
+                map.mean_bound_95_mm
+            );
+        }
+    }
+    println!(
+        "\nJoint compliances (urad/N.m) +/- standard error / split error, per series; linear springs, then the non-linear law:"
+    );
+    println!(
+        "| series | model | compliance_theta2 | compliance_theta3 | hardening_theta2 (1/mrad) | lost_motion_theta2 (mrad) |\n|---|---|---|---|---|---|"
+    );
+    for name in ["B", "C", "D"] {
+        for (label, options) in [("linear", elastic), ("law", &richest)] {
+            let mut options = options.clone();
+            options.joint_terms.cyclic = false;
+            let c = calibrate(model, set(name), &options)?;
+            let split = SplitCheck::new(model, set(name), &options, &c)?;
+            let cell = |unknown: &str, scale: f64| {
+                let Some(u) = c.unknowns.iter().find(|u| u.name == unknown) else {
+                    return "-".to_string();
+                };
+                if u.status != UnknownStatus::Identified {
+                    return format!("{:.2} ({:?})", u.value * scale, u.status);
+                }
+                let split_error = split
+                    .unknowns
+                    .iter()
+                    .find(|s| s.name == unknown)
+                    .and_then(|s| s.split_error)
+                    .map_or("-".into(), |e| format!("{e:.2}"));
+                format!(
+                    "{:.2} +/- {:.2} / {split_error}",
+                    u.value * scale,
+                    u.standard_error.unwrap_or(f64::NAN) * scale
+                )
+            };
+            println!(
+                "| {name} | {label} | {} | {} | {} | {} |",
+                cell("compliance_theta2", 1e6),
+                cell("compliance_theta3", 1e6),
+                cell("hardening_theta2", 1e-3),
+                cell("lost_motion_theta2", 1e3)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The tables of the geometric and linear elasto-geometric models.
+fn earlier_tables(
+    model: &Model,
+    sets: &[(&str, MeasurementSet)],
+    geometric: CalibrationOptions,
+    elastic: CalibrationOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let sets = sets.to_vec();
     // One table row: nominal, geometric and elasto-geometric on `validate`.
     let row = |train_name: &str,
                validate_name: &str,
@@ -55,8 +203,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                e: &Calibration,
                validate: &MeasurementSet|
      -> Result<(), flexcal_calib::CalibError> {
-        let g_report = g.validate(&model, validate, false)?;
-        let e_report = e.validate(&model, validate, false)?;
+        let g_report = g.validate(model, validate, false)?;
+        let e_report = e.validate(model, validate, false)?;
         println!(
             "| {train_name} -> {validate_name} | {} | {} | {} |",
             cell(&g_report.before),
@@ -69,9 +217,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut faults = Vec::new();
     for (train_name, train) in &sets {
         let start = Instant::now();
-        let g = calibrate(&model, train, &geometric)?;
+        let g = calibrate(model, train, &geometric)?;
         let middle = Instant::now();
-        let e = calibrate(&model, train, &elastic)?;
+        let e = calibrate(model, train, &elastic)?;
         let end = Instant::now();
         for (validate_name, validate) in &sets {
             if validate_name == train_name {
@@ -129,8 +277,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     });
     println!("| train -> validate | nominal | geometric | elasto-geometric |\n|---|---|---|---|");
     for (t, (train_name, train)) in clean.iter().enumerate() {
-        let g = calibrate(&model, train, &geometric)?;
-        let e = calibrate(&model, train, &elastic)?;
+        let g = calibrate(model, train, &geometric)?;
+        let e = calibrate(model, train, &elastic)?;
         for (v, (validate_name, validate)) in clean.iter().enumerate() {
             if t == v || (faults[t].is_empty() && faults[v].is_empty()) {
                 continue;
@@ -161,14 +309,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "| train -> validate | geometric | elasto-geometric | deg, geometric / elasto-geometric |\n|---|---|---|---|"
         );
         for (train_name, train) in series {
-            let g = calibrate(&model, train, &geometric)?;
-            let e = calibrate(&model, train, &elastic)?;
+            let g = calibrate(model, train, &geometric)?;
+            let e = calibrate(model, train, &elastic)?;
             for (validate_name, validate) in series {
                 if validate_name == train_name {
                     continue;
                 }
-                let g_report = g.validate(&model, validate, false)?;
-                let e_report = e.validate(&model, validate, false)?;
+                let g_report = g.validate(model, validate, false)?;
+                let e_report = e.validate(model, validate, false)?;
                 println!(
                     "| {train_name} -> {validate_name} | {} | {} | {:.3} / {:.3} |",
                     cell(&g_report.after),

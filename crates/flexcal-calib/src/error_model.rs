@@ -16,6 +16,8 @@ use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
 use crate::gravity::{GravityCompliance, GravityTerms};
+use crate::joint_law::{JointTerms, cyclic_basis, cyclic_error, cyclic_joints, joint_deflection};
+use crate::metrics::PoseError;
 use crate::{CalibError, MeasurementSet};
 
 /// Names of the six unknowns of the measurement frame `x_meas_base`: a
@@ -52,9 +54,24 @@ pub enum UnknownKind {
     Mass,
     /// First moment of a mass, mass times centre (kg.m).
     FirstMoment,
+    /// Hardening of a joint spring (1/rad; [`crate::joint_law`]).
+    Hardening,
 }
 
 impl UnknownKind {
+    /// The SI unit of this kind (`m`, `rad`, `rad/N.m`, `kg`, `kg.m`,
+    /// `1/rad`), in which the values are held.
+    pub fn si_unit(self) -> &'static str {
+        match self {
+            UnknownKind::Length => "m",
+            UnknownKind::Angle => "rad",
+            UnknownKind::Compliance => "rad/N.m",
+            UnknownKind::Mass => "kg",
+            UnknownKind::FirstMoment => "kg.m",
+            UnknownKind::Hardening => "1/rad",
+        }
+    }
+
     /// The unit in which files and reports show this kind, and the factor
     /// from SI to it: mm, deg, urad/N.m (um/N for linear joints), kg, kg.m.
     pub fn display_unit(self) -> (&'static str, f64) {
@@ -64,6 +81,7 @@ impl UnknownKind {
             UnknownKind::Compliance => ("urad/N.m", 1e6),
             UnknownKind::Mass => ("kg", 1.0),
             UnknownKind::FirstMoment => ("kg.m", 1.0),
+            UnknownKind::Hardening => ("1/mrad", 1e-3),
         }
     }
 }
@@ -95,7 +113,40 @@ pub struct GeometricErrorModel<'a> {
     robot_columns: Cell<bool>,
     gravity: Option<(GravityTerms, Vec<f64>)>,
     joint_jacobian: RefCell<Matrix6xX<f64>>,
-    deflection: RefCell<(Vec<f64>, Vec<f64>)>,
+    deflection: RefCell<JointState>,
+    joint_terms: JointTerms,
+    cyclic_joints: Vec<usize>,
+}
+
+/// The actuated coordinates at which the robot is evaluated for one pose,
+/// and what their derivatives by the elastic and joint unknowns need.
+#[derive(Debug, Clone)]
+struct JointState {
+    /// `q + dq` (rad or m).
+    q: Vec<f64>,
+    /// Generalised gravity forces (N.m or N).
+    tau: Vec<f64>,
+    /// `d dq_i / d tau_i`.
+    by_torque: Vec<f64>,
+    /// `d dq_i / d c_i`.
+    by_compliance: Vec<f64>,
+    /// `d dq_i / d eta_i`.
+    by_hardening: Vec<f64>,
+    /// `d dq_i / d beta_i`.
+    by_lost_motion: Vec<f64>,
+}
+
+impl JointState {
+    fn new(n: usize) -> Self {
+        Self {
+            q: vec![0.0; n],
+            tau: vec![0.0; n],
+            by_torque: vec![0.0; n],
+            by_compliance: vec![0.0; n],
+            by_hardening: vec![0.0; n],
+            by_lost_motion: vec![0.0; n],
+        }
+    }
 }
 
 impl<'a> GeometricErrorModel<'a> {
@@ -143,10 +194,9 @@ impl<'a> GeometricErrorModel<'a> {
             robot_columns: Cell::new(true),
             gravity: None,
             joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
-            deflection: RefCell::new((
-                vec![0.0; model.n_actuated()],
-                vec![0.0; model.n_actuated()],
-            )),
+            deflection: RefCell::new(JointState::new(model.n_actuated())),
+            joint_terms: JointTerms::default(),
+            cyclic_joints: Vec::new(),
         })
     }
 
@@ -157,11 +207,57 @@ impl<'a> GeometricErrorModel<'a> {
     /// [`CalibError::InvalidOption`] for a mass on a missing frame or
     /// non-finite values, [`CalibError::Kinematics`] naming a pose.
     pub fn with_gravity(mut self, gravity: &GravityCompliance) -> Result<Self, CalibError> {
+        if self.joint_terms.any() {
+            return Err(CalibError::InvalidOption {
+                name: "joint_terms",
+                reason: "the gravity model goes before the joint terms".into(),
+            });
+        }
         let terms = GravityTerms::new(self.model, self.set, gravity)?;
         self.names
             .extend(GravityCompliance::unknown_names(self.model));
         self.gravity = Some((terms, gravity.initial_unknowns(self.model)));
         Ok(self)
+    }
+
+    /// Adds the joint terms of [`crate::joint_law`] (their unknowns appended
+    /// after all others, starting at zero: linear springs, no cyclic error).
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for the stiffness law without the
+    /// gravity model, or a lost-motion torque that is not `> 0`.
+    pub fn with_joint_terms(mut self, terms: &JointTerms) -> Result<Self, CalibError> {
+        if let Some(law) = &terms.law {
+            if self.gravity.is_none() {
+                return Err(CalibError::InvalidOption {
+                    name: "joint_law",
+                    reason: "the non-linear joint stiffness law needs the elasto-geometric model (gravity loading)".into(),
+                });
+            }
+            if !(law.lost_motion_torque.is_finite() && law.lost_motion_torque > 0.0) {
+                return Err(CalibError::InvalidOption {
+                    name: "lost_motion_torque",
+                    reason: format!("must be finite and > 0, found {}", law.lost_motion_torque),
+                });
+            }
+        }
+        self.names.extend(terms.unknown_names(self.model));
+        self.joint_terms = *terms;
+        self.cyclic_joints = if terms.cyclic {
+            cyclic_joints(self.model)
+        } else {
+            Vec::new()
+        };
+        Ok(self)
+    }
+
+    /// Index of the first unknown of the joint terms (the law's, then the
+    /// cyclic ones), when there are any.
+    pub fn joint_terms_offset(&self) -> Option<usize> {
+        let na = self.model.n_actuated();
+        self.joint_terms
+            .any()
+            .then(|| self.model.n_params() + 12 + if self.gravity.is_some() { na + 4 } else { 0 })
     }
 
     /// Index of the first elastic unknown (the compliances), when the model
@@ -171,19 +267,52 @@ impl<'a> GeometricErrorModel<'a> {
     }
 
     /// The actuated coordinates at which the robot is evaluated for pose `k`:
-    /// `q_k`, plus the gravity deflection `c_i tau_i` when elasto-geometric.
-    /// Writes them into `buffers.0`, the generalised gravity forces into
-    /// `buffers.1`.
-    fn deflect(&self, x: &[f64], k: usize, buffers: &mut (Vec<f64>, Vec<f64>)) {
+    /// `q_k`, plus the gravity deflection (`c_i tau_i`, or the non-linear
+    /// law of [`crate::joint_law`]) when elasto-geometric, plus the cyclic
+    /// errors when on; with the derivatives the Jacobian needs.
+    fn deflect(&self, x: &[f64], k: usize, state: &mut JointState) {
         let q = &self.set.measurements()[k].q;
-        let (deflected, tau) = buffers;
-        deflected.copy_from_slice(q);
+        state.q.copy_from_slice(q);
+        let na = self.model.n_actuated();
+        let joint_offset = self.joint_terms_offset();
         if let Some((terms, _)) = &self.gravity {
             let eo = self.model.n_params() + 12;
-            let na = self.model.n_actuated();
-            terms.forces(k, &x[eo + na..eo + na + 4], tau);
-            for i in 0..na {
-                deflected[i] += x[eo + i] * tau[i];
+            terms.forces(k, &x[eo + na..eo + na + 4], &mut state.tau);
+            match (&self.joint_terms.law, joint_offset) {
+                (Some(law), Some(lo)) => {
+                    for i in 0..na {
+                        let d = joint_deflection(
+                            state.tau[i],
+                            x[eo + i],
+                            x[lo + i],
+                            x[lo + na + i],
+                            law.lost_motion_torque,
+                        );
+                        state.q[i] += d.deflection;
+                        state.by_torque[i] = d.by_torque;
+                        state.by_compliance[i] = d.by_compliance;
+                        state.by_hardening[i] = d.by_hardening;
+                        state.by_lost_motion[i] = d.by_lost_motion;
+                    }
+                }
+                _ => {
+                    for i in 0..na {
+                        state.q[i] += x[eo + i] * state.tau[i];
+                        state.by_torque[i] = x[eo + i];
+                        state.by_compliance[i] = state.tau[i];
+                    }
+                }
+            }
+        }
+        if let (true, Some(lo)) = (self.joint_terms.cyclic, joint_offset) {
+            let co = lo
+                + if self.joint_terms.law.is_some() {
+                    2 * na
+                } else {
+                    0
+                };
+            for (s, &i) in self.cyclic_joints.iter().enumerate() {
+                state.q[i] += cyclic_error(q[i], &x[co + 4 * s..co + 4 * s + 4]);
             }
         }
     }
@@ -236,6 +365,15 @@ impl<'a> GeometricErrorModel<'a> {
             kinds.push(UnknownKind::Mass);
             kinds.extend([UnknownKind::FirstMoment; 3]);
         }
+        if self.joint_terms.law.is_some() {
+            let na = self.model.n_actuated();
+            kinds.extend(std::iter::repeat_n(UnknownKind::Hardening, na));
+            kinds.extend(std::iter::repeat_n(UnknownKind::Angle, na));
+        }
+        kinds.extend(std::iter::repeat_n(
+            UnknownKind::Angle,
+            4 * self.cyclic_joints.len(),
+        ));
         kinds
     }
     /// The measurements the model predicts.
@@ -254,6 +392,7 @@ impl<'a> GeometricErrorModel<'a> {
         if let Some((_, initial)) = &self.gravity {
             x.extend(initial);
         }
+        x.resize(self.names.len(), 0.0);
         x
     }
 
@@ -298,7 +437,7 @@ impl<'a> GeometricErrorModel<'a> {
         let xi = &x[..self.model.n_params()];
         let mut buffers = self.deflection.borrow_mut();
         self.deflect(x, k, &mut buffers);
-        let x_base_tcp = forward_pose(self.model, &mut self.data.borrow_mut(), &buffers.0, xi)
+        let x_base_tcp = forward_pose(self.model, &mut self.data.borrow_mut(), &buffers.q, xi)
             .map_err(|source| CalibError::Kinematics {
                 pose: k,
                 pose_id: m.label(k),
@@ -380,7 +519,21 @@ impl GeometricErrorModel<'_> {
         }
         let na = self.model.n_actuated();
         let eo = np + 12;
-        let n_elastic = if self.gravity.is_some() { na + 4 } else { 0 };
+        // Elastic and joint-term unknowns: every unknown after the target's.
+        let n_elastic = self.names.len() - eo;
+        let law_offset = self
+            .joint_terms
+            .law
+            .and_then(|_| self.joint_terms_offset())
+            .map(|o| o - eo);
+        let cyclic_offset = self.joint_terms_offset().map(|o| {
+            o - eo
+                + if self.joint_terms.law.is_some() {
+                    2 * na
+                } else {
+                    0
+                }
+        });
         // TCP twists of the elastic unknowns, one column each.
         let mut elastic = Matrix6xX::<f64>::zeros(n_elastic);
         let first = poses.start;
@@ -392,28 +545,53 @@ impl GeometricErrorModel<'_> {
                 source,
             };
             self.deflect(x, k, &mut buffers);
-            let q = &buffers.0;
+            let q = &buffers.q;
             let x_base_tcp = if robot_columns {
                 param_jacobian_into(self.model, &mut data, q, xi, &mut jac)
                     .map_err(kinematics_error)?
             } else {
                 forward_pose(self.model, &mut data, q, xi).map_err(kinematics_error)?
             };
-            if let (true, Some((terms, _))) = (robot_columns, &self.gravity) {
+            if robot_columns && n_elastic > 0 {
                 joint_jacobian_into(self.model, &mut data, q, xi, &mut jq)
                     .map_err(kinematics_error)?;
-                let tau = &buffers.1;
                 elastic.fill(0.0);
-                for i in 0..na {
-                    let column = jq.column(i);
-                    // dq_i = c_i tau_i(payload): by c_i, tau_i; by the payload,
-                    // c_i dtau_i/dpayload.
-                    elastic.column_mut(i).axpy(tau[i], &column, 0.0);
-                    let d = terms.payload_derivatives(k, i);
-                    for (p, dp) in d.iter().enumerate() {
+                if let Some((terms, _)) = &self.gravity {
+                    for i in 0..na {
+                        let column = jq.column(i);
+                        // dq_i = f(tau_i(payload); c_i, ...): by c_i, df/dc_i;
+                        // by the payload, df/dtau_i dtau_i/dpayload.
                         elastic
-                            .column_mut(na + p)
-                            .axpy(x[eo + i] * dp, &column, 1.0);
+                            .column_mut(i)
+                            .axpy(buffers.by_compliance[i], &column, 0.0);
+                        let d = terms.payload_derivatives(k, i);
+                        for (p, dp) in d.iter().enumerate() {
+                            elastic.column_mut(na + p).axpy(
+                                buffers.by_torque[i] * dp,
+                                &column,
+                                1.0,
+                            );
+                        }
+                        if let Some(lo) = law_offset {
+                            elastic
+                                .column_mut(lo + i)
+                                .axpy(buffers.by_hardening[i], &column, 0.0);
+                            elastic.column_mut(lo + na + i).axpy(
+                                buffers.by_lost_motion[i],
+                                &column,
+                                0.0,
+                            );
+                        }
+                    }
+                }
+                if let Some(co) = cyclic_offset {
+                    for (s, &i) in self.cyclic_joints.iter().enumerate() {
+                        let basis = cyclic_basis(m.q[i]);
+                        for (h, b) in basis.iter().enumerate() {
+                            elastic
+                                .column_mut(co + 4 * s + h)
+                                .axpy(*b, &jq.column(i), 0.0);
+                        }
                     }
                 }
             }
@@ -582,4 +760,36 @@ pub fn register_measurement_frame(
     let predicted = predicted_target_positions(model, set, xi, x_tcp_target)?;
     let measured: Vec<Vector3<f64>> = set.measurements().iter().map(|m| m.position).collect();
     crate::geometry::register_points(&measured, &predicted)
+}
+
+/// Per-pose errors of the error model `problem` at unknowns `x` (its frames
+/// included).
+///
+/// # Errors
+/// [`CalibError::Kinematics`] naming the pose.
+pub(crate) fn pose_errors(
+    problem: &GeometricErrorModel<'_>,
+    x: &[f64],
+) -> Result<Vec<PoseError>, CalibError> {
+    debug_assert_eq!(x.len(), problem.n_params());
+    problem
+        .measurements()
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let predicted = problem.predict(x, k)?;
+            let position_vector = m.position - predicted.translation.vector;
+            let orientation = if problem.rows_per_pose() == 6 {
+                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
+                Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
+            } else {
+                None
+            };
+            Ok(PoseError {
+                position: position_vector.norm(),
+                position_vector,
+                orientation,
+            })
+        })
+        .collect()
 }

@@ -12,11 +12,13 @@ use flexcal_optim::{
 use nalgebra::Isometry3;
 
 use crate::error_model::{
-    GeometricErrorModel, UnknownKind, register_measurement_frame, register_target_rotation,
+    GeometricErrorModel, UnknownKind, pose_errors, register_measurement_frame,
+    register_target_rotation,
 };
 use crate::gravity::GravityCompliance;
+use crate::joint_law::JointTerms;
+use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
-use crate::validate::{ErrorStatistics, PoseError, error_statistics, pose_errors};
 use crate::{CalibError, MeasurementSet};
 
 /// The iterative solver of the identification.
@@ -109,6 +111,19 @@ pub struct CalibrationOptions {
     pub max_standard_error_mass: f64,
     /// Same for the payload's first moment (kg.m; default 0.1; `> 0`).
     pub max_standard_error_first_moment: f64,
+    /// Same for the hardening of a joint spring (1/rad; default 1000: a
+    /// spring whose stiffness would be known only to within a doubling at
+    /// 0.5 mrad of deflection is left linear; `> 0`).
+    pub max_standard_error_hardening: f64,
+    /// Compute each identified unknown's spread ratio
+    /// ([`UnknownEstimate::spread_ratio`]; default true). Off, the ratios
+    /// are `None` and the identification is faster (model selection's
+    /// fold fits need no ratios).
+    pub spread_reference: bool,
+    /// Joint error terms beyond linear springs: the non-linear stiffness
+    /// law (needs `gravity`) and cyclic joint errors (default none; see
+    /// [`crate::joint_law`]).
+    pub joint_terms: JointTerms,
     /// Elasto-geometric model: joint compliances under gravity and the
     /// payload are identified with the geometry (default `None`: geometric).
     pub gravity: Option<GravityCompliance>,
@@ -144,6 +159,9 @@ impl Default for CalibrationOptions {
             max_standard_error_compliance: 10e-6,
             max_standard_error_mass: 1.0,
             max_standard_error_first_moment: 0.1,
+            max_standard_error_hardening: 1000.0,
+            joint_terms: JointTerms::default(),
+            spread_reference: true,
             gravity: None,
             require_full_rank: false,
             max_iterations: 100,
@@ -192,6 +210,18 @@ impl CalibrationOptions {
             "max_standard_error_first_moment",
             self.max_standard_error_first_moment,
         )?;
+        positive(
+            "max_standard_error_hardening",
+            self.max_standard_error_hardening,
+        )?;
+        if self.joint_terms.law.is_some() && self.gravity.is_none() {
+            return Err(CalibError::InvalidOption {
+                name: "joint_terms",
+                reason:
+                    "the non-linear joint stiffness law needs the elasto-geometric model (gravity)"
+                        .into(),
+            });
+        }
         if !(self.rank_tolerance > 0.0 && self.rank_tolerance < 1.0) {
             return Err(CalibError::InvalidOption {
                 name: "rank_tolerance",
@@ -301,6 +331,11 @@ pub struct Calibration {
     /// The gravity loading when the model is elasto-geometric, with the
     /// identified elastic unknowns (compliances, payload mass, first moment).
     pub elastic: Option<(GravityCompliance, Vec<f64>)>,
+    /// The joint error terms of the model ([`crate::joint_law`]).
+    pub joint_terms: JointTerms,
+    /// Their identified values, in the order of
+    /// [`JointTerms::unknown_names`] (1/rad, rad).
+    pub joint_term_values: Vec<f64>,
     /// Numerical identifiability analysis of the free unknowns (exact
     /// dependencies, at [`CalibrationOptions::rank_tolerance`]) at the start point.
     pub identifiability: IdentifiabilityReport,
@@ -442,6 +477,23 @@ impl Calibration {
                 if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
                 if not.is_empty() { "none".to_string() } else { not.join(", ") }
             ));
+            if self.joint_terms.law.is_some() {
+                for (prefix, what) in [("hardening_", "hardening"), ("lost_motion_", "lost motion")]
+                {
+                    let identified: Vec<&str> = self
+                        .unknowns
+                        .iter()
+                        .filter(|u| {
+                            u.name.starts_with(prefix) && u.status == UnknownStatus::Identified
+                        })
+                        .map(|u| u.name.as_str())
+                        .collect();
+                    notes.push(format!(
+                        "non-linear joint law, {what} identified: {}; the others stay at zero (not separable from the compliances and offsets, or too weakly seen, with these torques)",
+                        if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
+                    ));
+                }
+            }
             let payload = names("payload_");
             if !payload.is_empty() {
                 notes.push(format!(
@@ -563,6 +615,8 @@ pub fn calibrate(
         if options.gravity.is_some() {
             known.extend(elastic_names.iter().map(|s| s.as_str()));
         }
+        let joint_names = options.joint_terms.unknown_names(model);
+        known.extend(joint_names.iter().map(|s| s.as_str()));
         let mut free = vec![true; known.len()];
         let np = model.n_params();
         if frame_fixed {
@@ -615,6 +669,9 @@ pub fn calibrate(
         GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?;
     if let Some(gravity) = &options.gravity {
         problem = problem.with_gravity(gravity)?;
+    }
+    if options.joint_terms.any() {
+        problem = problem.with_joint_terms(&options.joint_terms)?;
     }
     let n = problem.n_unknowns();
     let names = problem.names().to_vec();
@@ -761,6 +818,7 @@ pub fn calibrate(
             UnknownKind::Compliance => options.max_standard_error_compliance,
             UnknownKind::Mass => options.max_standard_error_mass,
             UnknownKind::FirstMoment => options.max_standard_error_first_moment,
+            UnknownKind::Hardening => options.max_standard_error_hardening,
         })
         .collect();
     let context = AnalysisContext {
@@ -809,6 +867,11 @@ pub fn calibrate(
     let x_nominal_robot = x_start.clone();
     let (_, x_tcp_target_nominal) = problem.frames(&x_start);
     let excluded = |j: usize| fixed[j] || no_influence[j];
+    // Cyclic errors of a joint whose poses do not cover their period: over
+    // part of a period a harmonic is a smooth curve that geometry and the
+    // frames imitate, and it extrapolates to the rest of the turn without
+    // any data; they stay at zero (poorly identifiable).
+    let partial_period = crate::joint_law::partial_period_mask(model, set, &names);
     // Unknowns beyond the numerical rank whatever the noise (exact dependencies).
     let reduced_start = context.reduced(&x_start)?;
     let numerical = context.analyse(&reduced_start, None, &excluded)?;
@@ -825,7 +888,7 @@ pub fn calibrate(
     let (report, frozen) = loop {
         round += 1;
         let analysis = context.analyse(&reduced_start, Some(sigma), &|j| {
-            excluded(j) || exactly_dependent[j]
+            excluded(j) || exactly_dependent[j] || partial_period[j]
         })?;
         let mut base = analysis.base.clone();
         base.sort_unstable();
@@ -872,6 +935,33 @@ pub fn calibrate(
         sigma = noise_at(&report.x, analysis.rank)?;
         previous = Some((base, report, frozen));
     };
+    // The joint terms are non-linear in their unknowns (the law's hardening
+    // trades off against the compliance as it grows): the limits on the
+    // standard errors are checked again at the solution, and a term beyond
+    // them is put back to its starting value and the rest solved again.
+    let (report, frozen) = {
+        let (mut report, mut frozen) = (report, frozen);
+        let joint_start = problem.joint_terms_offset().unwrap_or(n);
+        for _ in 0..3 {
+            let beyond: Vec<usize> = (joint_start..n)
+                .filter(|&j| {
+                    !frozen[j]
+                        && report.standard_errors[j].is_none_or(|se| se.is_nan() || se > limits[j])
+                })
+                .collect();
+            if beyond.is_empty() {
+                break;
+            }
+            let mut x0 = report.x.clone();
+            for &j in &beyond {
+                frozen[j] = true;
+                x0[j] = x_start[j];
+            }
+            report = solve(&x0, &frozen)?;
+            cost_history.extend(&report.cost_history);
+        }
+        (report, frozen)
+    };
     let x = report.x.clone();
     let identified: Vec<usize> = (0..n).filter(|&j| !frozen[j]).collect();
     let absorbed: Vec<usize> = (0..n).filter(|&j| frozen[j] && !excluded(j)).collect();
@@ -889,16 +979,20 @@ pub fn calibrate(
                 })
         })
         .collect();
-    let spread_ratios = SpreadInputs {
-        model,
-        set,
-        actuated_ranges: &actuated_ranges,
-        options,
-        use_orientation,
-        frames: (x_meas_base0, x_tcp_target0),
-        context: &context,
-    }
-    .ratios(&reduced_start, &x_start, &identified)?;
+    let spread_ratios = if !options.spread_reference {
+        vec![None; n]
+    } else {
+        SpreadInputs {
+            model,
+            set,
+            actuated_ranges: &actuated_ranges,
+            options,
+            use_orientation,
+            frames: (x_meas_base0, x_tcp_target0),
+            context: &context,
+        }
+        .ratios(&reduced_start, &x_start, &identified)?
+    };
     let unknowns: Vec<UnknownEstimate> = (0..n)
         .map(|j| {
             let status = if fixed[j] {
@@ -930,10 +1024,12 @@ pub fn calibrate(
     let (x_meas_base, x_tcp_target) = problem.frames(&x);
     let np = model.n_params();
     let xi = x[..np].to_vec();
+    let joint_start = problem.joint_terms_offset().unwrap_or(n);
     let elastic = options
         .gravity
         .as_ref()
-        .map(|g| (g.clone(), x[te..].to_vec()));
+        .map(|g| (g.clone(), x[te..joint_start].to_vec()));
+    let joint_term_values = x[joint_start..].to_vec();
     // Before: the starting model (nominal geometry, and starting compliances)
     // with its frames fitted; after: the fit. Both on the same error model.
     let training_before = error_statistics(&pose_errors(&problem, &x_nominal_robot)?);
@@ -951,6 +1047,8 @@ pub fn calibrate(
         use_orientation,
         unknowns,
         elastic,
+        joint_terms: options.joint_terms,
+        joint_term_values,
         identifiability: numerical,
         combination_lines: combinations
             .iter()
@@ -1324,6 +1422,9 @@ impl SpreadInputs<'_> {
         )?;
         if let Some(gravity) = &self.options.gravity {
             problem = problem.with_gravity(gravity)?;
+        }
+        if self.options.joint_terms.any() {
+            problem = problem.with_joint_terms(&self.options.joint_terms)?;
         }
         let weights: Vec<f64> = (0..count * rows).map(|i| weight[i % rows]).collect();
         let context = AnalysisContext {

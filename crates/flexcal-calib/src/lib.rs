@@ -65,6 +65,21 @@
 //! [`GravityCompliance::ur10_urdf`] holds the UR10's URDF masses; other robots
 //! give a mass-table file ([`GravityCompliance::from_toml_file`]).
 //!
+//! ## Beyond linear joint springs, model selection, predicted accuracy
+//! - [`joint_law`]: a joint stiffness law with a lost-motion zone about
+//!   zero torque and a hardening spring solved at its equilibrium, and cyclic
+//!   (non-geometric) joint errors, first and second harmonics of the joint
+//!   angle; switched on by [`CalibrationOptions::joint_terms`].
+//! - [`selection`]: which groups of unknowns (offsets, tilts, compliances,
+//!   the law, cyclic errors) to identify, decided from the training poses
+//!   alone by k-fold cross-validation over joint-space clusters or by BIC
+//!   (the paper's removal of "parameters with little influence" before
+//!   (11), by evidence): [`calibrate_selected`], `calibrate --select`.
+//! - [`accuracy`]: the identification covariance (raised to the split-half
+//!   errors where they are larger) carried to the target position of any
+//!   pose, with the training scatter, as a 95 % bound; its coverage on a
+//!   validation series.
+//!
 //! ## Equations (Marie, Courteille, Maurine 2013)
 //! - Pose error and linear error model (7)-(8), (49): `dS^k = J^k dxi`, with
 //!   `J^k` the parameter Jacobian (50)-(52) of `flexcal-kinematics`, carried
@@ -150,10 +165,12 @@
 //! slider-crank geometry, which the paper does not publish, decides which).
 //!
 //! ## Limitations
-//! - The elasto-geometric model has rigid links and linear joint springs;
-//!   gravity torques are evaluated on the nominal geometry at the commanded
-//!   configuration (second-order effects), and process forces are not part
-//!   of it (see `flexcal-elastic` for loaded campaigns).
+//! - The elasto-geometric model has rigid links and joint springs (linear,
+//!   or the law of [`joint_law`]) about the joint axes only: no lateral
+//!   compliance of a joint about other axes; gravity torques are evaluated
+//!   on the nominal geometry at the commanded configuration (second-order
+//!   effects), and process forces are not part of it (see
+//!   `flexcal-elastic` for loaded campaigns).
 //! - The combinations (C.1) come from the linearised model at the solution;
 //!   with errors of millimetres they hold to second order only.
 //! - Standard errors are the linearised ones and ignore model error (joint
@@ -176,21 +193,26 @@
 
 #![deny(missing_docs)]
 
+pub mod accuracy;
 pub mod cross;
 mod error;
 pub mod error_model;
 pub mod geometry;
 pub mod gravity;
 pub mod identify;
+pub mod joint_law;
 pub mod measurement;
+pub mod metrics;
 pub mod report;
 pub mod residual;
 pub mod screen;
 pub mod select;
+pub mod selection;
 pub mod split;
 pub mod temperature;
 pub mod validate;
 
+pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy};
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
 pub use error_model::{
@@ -203,14 +225,18 @@ pub use identify::{
     ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,
     Weighting, calibrate, combination_check,
 };
+pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
+pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{CalibrationReportJson, ResidualModelJson};
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
-pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
-pub use validate::{
-    ErrorStatistics, FramePolicy, PoseError, ValidationReport, error_statistics, evaluate_errors,
+pub use selection::{
+    CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectionMethod, SelectionOptions,
+    SelectionReport, TermGroup, calibrate_selected, default_method, select_model,
 };
+pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
+pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};

@@ -4,8 +4,9 @@ use serde::Serialize;
 
 use crate::CalibError;
 use crate::identify::{Calibration, UnknownStatus};
+use crate::metrics::ErrorStatistics;
 use crate::screen::DataChecks;
-use crate::validate::{ErrorStatistics, ValidationReport};
+use crate::validate::ValidationReport;
 
 /// Error figures in mm and deg.
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -163,6 +164,9 @@ pub struct CalibrationReportJson {
     /// The cross-series check against the validation set, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cross_check: Option<crate::CrossCheck>,
+    /// The model selection that chose the identified groups, when run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub selection: Option<crate::SelectionReport>,
 }
 
 /// The `residual_model` object.
@@ -293,6 +297,7 @@ impl CalibrationReportJson {
             residual_model: None,
             split_check: None,
             cross_check: None,
+            selection: None,
         }
     }
 

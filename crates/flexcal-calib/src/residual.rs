@@ -13,8 +13,9 @@ use flexcal_kinematics::Model;
 use nalgebra::Vector3;
 
 use crate::identify::Calibration;
+use crate::metrics::error_statistics;
 use crate::screen::DataChecks;
-use crate::validate::{ValidationReport, error_statistics};
+use crate::validate::ValidationReport;
 use crate::{CalibError, Measurement, MeasurementSet};
 
 /// Share of the identification poses held out (seeded) to choose the fuzzy

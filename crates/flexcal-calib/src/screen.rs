@@ -18,7 +18,7 @@
 
 use serde::Serialize;
 
-use crate::validate::{PoseError, error_statistics};
+use crate::metrics::{PoseError, error_statistics};
 use crate::{CalibError, MeasurementSet};
 
 /// A pose whose position error exceeds this many times the set's RMS

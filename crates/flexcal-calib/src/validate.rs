@@ -3,12 +3,13 @@
 
 use flexcal_kinematics::Model;
 use flexcal_optim::{LevenbergMarquardt, ProblemSetup, Residuals};
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::Isometry3;
 
-use crate::error_model::{GeometricErrorModel, register_measurement_frame};
-use crate::geometry::{rotation_from_vector, vector_from_rotation};
+use crate::error_model::{GeometricErrorModel, pose_errors, register_measurement_frame};
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
+use crate::joint_law::JointTerms;
+pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
 use crate::{CalibError, MeasurementSet};
 
@@ -26,62 +27,6 @@ pub enum FramePolicy {
         /// Also re-fit the target position offset.
         refit_target: bool,
     },
-}
-
-/// Errors of one pose: position error norm (m) and orientation error angle
-/// (rad) when orientations are used.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PoseError {
-    /// `|p_predicted - p_measured|` (m).
-    pub position: f64,
-    /// `p_measured - p_predicted` in the measurement frame (m): what the
-    /// model misses, component by component.
-    pub position_vector: Vector3<f64>,
-    /// Angle of `R_predicted R_measured^T` (rad), when used.
-    pub orientation: Option<f64>,
-}
-
-/// Mean, RMS and maximum of the pose errors of a set.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ErrorStatistics {
-    /// Number of poses.
-    pub n_poses: usize,
-    /// Mean position error (m).
-    pub position_mean: f64,
-    /// RMS position error (m).
-    pub position_rms: f64,
-    /// Maximum position error (m).
-    pub position_max: f64,
-    /// Mean, RMS and maximum orientation error (rad), when used.
-    pub orientation_mean_rms_max: Option<(f64, f64, f64)>,
-}
-
-/// Mean / RMS / max of pose errors.
-pub fn error_statistics(errors: &[PoseError]) -> ErrorStatistics {
-    let n = errors.len().max(1) as f64;
-    let stats = |v: &mut dyn Iterator<Item = f64>| {
-        let (mut sum, mut sum2, mut max) = (0.0, 0.0, 0.0f64);
-        for e in v {
-            sum += e;
-            sum2 += e * e;
-            max = max.max(e);
-        }
-        (sum / n, (sum2 / n).sqrt(), max)
-    };
-    let (position_mean, position_rms, position_max) = stats(&mut errors.iter().map(|e| e.position));
-    let orientation_mean_rms_max =
-        if !errors.is_empty() && errors.iter().all(|e| e.orientation.is_some()) {
-            Some(stats(&mut errors.iter().filter_map(|e| e.orientation)))
-        } else {
-            None
-        };
-    ErrorStatistics {
-        n_poses: errors.len(),
-        position_mean,
-        position_rms,
-        position_max,
-        orientation_mean_rms_max,
-    }
 }
 
 /// Per-pose errors of the robot at `xi` with target `x_tcp_target` on `set`,
@@ -103,6 +48,35 @@ pub fn evaluate_errors(
     policy: FramePolicy,
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
+    evaluate_errors_with_terms(
+        model,
+        set,
+        xi,
+        elastic,
+        (&JointTerms::default(), &[]),
+        x_tcp_target,
+        policy,
+        use_orientation,
+    )
+}
+
+/// [`evaluate_errors`] with joint terms ([`crate::joint_law`]) and their
+/// values (in the order of [`JointTerms::unknown_names`]).
+///
+/// # Errors
+/// As [`evaluate_errors`]; [`CalibError::InvalidOption`] when the number of
+/// values does not match the terms.
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_errors_with_terms(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    elastic: Option<(&GravityCompliance, &[f64])>,
+    (joint_terms, joint_values): (&JointTerms, &[f64]),
+    x_tcp_target: &Isometry3<f64>,
+    policy: FramePolicy,
+    use_orientation: bool,
+) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
     // The error model at given robot unknowns: geometric or elasto-geometric.
     let problem_at = |x_meas_base: Isometry3<f64>,
@@ -113,20 +87,35 @@ pub fn evaluate_errors(
         if let Some((gravity, _)) = elastic {
             problem = problem.with_gravity(gravity)?;
         }
+        if joint_terms.any() {
+            problem = problem.with_joint_terms(joint_terms)?;
+        }
         let mut x = problem.initial_unknowns();
         x[..model.n_params()].copy_from_slice(xi);
+        let joint_start = problem.joint_terms_offset().unwrap_or(x.len());
+        if joint_values.len() != x.len() - joint_start {
+            return Err(CalibError::InvalidOption {
+                name: "joint_terms",
+                reason: format!(
+                    "{} joint-term values given, the model has {}",
+                    joint_values.len(),
+                    x.len() - joint_start
+                ),
+            });
+        }
+        x[joint_start..].copy_from_slice(joint_values);
         if let (Some((_, values)), Some(eo)) = (elastic, problem.elastic_offset()) {
-            if values.len() != x.len() - eo {
+            if values.len() != joint_start - eo {
                 return Err(CalibError::InvalidOption {
                     name: "elastic",
                     reason: format!(
                         "{} elastic values given, the model has {}",
                         values.len(),
-                        x.len() - eo
+                        joint_start - eo
                     ),
                 });
             }
-            x[eo..].copy_from_slice(values);
+            x[eo..joint_start].copy_from_slice(values);
         }
         Ok((problem, x))
     };
@@ -171,38 +160,6 @@ pub fn evaluate_errors(
     };
     let (x_meas_base, _) = problem.frames(&x);
     Ok((pose_errors(&problem, &x)?, x_meas_base))
-}
-
-/// Per-pose errors of the error model `problem` at unknowns `x` (its frames
-/// included).
-///
-/// # Errors
-/// [`CalibError::Kinematics`] naming the pose.
-pub(crate) fn pose_errors(
-    problem: &GeometricErrorModel<'_>,
-    x: &[f64],
-) -> Result<Vec<PoseError>, CalibError> {
-    debug_assert_eq!(x.len(), problem.n_params());
-    problem
-        .measurements()
-        .iter()
-        .enumerate()
-        .map(|(k, m)| {
-            let predicted = problem.predict(x, k)?;
-            let position_vector = m.position - predicted.translation.vector;
-            let orientation = if problem.rows_per_pose() == 6 {
-                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
-                Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
-            } else {
-                None
-            };
-            Ok(PoseError {
-                position: position_vector.norm(),
-                position_vector,
-                orientation,
-            })
-        })
-        .collect()
 }
 
 /// Errors on a validation set before (nominal robot with the target offset
@@ -251,11 +208,12 @@ impl Calibration {
         set: &MeasurementSet,
         policy: FramePolicy,
     ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
-        evaluate_errors(
+        evaluate_errors_with_terms(
             model,
             set,
             &self.xi,
             self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
+            (&self.joint_terms, &self.joint_term_values),
             &self.x_tcp_target,
             policy,
             self.use_orientation,

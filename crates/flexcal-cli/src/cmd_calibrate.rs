@@ -144,6 +144,16 @@ pub struct CalibrateArgs {
     /// separately.
     #[arg(long, value_delimiter = ',')]
     pub residual_model: Vec<String>,
+    /// Model selection on the training poses: which groups of unknowns
+    /// (offsets, tilts, compliances, joint law, cyclic errors) to identify,
+    /// by cross-validation (cv), BIC (bic) or none (default: cv from 100
+    /// poses, else none).
+    #[arg(long)]
+    pub select: Option<flexcal::calib::SelectionMethod>,
+    /// Predicted accuracy at the configurations of this CSV (columns
+    /// q1..qn), written beside it as <name>.accuracy.csv.
+    #[arg(long)]
+    pub accuracy_map: Option<PathBuf>,
     /// Write the calibrated robot description here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -168,6 +178,15 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         write_pose_errors(path, per_pose_set, per_pose)?;
         println!(
             "per-pose errors of the {per_pose_name} set written to {}",
+            path.display()
+        );
+    }
+    if let (Some(grid), Some(map)) = (&args.accuracy_map, &run.accuracy_map) {
+        let path = grid.with_extension("accuracy.csv");
+        map.write_csv(&path)?;
+        println!(
+            "predicted accuracy at {} poses written to {}",
+            map.poses.len(),
             path.display()
         );
     }
@@ -261,6 +280,8 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
         split_check: args.split_check,
         cross_check: args.cross_check,
         residual_inputs: items(&args.residual_model),
+        selection: args.select,
+        accuracy_grid: args.accuracy_map.clone(),
         ..CalibrationConfig::new(&args.data, options)
     })
 }
@@ -285,11 +306,21 @@ fn print_run(model: &Model, data: &Path, run: &CalibrationRun) {
         run.data.len(),
         data.display()
     );
+    if let Some(selection) = &run.selection {
+        selection.lines().iter().for_each(|l| println!("{l}"));
+    }
     print_identification(&run.calibration);
     if let Some(split) = &run.split {
         print_split_check(split);
     }
     print_before_after(&run.calibration, run.validation.as_ref());
+    if let Some(map) = &run.coverage {
+        println!(
+            "predicted 95 % bounds (mean {:.3} mm) cover {:.1} % of the validation poses",
+            map.mean_bound_95_mm,
+            100.0 * map.coverage.unwrap_or(f64::NAN)
+        );
+    }
     if let Some(cross) = &run.cross {
         print_cross_check(cross);
     }

@@ -416,6 +416,19 @@ fn elasto_geometric_calibration_end_to_end() {
     };
     let report = path(d, "report.json");
     let residuals = path(d, "residuals.csv");
+    // By default (120 poses) cross-validation chooses the groups of
+    // unknowns: this rigid robot's compliances are not kept.
+    let out = calibrate_ur10(&["--model", "elasto-geometric", "--masses", &masses]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("Model selection by 5-fold cross-validation"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("chosen:") && !stdout.contains("compliance_theta2"),
+        "{stdout}"
+    );
     let out = calibrate_ur10(&[
         "--validate",
         &validate,
@@ -423,6 +436,8 @@ fn elasto_geometric_calibration_end_to_end() {
         "elasto-geometric",
         "--masses",
         &masses,
+        "--select",
+        "none",
         "--report",
         &report,
         "--residuals",
@@ -431,6 +446,7 @@ fn elasto_geometric_calibration_end_to_end() {
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("elasto-geometric") && stdout.contains("compliance_theta2"));
+    assert!(stdout.contains("predicted 95 % bounds"), "{stdout}");
     // Per-pose errors of the validation set, one row per pose.
     let rows = std::fs::read_to_string(&residuals).unwrap();
     assert!(rows.starts_with(

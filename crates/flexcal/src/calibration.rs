@@ -74,6 +74,13 @@ pub struct CalibrationConfig {
     pub cross_check: bool,
     /// Actuated coordinates of the fuzzy residual model (none: no model).
     pub residual_inputs: Vec<String>,
+    /// Model selection on the identification poses (`None`: cross-validation
+    /// from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`] poses, else none; see
+    /// [`calib::default_method`]).
+    pub selection: Option<calib::SelectionMethod>,
+    /// Configurations (CSV `q1..qn`) at which to predict the accuracy of the
+    /// calibrated robot ([`CalibrationRun::accuracy_map`]).
+    pub accuracy_grid: Option<PathBuf>,
 }
 
 impl CalibrationConfig {
@@ -91,6 +98,8 @@ impl CalibrationConfig {
             split_check: false,
             cross_check: false,
             residual_inputs: Vec::new(),
+            selection: None,
+            accuracy_grid: None,
         }
     }
 }
@@ -140,6 +149,14 @@ pub struct CalibrationRun {
     pub cross: Option<CrossCheck>,
     /// The fuzzy residual model, when asked for.
     pub residual: Option<ResidualFit>,
+    /// The model selection, when one ran.
+    pub selection: Option<calib::SelectionReport>,
+    /// Predicted 95 % bounds at the validation poses and the share of them
+    /// that the measured errors respect, with a validation set.
+    pub coverage: Option<calib::AccuracyMap>,
+    /// Predicted accuracy at the configurations of
+    /// [`CalibrationConfig::accuracy_grid`].
+    pub accuracy_map: Option<calib::AccuracyMap>,
 }
 
 impl CalibrationRun {
@@ -163,6 +180,7 @@ impl CalibrationRun {
             CalibrationReportJson::new(robot.name(), &self.calibration, self.validation.as_ref());
         report.split_check = self.split.clone();
         report.cross_check = self.cross.clone();
+        report.selection = self.selection.clone();
         report.residual_model = self.residual.as_ref().map(|r| {
             ResidualModelJson::new(robot.actuated_names(), &r.model, r.validation.as_ref())
         });
@@ -261,7 +279,15 @@ pub fn run_calibration(
             rotation,
         ));
     }
-    let calibration = calib::calibrate(robot, &data, &options).map_err(step("identification"))?;
+    let selection = calib::SelectionOptions {
+        method: config
+            .selection
+            .unwrap_or_else(|| calib::default_method(&data)),
+        ..Default::default()
+    };
+    let (calibration, selection, options) =
+        calib::calibrate_selected(robot, &data, &options, &selection)
+            .map_err(step("identification"))?;
     let split = config
         .split_check
         .then(|| SplitCheck::new(robot, &data, &options, &calibration))
@@ -272,6 +298,23 @@ pub fn run_calibration(
         .map(|set| calibration.validate(robot, set, config.refit_target))
         .transpose()
         .map_err(step("validation"))?;
+    let coverage = validation_set
+        .as_ref()
+        .map(|set| calibration.accuracy_coverage(robot, set, split.as_ref()))
+        .transpose()
+        .map_err(step("predicted accuracy at the validation poses"))?;
+    let accuracy_map = match &config.accuracy_grid {
+        Some(grid) => {
+            let configurations =
+                calib::read_configurations(grid).map_err(step("--accuracy-map"))?;
+            Some(
+                calibration
+                    .predicted_accuracy(robot, &configurations, split.as_ref())
+                    .map_err(step("--accuracy-map"))?,
+            )
+        }
+        None => None,
+    };
     let cross = match (&validation_set, config.cross_check) {
         (Some(set), true) => Some(
             CrossCheck::new(robot, set, &options, &calibration, split.as_ref())
@@ -315,5 +358,8 @@ pub fn run_calibration(
         validation,
         cross,
         residual,
+        selection,
+        coverage,
+        accuracy_map,
     })
 }

@@ -1,0 +1,61 @@
+//! Error metrics of a model on a measurement set: the errors of each pose
+//! and their mean, RMS and maximum. Shared by the identification (training
+//! errors), the data checks and validation.
+
+use nalgebra::Vector3;
+
+/// Errors of one pose: position error norm (m) and orientation error angle
+/// (rad) when orientations are used.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseError {
+    /// `|p_predicted - p_measured|` (m).
+    pub position: f64,
+    /// `p_measured - p_predicted` in the measurement frame (m): what the
+    /// model misses, component by component.
+    pub position_vector: Vector3<f64>,
+    /// Angle of `R_predicted R_measured^T` (rad), when used.
+    pub orientation: Option<f64>,
+}
+
+/// Mean, RMS and maximum of the pose errors of a set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorStatistics {
+    /// Number of poses.
+    pub n_poses: usize,
+    /// Mean position error (m).
+    pub position_mean: f64,
+    /// RMS position error (m).
+    pub position_rms: f64,
+    /// Maximum position error (m).
+    pub position_max: f64,
+    /// Mean, RMS and maximum orientation error (rad), when used.
+    pub orientation_mean_rms_max: Option<(f64, f64, f64)>,
+}
+
+/// Mean / RMS / max of pose errors.
+pub fn error_statistics(errors: &[PoseError]) -> ErrorStatistics {
+    let n = errors.len().max(1) as f64;
+    let stats = |v: &mut dyn Iterator<Item = f64>| {
+        let (mut sum, mut sum2, mut max) = (0.0, 0.0, 0.0f64);
+        for e in v {
+            sum += e;
+            sum2 += e * e;
+            max = max.max(e);
+        }
+        (sum / n, (sum2 / n).sqrt(), max)
+    };
+    let (position_mean, position_rms, position_max) = stats(&mut errors.iter().map(|e| e.position));
+    let orientation_mean_rms_max =
+        if !errors.is_empty() && errors.iter().all(|e| e.orientation.is_some()) {
+            Some(stats(&mut errors.iter().filter_map(|e| e.orientation)))
+        } else {
+            None
+        };
+    ErrorStatistics {
+        n_poses: errors.len(),
+        position_mean,
+        position_rms,
+        position_max,
+        orientation_mean_rms_max,
+    }
+}

@@ -1,0 +1,774 @@
+//! Model selection from the training data alone: which groups of unknowns
+//! (joint offsets, axis tilts, joint compliances, the non-linear joint law,
+//! cyclic joint errors) are worth identifying.
+//!
+//! The paper removes "the columns of J of parameters with little influence"
+//! (section 2.1.5, before (11)) by hand; the identifiability analysis of
+//! [`crate::calibrate`] removes those the poses cannot determine. Neither
+//! asks whether a determinable unknown helps predict poses the fit has not
+//! seen: a term fitted to what the model leaves on these poses (thermal
+//! drift, an unmodelled effect) can make predictions elsewhere worse. Two
+//! scores answer it:
+//!
+//! - **k-fold cross-validation** ([`SelectionMethod::CrossValidation`]):
+//!   each fold of poses is predicted by the model identified on the other
+//!   folds (the measurement frame as identified with them: same tracker),
+//!   and the score is the mean position error over all held-out poses.
+//!   Errors of a real robot are correlated between neighbouring poses, so
+//!   random folds would leave a neighbour of every held-out pose in the
+//!   training part and reward models that interpolate what they should not
+//!   generalise. The folds are therefore **clusters in joint space**
+//!   ([`FoldScheme::JointClusters`], default): k-means on the actuated
+//!   coordinates scaled by their ranges, seeded, so that each fold is a
+//!   region of the workspace the others did not visit — what a validation
+//!   campaign on other poses asks of the model. Contiguous blocks in
+//!   acquisition order ([`FoldScheme::AcquisitionBlocks`]) keep together
+//!   poses measured close in time (drift) and, for scanned grids, close in
+//!   space; they are the alternative when the file order is meaningful.
+//! - **BIC** ([`SelectionMethod::Bic`]): `n ln(2 cost / n) + p ln n` on the
+//!   full fit (n residual rows, p identified unknowns, weighted cost): one
+//!   fit per candidate instead of k, but it assumes independent errors,
+//!   which real campaigns violate (it then favours rich models).
+//!
+//! The search is backward elimination over the groups: from the model
+//! with every group allowed, the group whose removal leaves the best score
+//! is removed as long as the score does not get worse by more than its
+//! uncertainty (cross-validation: the standard error over the folds of the
+//! paired difference, the "one standard error" rule, which prefers the
+//! simpler of two models the data cannot tell apart; BIC: by 2, "positive
+//! evidence" on Kass and Raftery's scale). Removing the compliances removes
+//! the non-linear law with them. Backward, not forward: groups overlap (a
+//! cyclic error of the shoulder imitates part of its compliance), and a
+//! forward search adds first whatever imitates the largest missing effect,
+//! then cannot take it out (a test on a simulated robot shows it). The [`SelectionReport`] lists every
+//! candidate scored, with its score, and why the chosen model won.
+
+use flexcal_kinematics::{Model, Quantity};
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
+use crate::joint_law::JointLaw;
+use crate::validate::FramePolicy;
+use crate::{CalibError, MeasurementSet};
+
+/// Fewest poses for which [`SelectionMethod::CrossValidation`] is the
+/// default of [`default_method`]: with the default 5 folds each held-out
+/// fold has at least 20 poses (its mean error known to about 20 %), and
+/// each training part 80 poses, 240 position equations for the 40-90
+/// unknowns of a rich 6-axis model. Below it no selection by default:
+/// held-out folds too small to score, and BIC's independence assumption
+/// is what a small campaign cannot check (BIC stays available).
+pub const MIN_POSES_FOR_CROSS_VALIDATION: usize = 100;
+
+/// How the candidate models are scored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SelectionMethod {
+    /// k-fold cross-validation over the training poses.
+    CrossValidation,
+    /// Bayesian information criterion of the full fit.
+    Bic,
+    /// No selection: every group allowed is identified.
+    None,
+}
+
+impl std::str::FromStr for SelectionMethod {
+    type Err = String;
+    /// `cv`, `bic` or `none`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "cv" => Ok(Self::CrossValidation),
+            "bic" => Ok(Self::Bic),
+            "none" => Ok(Self::None),
+            other => Err(format!("`{other}`: expected cv, bic or none")),
+        }
+    }
+}
+
+/// How the poses are split into folds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FoldScheme {
+    /// k-means clusters in the actuated coordinates scaled by their ranges
+    /// (default).
+    #[default]
+    JointClusters,
+    /// Contiguous blocks in file (acquisition) order.
+    AcquisitionBlocks,
+}
+
+/// A group of unknowns that selection may switch on or off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TermGroup {
+    /// Joint offsets (the `theta` parameters).
+    JointOffsets,
+    /// Hayati tilts of parallel axes (the `beta` parameters).
+    AxisTilts,
+    /// Joint compliances under gravity and the payload (needs a mass table).
+    Compliances,
+    /// The non-linear joint stiffness law ([`crate::joint_law`]).
+    JointLaw,
+    /// Cyclic joint errors ([`crate::joint_law`]).
+    CyclicErrors,
+}
+
+impl TermGroup {
+    /// Name in reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            TermGroup::JointOffsets => "offsets",
+            TermGroup::AxisTilts => "tilts",
+            TermGroup::Compliances => "compliances",
+            TermGroup::JointLaw => "joint law",
+            TermGroup::CyclicErrors => "cyclic",
+        }
+    }
+}
+
+/// Settings of [`select_model`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SelectionOptions {
+    /// Scoring method (see [`default_method`]).
+    pub method: SelectionMethod,
+    /// Number of folds (default 5; `>= 2`).
+    pub folds: usize,
+    /// Fold construction (default [`FoldScheme::JointClusters`]).
+    pub scheme: FoldScheme,
+    /// Seed of the k-means start (default 1).
+    pub seed: u64,
+    /// Groups the search may add (default: every group the options allow:
+    /// the law and the compliances only with a mass table).
+    pub groups: Option<Vec<TermGroup>>,
+}
+
+impl Default for SelectionOptions {
+    fn default() -> Self {
+        Self {
+            method: SelectionMethod::CrossValidation,
+            folds: 5,
+            scheme: FoldScheme::JointClusters,
+            seed: 1,
+            groups: None,
+        }
+    }
+}
+
+/// Cross-validation when the set has at least
+/// [`MIN_POSES_FOR_CROSS_VALIDATION`] poses, else none (every group the
+/// options allow is identified; the identifiability analysis alone
+/// decides, as without selection).
+pub fn default_method(set: &MeasurementSet) -> SelectionMethod {
+    if set.len() >= MIN_POSES_FOR_CROSS_VALIDATION {
+        SelectionMethod::CrossValidation
+    } else {
+        SelectionMethod::None
+    }
+}
+
+/// One candidate model and its scores.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateScore {
+    /// The optional groups identified.
+    pub groups: Vec<TermGroup>,
+    /// Cross-validated mean position error over the held-out poses (mm).
+    pub cv_mean_error_mm: Option<f64>,
+    /// Its standard error, from the spread of the per-fold means (mm).
+    pub cv_standard_error_mm: Option<f64>,
+    /// Mean held-out position error of each fold (mm).
+    pub cv_fold_errors_mm: Vec<f64>,
+    /// BIC of the full fit (dimensionless), when scored by BIC.
+    pub bic: Option<f64>,
+    /// Identified unknowns of the full fit (BIC) or the mean over folds (CV).
+    pub identified: f64,
+    /// Why it could not be scored, if it could not.
+    pub failure: Option<String>,
+}
+
+impl CandidateScore {
+    /// `offsets + tilts + ...`, or `base` for none.
+    pub fn label(&self) -> String {
+        if self.groups.is_empty() {
+            "base".into()
+        } else {
+            self.groups
+                .iter()
+                .map(|g| g.label())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        }
+    }
+}
+
+/// What model selection scored and chose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SelectionReport {
+    /// The scoring method.
+    pub method: SelectionMethod,
+    /// Fold construction (cross-validation).
+    pub scheme: FoldScheme,
+    /// Number of folds (cross-validation).
+    pub folds: usize,
+    /// Number of poses in each fold (cross-validation).
+    pub fold_sizes: Vec<usize>,
+    /// Every candidate scored, in the order of the search.
+    pub candidates: Vec<CandidateScore>,
+    /// The groups of the chosen model.
+    pub chosen: Vec<TermGroup>,
+    /// Why the chosen model won, one sentence per search step.
+    pub reasons: Vec<String>,
+}
+
+impl SelectionReport {
+    /// The report as text: one line per candidate, then the reasons.
+    pub fn lines(&self) -> Vec<String> {
+        let mut lines = vec![match self.method {
+            SelectionMethod::CrossValidation => format!(
+                "Model selection by {}-fold cross-validation ({}, folds of {:?} poses), backward over groups of unknowns:",
+                self.folds,
+                match self.scheme {
+                    FoldScheme::JointClusters => "clusters in joint space",
+                    FoldScheme::AcquisitionBlocks => "blocks in acquisition order",
+                },
+                self.fold_sizes
+            ),
+            SelectionMethod::Bic => {
+                "Model selection by BIC, backward over groups of unknowns:".into()
+            }
+            SelectionMethod::None => "No model selection.".into(),
+        }];
+        for c in &self.candidates {
+            let score = match (&c.failure, c.cv_mean_error_mm, c.bic) {
+                (Some(f), _, _) => format!("not scored: {f}"),
+                (None, Some(e), _) => format!(
+                    "held-out mean {e:.4} mm +/- {:.4}",
+                    c.cv_standard_error_mm.unwrap_or(f64::NAN)
+                ),
+                (None, None, Some(b)) => format!("BIC {b:.1}"),
+                _ => String::new(),
+            };
+            lines.push(format!(
+                "  {:<48} {score} ({:.0} identified)",
+                c.label(),
+                c.identified
+            ));
+        }
+        lines.extend(self.reasons.iter().map(|r| format!("  {r}")));
+        let chosen = CandidateScore {
+            groups: self.chosen.clone(),
+            cv_mean_error_mm: None,
+            cv_standard_error_mm: None,
+            cv_fold_errors_mm: Vec::new(),
+            bic: None,
+            identified: 0.0,
+            failure: None,
+        };
+        lines.push(format!("  chosen: {}", chosen.label()));
+        lines
+    }
+}
+
+/// A candidate's score and its per-fold means (cross-validation; empty for
+/// BIC).
+type Score = (f64, Vec<f64>);
+
+/// The options of the candidate with `groups` on, from `base` (whose
+/// `gravity` and `joint_terms` say what is available).
+fn candidate_options(
+    model: &Model,
+    base: &CalibrationOptions,
+    groups: &[TermGroup],
+) -> CalibrationOptions {
+    let mut options = base.clone();
+    let on = |g: TermGroup| groups.contains(&g);
+    for p in model.params() {
+        let off = match p.quantity {
+            Quantity::Theta => !on(TermGroup::JointOffsets),
+            Quantity::Beta => !on(TermGroup::AxisTilts),
+            _ => false,
+        };
+        if off && !options.fixed.contains(&p.name) {
+            options.fixed.push(p.name.clone());
+        }
+    }
+    if !on(TermGroup::Compliances) {
+        options.gravity = None;
+    }
+    options.joint_terms.law = if on(TermGroup::JointLaw) && options.gravity.is_some() {
+        Some(base.joint_terms.law.unwrap_or_default())
+    } else {
+        None
+    };
+    options.joint_terms.cyclic = on(TermGroup::CyclicErrors);
+    // Fixed names of groups switched off must exist in the candidate.
+    let allowed: Vec<String> = {
+        let mut names = crate::GravityCompliance::unknown_names(model);
+        names.extend(
+            crate::joint_law::JointTerms {
+                law: Some(JointLaw::default()),
+                cyclic: true,
+            }
+            .unknown_names(model),
+        );
+        names
+    };
+    let mut present = options.joint_terms.unknown_names(model);
+    if options.gravity.is_some() {
+        present.extend(crate::GravityCompliance::unknown_names(model));
+    }
+    options
+        .fixed
+        .retain(|name| !allowed.contains(name) || present.contains(name));
+    options
+}
+
+/// The groups a search over `base` may add.
+fn available_groups(model: &Model, base: &CalibrationOptions) -> Vec<TermGroup> {
+    let has = |q: Quantity| model.params().iter().any(|p| p.quantity == q);
+    let mut groups = Vec::new();
+    if has(Quantity::Theta) {
+        groups.push(TermGroup::JointOffsets);
+    }
+    if has(Quantity::Beta) {
+        groups.push(TermGroup::AxisTilts);
+    }
+    if base.gravity.is_some() {
+        groups.push(TermGroup::Compliances);
+        groups.push(TermGroup::JointLaw);
+    }
+    if !crate::joint_law::cyclic_joints(model).is_empty() {
+        groups.push(TermGroup::CyclicErrors);
+    }
+    groups
+}
+
+/// Fold of each pose (`0..folds`).
+fn fold_assignment(
+    model: &Model,
+    set: &MeasurementSet,
+    folds: usize,
+    scheme: FoldScheme,
+    seed: u64,
+) -> Vec<usize> {
+    let n = set.len();
+    match scheme {
+        FoldScheme::AcquisitionBlocks => (0..n).map(|k| k * folds / n).collect(),
+        FoldScheme::JointClusters => {
+            let na = model.n_actuated();
+            // Coordinates scaled by their range over the poses.
+            let (lo, hi): (Vec<f64>, Vec<f64>) = (0..na)
+                .map(|i| {
+                    set.measurements()
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
+                            (a.min(m.q[i]), b.max(m.q[i]))
+                        })
+                })
+                .unzip();
+            let points: Vec<Vec<f64>> = set
+                .measurements()
+                .iter()
+                .map(|m| {
+                    (0..na)
+                        .map(|i| {
+                            let span = hi[i] - lo[i];
+                            if span > 0.0 {
+                                (m.q[i] - lo[i]) / span
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect()
+                })
+                .collect();
+            balanced_kmeans(&points, folds, seed)
+        }
+    }
+}
+
+/// k-means (Lloyd, k-means++ start, seeded), then balanced: clusters larger
+/// than `ceil(n / k)` hand their poses farthest from their centre to the
+/// nearest cluster with room, so that no fold is too small to validate or
+/// too large to leave a training set.
+fn balanced_kmeans(points: &[Vec<f64>], k: usize, seed: u64) -> Vec<usize> {
+    let n = points.len();
+    let distance =
+        |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum() };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut centres: Vec<Vec<f64>> = vec![points[rng.random_range(0..n)].clone()];
+    while centres.len() < k {
+        let d: Vec<f64> = points
+            .iter()
+            .map(|p| {
+                centres
+                    .iter()
+                    .map(|c| distance(p, c))
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        let total: f64 = d.iter().sum();
+        let mut pick = rng.random_range(0.0..total.max(f64::MIN_POSITIVE));
+        let mut chosen = n - 1;
+        for (i, v) in d.iter().enumerate() {
+            if pick < *v {
+                chosen = i;
+                break;
+            }
+            pick -= v;
+        }
+        centres.push(points[chosen].clone());
+    }
+    let mut assignment = vec![0; n];
+    for _ in 0..50 {
+        let mut changed = false;
+        for (i, p) in points.iter().enumerate() {
+            let best = (0..k)
+                .min_by(|&a, &b| distance(p, &centres[a]).total_cmp(&distance(p, &centres[b])))
+                .unwrap_or(0);
+            if best != assignment[i] {
+                assignment[i] = best;
+                changed = true;
+            }
+        }
+        for (c, centre) in centres.iter_mut().enumerate() {
+            let members: Vec<&Vec<f64>> = points
+                .iter()
+                .zip(&assignment)
+                .filter(|(_, a)| **a == c)
+                .map(|(p, _)| p)
+                .collect();
+            if members.is_empty() {
+                continue;
+            }
+            for (d, v) in centre.iter_mut().enumerate() {
+                *v = members.iter().map(|p| p[d]).sum::<f64>() / members.len() as f64;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    // Balance: at most ceil(n / k) per fold.
+    let cap = n.div_ceil(k);
+    let mut counts = vec![0usize; k];
+    for &a in &assignment {
+        counts[a] += 1;
+    }
+    for c in 0..k {
+        while counts[c] > cap {
+            let (far, _) = points
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| assignment[*i] == c)
+                .map(|(i, p)| (i, distance(p, &centres[c])))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .expect("a non-empty cluster");
+            let target = (0..k)
+                .filter(|&o| counts[o] < cap)
+                .min_by(|&a, &b| {
+                    distance(&points[far], &centres[a])
+                        .total_cmp(&distance(&points[far], &centres[b]))
+                })
+                .expect("room in some fold");
+            assignment[far] = target;
+            counts[c] -= 1;
+            counts[target] += 1;
+        }
+    }
+    assignment
+}
+
+/// The subset of `set` whose poses have `keep(k)`.
+fn subset(
+    set: &MeasurementSet,
+    keep: impl Fn(usize) -> bool,
+) -> Result<MeasurementSet, CalibError> {
+    let indices: Vec<usize> = (0..set.len()).filter(|&k| keep(k)).collect();
+    set.subset(&indices)
+}
+
+/// Scores one candidate by cross-validation.
+fn cross_validate(
+    model: &Model,
+    folds: &[(MeasurementSet, MeasurementSet)],
+    options: &CalibrationOptions,
+) -> Result<(Vec<f64>, Vec<f64>, f64), CalibError> {
+    let mut options = options.clone();
+    options.spread_reference = false;
+    let options = &options;
+    let results: Vec<Result<(Vec<f64>, usize), CalibError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = folds
+            .iter()
+            .map(|(train, held_out)| {
+                scope.spawn(move || {
+                    let calibration = calibrate(model, train, options)?;
+                    let (errors, _) = calibration.errors_after(
+                        model,
+                        held_out,
+                        FramePolicy::Fixed(calibration.x_meas_base),
+                    )?;
+                    Ok((
+                        errors.iter().map(|e| e.position).collect(),
+                        calibration.rank(),
+                    ))
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a fold's identification does not panic"))
+            .collect()
+    });
+    let mut per_pose = Vec::new();
+    let mut fold_means = Vec::new();
+    let mut rank = 0.0;
+    for r in results {
+        let (errors, r) = r?;
+        fold_means.push(errors.iter().sum::<f64>() / errors.len().max(1) as f64);
+        per_pose.push(errors);
+        rank += r as f64;
+    }
+    rank /= folds.len() as f64;
+    Ok((per_pose.concat(), fold_means, rank))
+}
+
+/// Scores one candidate by BIC on the full fit.
+fn bic(calibration: &Calibration) -> f64 {
+    let n = (calibration.n_poses * if calibration.use_orientation { 6 } else { 3 }) as f64;
+    let p = calibration
+        .unknowns
+        .iter()
+        .filter(|u| u.status == UnknownStatus::Identified)
+        .count() as f64;
+    n * (2.0 * calibration.solve.cost / n)
+        .max(f64::MIN_POSITIVE)
+        .ln()
+        + p * n.ln()
+}
+
+/// Chooses from `set` alone which groups of unknowns to identify (module
+/// docs), starting from `base` (the richest model the user allows: its
+/// mass table makes compliances and the law available). Returns the
+/// report and the chosen options.
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] for fewer than 2 folds or more folds than
+/// poses; what [`calibrate`] returns when even the base model fails.
+pub fn select_model(
+    model: &Model,
+    set: &MeasurementSet,
+    base: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
+    let mut groups = available_groups(model, base);
+    if let Some(allowed) = &selection.groups {
+        groups.retain(|g| allowed.contains(g));
+    }
+    let mut report = SelectionReport {
+        method: selection.method,
+        scheme: selection.scheme,
+        folds: selection.folds,
+        fold_sizes: Vec::new(),
+        candidates: Vec::new(),
+        chosen: Vec::new(),
+        reasons: Vec::new(),
+    };
+    if selection.method == SelectionMethod::None {
+        report.chosen = groups.clone();
+        report
+            .reasons
+            .push("no selection: every group identified".into());
+        return Ok((report, candidate_options(model, base, &groups)));
+    }
+    let cv = selection.method == SelectionMethod::CrossValidation;
+    let mut folds = Vec::new();
+    if cv {
+        if selection.folds < 2 || selection.folds > set.len() {
+            return Err(CalibError::InvalidOption {
+                name: "folds",
+                reason: format!(
+                    "must be between 2 and the number of poses ({}), found {}",
+                    set.len(),
+                    selection.folds
+                ),
+            });
+        }
+        let assignment = fold_assignment(
+            model,
+            set,
+            selection.folds,
+            selection.scheme,
+            selection.seed,
+        );
+        for f in 0..selection.folds {
+            let train = subset(set, |k| assignment[k] != f)?;
+            let held_out = subset(set, |k| assignment[k] == f)?;
+            report.fold_sizes.push(held_out.len());
+            folds.push((train, held_out));
+        }
+    }
+    // Score of a candidate: (score, uncertainty of differences, per-pose errors).
+    // Each set of groups is scored once (backward steps reach some twice).
+    let mut scored: Vec<(Vec<TermGroup>, Option<Score>)> = Vec::new();
+    let mut score = |chosen: &[TermGroup], report: &mut SelectionReport| -> Option<Score> {
+        let mut sorted = chosen.to_vec();
+        sorted.sort();
+        if let Some((_, known)) = scored.iter().find(|(g, _)| *g == sorted) {
+            return known.clone();
+        }
+        let key = sorted.clone();
+        let options = candidate_options(model, base, &sorted);
+        let mut candidate = CandidateScore {
+            groups: sorted,
+            cv_mean_error_mm: None,
+            cv_standard_error_mm: None,
+            cv_fold_errors_mm: Vec::new(),
+            bic: None,
+            identified: 0.0,
+            failure: None,
+        };
+        let result = if cv {
+            cross_validate(model, &folds, &options).map(|(per_pose, fold_means, rank)| {
+                let k = fold_means.len() as f64;
+                let mean = per_pose.iter().sum::<f64>() / per_pose.len().max(1) as f64;
+                let fm = fold_means.iter().sum::<f64>() / k;
+                let sd =
+                    (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
+                candidate.cv_mean_error_mm = Some(mean * 1e3);
+                candidate.cv_standard_error_mm = Some(sd / k.sqrt() * 1e3);
+                candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
+                candidate.identified = rank;
+                (mean, fold_means)
+            })
+        } else {
+            calibrate(model, set, &options).map(|c| {
+                let b = bic(&c);
+                candidate.bic = Some(b);
+                candidate.identified = c.rank() as f64;
+                (b, Vec::new())
+            })
+        };
+        let out = match result {
+            Ok(v) => Some(v),
+            Err(e) => {
+                candidate.failure = Some(e.to_string());
+                None
+            }
+        };
+        report.candidates.push(candidate);
+        scored.push((key, out.clone()));
+        out
+    };
+    let mut chosen: Vec<TermGroup> = groups.clone();
+    let Some(mut current) = score(&chosen, &mut report) else {
+        let failure = report.candidates[0].failure.clone().unwrap_or_default();
+        return Err(CalibError::InvalidOption {
+            name: "select",
+            reason: format!("the model with every group could not be scored: {failure}"),
+        });
+    };
+    let unit = if cv { "mm" } else { "" };
+    let show = |v: f64| if cv { v * 1e3 } else { v };
+    loop {
+        // The removal that leaves the best score (the law goes with the
+        // compliances it modifies).
+        let mut best: Option<(TermGroup, Vec<TermGroup>, Score)> = None;
+        for &g in &chosen {
+            let trial: Vec<TermGroup> = chosen
+                .iter()
+                .copied()
+                .filter(|&c| c != g && !(g == TermGroup::Compliances && c == TermGroup::JointLaw))
+                .collect();
+            if let Some(s) = score(&trial, &mut report) {
+                if best.as_ref().is_none_or(|(_, _, b)| s.0 < b.0) {
+                    best = Some((g, trial, s));
+                }
+            }
+        }
+        let Some((g, trial, s)) = best else {
+            report.reasons.push("no group left to remove".into());
+            break;
+        };
+        // The uncertainty of the difference: paired over the folds (CV), or
+        // 2 (BIC: positive evidence for the richer model).
+        let margin = if cv {
+            let d: Vec<f64> = s.1.iter().zip(&current.1).map(|(a, b)| a - b).collect();
+            let k = d.len() as f64;
+            let m = d.iter().sum::<f64>() / k;
+            (d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0)).sqrt() / k.sqrt()
+        } else {
+            2.0
+        };
+        let loss = s.0 - current.0;
+        if loss <= margin {
+            report.reasons.push(format!(
+                "without {} the score is {:.4} {unit} against {:.4}, not worse by more than its uncertainty {:.4}: removed (the simpler model)",
+                g.label(),
+                show(s.0),
+                show(current.0),
+                show(margin)
+            ));
+            chosen = trial;
+            current = s;
+        } else {
+            report.reasons.push(format!(
+                "every removal worsens the score by more than its uncertainty (the least, {}, from {:.4} to {:.4} {unit}, uncertainty {:.4}): the search stops",
+                g.label(),
+                show(current.0),
+                show(s.0),
+                show(margin)
+            ));
+            break;
+        }
+    }
+    chosen.sort();
+    report.chosen = chosen.clone();
+    Ok((report, candidate_options(model, base, &chosen)))
+}
+
+/// Selects the model ([`select_model`]) and identifies it on the whole
+/// set: the one call behind `calibrate --select`. With
+/// [`SelectionMethod::None`] the model of `options` is identified as it is
+/// and no report is returned.
+///
+/// # Errors
+/// As [`select_model`] and [`calibrate`].
+pub fn calibrate_selected(
+    model: &Model,
+    set: &MeasurementSet,
+    options: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
+    if selection.method == SelectionMethod::None {
+        return Ok((calibrate(model, set, options)?, None, options.clone()));
+    }
+    let (report, chosen) = select_model(model, set, options, selection)?;
+    Ok((calibrate(model, set, &chosen)?, Some(report), chosen))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn balanced_clusters_cover_every_point_within_the_cap() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let points: Vec<Vec<f64>> = (0..103)
+            .map(|i| {
+                let centre = (i % 3) as f64 * 5.0;
+                vec![
+                    centre + rng.random_range(0.0..1.0),
+                    rng.random_range(0.0..1.0),
+                ]
+            })
+            .collect();
+        let a = balanced_kmeans(&points, 5, 1);
+        let mut counts = [0usize; 5];
+        for f in &a {
+            counts[*f] += 1;
+        }
+        assert!(counts.iter().all(|c| *c > 0 && *c <= 21), "{counts:?}");
+        assert_eq!(a, balanced_kmeans(&points, 5, 1));
+    }
+}
