@@ -91,7 +91,8 @@ except ImportError:
 try:
     import roboticstoolbox as rtb
 
-    ur10 = rtb.models.UR10()
+    # The DH model: rtb.models.UR10() (URDF) fetches its meshes from GitHub at load time.
+    ur10 = rtb.models.DH.UR10()
     n_rtb = min(N, 2_000)
 
     def rtb_loop():
