@@ -67,7 +67,11 @@ pub fn check_finite(name: &str, data: &[f64], shape: &[usize]) -> PyResult<()> {
 
 /// Reads `array` as rows of `width` values: shape `(width,)` or `(n, width)`,
 /// every value finite. `unit` is said in messages (`rad or m`).
-pub fn rows(name: &str, array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>, width: usize) -> PyResult<Rows> {
+pub fn rows(
+    name: &str,
+    array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    width: usize,
+) -> PyResult<Rows> {
     let view = array.as_array();
     let shape = view.shape().to_vec();
     let (n, batched) = match shape[..] {
@@ -125,9 +129,13 @@ pub fn exact(
 }
 
 /// A NumPy array of `shape` from row-major `data`.
-pub fn to_numpy<'py>(py: Python<'py>, data: Vec<f64>, shape: &[usize]) -> Bound<'py, PyArrayDyn<f64>> {
+pub fn to_numpy<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    shape: &[usize],
+) -> Bound<'py, PyArrayDyn<f64>> {
     // The shape always matches the data the callers computed.
-    let array = ArrayD::from_shape_vec(IxDyn(shape), data)
-        .unwrap_or_else(|_| ArrayD::zeros(IxDyn(&[0])));
+    let array =
+        ArrayD::from_shape_vec(IxDyn(shape), data).unwrap_or_else(|_| ArrayD::zeros(IxDyn(&[0])));
     array.into_pyarray(py)
 }

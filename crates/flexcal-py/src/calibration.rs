@@ -152,7 +152,12 @@ impl ValidationResult {
     /// Position error of every pose after calibration, shape (n,), m.
     #[getter]
     fn position_errors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
-        let e: Vec<f64> = self.report.after_per_pose.iter().map(|e| e.position).collect();
+        let e: Vec<f64> = self
+            .report
+            .after_per_pose
+            .iter()
+            .map(|e| e.position)
+            .collect();
         let n = e.len();
         to_numpy(py, e, &[n])
     }
@@ -165,7 +170,13 @@ impl ValidationResult {
             .report
             .after_per_pose
             .iter()
-            .flat_map(|e| [e.position_vector.x, e.position_vector.y, e.position_vector.z])
+            .flat_map(|e| {
+                [
+                    e.position_vector.x,
+                    e.position_vector.y,
+                    e.position_vector.z,
+                ]
+            })
             .collect();
         to_numpy(py, e, &[self.report.after_per_pose.len(), 3])
     }
@@ -560,7 +571,10 @@ pub fn calibrate<'py>(
             rotation,
         ));
     }
-    for (name, value) in [("max_se_length", max_se_length), ("max_se_angle", max_se_angle)] {
+    for (name, value) in [
+        ("max_se_length", max_se_length),
+        ("max_se_angle", max_se_angle),
+    ] {
         if let Some(v) = value {
             if !(v.is_finite() && v > 0.0) {
                 return Err(InputError::new_err(format!(

@@ -107,7 +107,10 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ShapeError", py.get_type::<ShapeError>())?;
     m.add("NotFiniteError", py.get_type::<NotFiniteError>())?;
     m.add("UnknownRobotError", py.get_type::<UnknownRobotError>())?;
-    m.add("UnknownParameterError", py.get_type::<UnknownParameterError>())?;
+    m.add(
+        "UnknownParameterError",
+        py.get_type::<UnknownParameterError>(),
+    )?;
     m.add("FileError", py.get_type::<FileError>())?;
     m.add("KinematicsError", py.get_type::<KinematicsError>())?;
     m.add("UnreachableError", py.get_type::<UnreachableError>())?;
@@ -133,6 +136,8 @@ pub enum Failure {
     Fuzzy(FuzzyError),
     /// From flexcal-fem.
     Fem(FemError),
+    /// From the facade crate.
+    Facade(Box<flexcal::Error>),
     /// From flexcal-kinematics at configuration (row) `.0` of a batch.
     KinematicsAt(usize, KinError),
     /// A panic caught at the boundary, with its message.
@@ -144,6 +149,12 @@ type KinError = flexcal::kinematics::KinematicsError;
 impl From<KinError> for Failure {
     fn from(e: KinError) -> Self {
         Failure::Kinematics(e)
+    }
+}
+
+impl From<flexcal::Error> for Failure {
+    fn from(e: flexcal::Error) -> Self {
+        Failure::Facade(Box::new(e))
     }
 }
 
@@ -176,9 +187,7 @@ pub fn kinematics_error_with(e: &KinError, message: String) -> PyErr {
         KinError::UnknownRobot { .. } => UnknownRobotError::new_err(message),
         KinError::WrongLength { .. } => ShapeError::new_err(message),
         KinError::NotFinite { .. } => NotFiniteError::new_err(message),
-        KinError::File { .. } | KinError::Toml { .. } => {
-            FileError::new_err(message)
-        }
+        KinError::File { .. } | KinError::Toml { .. } => FileError::new_err(message),
         KinError::Unreachable { .. } => UnreachableError::new_err(message),
         _ => KinematicsError::new_err(message),
     }
@@ -211,12 +220,29 @@ impl From<Failure> for PyErr {
                 kinematics_error_with(&e, format!("configuration {row}: {e}"))
             }
             Failure::Calib(e) => calib_error(&e),
+            Failure::Facade(e) => facade_error(&e),
             Failure::Fuzzy(e) => FuzzyModelError::new_err(e.to_string()),
             Failure::Fem(e) => StructureError::new_err(e.to_string()),
             Failure::Panic(message) => {
                 InternalError::new_err(format!("internal error (panic caught): {message}"))
             }
         }
+    }
+}
+
+/// The exception for an error of the facade crate.
+pub fn facade_error(e: &flexcal::Error) -> PyErr {
+    let message = e.to_string();
+    match e {
+        flexcal::Error::UnknownRobot { .. } => UnknownRobotError::new_err(message),
+        flexcal::Error::RobotFormat { .. }
+        | flexcal::Error::Io(_)
+        | flexcal::Error::Json { .. } => FileError::new_err(message),
+        flexcal::Error::RobotBuild { source, .. } => kinematics_error_with(source, message),
+        flexcal::Error::InvalidParameter { .. } => InputError::new_err(message),
+        flexcal::Error::Kinematics(e) => kinematics_error(e),
+        flexcal::Error::Calib(e) => calib_error(e),
+        _ => FlexcalError::new_err(message),
     }
 }
 

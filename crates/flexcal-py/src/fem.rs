@@ -45,7 +45,11 @@ impl Structure {
     /// Load case names.
     #[getter]
     fn load_cases(&self) -> Vec<String> {
-        self.model.load_cases.iter().map(|c| c.name.clone()).collect()
+        self.model
+            .load_cases
+            .iter()
+            .map(|c| c.name.clone())
+            .collect()
     }
 
     /// Solves every load case: a dict from case name to the displacements
@@ -57,7 +61,11 @@ impl Structure {
         let d = PyDict::new(py);
         for case in cases {
             let n = case.nodes.len();
-            let data = case.nodes.iter().flat_map(|u| u.iter().copied().collect::<Vec<_>>()).collect();
+            let data = case
+                .nodes
+                .iter()
+                .flat_map(|u| u.iter().copied().collect::<Vec<_>>())
+                .collect();
             d.set_item(case.name, to_numpy(py, data, &[n, 6]))?;
         }
         Ok(d)

@@ -83,10 +83,7 @@ impl MeasurementSet {
         }
         let measurements = (0..n)
             .map(|k| {
-                let mut m = Measurement::new(
-                    q[k * dof..(k + 1) * dof].to_vec(),
-                    column3(&p, k),
-                );
+                let mut m = Measurement::new(q[k * dof..(k + 1) * dof].to_vec(), column3(&p, k));
                 m.orientation = o.as_deref().map(|o| column3(o, k));
                 m.position_std = s.as_deref().map(|s| column3(s, k));
                 m.orientation_std = os.as_deref().map(|s| column3(s, k));

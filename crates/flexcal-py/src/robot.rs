@@ -214,6 +214,15 @@ impl Robot {
         Ok(Self::new(model))
     }
 
+    /// A robot by the command line's rule: a built-in name is that robot,
+    /// anything else a description file read by the format its extension
+    /// selects. Raises `UnknownRobotError` when `spec` is neither.
+    #[staticmethod]
+    fn load(spec: &str) -> PyResult<Self> {
+        let model = flexcal::load_robot(spec).map_err(|e| crate::errors::facade_error(&e))?;
+        Ok(Self::new(model))
+    }
+
     /// Names of the built-in robots.
     #[staticmethod]
     fn builtin_names() -> Vec<&'static str> {

@@ -81,6 +81,9 @@ class Robot:
     def builtin(name: str) -> Robot:
         """A built-in robot (`ur10`, `ir663`, `puma560`); UnknownRobotError otherwise."""
     @staticmethod
+    def load(spec: str) -> Robot:
+        """The command line's rule: a built-in name, else a description file by its extension."""
+    @staticmethod
     def builtin_names() -> list[str]:
         """Names of the built-in robots."""
     @staticmethod

@@ -10,6 +10,9 @@ def test_unknown_robot(ur10):
     with pytest.raises(flexcal.UnknownRobotError, match="unknown built-in robot `ur11`"):
         flexcal.Robot.builtin("ur11")
     assert issubclass(flexcal.UnknownRobotError, flexcal.FlexcalError)
+    with pytest.raises(flexcal.UnknownRobotError, match="unknown robot 'ur11'"):
+        flexcal.Robot.load("ur11")
+    assert flexcal.Robot.load("ur10").name == ur10.name
 
 
 @pytest.mark.parametrize(
