@@ -10,8 +10,9 @@ from conftest import configurations, ipa_series
 import flexcal
 
 # Error terms of the simulated robot (standard deviations): link lengths and
-# offsets 0.3 mm, angles 0.03 deg, about the size of the deltas flexcal
-# identifies on the IPA UR10 (docs/python.md prints them); measurement noise
+# offsets 0.3 mm, angles 0.03 deg, the order of the deltas identified on the
+# real UR10 of the IPA data, series B (lengths 0.06-1.3 mm, angles 0.01-0.09
+# deg, as examples/calibrate_ipa_ur10.py prints them); measurement noise
 # 20 um per axis, the order of a laser tracker's uncertainty at 1-2 m.
 LENGTH_ERROR = 0.3e-3
 ANGLE_ERROR = np.radians(0.03)
