@@ -23,6 +23,7 @@
 
 mod arrays;
 mod calibration;
+mod compensation;
 pub mod errors;
 mod fem;
 mod fuzzy;
@@ -47,6 +48,8 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
+    m.add_class::<compensation::CommandedPath>()?;
+    m.add_function(wrap_pyfunction!(compensation::compensate_path, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

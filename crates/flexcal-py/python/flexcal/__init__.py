@@ -18,6 +18,7 @@ library's one-line message. See docs/python.md in the repository.
 from ._flexcal import (
     CalibrationError,
     CalibrationResult,
+    CommandedPath,
     ErrorStatistics,
     FileError,
     FlexcalError,
@@ -42,11 +43,13 @@ from ._flexcal import (
     ValidationResult,
     __version__,
     calibrate,
+    compensate_path,
 )
 
 __all__ = [
     "CalibrationError",
     "CalibrationResult",
+    "CommandedPath",
     "ErrorStatistics",
     "FileError",
     "FlexcalError",
@@ -71,4 +74,5 @@ __all__ = [
     "ValidationResult",
     "__version__",
     "calibrate",
+    "compensate_path",
 ]

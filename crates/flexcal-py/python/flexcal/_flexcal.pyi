@@ -373,3 +373,48 @@ class Structure:
         """Case name -> (n_nodes, 6) [ux, uy, uz (m), rx, ry, rz (rad)]."""
     def condense(self, node: str) -> dict[str, object]:
         """{"k_eq": (6, 6), "c_eq": (6, 6), "f_eq": {case: (6,)}} in N, m, rad."""
+
+class CommandedPath:
+    """The commanded path of `compensate_path`: one point per target (SI)."""
+
+    @property
+    def q(self) -> FloatArray:
+        """(n, dof) commanded actuated coordinates, rad or m."""
+    @property
+    def poses(self) -> FloatArray:
+        """(n, 4, 4) commanded TCP poses in the base frame, m."""
+    @property
+    def predicted_error(self) -> FloatArray:
+        """(n, 6) predicted error without compensation, [m; rad], base frame."""
+    @property
+    def residual(self) -> FloatArray:
+        """(n, 6) remaining error after compensation, [m; rad]."""
+    @property
+    def iterations(self) -> list[int]: ...
+    @property
+    def max_predicted_deviation(self) -> float:
+        """m."""
+    @property
+    def max_residual(self) -> float:
+        """m."""
+    @property
+    def models(self) -> tuple[str, str]:
+        """(elastic model, process model) in words."""
+    def to_csv(self) -> str:
+        """As `flexcal compensate` writes it (mm)."""
+    def to_krl(self) -> str: ...
+    def __len__(self) -> int: ...
+
+def compensate_path(
+    robot: Robot,
+    points: ArrayLike,
+    x_base_part: ArrayLike,
+    elastic: str,
+    process: str,
+    payload: Optional[ArrayLike] = None,
+    start_joints: Optional[ArrayLike] = None,
+    xi: Optional[ArrayLike] = None,
+) -> CommandedPath:
+    """Compensates a path: points (n, 3) in the part frame (m), x_base_part (4, 4) m,
+    elastic `fe:NAME|FILE` or `fuzzy:FILE`, process `cantilever:...` (the CLI's text, mm),
+    payload (6,) [N; N.m] in the base frame (eqs. (39)-(41))."""
