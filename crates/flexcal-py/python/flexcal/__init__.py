@@ -1,0 +1,78 @@
+"""flexcal: elasto-geometric calibration of industrial robots, from Python.
+
+Robots (forward and inverse models, joint and parameter Jacobians),
+measurement sets, identification with its identifiability report, fuzzy
+models and frame finite-element structures, on NumPy arrays. Every array is
+in SI units (m, rad); mm and degrees appear only in files and in the JSON
+report, in fields named with their unit.
+
+    >>> import numpy as np, flexcal
+    >>> robot = flexcal.Robot.builtin("ur10")
+    >>> robot.fk(np.zeros((10, robot.dof))).shape
+    (10, 4, 4)
+
+Errors are raised as subclasses of ``flexcal.FlexcalError`` carrying the
+library's one-line message. See docs/python.md in the repository.
+"""
+
+from ._flexcal import (
+    CalibrationError,
+    CalibrationResult,
+    CommandedPath,
+    ErrorStatistics,
+    FileError,
+    FlexcalError,
+    FuzzyModel,
+    FuzzyModelError,
+    InputError,
+    InternalError,
+    KinematicsError,
+    MeasurementError,
+    MeasurementSet,
+    NotFiniteError,
+    Parameter,
+    RankDeficientError,
+    Robot,
+    ShapeError,
+    Structure,
+    StructureError,
+    UnknownEstimate,
+    UnknownParameterError,
+    UnknownRobotError,
+    UnreachableError,
+    ValidationResult,
+    __version__,
+    calibrate,
+    compensate_path,
+)
+
+__all__ = [
+    "CalibrationError",
+    "CalibrationResult",
+    "CommandedPath",
+    "ErrorStatistics",
+    "FileError",
+    "FlexcalError",
+    "FuzzyModel",
+    "FuzzyModelError",
+    "InputError",
+    "InternalError",
+    "KinematicsError",
+    "MeasurementError",
+    "MeasurementSet",
+    "NotFiniteError",
+    "Parameter",
+    "RankDeficientError",
+    "Robot",
+    "ShapeError",
+    "Structure",
+    "StructureError",
+    "UnknownEstimate",
+    "UnknownParameterError",
+    "UnknownRobotError",
+    "UnreachableError",
+    "ValidationResult",
+    "__version__",
+    "calibrate",
+    "compensate_path",
+]

@@ -1,0 +1,420 @@
+"""Type stubs of flexcal's extension module. Units: SI in every array
+(m for lengths and positions, rad for angles, joint coordinates in rad for
+revolute and m for prismatic or screw joints); mm and deg only in files and
+the JSON report."""
+
+from os import PathLike
+from typing import Literal, Optional, Sequence, Union, overload
+
+import numpy as np
+import numpy.typing as npt
+
+ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+StrPath = Union[str, PathLike[str]]
+
+__version__: str
+
+class FlexcalError(Exception):
+    """Base class of every error flexcal raises (the library's one-line message)."""
+
+class InputError(FlexcalError):
+    """An argument is invalid before any computation (shape, value, option)."""
+
+class ShapeError(InputError):
+    """An array has the wrong shape for the robot or the call."""
+
+class NotFiniteError(InputError):
+    """An input value is NaN or infinite (the message names the index)."""
+
+class UnknownRobotError(InputError):
+    """No built-in robot has this name."""
+
+class UnknownParameterError(InputError):
+    """A parameter name (fix, defer) is not one of the model's unknowns."""
+
+class FileError(FlexcalError):
+    """A file could not be read or written, or its content is malformed."""
+
+class KinematicsError(FlexcalError):
+    """An invalid robot description or a failure of one of its algorithms."""
+
+class UnreachableError(KinematicsError):
+    """The inverse model reaches no configuration within the joint limits."""
+
+class MeasurementError(FlexcalError):
+    """A measurement set is invalid or does not match the robot."""
+
+class CalibrationError(FlexcalError):
+    """The identification failed (too few poses, degenerate registration, solver)."""
+
+class RankDeficientError(CalibrationError):
+    """The poses do not identify every free unknown (strict=True)."""
+
+class FuzzyModelError(FlexcalError):
+    """A fuzzy model could not be fitted or evaluated."""
+
+class StructureError(FlexcalError):
+    """A frame structure is invalid or could not be solved."""
+
+class InternalError(FlexcalError):
+    """A defect inside flexcal (a caught panic)."""
+
+class Parameter:
+    """One entry of the parameter vector xi."""
+
+    name: str
+    """Name: quantity + frame (`d3`, `alpha2`, `beta3`, `theta1`, ...)."""
+    unit: Literal["m", "rad"]
+    """SI unit of `nominal`."""
+    nominal: float
+    """Nominal value (m or rad)."""
+    frame: str
+    """The frame owning the parameter."""
+    index: int
+    """Position in xi."""
+
+class Robot:
+    """A validated, frozen robot model."""
+
+    @staticmethod
+    def builtin(name: str) -> Robot:
+        """A built-in robot (`ur10`, `ir663`, `puma560`); UnknownRobotError otherwise."""
+    @staticmethod
+    def load(spec: str) -> Robot:
+        """The command line's rule: a built-in name, else a description file by its extension."""
+    @staticmethod
+    def builtin_names() -> list[str]:
+        """Names of the built-in robots."""
+    @staticmethod
+    def from_toml(path: StrPath) -> Robot:
+        """A robot from a description file (TOML; mm and deg in fields named with their unit)."""
+    @staticmethod
+    def from_toml_string(text: str, source: str = "<string>") -> Robot:
+        """A robot from description text (TOML, mm and deg)."""
+    def to_toml(self) -> str:
+        """The description (mm, deg) with the current nominal values."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def dof(self) -> int:
+        """Number of actuated coordinates (length of q)."""
+    @property
+    def joint_names(self) -> list[str]:
+        """Names of the actuated coordinates in the order of q."""
+    @property
+    def joint_limits(self) -> FloatArray:
+        """(dof, 2) [lower, upper] in rad or m."""
+    @property
+    def parameters(self) -> list[Parameter]:
+        """The parameters of xi with SI units and nominal values."""
+    @property
+    def parameter_names(self) -> list[str]: ...
+    @property
+    def nominal(self) -> FloatArray:
+        """The nominal parameter vector xi (n_params,), m and rad."""
+    @overload
+    def fk(
+        self,
+        q: ArrayLike,
+        xi: Optional[ArrayLike] = None,
+        output: Literal["matrix"] = "matrix",
+        threads: Optional[int] = None,
+    ) -> FloatArray:
+        """TCP pose in the base frame: (4, 4) for q (dof,), (n, 4, 4) for q (n, dof); m."""
+    @overload
+    def fk(
+        self,
+        q: ArrayLike,
+        xi: Optional[ArrayLike] = None,
+        output: Literal["pose"] = ...,
+        threads: Optional[int] = None,
+    ) -> tuple[FloatArray, FloatArray]:
+        """(positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w])."""
+    def jacobian(
+        self, q: ArrayLike, xi: Optional[ArrayLike] = None, threads: Optional[int] = None
+    ) -> FloatArray:
+        """Joint Jacobian d[p_tcp; phi]/dq, (6, dof) or (n, 6, dof); rows [linear (m); angular (rad)] per unit of q, base frame."""
+    def parameter_jacobian(
+        self, q: ArrayLike, xi: Optional[ArrayLike] = None, threads: Optional[int] = None
+    ) -> FloatArray:
+        """Parameter Jacobian d[p_tcp; phi]/dxi (eqs. (49)-(52)), (6, n_params) or (n, 6, n_params)."""
+    def ik(
+        self,
+        pose: ArrayLike,
+        seed: ArrayLike,
+        xi: Optional[ArrayLike] = None,
+        target: Literal["pose", "position-and-tool-axis"] = "pose",
+        max_iterations: int = 200,
+        position_tolerance: float = 1e-11,
+        orientation_tolerance: float = 1e-11,
+    ) -> FloatArray:
+        """q (dof,) reaching `pose` (4 x 4, m) nearest `seed`; UnreachableError if none within limits. Tolerances in m and rad."""
+
+class MeasurementSet:
+    """Measured poses: q (rad, m), target positions (m) in the measurement frame,
+    optionally orientations (rotation vectors, rad) and standard deviations."""
+
+    @staticmethod
+    def from_arrays(
+        q: ArrayLike,
+        positions: ArrayLike,
+        orientations: Optional[ArrayLike] = None,
+        std: Optional[ArrayLike] = None,
+        orientation_std: Optional[ArrayLike] = None,
+        pose_ids: Optional[Sequence[str]] = None,
+        source: str = "arrays",
+    ) -> MeasurementSet:
+        """q (n, dof) rad/m, positions (n, 3) m, orientations (n, 3) rad, std (n, 3) m, orientation_std (n, 3) rad."""
+    @staticmethod
+    def read_csv(path: StrPath, format: Literal["own", "ipa"] = "own") -> MeasurementSet:
+        """flexcal's CSV (mm, deg columns) or the IPA laser-tracker export."""
+    def write_csv(self, path: StrPath) -> None:
+        """Writes flexcal's CSV (mm, deg)."""
+    def subset(self, indices: Sequence[int]) -> MeasurementSet: ...
+    def excluding(self, labels: Sequence[str]) -> MeasurementSet:
+        """Without the poses of these labels (pose_id, `#k`, `line N`)."""
+    @property
+    def source(self) -> str: ...
+    @property
+    def format(self) -> Literal["own", "ipa"]: ...
+    @property
+    def q(self) -> FloatArray:
+        """(n, dof), rad or m."""
+    @property
+    def positions(self) -> FloatArray:
+        """(n, 3), m."""
+    @property
+    def orientations(self) -> Optional[FloatArray]:
+        """(n, 3) rotation vectors, rad, or None."""
+    @property
+    def labels(self) -> list[str]: ...
+    @property
+    def dof(self) -> int: ...
+    @property
+    def has_orientation(self) -> bool: ...
+    @property
+    def nominal_target(self) -> Optional[FloatArray]:
+        """(4, 4) target in the TCP frame (m) when the format knows it (IPA probe)."""
+    def __len__(self) -> int: ...
+
+class ErrorStatistics:
+    """Mean, RMS and maximum pose errors (m, rad)."""
+
+    n_poses: int
+    position_mean: float
+    position_rms: float
+    position_max: float
+    orientation_mean: Optional[float]
+    orientation_rms: Optional[float]
+    orientation_max: Optional[float]
+
+class UnknownEstimate:
+    """One unknown of an identification, SI units."""
+
+    name: str
+    unit: str
+    """m, rad, rad/N.m (m/N for a linear joint), kg or kg.m."""
+    nominal: float
+    identified: float
+    delta: float
+    standard_error: Optional[float]
+    spread_ratio: Optional[float]
+    status: Literal[
+        "identified", "fixed", "non-identifiable", "poorly-identifiable", "no-influence"
+    ]
+
+class ValidationResult:
+    """Errors of a calibrated robot on another set."""
+
+    @property
+    def before(self) -> ErrorStatistics: ...
+    @property
+    def after(self) -> ErrorStatistics: ...
+    @property
+    def position_errors(self) -> FloatArray:
+        """(n,) position error per pose after calibration, m."""
+    @property
+    def error_vectors(self) -> FloatArray:
+        """(n, 3) measured - predicted position, measurement frame, m."""
+    @property
+    def measurement_frame(self) -> FloatArray:
+        """(4, 4) x_meas_base, m."""
+    @property
+    def note(self) -> str: ...
+    @property
+    def extrapolated_coordinates(self) -> list[tuple[str, float]]: ...
+
+class CalibrationResult:
+    """The result of `calibrate`: the JSON report's fields in SI units."""
+
+    @property
+    def robot(self) -> Robot:
+        """The calibrated robot (nominal values = identified values)."""
+    @property
+    def model(self) -> Literal["geometric", "elasto-geometric"]: ...
+    @property
+    def parameters(self) -> list[UnknownEstimate]: ...
+    @property
+    def identified(self) -> dict[str, float]:
+        """Every unknown's value by name (SI)."""
+    @property
+    def standard_errors(self) -> dict[str, float]:
+        """Standard error of each identified unknown (SI)."""
+    @property
+    def rank(self) -> int: ...
+    @property
+    def n_unknowns(self) -> int: ...
+    @property
+    def n_free(self) -> int: ...
+    @property
+    def non_identifiable(self) -> list[str]: ...
+    @property
+    def poorly_identifiable(self) -> list[str]: ...
+    @property
+    def combinations(self) -> list[str]:
+        """`d4_id = d4 + 0.82 d9 - r8p`: what identified unknowns stand for (like (C.1))."""
+    @property
+    def combination_terms(self) -> dict[str, list[tuple[str, float]]]:
+        """Identified name -> [(absorbed name, coefficient (SI))]."""
+    @property
+    def notes(self) -> list[str]: ...
+    @property
+    def condition_number(self) -> float: ...
+    @property
+    def singular_values(self) -> FloatArray: ...
+    @property
+    def termination(self) -> str: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def cost_history(self) -> FloatArray: ...
+    @property
+    def position_rms_history(self) -> FloatArray:
+        """RMS position error (m) at each iterate."""
+    @property
+    def before(self) -> ErrorStatistics: ...
+    @property
+    def after(self) -> ErrorStatistics: ...
+    @property
+    def position_errors(self) -> FloatArray:
+        """(n,) identification-set position errors after identification, m."""
+    @property
+    def measurement_frame(self) -> FloatArray:
+        """(4, 4) identified x_meas_base, m."""
+    @property
+    def target(self) -> FloatArray:
+        """(4, 4) identified x_tcp_target, m."""
+    def validate(self, other: MeasurementSet, refit_target: bool = False) -> ValidationResult: ...
+    def to_json(self, validation: Optional[ValidationResult] = None) -> str:
+        """The JSON report of `flexcal calibrate --report` (mm, deg)."""
+
+def calibrate(
+    robot: Robot,
+    data: MeasurementSet,
+    model: Literal["geometric", "elasto-geometric"] = "geometric",
+    fix: Sequence[str] = (),
+    defer: Optional[Sequence[str]] = None,
+    method: Literal["lm", "gn"] = "lm",
+    weights: Optional[Literal["file", "uniform"]] = None,
+    use_orientation: Optional[bool] = None,
+    fixed_frame: bool = False,
+    fixed_target: bool = False,
+    target: Optional[ArrayLike] = None,
+    max_se_length: Optional[float] = None,
+    max_se_angle: Optional[float] = None,
+    strict: bool = False,
+    masses: Optional[StrPath] = None,
+    max_iterations: Optional[int] = None,
+) -> CalibrationResult:
+    """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad."""
+
+class FuzzyModel:
+    """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""
+
+    @staticmethod
+    def fit(
+        x: ArrayLike,
+        y: ArrayLike,
+        input_names: Optional[Sequence[str]] = None,
+        output_name: str = "y",
+        test_fraction: float = 0.25,
+        seed: int = 0,
+        max_rules: Optional[int] = None,
+        ridge: Optional[float] = None,
+    ) -> FuzzyModel:
+        """Fits on x (n, k), y (n,) (any units, kept by the model)."""
+    def predict(self, x: ArrayLike) -> FloatArray:
+        """(n,) for x (n, k), or a 0-d array for x (k,)."""
+    def to_fis(self, name: str = "flexcal") -> str: ...
+    @property
+    def input_names(self) -> list[str]: ...
+    @property
+    def n_rules(self) -> int: ...
+    @property
+    def conclusions(self) -> FloatArray: ...
+    @property
+    def training_rmse(self) -> float: ...
+    @property
+    def test_rmse(self) -> float: ...
+
+class Structure:
+    """A frame finite-element structure with its load cases."""
+
+    @staticmethod
+    def from_file(path: StrPath) -> Structure: ...
+    @property
+    def node_names(self) -> list[str]: ...
+    @property
+    def load_cases(self) -> list[str]: ...
+    def solve(self) -> dict[str, FloatArray]:
+        """Case name -> (n_nodes, 6) [ux, uy, uz (m), rx, ry, rz (rad)]."""
+    def condense(self, node: str) -> dict[str, object]:
+        """{"k_eq": (6, 6), "c_eq": (6, 6), "f_eq": {case: (6,)}} in N, m, rad."""
+
+class CommandedPath:
+    """The commanded path of `compensate_path`: one point per target (SI)."""
+
+    @property
+    def q(self) -> FloatArray:
+        """(n, dof) commanded actuated coordinates, rad or m."""
+    @property
+    def poses(self) -> FloatArray:
+        """(n, 4, 4) commanded TCP poses in the base frame, m."""
+    @property
+    def predicted_error(self) -> FloatArray:
+        """(n, 6) predicted error without compensation, [m; rad], base frame."""
+    @property
+    def residual(self) -> FloatArray:
+        """(n, 6) remaining error after compensation, [m; rad]."""
+    @property
+    def iterations(self) -> list[int]: ...
+    @property
+    def max_predicted_deviation(self) -> float:
+        """m."""
+    @property
+    def max_residual(self) -> float:
+        """m."""
+    @property
+    def models(self) -> tuple[str, str]:
+        """(elastic model, process model) in words."""
+    def to_csv(self) -> str:
+        """As `flexcal compensate` writes it (mm)."""
+    def to_krl(self) -> str: ...
+    def __len__(self) -> int: ...
+
+def compensate_path(
+    robot: Robot,
+    points: ArrayLike,
+    x_base_part: ArrayLike,
+    elastic: str,
+    process: str,
+    payload: Optional[ArrayLike] = None,
+    start_joints: Optional[ArrayLike] = None,
+    xi: Optional[ArrayLike] = None,
+) -> CommandedPath:
+    """Compensates a path: points (n, 3) in the part frame (m), x_base_part (4, 4) m,
+    elastic `fe:NAME|FILE` or `fuzzy:FILE`, process `cantilever:...` (the CLI's text, mm),
+    payload (6,) [N; N.m] in the base frame (eqs. (39)-(41))."""

@@ -1,0 +1,141 @@
+//! NumPy arrays in and out: shapes and finiteness are checked here, before
+//! any library call, and every error names the argument and the index.
+
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
+use pyo3::prelude::*;
+
+use crate::errors::{NotFiniteError, ShapeError};
+
+/// Rows of equal width read from a 1-D (one row) or 2-D (n rows) array,
+/// copied row-major.
+#[derive(Debug, Clone)]
+pub struct Rows {
+    /// Values, row after row.
+    pub data: Vec<f64>,
+    /// Number of rows.
+    pub n: usize,
+    /// Values per row.
+    pub width: usize,
+    /// Whether the input was 2-D (outputs then keep a leading axis).
+    pub batched: bool,
+}
+
+impl Rows {
+    /// Row `k`.
+    pub fn row(&self, k: usize) -> &[f64] {
+        &self.data[k * self.width..(k + 1) * self.width]
+    }
+}
+
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// Checks that every value is finite, naming the first that is not.
+pub fn check_finite(name: &str, data: &[f64], shape: &[usize]) -> PyResult<()> {
+    if let Some(flat) = data.iter().position(|v| !v.is_finite()) {
+        let mut index = Vec::with_capacity(shape.len());
+        let mut rest = flat;
+        for (axis, _) in shape.iter().enumerate() {
+            let stride: usize = shape[axis + 1..].iter().product();
+            index.push(rest / stride.max(1));
+            rest %= stride.max(1);
+        }
+        let index = index
+            .iter()
+            .map(usize::to_string)
+            .collect::<Vec<_>>()
+            .join(", ");
+        return Err(NotFiniteError::new_err(format!(
+            "{name}[{index}] is {} (values must be finite)",
+            data[flat]
+        )));
+    }
+    Ok(())
+}
+
+/// Reads `array` as rows of `width` values: shape `(width,)` or `(n, width)`,
+/// every value finite. `unit` is said in messages (`rad or m`).
+pub fn rows(
+    name: &str,
+    array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    width: usize,
+) -> PyResult<Rows> {
+    let view = array.as_array();
+    let shape = view.shape().to_vec();
+    let (n, batched) = match shape[..] {
+        [w] if w == width => (1, false),
+        [n, w] if w == width => (n, true),
+        _ => {
+            return Err(ShapeError::new_err(format!(
+                "{name}: expected shape ({width},) or (n, {width}), got {}",
+                shape_text(&shape)
+            )));
+        }
+    };
+    let data: Vec<f64> = view.iter().copied().collect();
+    check_finite(name, &data, &shape)?;
+    Ok(Rows {
+        data,
+        n,
+        width,
+        batched,
+    })
+}
+
+/// Reads `array` with exactly `shape` (a `None` entry matches any length),
+/// every value finite; returns the values row-major and the actual shape.
+pub fn exact(
+    name: &str,
+    array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    shape: &[Option<usize>],
+) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    let view = array.as_array();
+    let actual = view.shape().to_vec();
+    let matches = actual.len() == shape.len()
+        && actual
+            .iter()
+            .zip(shape)
+            .all(|(a, s)| s.is_none_or(|s| s == *a));
+    if !matches {
+        let wanted = shape
+            .iter()
+            .map(|s| s.map_or("n".to_string(), |s| s.to_string()))
+            .collect::<Vec<_>>();
+        let wanted = if wanted.len() == 1 {
+            format!("({},)", wanted[0])
+        } else {
+            format!("({})", wanted.join(", "))
+        };
+        return Err(ShapeError::new_err(format!(
+            "{name}: expected shape {wanted}, got {}",
+            shape_text(&actual)
+        )));
+    }
+    let data: Vec<f64> = view.iter().copied().collect();
+    check_finite(name, &data, &actual)?;
+    Ok((data, actual))
+}
+
+/// A NumPy array of `shape` from row-major `data`.
+pub fn to_numpy<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    shape: &[usize],
+) -> Bound<'py, PyArrayDyn<f64>> {
+    // The shape always matches the data the callers computed.
+    let array =
+        ArrayD::from_shape_vec(IxDyn(shape), data).unwrap_or_else(|_| ArrayD::zeros(IxDyn(&[0])));
+    array.into_pyarray(py)
+}

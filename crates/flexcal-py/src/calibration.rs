@@ -1,0 +1,632 @@
+//! `flexcal.calibrate` and its result: the identification of a robot from
+//! a measurement set, with the fields of the JSON report.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use flexcal::calib::{
+    Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics as Stats,
+    FrameTreatment, GravityCompliance, Method, UnknownKind, UnknownStatus, ValidationReport,
+    Weighting, calibrate as run_calibration,
+};
+use flexcal::kinematics::Model;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::{exact, to_numpy};
+use crate::errors::{Failure, InputError, calib_error};
+use crate::interrupt::run_interruptible;
+use crate::measurement::{MeasurementSet, Origin};
+use crate::robot::Robot;
+
+/// Mean, RMS and maximum of the pose errors of a set (m, rad).
+#[pyclass(frozen, module = "flexcal", name = "ErrorStatistics", get_all)]
+#[derive(Debug, Clone)]
+pub struct ErrorStatistics {
+    /// Number of poses.
+    pub n_poses: usize,
+    /// Mean position error (m).
+    pub position_mean: f64,
+    /// RMS position error (m).
+    pub position_rms: f64,
+    /// Maximum position error (m).
+    pub position_max: f64,
+    /// Mean orientation error (rad), when orientations are used.
+    pub orientation_mean: Option<f64>,
+    /// RMS orientation error (rad), when orientations are used.
+    pub orientation_rms: Option<f64>,
+    /// Maximum orientation error (rad), when orientations are used.
+    pub orientation_max: Option<f64>,
+}
+
+impl From<&Stats> for ErrorStatistics {
+    fn from(s: &Stats) -> Self {
+        let o = s.orientation_mean_rms_max;
+        Self {
+            n_poses: s.n_poses,
+            position_mean: s.position_mean,
+            position_rms: s.position_rms,
+            position_max: s.position_max,
+            orientation_mean: o.map(|o| o.0),
+            orientation_rms: o.map(|o| o.1),
+            orientation_max: o.map(|o| o.2),
+        }
+    }
+}
+
+#[pymethods]
+impl ErrorStatistics {
+    fn __repr__(&self) -> String {
+        format!(
+            "ErrorStatistics(n_poses={}, position mean/rms/max = {:.4} / {:.4} / {:.4} mm)",
+            self.n_poses,
+            self.position_mean * 1e3,
+            self.position_rms * 1e3,
+            self.position_max * 1e3
+        )
+    }
+}
+
+/// One unknown of the identification (SI units).
+#[pyclass(frozen, module = "flexcal", name = "UnknownEstimate", get_all)]
+#[derive(Debug, Clone)]
+pub struct UnknownEstimate {
+    /// Name (a robot parameter, `frame_x..frame_rz`, `target_x..target_rz`,
+    /// `compliance_<joint>`, `payload_mass`, `payload_mx..mz`).
+    pub name: String,
+    /// SI unit: `m`, `rad`, `rad/N.m` (`m/N` for a linear joint), `kg`, `kg.m`.
+    pub unit: &'static str,
+    /// Starting (nominal) value.
+    pub nominal: f64,
+    /// Identified value (the nominal one unless identified).
+    pub identified: f64,
+    /// `identified - nominal`.
+    pub delta: f64,
+    /// Standard error (identified unknowns only).
+    pub standard_error: Option<f64>,
+    /// Standard error over the one of as many poses spread over the joint
+    /// ranges (identified unknowns only).
+    pub spread_ratio: Option<f64>,
+    /// `identified`, `fixed`, `non-identifiable`, `poorly-identifiable` or `no-influence`.
+    pub status: &'static str,
+}
+
+#[pymethods]
+impl UnknownEstimate {
+    fn __repr__(&self) -> String {
+        format!(
+            "UnknownEstimate(name={:?}, identified={} {}, standard_error={:?}, status={:?})",
+            self.name, self.identified, self.unit, self.standard_error, self.status
+        )
+    }
+}
+
+fn si_unit(kind: UnknownKind) -> &'static str {
+    match kind {
+        UnknownKind::Length => "m",
+        UnknownKind::Angle => "rad",
+        UnknownKind::Compliance => "rad/N.m",
+        UnknownKind::Mass => "kg",
+        UnknownKind::FirstMoment => "kg.m",
+    }
+}
+
+fn status_name(s: UnknownStatus) -> &'static str {
+    match s {
+        UnknownStatus::Identified => "identified",
+        UnknownStatus::Fixed => "fixed",
+        UnknownStatus::NonIdentifiable => "non-identifiable",
+        UnknownStatus::PoorlyIdentifiable => "poorly-identifiable",
+        UnknownStatus::NoInfluence => "no-influence",
+    }
+}
+
+fn matrix<'py>(py: Python<'py>, x: &Isometry3<f64>) -> Bound<'py, PyArrayDyn<f64>> {
+    let m = x.to_homogeneous().transpose();
+    to_numpy(py, m.as_slice().to_vec(), &[4, 4])
+}
+
+/// Errors of a calibrated robot on another measurement set (validation).
+#[pyclass(frozen, module = "flexcal", name = "ValidationResult")]
+#[derive(Debug, Clone)]
+pub struct ValidationResult {
+    pub(crate) report: Arc<ValidationReport>,
+}
+
+#[pymethods]
+impl ValidationResult {
+    /// Errors with the nominal robot (its frames fitted to this set).
+    #[getter]
+    fn before(&self) -> ErrorStatistics {
+        (&self.report.before).into()
+    }
+
+    /// Errors with the calibrated robot.
+    #[getter]
+    fn after(&self) -> ErrorStatistics {
+        (&self.report.after).into()
+    }
+
+    /// Position error of every pose after calibration, shape (n,), m.
+    #[getter]
+    fn position_errors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let e: Vec<f64> = self
+            .report
+            .after_per_pose
+            .iter()
+            .map(|e| e.position)
+            .collect();
+        let n = e.len();
+        to_numpy(py, e, &[n])
+    }
+
+    /// `measured - predicted` position of every pose after calibration, in
+    /// the measurement frame, shape (n, 3), m.
+    #[getter]
+    fn error_vectors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let e: Vec<f64> = self
+            .report
+            .after_per_pose
+            .iter()
+            .flat_map(|e| {
+                [
+                    e.position_vector.x,
+                    e.position_vector.y,
+                    e.position_vector.z,
+                ]
+            })
+            .collect();
+        to_numpy(py, e, &[self.report.after_per_pose.len(), 3])
+    }
+
+    /// The measurement frame x_meas_base used for the errors after (4 x 4, m).
+    #[getter]
+    fn measurement_frame<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        matrix(py, &self.report.measurement_frame)
+    }
+
+    /// How the measurement frame was obtained, in words.
+    #[getter]
+    fn note(&self) -> String {
+        self.report.frame_note.clone()
+    }
+
+    /// Actuated coordinates that leave the identification poses' range on
+    /// some poses: (name, fraction of the poses outside).
+    #[getter]
+    fn extrapolated_coordinates(&self) -> Vec<(String, f64)> {
+        self.report.extrapolated_coordinates.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "ValidationResult(before mean {:.4} mm, after mean {:.4} mm, {} poses)",
+            self.report.before.position_mean * 1e3,
+            self.report.after.position_mean * 1e3,
+            self.report.after.n_poses
+        )
+    }
+}
+
+/// The result of `calibrate`: the identified unknowns and what the poses
+/// could identify, the fields of the JSON report in SI units, the
+/// calibrated robot, validation on another set and the JSON report itself.
+#[pyclass(frozen, module = "flexcal", name = "CalibrationResult")]
+#[derive(Debug)]
+pub struct CalibrationResult {
+    calibration: Arc<Calibration>,
+    nominal: Arc<Model>,
+    calibrated: Robot,
+}
+
+#[pymethods]
+impl CalibrationResult {
+    /// The calibrated robot (its nominal values are the identified ones).
+    #[getter]
+    fn robot(&self) -> Robot {
+        self.calibrated.clone()
+    }
+
+    /// `"geometric"` or `"elasto-geometric"`.
+    #[getter]
+    fn model(&self) -> &'static str {
+        if self.calibration.elastic.is_some() {
+            "elasto-geometric"
+        } else {
+            "geometric"
+        }
+    }
+
+    /// Every unknown (robot parameters, measurement frame, target, and for
+    /// the elasto-geometric model compliances and payload).
+    #[getter]
+    fn parameters(&self) -> Vec<UnknownEstimate> {
+        self.calibration
+            .unknowns
+            .iter()
+            .map(|u| UnknownEstimate {
+                name: u.name.clone(),
+                unit: si_unit(u.kind),
+                nominal: u.initial,
+                identified: u.value,
+                delta: u.value - u.initial,
+                standard_error: u.standard_error,
+                spread_ratio: u.spread_ratio,
+                status: status_name(u.status),
+            })
+            .collect()
+    }
+
+    /// Identified value of every unknown by name (SI units).
+    #[getter]
+    fn identified<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for u in &self.calibration.unknowns {
+            d.set_item(&u.name, u.value)?;
+        }
+        Ok(d)
+    }
+
+    /// Standard error of every identified unknown by name (SI units).
+    #[getter]
+    fn standard_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for u in &self.calibration.unknowns {
+            if let Some(s) = u.standard_error {
+                d.set_item(&u.name, s)?;
+            }
+        }
+        Ok(d)
+    }
+
+    /// Number of identified unknowns.
+    #[getter]
+    fn rank(&self) -> usize {
+        self.calibration.rank()
+    }
+
+    /// Number of unknowns in the model (robot + 6 frame + 6 target, ...).
+    #[getter]
+    fn n_unknowns(&self) -> usize {
+        self.calibration.unknowns.len()
+    }
+
+    /// Free unknowns considered (not fixed, with influence).
+    #[getter]
+    fn n_free(&self) -> usize {
+        self.calibration.identifiability.names.len()
+    }
+
+    /// Unknowns beyond the numerical rank (kept at nominal).
+    #[getter]
+    fn non_identifiable(&self) -> Vec<String> {
+        self.calibration
+            .non_identifiable()
+            .into_iter()
+            .map(String::from)
+            .collect()
+    }
+
+    /// Unknowns kept at nominal because their standard error would exceed the limit.
+    #[getter]
+    fn poorly_identifiable(&self) -> Vec<String> {
+        self.calibration
+            .poorly_identifiable()
+            .into_iter()
+            .map(String::from)
+            .collect()
+    }
+
+    /// The combinations the identified unknowns stand for (like (C.1)), as text.
+    #[getter]
+    fn combinations(&self) -> Vec<String> {
+        self.calibration.combination_lines.clone()
+    }
+
+    /// The same combinations as terms: identified name -> [(absorbed
+    /// name, coefficient)], `name_id = name + sum coefficient * absorbed`,
+    /// coefficients in SI units (m per m, m per rad, ...).
+    #[getter]
+    fn combination_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for c in &self.calibration.combinations {
+            d.set_item(&c.name, c.terms.clone())?;
+        }
+        Ok(d)
+    }
+
+    /// What the poses could not identify, in sentences.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.calibration.identifiability_notes()
+    }
+
+    /// Condition number of the scaled base columns.
+    #[getter]
+    fn condition_number(&self) -> f64 {
+        self.calibration.solve.condition_number
+    }
+
+    /// Singular values of the scaled, weighted Jacobian of the identified unknowns.
+    #[getter]
+    fn singular_values<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let s = self.calibration.solve.singular_values.clone();
+        let n = s.len();
+        to_numpy(py, s, &[n])
+    }
+
+    /// The solver's termination reason.
+    #[getter]
+    fn termination(&self) -> String {
+        format!("{:?}", self.calibration.solve.termination)
+    }
+
+    /// Whether the termination is a convergence test.
+    #[getter]
+    fn converged(&self) -> bool {
+        self.calibration.solve.termination.is_converged()
+    }
+
+    /// Iterations of the final solve.
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.calibration.solve.iterations
+    }
+
+    /// Cost 1/2 ||W r||^2 at the start and after each iteration, every solve
+    /// in order (Figure 7's data), shape (k,).
+    #[getter]
+    fn cost_history<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let h = self.calibration.cost_history.clone();
+        let n = h.len();
+        to_numpy(py, h, &[n])
+    }
+
+    /// RMS position error (m) at the same iterates, shape (k,).
+    #[getter]
+    fn position_rms_history<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let h: Vec<f64> = self
+            .calibration
+            .residual_history
+            .iter()
+            .map(|h| h.position_rms)
+            .collect();
+        let n = h.len();
+        to_numpy(py, h, &[n])
+    }
+
+    /// Errors on the identification set with the nominal robot (frames registered).
+    #[getter]
+    fn before(&self) -> ErrorStatistics {
+        (&self.calibration.training_before).into()
+    }
+
+    /// Errors on the identification set after identification.
+    #[getter]
+    fn after(&self) -> ErrorStatistics {
+        (&self.calibration.training_after).into()
+    }
+
+    /// Position error of every identification pose after identification,
+    /// shape (n,), m.
+    #[getter]
+    fn position_errors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let e: Vec<f64> = self
+            .calibration
+            .training_after_per_pose
+            .iter()
+            .map(|e| e.position)
+            .collect();
+        let n = e.len();
+        to_numpy(py, e, &[n])
+    }
+
+    /// The identified measurement frame x_meas_base (4 x 4, m).
+    #[getter]
+    fn measurement_frame<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        matrix(py, &self.calibration.x_meas_base)
+    }
+
+    /// The identified target pose in the TCP frame x_tcp_target (4 x 4, m).
+    #[getter]
+    fn target<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        matrix(py, &self.calibration.x_tcp_target)
+    }
+
+    /// Errors of the calibrated robot on another set: only the measurement
+    /// frame (and with `refit_target` the target position) is re-fitted on
+    /// it, the robot frozen. Releases the GIL; Ctrl-C interrupts the wait.
+    #[pyo3(signature = (other, refit_target = false))]
+    fn validate(
+        &self,
+        py: Python<'_>,
+        other: &MeasurementSet,
+        refit_target: bool,
+    ) -> PyResult<ValidationResult> {
+        let calibration = Arc::clone(&self.calibration);
+        let model = Arc::clone(&self.nominal);
+        let set = Arc::clone(&other.set);
+        let report = run_interruptible(py, move || {
+            Ok(calibration.validate(&model, &set, refit_target)?)
+        })?;
+        Ok(ValidationResult {
+            report: Arc::new(report),
+        })
+    }
+
+    /// The JSON report, as `flexcal calibrate --report` writes it (mm and
+    /// deg at this boundary), with the validation when given.
+    #[pyo3(signature = (validation = None))]
+    fn to_json(&self, validation: Option<&ValidationResult>) -> PyResult<String> {
+        CalibrationReportJson::new(
+            self.nominal.name(),
+            &self.calibration,
+            validation.map(|v| v.report.as_ref()),
+        )
+        .to_json_string()
+        .map_err(|e| calib_error(&e))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "CalibrationResult(robot={:?}, rank {} of {}, identification mean {:.4} mm after, {:.4} mm before)",
+            self.nominal.name(),
+            self.calibration.rank(),
+            self.calibration.unknowns.len(),
+            self.calibration.training_after.position_mean * 1e3,
+            self.calibration.training_before.position_mean * 1e3
+        )
+    }
+}
+
+/// Identifies the robot's parameters (and the measurement frame and target
+/// offset unless fixed) from a measurement set: equations (7)-(12) and
+/// (49)-(53) of Marie, Courteille, Maurine 2013.
+///
+/// Options (SI units): `model` `"geometric"` or `"elasto-geometric"` (joint
+/// compliances under gravity and the payload; mass table built in for the
+/// UR10, else `masses`, a TOML file); `fix` names kept at nominal; `defer`
+/// names left out of the base set first; `method` `"lm"` or `"gn"`;
+/// `weights` `"file"` or `"uniform"` (default: uniform for the IPA format,
+/// else file); `use_orientation` (default: the data's, positions only for
+/// the IPA format); `fixed_frame`, `fixed_target`; `target` (3,) starting
+/// target position in the end frame (m); `max_se_length` (m, default 5e-3)
+/// and `max_se_angle` (rad, default 0.25 deg) for the noise-aware rank;
+/// `strict` fails on rank deficiency; `max_iterations`.
+///
+/// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
+/// (the identification then finishes in the background and is dropped).
+#[pyfunction]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn calibrate<'py>(
+    py: Python<'py>,
+    robot: &Robot,
+    data: &MeasurementSet,
+    model: &str,
+    fix: Vec<String>,
+    defer: Option<Vec<String>>,
+    method: &str,
+    weights: Option<&str>,
+    use_orientation: Option<bool>,
+    fixed_frame: bool,
+    fixed_target: bool,
+    target: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    max_se_length: Option<f64>,
+    max_se_angle: Option<f64>,
+    strict: bool,
+    masses: Option<PathBuf>,
+    max_iterations: Option<usize>,
+) -> PyResult<CalibrationResult> {
+    let nominal = Arc::clone(&robot.model);
+    let mut options = CalibrationOptions::for_model(&nominal);
+    options.method = match method {
+        "lm" => Method::LevenbergMarquardt,
+        "gn" => Method::GaussNewton,
+        other => {
+            return Err(InputError::new_err(format!(
+                "method: expected \"lm\" or \"gn\", got {other:?}"
+            )));
+        }
+    };
+    let weights = weights.unwrap_or(match data.origin {
+        Origin::Own => "file",
+        Origin::Ipa => "uniform",
+    });
+    options.weighting = match weights {
+        "file" => Weighting::FromFile,
+        "uniform" => Weighting::Uniform,
+        other => {
+            return Err(InputError::new_err(format!(
+                "weights: expected \"file\" or \"uniform\", got {other:?}"
+            )));
+        }
+    };
+    options.use_orientation = match (use_orientation, data.origin) {
+        (Some(u), _) => Some(u),
+        (None, Origin::Ipa) => Some(false),
+        (None, Origin::Own) => None,
+    };
+    options.fixed = fix;
+    if let Some(defer) = defer {
+        options.deferred = defer;
+    }
+    if fixed_frame {
+        options.measurement_frame = FrameTreatment::Fixed;
+    }
+    if fixed_target {
+        options.target = FrameTreatment::Fixed;
+    }
+    if let Some(target) = target {
+        let (t, _) = exact("target", &target, &[Some(3)])?;
+        let rotation = data
+            .set
+            .nominal_target
+            .map(|t| t.rotation)
+            .unwrap_or_else(UnitQuaternion::identity);
+        options.target_value = Some(Isometry3::from_parts(
+            Translation3::new(t[0], t[1], t[2]),
+            rotation,
+        ));
+    }
+    for (name, value) in [
+        ("max_se_length", max_se_length),
+        ("max_se_angle", max_se_angle),
+    ] {
+        if let Some(v) = value {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(InputError::new_err(format!(
+                    "{name}: must be finite and > 0, got {v}"
+                )));
+            }
+        }
+    }
+    if let Some(v) = max_se_length {
+        options.max_standard_error_length = v;
+    }
+    if let Some(v) = max_se_angle {
+        options.max_standard_error_angle = v;
+    }
+    if let Some(n) = max_iterations {
+        options.max_iterations = n;
+    }
+    options.require_full_rank = strict;
+    match (model, masses) {
+        ("geometric", None) => {}
+        ("geometric", Some(_)) => {
+            return Err(InputError::new_err(
+                "masses: only for model=\"elasto-geometric\"",
+            ));
+        }
+        ("elasto-geometric", Some(path)) => {
+            options.gravity =
+                Some(GravityCompliance::from_toml_file(&path).map_err(|e| calib_error(&e))?);
+        }
+        ("elasto-geometric", None) => {
+            options.gravity =
+                Some(GravityCompliance::builtin(&nominal).map_err(|e| calib_error(&e))?);
+        }
+        (other, _) => {
+            return Err(InputError::new_err(format!(
+                "model: expected \"geometric\" or \"elasto-geometric\", got {other:?}"
+            )));
+        }
+    }
+    let set = Arc::clone(&data.set);
+    let model = Arc::clone(&nominal);
+    let (calibration, calibrated) = run_interruptible(py, move || {
+        let calibration = run_calibration(&model, &set, &options)?;
+        let calibrated = calibration
+            .description(&model)?
+            .build()
+            .map_err(Failure::Kinematics)?;
+        Ok((calibration, calibrated))
+    })?;
+    Ok(CalibrationResult {
+        calibration: Arc::new(calibration),
+        nominal,
+        calibrated: Robot::new(calibrated),
+    })
+}

@@ -1,0 +1,499 @@
+//! `flexcal.Robot`: a validated robot model, its forward and inverse
+//! models and Jacobians on NumPy arrays.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use flexcal::kinematics::{
+    Data, InverseOptions, InverseTarget, KinematicsError as KinError, Model, ParamKind,
+    RobotDescription, builtin_robot_names, forward_pose, inverse_pose, joint_jacobian_into,
+    param_jacobian_into,
+};
+use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
+use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use pyo3::prelude::*;
+
+use crate::arrays::{Rows, exact, rows, to_numpy};
+use crate::errors::{Failure, InputError, kinematics_error};
+use crate::interrupt::{run_detached, run_here};
+
+/// Configurations per batch between two checks for Ctrl-C.
+const BATCH_ROWS: usize = 16_384;
+/// Below this many configurations a call uses one thread.
+const PARALLEL_MIN_ROWS: usize = 2_048;
+
+/// One entry of the parameter vector xi of a robot.
+#[pyclass(frozen, module = "flexcal", name = "Parameter", get_all)]
+#[derive(Debug, Clone)]
+pub struct Parameter {
+    /// Name (`d3`, `alpha2`, `beta3`, `theta1`, ...).
+    pub name: String,
+    /// SI unit of the value: `m` or `rad`.
+    pub unit: &'static str,
+    /// Nominal value (m or rad).
+    pub nominal: f64,
+    /// The frame owning the parameter.
+    pub frame: String,
+    /// Position of the parameter in xi.
+    pub index: usize,
+}
+
+#[pymethods]
+impl Parameter {
+    fn __repr__(&self) -> String {
+        format!(
+            "Parameter(name={:?}, unit={:?}, nominal={}, frame={:?}, index={})",
+            self.name, self.unit, self.nominal, self.frame, self.index
+        )
+    }
+}
+
+/// A robot model (validated once, then frozen): built-in, or read from a
+/// description file. Arrays are in SI units: joint coordinates in rad
+/// (revolute) or m (prismatic, screw), lengths in m, angles in rad.
+#[pyclass(frozen, module = "flexcal", name = "Robot")]
+#[derive(Debug, Clone)]
+pub struct Robot {
+    pub(crate) model: Arc<Model>,
+}
+
+impl Robot {
+    pub(crate) fn new(model: Model) -> Self {
+        Self {
+            model: Arc::new(model),
+        }
+    }
+
+    fn xi(&self, xi: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>) -> PyResult<Vec<f64>> {
+        match xi {
+            None => Ok(self.model.nominal_params().to_vec()),
+            Some(xi) => Ok(exact("xi", &xi, &[Some(self.model.n_params())])?.0),
+        }
+    }
+
+    fn configurations(&self, q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<Rows> {
+        rows("q", q, self.model.n_actuated())
+    }
+}
+
+/// Evaluates `per_row` on every row of `q`, writing `width` values per row,
+/// in batches without the GIL (checking for Ctrl-C between batches) and on
+/// up to `threads` threads, each with its own [`Data`].
+fn batched<F>(
+    py: Python<'_>,
+    model: &Model,
+    q: &Rows,
+    width: usize,
+    threads: Option<usize>,
+    per_row: F,
+) -> PyResult<Vec<f64>>
+where
+    F: Fn(&Model, &mut Data, &[f64], &mut [f64]) -> Result<(), KinError> + Sync,
+{
+    let threads = match threads {
+        Some(0) => return Err(InputError::new_err("threads: must be at least 1")),
+        Some(t) => t,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let mut out = vec![0.0; q.n * width];
+    if q.n <= PARALLEL_MIN_ROWS.min(BATCH_ROWS) / 8 {
+        // Small batches: the GIL round trip would cost more than the work.
+        return run_here(|| {
+            run_rows(model, q, 0, &mut out, width, &per_row)?;
+            Ok(out)
+        });
+    }
+    let mut start = 0;
+    for chunk in out.chunks_mut(BATCH_ROWS * width) {
+        let rows_here = chunk.len() / width;
+        let workers = if rows_here < PARALLEL_MIN_ROWS {
+            1
+        } else {
+            threads.min(rows_here / (PARALLEL_MIN_ROWS / 2)).max(1)
+        };
+        run_detached(py, || {
+            if workers == 1 {
+                return run_rows(model, q, start, chunk, width, &per_row);
+            }
+            let per_worker = rows_here.div_ceil(workers);
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = chunk
+                    .chunks_mut(per_worker * width)
+                    .enumerate()
+                    .map(|(w, part)| {
+                        let per_row = &per_row;
+                        scope.spawn(move || {
+                            run_rows(model, q, start + w * per_worker, part, width, per_row)
+                        })
+                    })
+                    .collect();
+                handles.into_iter().try_for_each(|h| {
+                    h.join().unwrap_or_else(|payload| {
+                        Err(Failure::Panic(crate::errors::panic_message(payload)))
+                    })
+                })
+            })
+        })?;
+        py.check_signals()?;
+        start += rows_here;
+    }
+    Ok(out)
+}
+
+fn run_rows<F>(
+    model: &Model,
+    q: &Rows,
+    first_row: usize,
+    out: &mut [f64],
+    width: usize,
+    per_row: &F,
+) -> Result<(), Failure>
+where
+    F: Fn(&Model, &mut Data, &[f64], &mut [f64]) -> Result<(), KinError>,
+{
+    let mut data = Data::new(model);
+    for (k, values) in out.chunks_mut(width).enumerate() {
+        let row = first_row + k;
+        per_row(model, &mut data, q.row(row), values).map_err(|e| Failure::KinematicsAt(row, e))?;
+    }
+    Ok(())
+}
+
+fn write_matrix(x: &Isometry3<f64>, out: &mut [f64]) {
+    let m = x.to_homogeneous();
+    for r in 0..4 {
+        for c in 0..4 {
+            out[4 * r + c] = m[(r, c)];
+        }
+    }
+}
+
+fn write_pose(x: &Isometry3<f64>, out: &mut [f64]) {
+    out[..3].copy_from_slice(x.translation.vector.as_slice());
+    // [x, y, z, w], scalar last (SciPy's Rotation.from_quat order).
+    out[3..7].copy_from_slice(x.rotation.coords.as_slice());
+}
+
+/// Output shape: `tail` with a leading `n` when the input was batched.
+fn shape(q: &Rows, tail: &[usize]) -> Vec<usize> {
+    let mut s = Vec::with_capacity(tail.len() + 1);
+    if q.batched {
+        s.push(q.n);
+    }
+    s.extend_from_slice(tail);
+    s
+}
+
+/// A homogeneous 4 x 4 matrix (rotation part orthonormal to 1e-6) as a pose.
+pub(crate) fn isometry_from_matrix(name: &str, m: &[f64]) -> PyResult<Isometry3<f64>> {
+    let bottom = [m[12], m[13], m[14], m[15]];
+    let r = Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    let orthonormal = (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-6
+        && (r.determinant() - 1.0).abs() < 1e-6;
+    if bottom != [0.0, 0.0, 0.0, 1.0] || !orthonormal {
+        return Err(InputError::new_err(format!(
+            "{name}: not a rigid transform (the rotation part must be orthonormal with determinant 1 to 1e-6 and the last row [0, 0, 0, 1])"
+        )));
+    }
+    let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+    Ok(Isometry3::from_parts(
+        Translation3::new(m[3], m[7], m[11]),
+        rotation,
+    ))
+}
+
+#[pymethods]
+impl Robot {
+    /// A built-in robot by name (`ur10`, `ir663`, `puma560`; see
+    /// `Robot.builtin_names()`). Raises `UnknownRobotError` for another name.
+    #[staticmethod]
+    fn builtin(name: &str) -> PyResult<Self> {
+        let model = RobotDescription::builtin(name)
+            .and_then(|d| d.build())
+            .map_err(|e| kinematics_error(&e))?;
+        Ok(Self::new(model))
+    }
+
+    /// A robot by the command line's rule: a built-in name is that robot,
+    /// anything else a description file read by the format its extension
+    /// selects. Raises `UnknownRobotError` when `spec` is neither.
+    #[staticmethod]
+    fn load(spec: &str) -> PyResult<Self> {
+        let model = flexcal::load_robot(spec).map_err(|e| crate::errors::facade_error(&e))?;
+        Ok(Self::new(model))
+    }
+
+    /// Names of the built-in robots.
+    #[staticmethod]
+    fn builtin_names() -> Vec<&'static str> {
+        builtin_robot_names().to_vec()
+    }
+
+    /// A robot from a description file (TOML, lengths in mm and angles in
+    /// degrees in fields named with their unit).
+    #[staticmethod]
+    fn from_toml(path: PathBuf) -> PyResult<Self> {
+        let model = RobotDescription::from_toml_file(&path)
+            .and_then(|d| d.build())
+            .map_err(|e| kinematics_error(&e))?;
+        Ok(Self::new(model))
+    }
+
+    /// A robot from description text (TOML, mm and degrees); `source`
+    /// names it in messages.
+    #[staticmethod]
+    #[pyo3(signature = (text, source = "<string>"))]
+    fn from_toml_string(text: &str, source: &str) -> PyResult<Self> {
+        let model = RobotDescription::from_toml_str(text, source)
+            .and_then(|d| d.build())
+            .map_err(|e| kinematics_error(&e))?;
+        Ok(Self::new(model))
+    }
+
+    /// The description as TOML text (mm, degrees), with the current
+    /// nominal values (a calibrated robot writes its identified values).
+    fn to_toml(&self) -> PyResult<String> {
+        let d = self
+            .model
+            .description_with_params(self.model.nominal_params())
+            .map_err(|e| kinematics_error(&e))?;
+        Ok(d.to_toml_string())
+    }
+
+    /// The robot's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name().to_string()
+    }
+
+    /// Number of actuated coordinates (the length of q).
+    #[getter]
+    fn dof(&self) -> usize {
+        self.model.n_actuated()
+    }
+
+    /// Names of the actuated coordinates, in the order of q.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.model.actuated_names().to_vec()
+    }
+
+    /// Limits of the actuated coordinates, shape (dof, 2): [lower, upper]
+    /// in rad or m.
+    #[getter]
+    fn joint_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let data = self
+            .model
+            .actuated_limits()
+            .iter()
+            .flat_map(|&(lo, hi)| [lo, hi])
+            .collect();
+        to_numpy(py, data, &[self.model.n_actuated(), 2])
+    }
+
+    /// The parameters of xi (name, SI unit, nominal value, frame, index).
+    #[getter]
+    fn parameters(&self) -> Vec<Parameter> {
+        self.model
+            .params()
+            .iter()
+            .zip(self.model.nominal_params())
+            .enumerate()
+            .map(|(index, (p, &nominal))| Parameter {
+                name: p.name.clone(),
+                unit: match p.kind {
+                    ParamKind::Length => "m",
+                    ParamKind::Angle => "rad",
+                },
+                nominal,
+                frame: p.frame.clone(),
+                index,
+            })
+            .collect()
+    }
+
+    /// Names of the parameters, in the order of xi.
+    #[getter]
+    fn parameter_names(&self) -> Vec<String> {
+        self.model.params().iter().map(|p| p.name.clone()).collect()
+    }
+
+    /// The nominal parameter vector xi (m, rad), shape (n_params,).
+    #[getter]
+    fn nominal<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        to_numpy(
+            py,
+            self.model.nominal_params().to_vec(),
+            &[self.model.n_params()],
+        )
+    }
+
+    /// Forward model: the TCP pose in the robot base frame for one
+    /// configuration q of shape (dof,) or many of shape (n, dof) (rad, m).
+    ///
+    /// `output="matrix"` returns homogeneous matrices, shape (4, 4) or
+    /// (n, 4, 4), translation in m; `output="pose"` returns a tuple
+    /// (positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w]).
+    /// `xi` (n_params,) replaces the nominal parameters (m, rad). Batches run
+    /// without the GIL on up to `threads` threads (default: all cores),
+    /// and Ctrl-C interrupts them between batches of 16 384.
+    #[pyo3(signature = (q, xi = None, output = "matrix", threads = None))]
+    fn fk<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+        output: &str,
+        threads: Option<usize>,
+    ) -> PyResult<Py<PyAny>> {
+        let q = self.configurations(&q)?;
+        let xi = self.xi(xi)?;
+        match output {
+            "matrix" => {
+                let out = batched(py, &self.model, &q, 16, threads, |m, d, q, out| {
+                    write_matrix(&forward_pose(m, d, q, &xi)?, out);
+                    Ok(())
+                })?;
+                Ok(to_numpy(py, out, &shape(&q, &[4, 4])).into_any().unbind())
+            }
+            "pose" => {
+                let out = batched(py, &self.model, &q, 7, threads, |m, d, q, out| {
+                    write_pose(&forward_pose(m, d, q, &xi)?, out);
+                    Ok(())
+                })?;
+                let positions = out.chunks(7).flat_map(|r| r[..3].to_vec()).collect();
+                let quaternions = out.chunks(7).flat_map(|r| r[3..].to_vec()).collect();
+                let p = to_numpy(py, positions, &shape(&q, &[3]));
+                let r = to_numpy(py, quaternions, &shape(&q, &[4]));
+                Ok((p, r).into_pyobject(py)?.into_any().unbind())
+            }
+            other => Err(InputError::new_err(format!(
+                "output: expected \"matrix\" or \"pose\", got {other:?}"
+            ))),
+        }
+    }
+
+    /// Joint Jacobian d[p_tcp; phi]/dq: rows [linear (m/unit of q); angular
+    /// (rad/unit of q)] in the base frame, the linear part at the TCP; shape
+    /// (6, dof) or (n, 6, dof) for q of shape (dof,) or (n, dof).
+    #[pyo3(signature = (q, xi = None, threads = None))]
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let q = self.configurations(&q)?;
+        let xi = self.xi(xi)?;
+        let na = self.model.n_actuated();
+        let out = batched(py, &self.model, &q, 6 * na, threads, |m, d, q, out| {
+            let mut jac = Matrix6xX::zeros(na);
+            joint_jacobian_into(m, d, q, &xi, &mut jac)?;
+            write_row_major(jac.as_slice(), 6, na, out);
+            Ok(())
+        })?;
+        Ok(to_numpy(py, out, &shape(&q, &[6, na])))
+    }
+
+    /// Parameter Jacobian d[p_tcp; phi]/dxi (equations (49)-(52) of Marie,
+    /// Courteille, Maurine 2013): rows [linear; angular] in the base frame,
+    /// the linear part at the TCP, columns in the order of `parameters`
+    /// (m/m, m/rad, rad/m, rad/rad); shape (6, n_params) or (n, 6, n_params).
+    #[pyo3(signature = (q, xi = None, threads = None))]
+    fn parameter_jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let q = self.configurations(&q)?;
+        let xi = self.xi(xi)?;
+        let np = self.model.n_params();
+        let out = batched(py, &self.model, &q, 6 * np, threads, |m, d, q, out| {
+            let mut jac = DMatrix::zeros(6, np);
+            param_jacobian_into(m, d, q, &xi, &mut jac)?;
+            write_row_major(jac.as_slice(), 6, np, out);
+            Ok(())
+        })?;
+        Ok(to_numpy(py, out, &shape(&q, &[6, np])))
+    }
+
+    /// Inverse model: the actuated coordinates (dof,) that bring the TCP to
+    /// `pose` (4 x 4 homogeneous matrix in the base frame, m), by damped
+    /// least squares within the joint limits from `seed` (dof,) (the
+    /// solution nearest the seed). `target="position-and-tool-axis"` leaves
+    /// the rotation about the tool z axis free. Tolerances in m and rad.
+    /// Raises `UnreachableError` when no configuration within the limits
+    /// reaches the tolerances.
+    #[pyo3(signature = (pose, seed, xi = None, target = "pose", max_iterations = 200, position_tolerance = 1e-11, orientation_tolerance = 1e-11))]
+    #[allow(clippy::too_many_arguments)]
+    fn ik<'py>(
+        &self,
+        py: Python<'py>,
+        pose: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        seed: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+        target: &str,
+        max_iterations: usize,
+        position_tolerance: f64,
+        orientation_tolerance: f64,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let (m, _) = exact("pose", &pose, &[Some(4), Some(4)])?;
+        let x = isometry_from_matrix("pose", &m)?;
+        let (seed, _) = exact("seed", &seed, &[Some(self.model.n_actuated())])?;
+        let xi = self.xi(xi)?;
+        let target = match target {
+            "pose" => InverseTarget::Pose,
+            "position-and-tool-axis" => InverseTarget::PositionAndToolAxis,
+            other => {
+                return Err(InputError::new_err(format!(
+                    "target: expected \"pose\" or \"position-and-tool-axis\", got {other:?}"
+                )));
+            }
+        };
+        for (name, v) in [
+            ("position_tolerance", position_tolerance),
+            ("orientation_tolerance", orientation_tolerance),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(InputError::new_err(format!(
+                    "{name}: must be finite and > 0, got {v}"
+                )));
+            }
+        }
+        let options = InverseOptions {
+            target,
+            max_iterations,
+            position_tolerance,
+            orientation_tolerance,
+            ..InverseOptions::default()
+        };
+        let model = &self.model;
+        let q = run_detached(py, || {
+            let mut data = Data::new(model);
+            Ok(inverse_pose(model, &mut data, &x, &seed, &xi, &options)?.q)
+        })?;
+        let n = q.len();
+        Ok(to_numpy(py, q, &[n]))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Robot(name={:?}, dof={}, n_params={})",
+            self.model.name(),
+            self.model.n_actuated(),
+            self.model.n_params()
+        )
+    }
+}
+
+/// Column-major `rows x cols` (nalgebra) into row-major `out`.
+fn write_row_major(column_major: &[f64], rows: usize, cols: usize, out: &mut [f64]) {
+    for c in 0..cols {
+        for r in 0..rows {
+            out[r * cols + c] = column_major[c * rows + r];
+        }
+    }
+}
