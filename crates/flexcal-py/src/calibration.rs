@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics as Stats,
-    FrameTreatment, GravityCompliance, Method, UnknownKind, UnknownStatus, ValidationReport,
+    FrameTreatment, GravityCompliance, Method, UnknownStatus, ValidationReport,
     Weighting, calibrate as run_calibration,
 };
 use flexcal::kinematics::Model;
@@ -100,16 +100,6 @@ impl UnknownEstimate {
             "UnknownEstimate(name={:?}, identified={} {}, standard_error={:?}, status={:?})",
             self.name, self.identified, self.unit, self.standard_error, self.status
         )
-    }
-}
-
-fn si_unit(kind: UnknownKind) -> &'static str {
-    match kind {
-        UnknownKind::Length => "m",
-        UnknownKind::Angle => "rad",
-        UnknownKind::Compliance => "rad/N.m",
-        UnknownKind::Mass => "kg",
-        UnknownKind::FirstMoment => "kg.m",
     }
 }
 
@@ -248,7 +238,7 @@ impl CalibrationResult {
             .iter()
             .map(|u| UnknownEstimate {
                 name: u.name.clone(),
-                unit: si_unit(u.kind),
+                unit: u.kind.si_unit(),
                 nominal: u.initial,
                 identified: u.value,
                 delta: u.value - u.initial,
