@@ -9,6 +9,7 @@ use thiserror::Error;
 /// parameter, loop, configuration), so that a message can be shown to a user
 /// as it is.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum KinematicsError {
     /// A built-in robot was asked for by a name that does not exist.
     #[error("unknown built-in robot `{name}` (known: {known})")]
@@ -106,4 +107,21 @@ pub enum KinematicsError {
         /// Rank needed.
         needed: usize,
     },
+}
+
+/// Checks the length of a slice argument and that every entry is finite.
+pub(crate) fn check_vector(what: &str, v: &[f64], expected: usize) -> Result<(), KinematicsError> {
+    if v.len() != expected {
+        return Err(KinematicsError::WrongLength {
+            what: what.to_string(),
+            expected,
+            found: v.len(),
+        });
+    }
+    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+        return Err(KinematicsError::NotFinite {
+            what: format!("{what}[{k}]"),
+        });
+    }
+    Ok(())
 }

@@ -133,11 +133,13 @@ mod error;
 mod forward;
 mod inverse;
 mod model;
+mod pose;
 mod sensitivity;
 
+pub use builtin::builtin_robot_names;
 pub use description::{
     CouplingTerm, FrameDescription, JointType, LoopConstraint, LoopDescription, LoopSolver,
-    RobotDescription, SliderCrankDescription, TransformDescription, builtin_robot_names,
+    RobotDescription, SliderCrankDescription, TransformDescription,
 };
 pub use error::KinematicsError;
 pub use forward::{
