@@ -131,10 +131,12 @@ mod builtin;
 mod description;
 mod error;
 mod forward;
+mod import;
 mod inverse;
 mod model;
 mod pose;
 mod sensitivity;
+pub mod urdf;
 
 pub use builtin::builtin_robot_names;
 pub use description::{
@@ -146,6 +148,7 @@ pub use forward::{
     Data, PointLoad, actuated_forces_into, forward_frames, forward_pose, joint_jacobian,
     joint_jacobian_into, param_jacobian, param_jacobian_into,
 };
+pub use import::{ImportOptions, ImportedRobot, LinkMass};
 pub use inverse::{InverseOptions, InverseSolution, InverseTarget, inverse_pose};
 pub use model::{ActuatedKind, Model, ParamInfo, ParamKind, Quantity};
 pub use sensitivity::{
