@@ -60,6 +60,9 @@ CASES = [
     ("irb6640_like", "repo", "irb6640_like.urdf", None, "tool0"),
     ("irb6640_like_rod", "repo", "irb6640_like.urdf", None, "rod_end"),
     ("continuous_mimic", "repo", "continuous_mimic.urdf", None, "tip"),
+    # Calibrated-like exports written by flexcal (tests/robot_export.rs).
+    ("exported_ur10", "repo", "exported_ur10.urdf", "frame_0", "tcp"),
+    ("exported_puma560", "repo", "exported_puma560.urdf", "frame_0", "tcp"),
 ]
 
 

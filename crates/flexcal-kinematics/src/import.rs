@@ -11,7 +11,7 @@
 //!    URDF axis, normalised). Frame k's x axis lies along the common normal
 //!    of axes k and k+1 and its origin at the foot of that normal on axis k
 //!    (modified DH), so that frames 2..n have gamma = b = 0. Where two
-//!    consecutive axes are parallel (angle below 1e-3 rad) the frame gets a
+//!    consecutive axes are parallel (angle below about 2.9 deg) the frame gets a
 //!    Hayati angle beta instead (frame k's origin stays where frame k
 //!    arrives, r(k) = 0, and beta(k+1) replaces r(k+1) in xi). Frame 1 is
 //!    placed relative to the root link's frame with gamma, b, alpha, d as
@@ -44,10 +44,11 @@ use crate::description::{
 };
 use crate::urdf::{UrdfJoint, UrdfJointKind, UrdfRobot};
 
-/// Below this sine of the angle between consecutive axes, they are treated
-/// as parallel (Hayati beta): a common normal would lie more than 1000 times
-/// the axes' distance away.
-const PARALLEL_SINE: f64 = 1e-3;
+/// Below this sine of the angle between consecutive axes (about 2.9 deg),
+/// they are treated as parallel (Hayati beta): their common normal would lie
+/// more than 20 times the axes' distance away, and a calibrated tilt of a
+/// nominally parallel axis (a few mrad) would throw it kilometres off.
+const PARALLEL_SINE: f64 = 0.05;
 
 /// Below this distance (m) two axes are taken to intersect.
 const INTERSECT_DISTANCE: f64 = 1e-12;

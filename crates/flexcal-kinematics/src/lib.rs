@@ -130,6 +130,7 @@
 mod builtin;
 mod description;
 mod error;
+mod export;
 mod forward;
 mod import;
 mod inverse;
@@ -144,6 +145,7 @@ pub use description::{
     RobotDescription, SliderCrankDescription, TransformDescription,
 };
 pub use error::KinematicsError;
+pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
 pub use forward::{
     Data, PointLoad, actuated_forces_into, forward_frames, forward_pose, joint_jacobian,
     joint_jacobian_into, param_jacobian, param_jacobian_into,
