@@ -109,6 +109,7 @@ impl ImportedRobot {
             .unwrap_or_default();
         match extension.as_str() {
             "urdf" => ImportedRobot::from_urdf(&UrdfRobot::read(path)?, options),
+            "par" => crate::symoro::read_par(path, options),
             "xacro" => Err(KinematicsError::Urdf {
                 source_name: path.display().to_string(),
                 line: 0,
@@ -478,7 +479,8 @@ fn kk_frames(
         let position_error = (rebuilt.translation.vector - x_root_frame.translation.vector).norm();
         let angle_error = rebuilt.rotation.angle_to(&x_root_frame.rotation);
         let axis_error = (rebuilt.rotation * Vector3::z() - z.normalize()).norm();
-        if position_error > 1e-10 || angle_error > 1e-10 || axis_error > 1e-10 {
+        let tolerance = 1e-10;
+        if !(position_error <= tolerance && angle_error <= tolerance && axis_error <= tolerance) {
             return Err(KinematicsError::Urdf {
                 source_name: source.to_string(),
                 line: 0,

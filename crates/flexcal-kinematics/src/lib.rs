@@ -137,6 +137,7 @@ mod inverse;
 mod model;
 mod pose;
 mod sensitivity;
+mod symoro;
 pub mod urdf;
 
 pub use builtin::builtin_robot_names;
