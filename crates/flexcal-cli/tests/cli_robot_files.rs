@@ -11,7 +11,9 @@ fn path_str(p: &Path) -> &str {
 }
 
 fn kinematics_data(file: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../flexcal-kinematics/tests/data/urdf").join(file)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../flexcal-kinematics/tests/data/urdf")
+        .join(file)
 }
 
 #[test]
@@ -20,7 +22,10 @@ fn a_urdf_shows_as_a_description_with_named_parameters() {
     let show = flexcal(&["robot", "show", path_str(&urdf)]);
     assert!(show.status.success(), "{}", stderr(&show));
     let text = stdout(&show);
-    assert!(text.contains("joint_a1") && text.contains("beta3"), "{text}");
+    assert!(
+        text.contains("joint_a1") && text.contains("beta3"),
+        "{text}"
+    );
     let toml = flexcal(&["robot", "show", path_str(&urdf), "--toml"]);
     assert!(toml.status.success(), "{}", stderr(&toml));
     assert!(stdout(&toml).contains("[[frame]]"));
@@ -28,29 +33,73 @@ fn a_urdf_shows_as_a_description_with_named_parameters() {
     let edge = kinematics_data("edge_cases.urdf");
     let ambiguous = flexcal(&["robot", "show", path_str(&edge)]);
     assert!(!ambiguous.status.success());
-    assert!(stderr(&ambiguous).contains("side_tip"), "{}", stderr(&ambiguous));
-    let chosen = flexcal(&["robot", "show", path_str(&edge), "--tip", "side_tip", "--root", "base_plate"]);
+    assert!(
+        stderr(&ambiguous).contains("side_tip"),
+        "{}",
+        stderr(&ambiguous)
+    );
+    let chosen = flexcal(&[
+        "robot",
+        "show",
+        path_str(&edge),
+        "--tip",
+        "side_tip",
+        "--root",
+        "base_plate",
+    ]);
     assert!(chosen.status.success(), "{}", stderr(&chosen));
-    assert!(stdout(&chosen).contains("mimic leader `j2`"), "{}", stdout(&chosen));
+    assert!(
+        stdout(&chosen).contains("mimic leader `j2`"),
+        "{}",
+        stdout(&chosen)
+    );
 }
 
 #[test]
 fn an_exported_urdf_gives_the_poses_of_the_robot() {
     let dir = tempfile::tempdir().unwrap();
     let urdf = dir.path().join("ur10.urdf");
-    let export = flexcal(&["robot", "export", "ur10", "--format", "urdf", "--out", path_str(&urdf)]);
+    let export = flexcal(&[
+        "robot",
+        "export",
+        "ur10",
+        "--format",
+        "urdf",
+        "--out",
+        path_str(&urdf),
+    ]);
     assert!(export.status.success(), "{}", stderr(&export));
-    assert!(stdout(&export).contains("largest TCP displacement"), "{}", stdout(&export));
+    assert!(
+        stdout(&export).contains("largest TCP displacement"),
+        "{}",
+        stdout(&export)
+    );
     let joints = dir.path().join("joints.csv");
-    std::fs::write(&joints, "q1,q2,q3,q4,q5,q6\n0.1,-1.2,1.0,-0.5,1.3,0.2\n-2.0,0.3,2.5,1.0,-3.0,4.0\n").unwrap();
+    std::fs::write(
+        &joints,
+        "q1,q2,q3,q4,q5,q6\n0.1,-1.2,1.0,-0.5,1.3,0.2\n-2.0,0.3,2.5,1.0,-3.0,4.0\n",
+    )
+    .unwrap();
     let poses = |robot: &str, out: &Path| {
-        let fk = flexcal(&["fk", "--robot", robot, "--input", path_str(&joints), "--output", path_str(out)]);
+        let fk = flexcal(&[
+            "fk",
+            "--robot",
+            robot,
+            "--input",
+            path_str(&joints),
+            "--output",
+            path_str(out),
+        ]);
         assert!(fk.status.success(), "{}", stderr(&fk));
         std::fs::read_to_string(out)
             .unwrap()
             .lines()
             .skip(1)
-            .flat_map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
+            .flat_map(|l| {
+                l.split(',')
+                    .map(|v| v.parse::<f64>().unwrap())
+                    .collect::<Vec<_>>()
+            })
             .collect::<Vec<f64>>()
     };
     let a = poses("ur10", &dir.path().join("a.csv"));
@@ -60,10 +109,26 @@ fn an_exported_urdf_gives_the_poses_of_the_robot() {
         assert!((x - y).abs() < 1e-9, "{x} vs {y}");
     }
     let mdh = dir.path().join("ur10.md");
-    let table = flexcal(&["robot", "export", "ur10", "--format", "mdh", "--out", path_str(&mdh)]);
+    let table = flexcal(&[
+        "robot",
+        "export",
+        "ur10",
+        "--format",
+        "mdh",
+        "--out",
+        path_str(&mdh),
+    ]);
     assert!(table.status.success(), "{}", stderr(&table));
-    assert!(std::fs::read_to_string(&mdh).unwrap().contains("| 3 | 2 | 0 | theta3 |"));
+    assert!(
+        std::fs::read_to_string(&mdh)
+            .unwrap()
+            .contains("| 3 | 2 | 0 | theta3 |")
+    );
     let refused = flexcal(&["robot", "export", "ir663", "--format", "urdf"]);
     assert!(!refused.status.success());
-    assert!(stderr(&refused).contains("four-bar"), "{}", stderr(&refused));
+    assert!(
+        stderr(&refused).contains("four-bar"),
+        "{}",
+        stderr(&refused)
+    );
 }

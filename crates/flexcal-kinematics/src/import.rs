@@ -33,7 +33,7 @@
 //! Masses come from the links' `<inertial>` ([`LinkMass`]).
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -90,40 +90,7 @@ pub struct ImportedRobot {
     pub notes: Vec<String>,
 }
 
-impl RobotDescription {
-    /// Reads a robot file by its extension: `.toml` (flexcal's
-    /// description), `.urdf` (with `options.tip` and `options.root`) or
-    /// `.par` (SYMORO, with `options.values`).
-    pub fn read(path: &Path, options: &ImportOptions) -> Result<Self, KinematicsError> {
-        Ok(ImportedRobot::read(path, options)?.description)
-    }
-}
-
 impl ImportedRobot {
-    /// Reads a robot file by its extension (see [`RobotDescription::read`]).
-    pub fn read(path: &Path, options: &ImportOptions) -> Result<Self, KinematicsError> {
-        let extension = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .unwrap_or_default();
-        match extension.as_str() {
-            "urdf" => ImportedRobot::from_urdf(&UrdfRobot::read(path)?, options),
-            "par" => crate::symoro::read_par(path, options),
-            "xacro" => Err(KinematicsError::Urdf {
-                source_name: path.display().to_string(),
-                line: 0,
-                message: "a xacro file: expand it first (`xacro FILE.urdf.xacro > FILE.urdf`)"
-                    .into(),
-            }),
-            _ => Ok(ImportedRobot {
-                description: RobotDescription::from_toml_file(path)?,
-                masses: Vec::new(),
-                notes: Vec::new(),
-            }),
-        }
-    }
-
     /// Converts a URDF tree (see the module documentation for how).
     pub fn from_urdf(robot: &UrdfRobot, options: &ImportOptions) -> Result<Self, KinematicsError> {
         let chain = Chain::extract(robot, options)?;

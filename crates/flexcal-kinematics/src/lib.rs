@@ -136,6 +136,7 @@ mod import;
 mod inverse;
 mod model;
 mod pose;
+mod read;
 mod sensitivity;
 mod symoro;
 pub mod urdf;

@@ -238,7 +238,11 @@ fn assignments(
             continue;
         }
         let Some((key, value)) = line.split_once('=') else {
-            return Err(par_error(source, number, format!("`{line}` is no `name = value` line")));
+            return Err(par_error(
+                source,
+                number,
+                format!("`{line}` is no `name = value` line"),
+            ));
         };
         let key = key.trim().to_ascii_lowercase();
         let value = value.trim().to_string();
@@ -247,11 +251,18 @@ fn assignments(
         } else if value.starts_with('{') {
             out.insert(key, (number, list_entries(&value, source, number)?));
         } else {
-            out.insert(key, (number, vec![value.trim_end_matches(';').trim().to_string()]));
+            out.insert(
+                key,
+                (number, vec![value.trim_end_matches(';').trim().to_string()]),
+            );
         }
     }
     if let Some((key, start, _)) = pending {
-        return Err(par_error(source, start, format!("the list `{key}` has no closing `}}`")));
+        return Err(par_error(
+            source,
+            start,
+            format!("the list `{key}` has no closing `}}`"),
+        ));
     }
     Ok(out)
 }
@@ -334,21 +345,50 @@ fn read_values(path: &Path) -> Result<Values, KinematicsError> {
 }
 
 /// Reads a `.par` file with the symbol values of `options.values`.
-pub(crate) fn read_par(path: &Path, options: &ImportOptions) -> Result<ImportedRobot, KinematicsError> {
+pub(crate) fn read_par(
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<ImportedRobot, KinematicsError> {
     let text = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
-    let values = match &options.values {
-        Some(v) => read_values(v)?,
-        None => Values::default(),
-    };
-    let stem = path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("symoro")
-        .to_string();
-    par_from_str(&text, &path.display().to_string(), &stem, &values, options)
+    ImportedRobot::from_par_str(&text, &path.display().to_string(), options)
+}
+
+impl ImportedRobot {
+    /// Converts the text of a SYMORO `.par` file (see the module
+    /// documentation of `symoro`); `source` names it in errors and, without
+    /// its directories and extension, names the robot. The symbols' values
+    /// come from the TOML file `options.values`; `options.tip` names the end
+    /// frame by number.
+    pub fn from_par_str(
+        text: &str,
+        source: &str,
+        options: &ImportOptions,
+    ) -> Result<Self, KinematicsError> {
+        let values = match &options.values {
+            Some(v) => read_values(v)?,
+            None => Values::default(),
+        };
+        let stem = Path::new(source)
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("symoro")
+            .to_string();
+        par_from_str(text, source, &stem, &values, options)
+    }
+}
+
+/// The value of `expr` with the symbols' values and `variable` (if any) at `at`.
+fn evaluate(expr: &Expr, values: &Values, variable: Option<&str>, at: f64) -> f64 {
+    expr.eval(&|n: &str| {
+        if Some(n) == variable {
+            at
+        } else {
+            values.symbols.get(n).copied().unwrap_or(0.0)
+        }
+    })
 }
 
 /// SI value of each quantity of a frame, and its joint variable (if any).
@@ -369,9 +409,13 @@ fn par_from_str(
         let (line, entries) = table
             .get(key)
             .ok_or_else(|| par_error(source, 0, format!("no `{}` line", key.to_uppercase())))?;
-        entries[0]
-            .parse::<usize>()
-            .map_err(|_| par_error(source, *line, format!("{} = {} is not a count", key.to_uppercase(), entries[0])))
+        entries[0].parse::<usize>().map_err(|_| {
+            par_error(
+                source,
+                *line,
+                format!("{} = {} is not a count", key.to_uppercase(), entries[0]),
+            )
+        })
     };
     let (nl, nj, nf) = (count("nl")?, count("nj")?, count("nf")?);
     if nl == 0 || nj < nl || nf != nj + (nj - nl) || nf > 10_000 {
@@ -384,30 +428,36 @@ fn par_from_str(
             ),
         ));
     }
-    let list = |key: &str, default: Option<&str>| -> Result<(usize, Vec<String>), KinematicsError> {
-        match table.get(key) {
-            Some((line, entries)) => {
-                if entries.len() != nf {
-                    return Err(par_error(
-                        source,
-                        *line,
-                        format!("`{key}` has {} entries for NF = {nf} frames", entries.len()),
-                    ));
+    let list =
+        |key: &str, default: Option<&str>| -> Result<(usize, Vec<String>), KinematicsError> {
+            match table.get(key) {
+                Some((line, entries)) => {
+                    if entries.len() != nf {
+                        return Err(par_error(
+                            source,
+                            *line,
+                            format!("`{key}` has {} entries for NF = {nf} frames", entries.len()),
+                        ));
+                    }
+                    Ok((*line, entries.clone()))
                 }
-                Ok((*line, entries.clone()))
+                None => match default {
+                    Some(d) => Ok((0, vec![d.to_string(); nf])),
+                    None => Err(par_error(source, 0, format!("no `{key}` list"))),
+                },
             }
-            None => match default {
-                Some(d) => Ok((0, vec![d.to_string(); nf])),
-                None => Err(par_error(source, 0, format!("no `{key}` list"))),
-            },
-        }
-    };
+        };
     let (ant_line, ant) = list("ant", None)?;
     let (sigma_line, sigma) = list("sigma", None)?;
     let (_, mu) = list("mu", Some("0"))?;
     let integer = |line: usize, key: &str, s: &str| -> Result<i64, KinematicsError> {
-        s.parse::<i64>()
-            .map_err(|_| par_error(source, line, format!("`{key}` entry `{s}` is not an integer")))
+        s.parse::<i64>().map_err(|_| {
+            par_error(
+                source,
+                line,
+                format!("`{key}` entry `{s}` is not an integer"),
+            )
+        })
     };
     let quantity_keys = ["gamma", "b", "alpha", "d", "theta", "r"];
     let mut lists = Vec::new();
@@ -422,7 +472,8 @@ fn par_from_str(
         let mut variable = None;
         for (k, key) in quantity_keys.iter().enumerate() {
             let (line, entries) = &lists[k];
-            let expr = parse_expr(&entries[j]).map_err(|m| par_error(source, *line, format!("{key} of frame {}: {m}", j + 1)))?;
+            let expr = parse_expr(&entries[j])
+                .map_err(|m| par_error(source, *line, format!("{key} of frame {}: {m}", j + 1)))?;
             let mut symbols = BTreeSet::new();
             expr.symbols(&mut symbols);
             let unknown: Vec<String> = symbols
@@ -430,35 +481,33 @@ fn par_from_str(
                 .filter(|s| !values.symbols.contains_key(s))
                 .collect();
             let holds_variable = (s == 0 && *key == "theta") || (s == 1 && *key == "r");
-            let lookup = |var: Option<&str>, at: f64| {
-                move |n: &str| -> f64 {
-                    if Some(n) == var {
-                        at
-                    } else {
-                        values.symbols.get(n).copied().unwrap_or(0.0)
-                    }
-                }
-            };
             if holds_variable && unknown.len() == 1 {
                 let var = unknown[0].clone();
-                let at0 = expr.eval(&lookup(Some(&var), 0.0));
-                let at1 = expr.eval(&lookup(Some(&var), 1.0));
-                let at2 = expr.eval(&lookup(Some(&var), 2.0));
+                let at0 = evaluate(&expr, values, Some(&var), 0.0);
+                let at1 = evaluate(&expr, values, Some(&var), 1.0);
+                let at2 = evaluate(&expr, values, Some(&var), 2.0);
                 if (at1 - at0 - 1.0).abs() > 1e-12 || (at2 - 2.0 * at1 + at0).abs() > 1e-12 {
                     return Err(par_error(
                         source,
                         *line,
-                        format!("{key} of frame {}: the joint variable `{var}` must appear as `{var} + constant`", j + 1),
+                        format!(
+                            "{key} of frame {}: the joint variable `{var}` must appear as `{var} + constant`",
+                            j + 1
+                        ),
                     ));
                 }
                 quantities[k] = at0;
                 variable = Some(var);
             } else {
                 missing.extend(unknown);
-                quantities[k] = expr.eval(&lookup(None, 0.0));
+                quantities[k] = evaluate(&expr, values, None, 0.0);
             }
             if !quantities[k].is_finite() {
-                return Err(par_error(source, *line, format!("{key} of frame {} is not finite", j + 1)));
+                return Err(par_error(
+                    source,
+                    *line,
+                    format!("{key} of frame {} is not finite", j + 1),
+                ));
             }
         }
         frames_values.push(FrameValues {
@@ -477,14 +526,24 @@ fn par_from_str(
     for j in 0..nf {
         let a = integer(ant_line, "ant", &ant[j])?;
         if a < 0 || a as usize > nf {
-            return Err(par_error(source, ant_line, format!("ant of frame {} is {a}, not a frame", j + 1)));
+            return Err(par_error(
+                source,
+                ant_line,
+                format!("ant of frame {} is {a}, not a frame", j + 1),
+            ));
         }
         let s = integer(sigma_line, "sigma", &sigma[j])?;
         let joint = match s {
             0 => JointType::Revolute,
             1 => JointType::Prismatic,
             2 => JointType::Fixed,
-            _ => return Err(par_error(source, sigma_line, format!("sigma of frame {} is {s}, not 0, 1 or 2", j + 1))),
+            _ => {
+                return Err(par_error(
+                    source,
+                    sigma_line,
+                    format!("sigma of frame {} is {s}, not 0, 1 or 2", j + 1),
+                ));
+            }
         };
         let m = integer(0, "mu", &mu[j])?;
         let v = &frames_values[j];
@@ -500,7 +559,11 @@ fn par_from_str(
             f.actuated = true;
             f.actuated_name = v.variable.clone();
         } else if joint != JointType::Fixed {
-            let home = v.variable.as_ref().and_then(|n| values.home.get(n)).copied();
+            let home = v
+                .variable
+                .as_ref()
+                .and_then(|n| values.home.get(n))
+                .copied();
             match (home, joint) {
                 (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
                 (Some(h), _) => f.seed_mm = h * 1e3,

@@ -16,7 +16,9 @@ use rand_chacha::ChaCha8Rng;
 const CASES: usize = 10_000;
 
 fn data(file: &str) -> String {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(file);
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(file);
     std::fs::read_to_string(path).unwrap()
 }
 
@@ -56,7 +58,8 @@ fn mutate(text: &str, rng: &mut ChaCha8Rng) -> String {
             }
             6 => {
                 // Replace a digit run by an extreme number.
-                let choices: [&[u8]; 6] = [b"1e308", b"-0", b"nan", b"inf", b"1e-320", b"99999999999"];
+                let choices: [&[u8]; 6] =
+                    [b"1e308", b"-0", b"nan", b"inf", b"1e-320", b"99999999999"];
                 let c = choices[rng.random_range(0..choices.len())];
                 let end = (at + 1).min(bytes.len());
                 bytes.splice(at..end, c.iter().copied());
@@ -75,7 +78,11 @@ fn mutate(text: &str, rng: &mut ChaCha8Rng) -> String {
 fn exercise(description: &RobotDescription) {
     if let Ok(model) = description.build() {
         let mut data = flexcal_kinematics::Data::new(&model);
-        let q: Vec<f64> = model.actuated_limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect();
+        let q: Vec<f64> = model
+            .actuated_limits()
+            .iter()
+            .map(|(lo, hi)| 0.5 * (lo + hi))
+            .collect();
         let _ = forward_pose(&model, &mut data, &q, model.nominal_params());
     }
 }
@@ -142,20 +149,28 @@ fn toml_reader_survives_mutated_files() {
 fn par_reader_survives_mutated_files() {
     let dir = tempfile::tempdir().unwrap();
     let values = dir.path().join("values.toml");
-    std::fs::write(&values, data("symoro/stanford_values.toml") + &data("symoro/rx90_values.toml") + &data("symoro/fourbar_values.toml")).unwrap();
-    let sources = [data("symoro/rx90.par"), data("symoro/stanford.par"), data("symoro/fourbar.par")];
-    let path = dir.path().join("fuzz.par");
+    std::fs::write(
+        &values,
+        data("symoro/stanford_values.toml")
+            + &data("symoro/rx90_values.toml")
+            + &data("symoro/fourbar_values.toml"),
+    )
+    .unwrap();
+    let sources = [
+        data("symoro/rx90.par"),
+        data("symoro/stanford.par"),
+        data("symoro/fourbar.par"),
+    ];
     let mut rng = ChaCha8Rng::seed_from_u64(18);
     let (mut valid, mut errors) = (0, 0);
     for case in 0..CASES {
         let text = mutate(&sources[case % sources.len()], &mut rng);
-        std::fs::write(&path, text).unwrap();
         let options = ImportOptions {
             values: Some(values.clone()),
             tip: Some("2".into()).filter(|_| case % 3 == 2),
             ..ImportOptions::default()
         };
-        match ImportedRobot::read(&path, &options) {
+        match ImportedRobot::from_par_str(&text, "fuzz.par", &options) {
             Ok(imported) => {
                 valid += 1;
                 exercise(&imported.description);
