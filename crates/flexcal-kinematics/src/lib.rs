@@ -65,6 +65,18 @@
 //! name: `alpha2`, `d3`, `beta3`, `theta1` (joint offset), `r2p` (screw length
 //! offset r'), `kappa8`, `lambda8`, `l18`, `l38`.
 //!
+//! ## Robots from other formats, and back
+//! [`RobotDescription::read`] reads a robot file by its extension: `.toml`,
+//! `.urdf` (a root-to-tip path converted into KK frames that reproduce the
+//! file's poses exactly, modified DH with Hayati beta for parallel axes,
+//! mimic joints as couplings; [`ImportOptions`] chooses the tip and root;
+//! the module [`urdf`] reads the file itself) or `.par` (SYMORO, symbols
+//! from a values file, cut-joint loops). [`ImportedRobot`] adds the URDF's
+//! link masses ([`LinkMass`]). [`export_robot`] writes a robot at any xi as
+//! URDF (read back and checked), a modified-DH table ([`MdhTable`]) or TOML;
+//! what a format cannot hold is refused by name
+//! ([`KinematicsError::Inexpressible`]). User guide: `docs/robots.md`.
+//!
 //! ## Built-in robots
 //! [`builtin_robot_names`]: `ur10`, `ir663`, `puma560` (see
 //! [`RobotDescription::builtin`]); each writes to TOML and loads back identically.
