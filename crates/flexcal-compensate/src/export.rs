@@ -103,14 +103,15 @@ pub fn rapid_module(
     commanded: &[Isometry3<f64>],
     options: &RapidOptions,
 ) -> Result<String, PathExportError> {
-    if !(options.speed_mm_s > 0.0 && options.speed_mm_s <= 7000.0) {
+    let v = options.speed_mm_s;
+    if v.is_nan() || v <= 0.0 || v > 7000.0 {
         return Err(PathExportError::InvalidOption(format!(
             "RAPID speed {} mm/s is outside (0, 7000]",
             options.speed_mm_s
         )));
     }
     if let Some(z) = options.zone_mm {
-        if !(z > 0.0 && z <= 1000.0) {
+        if z.is_nan() || z <= 0.0 || z > 1000.0 {
             return Err(PathExportError::InvalidOption(format!(
                 "RAPID zone {z} mm is outside (0, 1000]"
             )));
@@ -288,7 +289,7 @@ mod tests {
         let line = text.lines().find(|l| l.contains("robtarget p2:=")).unwrap();
         let inner = &line[line.find(":=[[").unwrap() + 4..];
         let numbers: Vec<f64> = inner
-            .split(|c| c == '[' || c == ']' || c == ',')
+            .split(['[', ']', ','])
             .filter(|s| !s.is_empty() && !s.contains(';'))
             .take(7)
             .map(|s| s.parse().unwrap())

@@ -557,7 +557,7 @@ pub fn export_robot(
     options: &ExportOptions,
 ) -> Result<RobotExport, KinematicsError> {
     check_vector("xi", xi, model.n_params())?;
-    if !(options.tolerance_m >= 0.0) {
+    if options.tolerance_m.is_nan() || options.tolerance_m < 0.0 {
         return Err(KinematicsError::NotFinite {
             what: "export tolerance".into(),
         });

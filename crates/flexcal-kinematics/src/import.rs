@@ -447,7 +447,8 @@ fn kk_frames(
         let angle_error = rebuilt.rotation.angle_to(&x_root_frame.rotation);
         let axis_error = (rebuilt.rotation * Vector3::z() - z.normalize()).norm();
         let tolerance = 1e-10;
-        if !(position_error <= tolerance && angle_error <= tolerance && axis_error <= tolerance) {
+        let errors = [position_error, angle_error, axis_error];
+        if errors.iter().any(|e| e.is_nan() || *e > tolerance) {
             return Err(KinematicsError::Urdf {
                 source_name: source.to_string(),
                 line: 0,

@@ -571,7 +571,7 @@ fn read_joint(reader: &Reader, node: roxmltree::Node) -> Result<UrdfJoint, Kinem
         Some(a) => {
             let v = reader.triple(a, "xyz", [1.0, 0.0, 0.0])?;
             let norm = v.norm();
-            if kind != UrdfJointKind::Fixed && !(norm > 1e-12) {
+            if kind != UrdfJointKind::Fixed && norm <= 1e-12 {
                 return Err(reader.error(a, format!("joint `{name}` has a zero axis")));
             }
             if norm > 0.0 { v / norm } else { Vector3::x() }
