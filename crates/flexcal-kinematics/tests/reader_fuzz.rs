@@ -1,5 +1,5 @@
 //! Seeded fuzzing of the robot file readers (description TOML, URDF, SYMORO
-//! `.par`): real files mutated by byte flips, byte insertions and deletions,
+//! `.par`): real files mutated (`flexcal_io::fuzz`) by byte flips, byte insertions and deletions,
 //! truncations, duplicated and removed lines, and swapped numbers. Every
 //! mutant must give a valid robot or a named error: no panic, no hang (each
 //! case is bounded by the reader's own limits; the whole run takes about a
@@ -7,11 +7,10 @@
 
 use std::path::PathBuf;
 
+use flexcal_io::fuzz::TextMutator;
 use flexcal_kinematics::{
     ImportOptions, ImportedRobot, RobotDescription, forward_pose, urdf::UrdfRobot,
 };
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 const CASES: usize = 10_000;
 
@@ -20,58 +19,6 @@ fn data(file: &str) -> String {
         .join("tests/data")
         .join(file);
     std::fs::read_to_string(path).unwrap()
-}
-
-/// One random mutation of `text` (possibly several stacked).
-fn mutate(text: &str, rng: &mut ChaCha8Rng) -> String {
-    let mut bytes = text.as_bytes().to_vec();
-    let rounds = rng.random_range(1..4);
-    for _ in 0..rounds {
-        if bytes.is_empty() {
-            break;
-        }
-        let at = rng.random_range(0..bytes.len());
-        match rng.random_range(0..8) {
-            0 => bytes[at] ^= 1 << rng.random_range(0..8),
-            1 => bytes.truncate(at),
-            2 => {
-                let b = *b"0123456789-.e<>/=\"{},( )*\n#[]";
-                bytes.insert(at, b[rng.random_range(0..b.len())]);
-            }
-            3 => {
-                bytes.remove(at);
-            }
-            4 | 5 => {
-                // Duplicate or remove a line.
-                let text = String::from_utf8_lossy(&bytes).into_owned();
-                let mut lines: Vec<&str> = text.lines().collect();
-                if lines.is_empty() {
-                    continue;
-                }
-                let k = rng.random_range(0..lines.len());
-                if rng.random_bool(0.5) {
-                    lines.insert(k, lines[k]);
-                } else {
-                    lines.remove(k);
-                }
-                bytes = lines.join("\n").into_bytes();
-            }
-            6 => {
-                // Replace a digit run by an extreme number.
-                let choices: [&[u8]; 6] =
-                    [b"1e308", b"-0", b"nan", b"inf", b"1e-320", b"99999999999"];
-                let c = choices[rng.random_range(0..choices.len())];
-                let end = (at + 1).min(bytes.len());
-                bytes.splice(at..end, c.iter().copied());
-            }
-            _ => {
-                // Swap two bytes far apart.
-                let other = rng.random_range(0..bytes.len());
-                bytes.swap(at, other);
-            }
-        }
-    }
-    String::from_utf8_lossy(&bytes).into_owned()
 }
 
 /// A valid result must also be usable: build it and run the forward model once.
@@ -90,10 +37,10 @@ fn exercise(description: &RobotDescription) {
 #[test]
 fn urdf_reader_survives_mutated_files() {
     let sources = [data("urdf/edge_cases.urdf"), data("urdf/irb6640_like.urdf")];
-    let mut rng = ChaCha8Rng::seed_from_u64(16);
+    let mut mutator = TextMutator::new(16);
     let (mut valid, mut errors) = (0, 0);
     for case in 0..CASES {
-        let text = mutate(&sources[case % sources.len()], &mut rng);
+        let text = mutator.mutate(&sources[case % sources.len()]);
         match UrdfRobot::parse(&text, "fuzz.urdf") {
             Ok(robot) => {
                 let options = ImportOptions {
@@ -127,10 +74,10 @@ fn toml_reader_survives_mutated_files() {
         RobotDescription::builtin("ir663").unwrap().to_toml_string(),
         RobotDescription::builtin("ur10").unwrap().to_toml_string(),
     ];
-    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    let mut mutator = TextMutator::new(17);
     let (mut valid, mut errors) = (0, 0);
     for case in 0..CASES {
-        let text = mutate(&sources[case % sources.len()], &mut rng);
+        let text = mutator.mutate(&sources[case % sources.len()]);
         match RobotDescription::from_toml_str(&text, "fuzz.toml") {
             Ok(description) => {
                 valid += 1;
@@ -161,10 +108,10 @@ fn par_reader_survives_mutated_files() {
         data("symoro/stanford.par"),
         data("symoro/fourbar.par"),
     ];
-    let mut rng = ChaCha8Rng::seed_from_u64(18);
+    let mut mutator = TextMutator::new(18);
     let (mut valid, mut errors) = (0, 0);
     for case in 0..CASES {
-        let text = mutate(&sources[case % sources.len()], &mut rng);
+        let text = mutator.mutate(&sources[case % sources.len()]);
         let options = ImportOptions {
             values: Some(values.clone()),
             tip: Some("2".into()).filter(|_| case % 3 == 2),
