@@ -91,6 +91,15 @@ pub struct ImportedRobot {
 }
 
 impl ImportedRobot {
+    /// Reads a `.urdf` file and converts the path `options.root` to
+    /// `options.tip` (see [`ImportedRobot::from_urdf`]).
+    pub fn read_urdf(
+        path: &std::path::Path,
+        options: &ImportOptions,
+    ) -> Result<Self, KinematicsError> {
+        Self::from_urdf(&UrdfRobot::read(path)?, options)
+    }
+
     /// Converts a URDF tree (see the module documentation for how).
     pub fn from_urdf(robot: &UrdfRobot, options: &ImportOptions) -> Result<Self, KinematicsError> {
         let chain = Chain::extract(robot, options)?;

@@ -6,7 +6,6 @@ use std::path::Path;
 use crate::KinematicsError;
 use crate::description::RobotDescription;
 use crate::import::{ImportOptions, ImportedRobot};
-use crate::urdf::UrdfRobot;
 
 impl RobotDescription {
     /// Reads a robot file by its extension: `.toml` (flexcal's
@@ -26,8 +25,8 @@ impl ImportedRobot {
             .map(str::to_ascii_lowercase)
             .unwrap_or_default();
         match extension.as_str() {
-            "urdf" => ImportedRobot::from_urdf(&UrdfRobot::read(path)?, options),
-            "par" => crate::symoro::read_par(path, options),
+            "urdf" => ImportedRobot::read_urdf(path, options),
+            "par" => ImportedRobot::read_par(path, options),
             "xacro" => Err(KinematicsError::Urdf {
                 source_name: path.display().to_string(),
                 line: 0,

@@ -344,19 +344,17 @@ fn read_values(path: &Path) -> Result<Values, KinematicsError> {
     Ok(values)
 }
 
-/// Reads a `.par` file with the symbol values of `options.values`.
-pub(crate) fn read_par(
-    path: &Path,
-    options: &ImportOptions,
-) -> Result<ImportedRobot, KinematicsError> {
-    let text = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
-    ImportedRobot::from_par_str(&text, &path.display().to_string(), options)
-}
-
 impl ImportedRobot {
+    /// Reads a SYMORO `.par` file with the symbol values of `options.values`
+    /// (see [`ImportedRobot::from_par_str`]).
+    pub fn read_par(path: &Path, options: &ImportOptions) -> Result<Self, KinematicsError> {
+        let text = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_par_str(&text, &path.display().to_string(), options)
+    }
+
     /// Converts the text of a SYMORO `.par` file (see the module
     /// documentation of `symoro`); `source` names it in errors and, without
     /// its directories and extension, names the robot. The symbols' values
