@@ -4,14 +4,11 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-use flexcal_elastic::campaign::read_campaign_dir;
-use flexcal_elastic::fuzzy_compliance::{
-    ComplianceComponent, ComplianceFitParams, RobotInputs, compliance_samples, identify_compliance,
-    noise_floor_rms,
+use flexcal_elastic::fuzzy_compliance::ComplianceComponent;
+use flexcal_elastic::workflow::{
+    ComplianceOutcome, ComplianceReport, ComplianceStructure, ComplianceWorkflowOptions,
+    identify_compliance_in_dir,
 };
-use flexcal_elastic::metrics::per_load_metrics;
-use serde_json::json;
 
 use crate::robot_arg::load_model;
 
@@ -25,10 +22,12 @@ pub struct ComplianceArgs {
     /// `r2p`) or joint angles of slider-crank joints (`theta2`, `theta8`).
     #[arg(long, default_value = "theta2,theta8", value_delimiter = ',')]
     pub inputs: Vec<String>,
-    /// Robot: a built-in name or a description TOML file (turns the files'
+    /// Robot: a built-in name or a robot file (.toml, .urdf, .par) (turns the files'
     /// actuated coordinates into the inputs).
     #[arg(long, default_value = "ir663")]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Load magnitude (N) whose sets train the model; the others validate it.
     #[arg(long, default_value_t = 900.0)]
     pub train_load: f64,
@@ -54,77 +53,31 @@ pub struct ComplianceArgs {
 }
 
 /// Runs `flexcal identify compliance`.
-/// Everything `identify compliance` computes, for printing or for the demo.
-pub struct ComplianceOutcome {
-    /// The robot's geometric model.
-    pub robot: flexcal_kinematics::Model,
-    /// The fitted compliance model and its report.
-    pub fitted: flexcal_elastic::fuzzy_compliance::FittedCompliance,
-    /// Names of the training sets.
-    pub train_sets: Vec<String>,
-    /// Number of training deflections.
-    pub training_samples: usize,
-    /// Residuals on every set in the x-z plane (Table 5).
-    pub table: flexcal_elastic::metrics::LoadMetricsTable,
-    /// RMS norm of the stated deflection noise in the x-z plane (mm).
-    pub noise_floor_mm: f64,
-    /// Whether the components share one structure.
-    pub shared_structure: bool,
-}
-
-/// Identifies the fuzzy compliance model from the files named by `args`
-/// (the code path of `flexcal identify compliance`, without printing).
-pub fn compliance_from_files(args: &ComplianceArgs) -> anyhow::Result<ComplianceOutcome> {
-    if !(args.train_load.is_finite() && args.train_load > 0.0) {
-        anyhow::bail!(
-            "--train-load must be a positive load in N, got {}",
-            args.train_load
-        );
-    }
-    let robot = load_model(&args.robot)?;
-    let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
-    let inputs = RobotInputs::resolve(&robot, &names).context("--inputs")?;
-    let sets = read_campaign_dir(&args.data, robot.n_actuated())?;
-    let (train, all, train_sets) =
-        super::split_by_load(&sets, args.train_load, &args.data, |set| {
-            compliance_samples(&robot, &inputs, &set.measurements)
-                .with_context(|| format!("{}", set.path.display()))
-        })?;
-    let components = ComplianceComponent::plane_xz();
-    let mut params = ComplianceFitParams {
-        shared_structure: !args.separate_structures,
+pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
+    super::check_train_load(args.train_load)?;
+    let robot = load_model(&args.robot, &args.robot_file)?;
+    let options = ComplianceWorkflowOptions {
+        inputs: args.inputs.clone(),
+        train_load_n: args.train_load,
         test_fraction: args.test_fraction,
         seed: args.seed,
-        ..ComplianceFitParams::default()
+        max_rules: args.max_rules,
+        structure: if args.separate_structures {
+            ComplianceStructure::Separate
+        } else {
+            ComplianceStructure::Shared
+        },
     };
-    params.fuzzy.search.max_rules = args.max_rules;
-    let fitted = identify_compliance(inputs.specs(), &components, &train, &params, &mut |_| {})?;
-    let residuals = fitted.compliance.residual_samples(&all)?;
-    let table = per_load_metrics(&residuals);
-    let noise_floor_mm = noise_floor_rms(&all, &fitted.compliance.displacement_axes()) * 1e3;
-    Ok(ComplianceOutcome {
-        robot,
-        fitted,
-        train_sets,
-        training_samples: train.len(),
-        table,
-        noise_floor_mm,
-        shared_structure: params.shared_structure,
-    })
-}
-
-/// Runs `flexcal identify compliance`.
-pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
-    let outcome = compliance_from_files(&args)?;
+    let outcome = identify_compliance_in_dir(&robot, &args.data, &options)?;
     let ComplianceOutcome {
-        robot,
         fitted,
         train_sets,
         training_samples,
         table,
         noise_floor_mm: floor_mm,
-        shared_structure,
+        ..
     } = &outcome;
+    let shared_structure = &(options.structure == ComplianceStructure::Shared);
     let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
     let components = ComplianceComponent::plane_xz();
     println!(
@@ -182,47 +135,7 @@ pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
         println!("model written to {}", path.display());
     }
     if let Some(path) = &args.report {
-        let components_json: Vec<_> = model
-            .components()
-            .iter()
-            .zip(model.models())
-            .map(|(c, m)| {
-                json!({
-                    "name": c.name(),
-                    "unit": c.table_unit(),
-                    "modal_values": m.structure().partitions().iter().zip(model.inputs()).map(|(p, spec)| {
-                        let (factor, unit) = spec.unit.table_unit();
-                        json!({
-                            "input": spec.name,
-                            "unit": unit,
-                            "values": p.modal_values().iter().map(|v| v * factor).collect::<Vec<_>>(),
-                        })
-                    }).collect::<Vec<_>>(),
-                    "conclusions": m.conclusions().iter().map(|b| b * 1e6).collect::<Vec<_>>(),
-                })
-            })
-            .collect();
-        let report = json!({
-            "robot": robot.name(),
-            "inputs": model.inputs(),
-            "train_load_n": args.train_load,
-            "train_sets": train_sets,
-            "seed": args.seed,
-            "test_fraction": args.test_fraction,
-            "shared_structure": shared_structure,
-            "training_configurations": r.training_configurations,
-            "test_configurations": r.test_configurations,
-            "training_rmse_mm": r.training_mm.rmse,
-            "test_rmse_mm": r.test_mm.rmse,
-            "termination": format!("{:?}", r.search.termination),
-            "evaluations": r.search.evaluations,
-            "elapsed_s": r.elapsed_s,
-            "history": r.search.history,
-            "components": components_json,
-            "per_load": table,
-            "noise_floor_mm": floor_mm,
-        });
-        flexcal_io::write_atomic(path, serde_json::to_string_pretty(&report)?)?;
+        ComplianceReport::new(robot.name(), &options, &outcome).write(path)?;
         println!("report written to {}", path.display());
     }
     Ok(())

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use flexcal_calib::{read_configurations, select_calibration_poses};
 use flexcal_optim::ObservabilityIndex;
 
-use crate::cmd_calibrate::load_robot;
+use crate::robot_arg::load_model;
 
 /// Observability index to maximise.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,9 +32,11 @@ pub enum PosesCommand {
 /// Arguments of `flexcal poses select`.
 #[derive(clap::Args, Debug)]
 pub struct SelectArgs {
-    /// Robot: a built-in name or a description file (.toml).
+    /// Robot: a built-in name or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Candidate configurations: CSV with columns q1..qn (rad, m).
     #[arg(long)]
     pub candidates: PathBuf,
@@ -58,7 +60,7 @@ pub struct SelectArgs {
 /// Runs `flexcal poses ...`.
 pub fn run(command: PosesCommand) -> anyhow::Result<()> {
     let PosesCommand::Select(args) = command;
-    let model = load_robot(&args.robot)?;
+    let model = load_model(&args.robot, &args.robot_file)?;
     let candidates = read_configurations(&args.candidates)?;
     let index = match args.index {
         IndexKind::O1 => ObservabilityIndex::O1,

@@ -3,36 +3,11 @@
 
 use std::path::PathBuf;
 
-use crate::robot_arg::load_description_with;
+use crate::robot_arg::{RobotFileArgs, load_description_with};
 use anyhow::Context;
 use flexcal_kinematics::{
-    ActuatedKind, ExportFormat, ExportOptions, ImportOptions, ImportedRobot, ParamKind,
-    builtin_robot_names, export_robot,
+    ActuatedKind, ExportFormat, ExportOptions, ParamKind, builtin_robot_names, export_robot,
 };
-
-/// How to read a robot file that is not flexcal's TOML.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct ImportArgs {
-    /// URDF: the tip link (default: the single leaf below the root).
-    #[arg(long)]
-    pub tip: Option<String>,
-    /// URDF: the root link (default: the root of the tree).
-    #[arg(long)]
-    pub root: Option<String>,
-    /// SYMORO `.par`: TOML file giving the symbols' values (SI units).
-    #[arg(long)]
-    pub values: Option<PathBuf>,
-}
-
-impl ImportArgs {
-    fn options(&self) -> ImportOptions {
-        ImportOptions {
-            tip: self.tip.clone(),
-            root: self.root.clone(),
-            values: self.values.clone(),
-        }
-    }
-}
 
 /// Formats of `flexcal robot export`.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,7 +33,7 @@ pub enum RobotCommand {
         #[arg(long)]
         toml: bool,
         #[command(flatten)]
-        import: ImportArgs,
+        import: RobotFileArgs,
     },
     /// Export a robot (a calibrated robot file, or any robot) for controllers, ROS and simulators.
     Export {
@@ -74,7 +49,7 @@ pub enum RobotCommand {
         #[arg(long, default_value_t = 1e-6)]
         tolerance_mm: f64,
         #[command(flatten)]
-        import: ImportArgs,
+        import: RobotFileArgs,
     },
 }
 
@@ -113,20 +88,11 @@ pub fn run(command: RobotCommand) -> anyhow::Result<()> {
     }
 }
 
-fn show(robot: &str, toml: bool, import: &ImportArgs) -> anyhow::Result<()> {
-    let path = std::path::Path::new(robot);
-    let imported = if !builtin_robot_names().contains(&robot) && path.exists() {
-        Some(
-            ImportedRobot::read(path, &import.options())
-                .with_context(|| format!("reading robot file {robot}"))?,
-        )
-    } else {
-        None
-    };
-    let description = match &imported {
-        Some(i) => i.description.clone(),
-        None => load_description_with(robot, &import.options())?,
-    };
+fn show(robot: &str, toml: bool, import: &RobotFileArgs) -> anyhow::Result<()> {
+    let imported = flexcal::RobotSpec::parse(robot)?
+        .import(&import.options())
+        .with_context(|| format!("reading robot {robot}"))?;
+    let description = imported.description.clone();
     if toml {
         print!("{}", description.to_toml_string());
         return Ok(());
@@ -136,10 +102,8 @@ fn show(robot: &str, toml: bool, import: &ImportArgs) -> anyhow::Result<()> {
     if !description.notes.is_empty() {
         println!("{}", description.notes.trim());
     }
-    if let Some(imported) = &imported {
-        for note in &imported.notes {
-            println!("note: {note}");
-        }
+    for note in &imported.notes {
+        println!("note: {note}");
     }
     println!("\nactuated coordinates (q, in this order):");
     for ((name, kind), (lo, hi)) in model
@@ -185,7 +149,7 @@ fn show(robot: &str, toml: bool, import: &ImportArgs) -> anyhow::Result<()> {
             value
         );
     }
-    if let Some(imported) = imported.filter(|i| !i.masses.is_empty()) {
+    if !imported.masses.is_empty() {
         println!("\nlink masses (from <inertial>):");
         for m in &imported.masses {
             println!(
@@ -207,7 +171,7 @@ fn export(
     format: ExportFormatArg,
     out: Option<PathBuf>,
     tolerance_mm: f64,
-    import: &ImportArgs,
+    import: &RobotFileArgs,
 ) -> anyhow::Result<()> {
     let model = load_description_with(robot, &import.options())?
         .build()

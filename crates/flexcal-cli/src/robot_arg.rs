@@ -1,41 +1,46 @@
-//! Resolving a `--robot NAME|FILE` argument, shared by every command that
-//! takes a robot.
+//! A `--robot NAME|FILE` argument, resolved by the library's one rule
+//! ([`flexcal::RobotSpec`]), with the options of URDF and SYMORO files.
 
-use anyhow::Context;
-use flexcal_kinematics::{ImportOptions, Model, RobotDescription, builtin_robot_names};
-use std::path::Path;
+use std::path::PathBuf;
 
-/// Loads a robot description: a built-in name (`ur10`, `ir663`, ...) or a
-/// path to a robot file (description TOML, URDF with its single leaf as the
-/// tip, SYMORO `.par`).
-pub fn load_description(spec: &str) -> anyhow::Result<RobotDescription> {
-    load_description_with(spec, &ImportOptions::default())
+use flexcal_kinematics::{ImportOptions, Model, RobotDescription};
+
+/// How to read a robot file that is not flexcal's TOML (flattened into
+/// every command that takes a robot).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RobotFileArgs {
+    /// URDF robot: the tip link (default: the single leaf below the root).
+    #[arg(long)]
+    pub tip: Option<String>,
+    /// URDF robot: the root link (default: the root of the tree).
+    #[arg(long)]
+    pub root: Option<String>,
+    /// SYMORO `.par` robot: TOML file of the symbols' values (SI units).
+    #[arg(long)]
+    pub values: Option<PathBuf>,
 }
 
-/// [`load_description`] with the options of a URDF (tip, root) or `.par`
-/// file (values).
+impl RobotFileArgs {
+    /// The reader options these flags give.
+    pub fn options(&self) -> ImportOptions {
+        ImportOptions {
+            tip: self.tip.clone(),
+            root: self.root.clone(),
+            values: self.values.clone(),
+        }
+    }
+}
+
+/// Loads a robot description: a built-in name (`ur10`, `ir663`, ...) or a
+/// robot file (`.toml`, `.urdf`, `.par`).
 pub fn load_description_with(
     spec: &str,
     options: &ImportOptions,
 ) -> anyhow::Result<RobotDescription> {
-    if builtin_robot_names().contains(&spec) {
-        return Ok(RobotDescription::builtin(spec)?);
-    }
-    let path = Path::new(spec);
-    if path.exists() {
-        return RobotDescription::read(path, options)
-            .with_context(|| format!("reading robot description {}", path.display()));
-    }
-    anyhow::bail!(
-        "unknown robot '{spec}': not a built-in robot ({}) and no such file",
-        builtin_robot_names().join(", ")
-    )
+    Ok(flexcal::RobotSpec::parse(spec)?.description_with(options)?)
 }
 
-/// Loads and builds a robot model (see [`load_description`]).
-pub fn load_model(spec: &str) -> anyhow::Result<Model> {
-    let description = load_description(spec)?;
-    description
-        .build()
-        .with_context(|| format!("building robot '{spec}'"))
+/// Loads and builds a robot model (see [`load_description_with`]).
+pub fn load_model(spec: &str, file: &RobotFileArgs) -> anyhow::Result<Model> {
+    Ok(flexcal::load_robot_with(spec, &file.options())?)
 }
