@@ -132,3 +132,46 @@ fn an_exported_urdf_gives_the_poses_of_the_robot() {
         stderr(&refused)
     );
 }
+
+#[test]
+fn fk_takes_a_urdf_with_its_tip() {
+    let edge = kinematics_data("edge_cases.urdf");
+    let without_tip = flexcal(&["fk", "--robot", path_str(&edge), "--joints", "0,0,0,0,0,0"]);
+    assert!(!without_tip.status.success());
+    assert!(
+        stderr(&without_tip).contains("side_tip"),
+        "{}",
+        stderr(&without_tip)
+    );
+    let fk = flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&edge),
+        "--tip",
+        "tip",
+        "--joints",
+        "0.1,0.2,0.3,0.4,0.5,0.6",
+    ]);
+    assert!(fk.status.success(), "{}", stderr(&fk));
+    let rx90 =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../flexcal-kinematics/tests/data/symoro");
+    let par = flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&rx90.join("rx90.par")),
+        "--values",
+        path_str(&rx90.join("rx90_values.toml")),
+        "--joints",
+        "0,0,0,0,0,0",
+    ]);
+    assert!(par.status.success(), "{}", stderr(&par));
+    let missing = flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&rx90.join("rx90.par")),
+        "--joints",
+        "0,0,0,0,0,0",
+    ]);
+    assert!(!missing.status.success());
+    assert!(stderr(&missing).contains("D3, RL4"), "{}", stderr(&missing));
+}
