@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use flexcal_calib::{CalibrationOptions, MeasurementSet, Weighting, calibrate};
-use flexcal_kinematics::{ImportOptions, Model, RobotDescription};
+use flexcal_kinematics::{ImportOptions, ImportedRobot, Model, RobotDescription};
 
 fn shared(path: &str) -> PathBuf {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -52,8 +52,9 @@ fn urdf_ur10_calibrates_like_the_builtin_ur10() {
         tip: Some("tool0".into()),
         ..ImportOptions::default()
     };
-    let imported = RobotDescription::read(&shared("robots/urdf/ur10_robot.urdf"), &options)
+    let imported = ImportedRobot::read_urdf(&shared("robots/urdf/ur10_robot.urdf"), &options)
         .unwrap()
+        .description
         .build()
         .unwrap();
     let (builtin_mean, builtin_max) = validation_mean_mm(&builtin, &train, &validate);

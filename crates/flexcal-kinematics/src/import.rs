@@ -1,6 +1,6 @@
-//! Robots from other formats: a URDF tree (and, through [`ImportedRobot::read`],
-//! any robot file by its extension) converted into a Khalil-Kleinfinger
-//! [`RobotDescription`] that reproduces the file's poses exactly.
+//! Robots from other formats: a URDF tree converted into a Khalil-Kleinfinger
+//! [`RobotDescription`] that reproduces the file's poses exactly (and the
+//! types shared with the SYMORO reader).
 //!
 //! ## How a URDF becomes a KK description
 //! 1. The path from the root link (default: the tree's root) to the tip link

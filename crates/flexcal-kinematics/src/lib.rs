@@ -66,12 +66,13 @@
 //! offset r'), `kappa8`, `lambda8`, `l18`, `l38`.
 //!
 //! ## Robots from other formats, and back
-//! [`RobotDescription::read`] reads a robot file by its extension: `.toml`,
-//! `.urdf` (a root-to-tip path converted into KK frames that reproduce the
+//! Besides flexcal's TOML, robots come from `.urdf` files
+//! ([`ImportedRobot::read_urdf`]: a root-to-tip path converted into KK frames that reproduce the
 //! file's poses exactly, modified DH with Hayati beta for parallel axes,
 //! mimic joints as couplings; [`ImportOptions`] chooses the tip and root;
-//! the module [`urdf`] reads the file itself) or `.par` (SYMORO, symbols
-//! from a values file, cut-joint loops). [`ImportedRobot`] adds the URDF's
+//! the module [`urdf`] reads the file itself) or SYMORO `.par` files
+//! ([`ImportedRobot::read_par`]: symbols from a values file, cut-joint
+//! loops); the facade crate `flexcal` picks the reader by extension. [`ImportedRobot`] adds the URDF's
 //! link masses ([`LinkMass`]). [`export_robot`] writes a robot at any xi as
 //! URDF (read back and checked), a modified-DH table ([`MdhTable`]) or TOML;
 //! what a format cannot hold is refused by name
@@ -148,7 +149,6 @@ mod import;
 mod inverse;
 mod model;
 mod pose;
-mod read;
 mod sensitivity;
 mod symoro;
 pub mod urdf;

@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use flexcal_kinematics::{
-    Data, ImportOptions, KinematicsError, RobotDescription, forward_frames, forward_pose,
+    Data, ImportOptions, ImportedRobot, KinematicsError, forward_frames, forward_pose,
 };
 use nalgebra::Matrix3;
 
@@ -30,8 +30,9 @@ fn check(case: &str) {
         serde_json::from_str(&std::fs::read_to_string(reference_path).unwrap()).unwrap();
     let par = reference["par"].as_str().unwrap();
     let values = reference["values"].as_str().unwrap();
-    let model = RobotDescription::read(&symoro(par), &options(values))
+    let model = ImportedRobot::read_par(&symoro(par), &options(values))
         .unwrap()
+        .description
         .build()
         .unwrap();
     let joints: Vec<&str> = reference["joints"]
@@ -83,8 +84,9 @@ fn stanford_arm_matches_the_independent_evaluation() {
 fn a_parallelogram_loop_keeps_its_coupler_parallel_to_the_ground() {
     let mut o = options("fourbar_values.toml");
     o.tip = Some("2".into());
-    let model = RobotDescription::read(&symoro("fourbar.par"), &o)
+    let model = ImportedRobot::read_par(&symoro("fourbar.par"), &o)
         .unwrap()
+        .description
         .build()
         .unwrap();
     assert_eq!(model.n_actuated(), 1);
@@ -108,7 +110,7 @@ fn a_parallelogram_loop_keeps_its_coupler_parallel_to_the_ground() {
 
 #[test]
 fn missing_symbols_and_inconsistent_counts_are_named_errors() {
-    let e = RobotDescription::read(&symoro("rx90.par"), &ImportOptions::default()).unwrap_err();
+    let e = ImportedRobot::read_par(&symoro("rx90.par"), &ImportOptions::default()).unwrap_err();
     match &e {
         KinematicsError::MissingSymbols { symbols, .. } => assert_eq!(symbols, "D3, RL4"),
         other => panic!("expected MissingSymbols, got {other}"),
@@ -120,7 +122,7 @@ fn missing_symbols_and_inconsistent_counts_are_named_errors() {
         "NL = 3\nNJ = 4\nNF = 4\nAnt = {0,1,2,3}\nSigma = {0,0,0,0}\n",
     )
     .unwrap();
-    let e = RobotDescription::read(&bad, &ImportOptions::default()).unwrap_err();
+    let e = ImportedRobot::read_par(&bad, &ImportOptions::default()).unwrap_err();
     assert!(matches!(e, KinematicsError::Symoro { line: 3, .. }), "{e}");
     assert!(e.to_string().contains("NF must be"), "{e}");
     std::fs::write(
@@ -128,13 +130,13 @@ fn missing_symbols_and_inconsistent_counts_are_named_errors() {
         "NL = 2\nNJ = 2\nNF = 2\nAnt = {0,1,1}\nSigma = {0,0}\n",
     )
     .unwrap();
-    let e = RobotDescription::read(&bad, &ImportOptions::default()).unwrap_err();
+    let e = ImportedRobot::read_par(&bad, &ImportOptions::default()).unwrap_err();
     assert!(matches!(e, KinematicsError::Symoro { line: 4, .. }), "{e}");
     std::fs::write(
         &bad,
         "NL = 2\nNJ = 2\nNF = 2\nAnt = {0,1}\nSigma = {0,0}\nd = {0, 1e999}\n",
     )
     .unwrap();
-    let e = RobotDescription::read(&bad, &ImportOptions::default()).unwrap_err();
+    let e = ImportedRobot::read_par(&bad, &ImportOptions::default()).unwrap_err();
     assert!(e.to_string().contains("not"), "{e}");
 }

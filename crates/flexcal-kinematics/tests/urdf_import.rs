@@ -47,7 +47,7 @@ fn check_case(case: &str) -> bool {
         tip: reference["tip"].as_str().map(String::from),
         values: None,
     };
-    let imported = ImportedRobot::read(&urdf_path, &options).expect("import");
+    let imported = ImportedRobot::read_urdf(&urdf_path, &options).expect("import");
     let model = imported.description.build().expect("build");
     // The converted description survives a TOML round trip.
     let again = RobotDescription::from_toml_str(&imported.description.to_toml_string(), case)
@@ -187,7 +187,7 @@ fn hand_written_urdfs_match_their_references() {
 #[test]
 fn parallel_axes_get_hayati_beta_and_parameters_are_named_as_for_builtin_robots() {
     let path = data_dir().join("urdf/kr16_like.urdf");
-    let imported = ImportedRobot::read(&path, &ImportOptions::default()).unwrap();
+    let imported = ImportedRobot::read_urdf(&path, &ImportOptions::default()).unwrap();
     let model = imported.description.build().unwrap();
     let names: Vec<&str> = model.params().iter().map(|p| p.name.as_str()).collect();
     // Axes 2 and 3 are parallel: beta3 replaces r3.
@@ -208,7 +208,7 @@ fn masses_come_from_the_inertials() {
         tip: Some("tip".into()),
         ..ImportOptions::default()
     };
-    let imported = ImportedRobot::read(&path, &options).unwrap();
+    let imported = ImportedRobot::read_urdf(&path, &options).unwrap();
     let mass = |link: &str| imported.masses.iter().find(|m| m.link == link).unwrap();
     assert_eq!(mass("base_plate").mass_kg, 12.5);
     assert_eq!(mass("base_plate").frame, "0");
@@ -263,7 +263,7 @@ fn a_kinematic_loop_is_a_named_error() {
 #[test]
 fn unknown_and_ambiguous_tips_are_named_errors() {
     let path = data_dir().join("urdf/edge_cases.urdf");
-    let e = ImportedRobot::read(&path, &ImportOptions::default()).unwrap_err();
+    let e = ImportedRobot::read_urdf(&path, &ImportOptions::default()).unwrap_err();
     match &e {
         KinematicsError::AmbiguousTip { candidates, .. } => {
             assert!(
@@ -277,7 +277,7 @@ fn unknown_and_ambiguous_tips_are_named_errors() {
         tip: Some("nowhere".into()),
         ..ImportOptions::default()
     };
-    let e = ImportedRobot::read(&path, &options).unwrap_err();
+    let e = ImportedRobot::read_urdf(&path, &options).unwrap_err();
     assert!(matches!(e, KinematicsError::UnknownLink { .. }), "{e}");
     assert!(e.to_string().contains("nowhere"), "{e}");
     let options = ImportOptions {
@@ -285,6 +285,6 @@ fn unknown_and_ambiguous_tips_are_named_errors() {
         root: Some("l2".into()),
         values: None,
     };
-    let e = ImportedRobot::read(&path, &options).unwrap_err();
+    let e = ImportedRobot::read_urdf(&path, &options).unwrap_err();
     assert!(e.to_string().contains("not below the root"), "{e}");
 }
