@@ -53,9 +53,11 @@ pub enum WeightsKind {
 /// Arguments of `flexcal calibrate`.
 #[derive(clap::Args, Debug)]
 pub struct CalibrateArgs {
-    /// Robot: a built-in name (ur10, ir663, puma560) or a description file (.toml).
+    /// Robot: a built-in name (ur10, ir663, puma560) or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Identification measurements.
     #[arg(long)]
     pub data: PathBuf,
@@ -169,7 +171,7 @@ pub struct CalibrateArgs {
 /// Runs `flexcal calibrate`: flags -> [`CalibrationConfig`] ->
 /// [`run_calibration`] -> print and write.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
-    let model = crate::robot_arg::load_model(&args.robot)?;
+    let model = crate::robot_arg::load_model(&args.robot, &args.robot_file)?;
     let config = config(&args, &model)?;
     let run = run_calibration(&model, &config)?;
     print_run(&model, &args.data, &run);

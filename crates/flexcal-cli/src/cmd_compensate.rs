@@ -22,9 +22,11 @@ use crate::robot_arg::load_model;
 /// Arguments of `flexcal compensate`.
 #[derive(clap::Args, Debug)]
 pub struct CompensateArgs {
-    /// Robot: a built-in name or a description TOML file.
+    /// Robot: a built-in name or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Robot description TOML whose geometric parameters xi are used (the
     /// output of `flexcal calibrate`); default the robot's nominal xi.
     #[arg(long)]
@@ -95,7 +97,7 @@ pub(crate) fn calibrated_xi(model: &Model, file: Option<&Path>) -> anyhow::Resul
 
 /// Runs `flexcal compensate`.
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
-    let model = load_model(&args.robot)?;
+    let model = load_model(&args.robot, &args.robot_file)?;
     let xi = calibrated_xi(&model, args.calibrated.as_deref())?;
     let mut spec: ElasticSpec = args.elastic.parse()?;
     match (&mut spec, &args.gamma_report) {

@@ -22,9 +22,11 @@ pub const POSE_COLUMNS: [&str; 7] = ["x_m", "y_m", "z_m", "qw", "qx", "qy", "qz"
 /// Arguments of `flexcal fk`.
 #[derive(clap::Args, Debug)]
 pub struct FkArgs {
-    /// A built-in robot name or a robot description TOML file.
+    /// A built-in robot name or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// One configuration: comma-separated actuated coordinates (rad, m).
     #[arg(long, conflicts_with = "input", allow_hyphen_values = true)]
     pub joints: Option<String>,
@@ -39,9 +41,11 @@ pub struct FkArgs {
 /// Arguments of `flexcal ik`.
 #[derive(clap::Args, Debug)]
 pub struct IkArgs {
-    /// A built-in robot name or a robot description TOML file.
+    /// A built-in robot name or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// CSV file of TCP poses with columns x_m,y_m,z_m,qw,qx,qy,qz (base frame).
     #[arg(long)]
     pub input: PathBuf,
@@ -105,7 +109,7 @@ fn format_row(out: &mut String, values: impl IntoIterator<Item = f64>) {
 
 /// Runs `flexcal fk`.
 pub fn run_fk(args: FkArgs) -> anyhow::Result<()> {
-    let model = load_model(&args.robot)?;
+    let model = load_model(&args.robot, &args.robot_file)?;
     let n = model.n_actuated();
     let (configurations, lines): (Vec<Vec<f64>>, Vec<String>) = match (&args.joints, &args.input) {
         (Some(text), None) => (
@@ -183,7 +187,7 @@ pub fn read_poses(path: &PathBuf) -> anyhow::Result<Vec<(Isometry3<f64>, usize)>
 
 /// Runs `flexcal ik`.
 pub fn run_ik(args: IkArgs) -> anyhow::Result<()> {
-    let model = load_model(&args.robot)?;
+    let model = load_model(&args.robot, &args.robot_file)?;
     let poses = read_poses(&args.input)?;
     let mut seed = match &args.seed {
         Some(text) => parse_joint_list(text, &model).context("--seed")?,

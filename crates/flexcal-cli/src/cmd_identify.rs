@@ -30,9 +30,11 @@ pub enum IdentifyCommand {
 /// Arguments of `flexcal identify stiffness`.
 #[derive(clap::Args, Debug)]
 pub struct StiffnessArgs {
-    /// Robot: a built-in name or a description TOML file.
+    /// Robot: a built-in name or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Elastic description: a built-in name (`ir663`) or a TOML file.
     #[arg(long)]
     pub elastic: String,
@@ -71,7 +73,7 @@ pub(crate) fn check_train_load(train_load: f64) -> anyhow::Result<()> {
 
 /// Identifies the stiffness parameters from the files named by `args`.
 fn identify_stiffness_from_args(args: &StiffnessArgs) -> anyhow::Result<StiffnessOutcome> {
-    let robot = load_model(&args.robot)?;
+    let robot = load_model(&args.robot, &args.robot_file)?;
     let description = ElasticDescription::builtin_or_file(&args.elastic)
         .with_context(|| format!("elastic description '{}'", args.elastic))?;
     let options = StiffnessWorkflowOptions {

@@ -22,10 +22,12 @@ pub struct ComplianceArgs {
     /// `r2p`) or joint angles of slider-crank joints (`theta2`, `theta8`).
     #[arg(long, default_value = "theta2,theta8", value_delimiter = ',')]
     pub inputs: Vec<String>,
-    /// Robot: a built-in name or a description TOML file (turns the files'
+    /// Robot: a built-in name or a robot file (.toml, .urdf, .par) (turns the files'
     /// actuated coordinates into the inputs).
     #[arg(long, default_value = "ir663")]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Load magnitude (N) whose sets train the model; the others validate it.
     #[arg(long, default_value_t = 900.0)]
     pub train_load: f64,
@@ -53,7 +55,7 @@ pub struct ComplianceArgs {
 /// Runs `flexcal identify compliance`.
 pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
     super::check_train_load(args.train_load)?;
-    let robot = load_model(&args.robot)?;
+    let robot = load_model(&args.robot, &args.robot_file)?;
     let options = ComplianceWorkflowOptions {
         inputs: args.inputs.clone(),
         train_load_n: args.train_load,

@@ -32,9 +32,11 @@ pub enum PosesCommand {
 /// Arguments of `flexcal poses select`.
 #[derive(clap::Args, Debug)]
 pub struct SelectArgs {
-    /// Robot: a built-in name or a description file (.toml).
+    /// Robot: a built-in name or a robot file (.toml, .urdf, .par).
     #[arg(long)]
     pub robot: String,
+    #[command(flatten)]
+    pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Candidate configurations: CSV with columns q1..qn (rad, m).
     #[arg(long)]
     pub candidates: PathBuf,
@@ -58,7 +60,7 @@ pub struct SelectArgs {
 /// Runs `flexcal poses ...`.
 pub fn run(command: PosesCommand) -> anyhow::Result<()> {
     let PosesCommand::Select(args) = command;
-    let model = load_model(&args.robot)?;
+    let model = load_model(&args.robot, &args.robot_file)?;
     let candidates = read_configurations(&args.candidates)?;
     let index = match args.index {
         IndexKind::O1 => ObservabilityIndex::O1,

@@ -47,7 +47,7 @@ pub struct FormingArgs {
 
 fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     use flexcal::twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
-    let robot = crate::robot_arg::load_model("ir663")?;
+    let robot = crate::robot_arg::load_model("ir663", &Default::default())?;
     let true_xi = flexcal::twin::geometric::ir663_true_params(&robot)?;
     let truth_description = flexcal::twin::elastic::ir663_elastic_truth()?;
     let truth_model = flexcal::elastic::model::ElasticModel::new(&robot, &truth_description)?;

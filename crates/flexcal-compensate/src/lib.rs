@@ -48,5 +48,6 @@
 //!   the target, on the same assembly and wrist branch.
 
 pub mod compensation;
+pub mod export;
 pub mod path;
 pub mod process;

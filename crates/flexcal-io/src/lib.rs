@@ -20,6 +20,8 @@
 //! assert!(table.column_f64("q3").is_err());
 //! ```
 
+pub mod fuzz;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -6,9 +6,21 @@ use crate::description::{
     RobotDescription, SliderCrankDescription, TransformDescription,
 };
 
-pub(crate) const NAMES: &[&str] = &["ur10", "ir663", "puma560"];
+const NAMES: &[&str] = &["ur10", "ir663", "puma560"];
 
-pub(crate) fn builtin(name: &str) -> Result<RobotDescription, KinematicsError> {
+/// Names accepted by [`RobotDescription::builtin`].
+pub fn builtin_robot_names() -> &'static [&'static str] {
+    NAMES
+}
+
+impl RobotDescription {
+    /// A built-in robot by name (see [`builtin_robot_names`]).
+    pub fn builtin(name: &str) -> Result<Self, KinematicsError> {
+        builtin(name)
+    }
+}
+
+fn builtin(name: &str) -> Result<RobotDescription, KinematicsError> {
     match name {
         "ur10" => Ok(ur10()),
         "ir663" => Ok(ir663()),

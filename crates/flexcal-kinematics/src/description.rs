@@ -1,5 +1,5 @@
 //! The robot description: what a user writes in a TOML file (mm and degrees),
-//! before it is validated and frozen into a [`Model`].
+//! before it is validated and frozen into a [`Model`](crate::Model).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -8,7 +8,6 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use crate::KinematicsError;
-use crate::Model;
 
 /// Kind of the joint at the origin of a frame (the KK symbol sigma).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -263,7 +262,8 @@ pub struct LoopDescription {
 }
 
 /// A robot as written in a description file (lengths in mm, angles in
-/// degrees); [`RobotDescription::build`] validates it into a [`Model`].
+/// degrees); [`RobotDescription::build`] validates it into a
+/// [`Model`](crate::Model).
 ///
 /// ```toml
 /// name = "two-link"
@@ -356,19 +356,4 @@ impl RobotDescription {
         // a string, number, array or table with string keys.
         toml::to_string(self).unwrap_or_else(|e| format!("# serialisation failed: {e}\n"))
     }
-
-    /// A built-in robot by name (see [`builtin_robot_names`]).
-    pub fn builtin(name: &str) -> Result<Self, KinematicsError> {
-        crate::builtin::builtin(name)
-    }
-
-    /// Validates the description and freezes it into a [`Model`].
-    pub fn build(&self) -> Result<Model, KinematicsError> {
-        crate::model::build(self)
-    }
-}
-
-/// Names accepted by [`RobotDescription::builtin`].
-pub fn builtin_robot_names() -> &'static [&'static str] {
-    crate::builtin::NAMES
 }

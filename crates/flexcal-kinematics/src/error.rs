@@ -9,6 +9,7 @@ use thiserror::Error;
 /// parameter, loop, configuration), so that a message can be shown to a user
 /// as it is.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum KinematicsError {
     /// A built-in robot was asked for by a name that does not exist.
     #[error("unknown built-in robot `{name}` (known: {known})")]
@@ -28,6 +29,81 @@ pub enum KinematicsError {
         line: usize,
         /// What the parser reported.
         message: String,
+    },
+    /// A URDF file is malformed, uses something flexcal cannot import (a
+    /// xacro macro, a kinematic loop, a floating joint on the path), or
+    /// names an unknown link or joint.
+    #[error("{source_name}:{line}: {message}")]
+    Urdf {
+        /// The file (or other source) the text came from.
+        source_name: String,
+        /// 1-based line of the element concerned (0 when the whole file is).
+        line: usize,
+        /// What was wrong.
+        message: String,
+    },
+    /// A robot file's tree has several leaves and no tip was chosen.
+    #[error("{source_name}: the tree has several end links ({candidates}): choose one as the tip")]
+    AmbiguousTip {
+        /// The file the tree came from.
+        source_name: String,
+        /// The candidate tip links, comma-separated.
+        candidates: String,
+    },
+    /// A link asked for as the root or the tip does not exist, or the tip
+    /// is not below the root.
+    #[error("{source_name}: {what} (links: {known})")]
+    UnknownLink {
+        /// The file the tree came from.
+        source_name: String,
+        /// What was asked and why it fails.
+        what: String,
+        /// The links of the file, comma-separated.
+        known: String,
+    },
+    /// A SYMORO `.par` file is malformed or inconsistent (NF against the
+    /// rows given, an unknown keyword, a value that is no number).
+    #[error("{source_name}:{line}: {message}")]
+    Symoro {
+        /// The file the text came from.
+        source_name: String,
+        /// 1-based line (0 when the whole file is concerned).
+        line: usize,
+        /// What was wrong.
+        message: String,
+    },
+    /// Symbolic entries of a `.par` file have no value in the values file.
+    #[error(
+        "{source_name}: no value for the symbols {symbols} (give them in a values file, SI units)"
+    )]
+    MissingSymbols {
+        /// The `.par` file.
+        source_name: String,
+        /// The symbols without a value, comma-separated.
+        symbols: String,
+    },
+    /// Part of a robot has no place in an export format (a closed loop or a
+    /// slider crank in a URDF).
+    #[error("cannot export to {format}: {what}")]
+    Inexpressible {
+        /// The target format.
+        format: String,
+        /// What the format cannot express, by name.
+        what: String,
+    },
+    /// An export would change the robot's poses by more than the tolerance.
+    #[error(
+        "export to {format} would move the TCP by {loss:.3e} m (tolerance {tolerance:.3e} m): {what}"
+    )]
+    ExportLoss {
+        /// The target format.
+        format: String,
+        /// What is dropped.
+        what: String,
+        /// Largest TCP displacement caused, over the configurations checked (m).
+        loss: f64,
+        /// The tolerance given (m).
+        tolerance: f64,
     },
     /// A file could not be read or written.
     #[error("{path}: {message}")]
@@ -106,4 +182,21 @@ pub enum KinematicsError {
         /// Rank needed.
         needed: usize,
     },
+}
+
+/// Checks the length of a slice argument and that every entry is finite.
+pub(crate) fn check_vector(what: &str, v: &[f64], expected: usize) -> Result<(), KinematicsError> {
+    if v.len() != expected {
+        return Err(KinematicsError::WrongLength {
+            what: what.to_string(),
+            expected,
+            found: v.len(),
+        });
+    }
+    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+        return Err(KinematicsError::NotFinite {
+            what: format!("{what}[{k}]"),
+        });
+    }
+    Ok(())
 }

@@ -1,12 +1,12 @@
 //! Forward model, loop closure, joint and parameter Jacobians.
 
-use nalgebra::{
-    DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion, Vector3,
-};
+use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Vector3};
 
 use crate::KinematicsError;
 use crate::description::{JointType, LoopSolver};
+use crate::error::check_vector;
 use crate::model::{JointSource, LoopModel, Model};
+use crate::pose::Pose;
 
 /// `a * v` for a 3x3 matrix, written out: the generic product of the linear
 /// algebra crate does not unroll as well for these tiny sizes.
@@ -18,42 +18,6 @@ fn mat_vec(a: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
         a[0][1] * v[0] + a[1][1] * v[1] + a[2][1] * v[2],
         a[0][2] * v[0] + a[1][2] * v[1] + a[2][2] * v[2],
     ]
-}
-
-/// Rigid transform as a rotation matrix and a translation: cheaper to compose
-/// than a quaternion when axes are read back for the Jacobians.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Pose {
-    pub r: Matrix3<f64>,
-    pub p: Vector3<f64>,
-}
-
-impl Pose {
-    pub const IDENTITY: Pose = Pose {
-        r: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
-        p: Vector3::new(0.0, 0.0, 0.0),
-    };
-
-    #[inline]
-    pub fn compose(&self, other: &Pose) -> Pose {
-        Pose {
-            r: self.r * other.r,
-            p: self.p + self.r * other.p,
-        }
-    }
-
-    pub fn from_isometry(x: &Isometry3<f64>) -> Pose {
-        Pose {
-            r: *x.rotation.to_rotation_matrix().matrix(),
-            p: x.translation.vector,
-        }
-    }
-
-    pub fn to_isometry(self) -> Isometry3<f64> {
-        let rotation =
-            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(self.r));
-        Isometry3::from_parts(Translation3::from(self.p), rotation)
-    }
 }
 
 /// Per-thread workspace of a [`Model`]: the frame poses of the last call,
@@ -301,22 +265,6 @@ fn twist_at(u: &Vector3<f64>, o: &Option<Vector3<f64>>, point: &Vector3<f64>) ->
         }
         None => [u.x, u.y, u.z, 0.0, 0.0, 0.0],
     }
-}
-
-pub(crate) fn check_vector(what: &str, v: &[f64], expected: usize) -> Result<(), KinematicsError> {
-    if v.len() != expected {
-        return Err(KinematicsError::WrongLength {
-            what: what.to_string(),
-            expected,
-            found: v.len(),
-        });
-    }
-    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-        return Err(KinematicsError::NotFinite {
-            what: format!("{what}[{k}]"),
-        });
-    }
-    Ok(())
 }
 
 const LOOP_TOLERANCE: f64 = 1e-9;

@@ -3,7 +3,8 @@
 use nalgebra::{Isometry3, Matrix6, Matrix6xX, UnitQuaternion, Vector3, Vector6};
 
 use crate::KinematicsError;
-use crate::forward::{check_vector, joint_jacobian_into};
+use crate::error::check_vector;
+use crate::forward::joint_jacobian_into;
 use crate::{Data, Model};
 
 /// What the inverse model must reach.

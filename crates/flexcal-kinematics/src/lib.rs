@@ -65,6 +65,19 @@
 //! name: `alpha2`, `d3`, `beta3`, `theta1` (joint offset), `r2p` (screw length
 //! offset r'), `kappa8`, `lambda8`, `l18`, `l38`.
 //!
+//! ## Robots from other formats, and back
+//! Besides flexcal's TOML, robots come from `.urdf` files
+//! ([`ImportedRobot::read_urdf`]: a root-to-tip path converted into KK frames that reproduce the
+//! file's poses exactly, modified DH with Hayati beta for parallel axes,
+//! mimic joints as couplings; [`ImportOptions`] chooses the tip and root;
+//! the module [`urdf`] reads the file itself) or SYMORO `.par` files
+//! ([`ImportedRobot::read_par`]: symbols from a values file, cut-joint
+//! loops); the facade crate `flexcal` picks the reader by extension. [`ImportedRobot`] adds the URDF's
+//! link masses ([`LinkMass`]). [`export_robot`] writes a robot at any xi as
+//! URDF (read back and checked), a modified-DH table ([`MdhTable`]) or TOML;
+//! what a format cannot hold is refused by name
+//! ([`KinematicsError::Inexpressible`]). User guide: `docs/robots.md`.
+//!
 //! ## Built-in robots
 //! [`builtin_robot_names`]: `ur10`, `ir663`, `puma560` (see
 //! [`RobotDescription::builtin`]); each writes to TOML and loads back identically.
@@ -130,20 +143,28 @@
 mod builtin;
 mod description;
 mod error;
+mod export;
 mod forward;
+mod import;
 mod inverse;
 mod model;
+mod pose;
 mod sensitivity;
+mod symoro;
+pub mod urdf;
 
+pub use builtin::builtin_robot_names;
 pub use description::{
     CouplingTerm, FrameDescription, JointType, LoopConstraint, LoopDescription, LoopSolver,
-    RobotDescription, SliderCrankDescription, TransformDescription, builtin_robot_names,
+    RobotDescription, SliderCrankDescription, TransformDescription,
 };
 pub use error::KinematicsError;
+pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
 pub use forward::{
     Data, PointLoad, actuated_forces_into, forward_frames, forward_pose, joint_jacobian,
     joint_jacobian_into, param_jacobian, param_jacobian_into,
 };
+pub use import::{ImportOptions, ImportedRobot, LinkMass};
 pub use inverse::{InverseOptions, InverseSolution, InverseTarget, inverse_pose};
 pub use model::{ActuatedKind, Model, ParamInfo, ParamKind, Quantity};
 pub use sensitivity::{

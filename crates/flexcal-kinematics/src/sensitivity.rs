@@ -3,7 +3,8 @@
 use nalgebra::DMatrix;
 
 use crate::KinematicsError;
-use crate::forward::{check_vector, param_jacobian_into, slider_crank_angle};
+use crate::error::check_vector;
+use crate::forward::{param_jacobian_into, slider_crank_angle};
 use crate::model::{ActuatedKind, JointSource, ParamKind};
 use crate::{Data, Model};
 

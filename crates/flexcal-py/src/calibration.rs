@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics as Stats,
-    FrameTreatment, GravityCompliance, Method, UnknownStatus, ValidationReport,
-    Weighting, calibrate as run_calibration,
+    FrameTreatment, GravityCompliance, Method, UnknownStatus, ValidationReport, Weighting,
+    calibrate as run_calibration,
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};

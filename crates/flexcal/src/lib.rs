@@ -60,7 +60,7 @@ pub mod robot;
 pub mod study;
 
 pub use error::{Error, Result};
-pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot};
+pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot, load_robot_with};
 
 pub use flexcal_calib as calib;
 pub use flexcal_compensate as compensate;

@@ -5,13 +5,17 @@
 //! ([`builtin_robot_names`]) is that robot; any other string is a path to a
 //! description file, read by the reader its extension selects
 //! ([`RobotFileFormat::from_path`], the one place where file formats are
-//! dispatched). A file that happens to carry a built-in name must be given
-//! with a directory (`./ur10`).
+//! dispatched): flexcal's TOML, URDF (with a tip and root link) or SYMORO
+//! `.par` (with a values file), the last two through [`ImportOptions`]. A
+//! file that happens to carry a built-in name must be given with a
+//! directory (`./ur10`).
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use flexcal_kinematics::{Model, RobotDescription, builtin_robot_names};
+use flexcal_kinematics::{
+    ImportOptions, ImportedRobot, Model, RobotDescription, builtin_robot_names,
+};
 
 use crate::Error;
 
@@ -32,11 +36,15 @@ pub enum RobotSpec {
 pub enum RobotFileFormat {
     /// flexcal's own TOML description (`.toml`, or a file without extension).
     Toml,
+    /// URDF (`.urdf`; a `.xacro` file is refused with the advice to expand it).
+    Urdf,
+    /// SYMORO / OpenSYMORO geometric parameters (`.par`).
+    Par,
 }
 
 impl RobotFileFormat {
     /// The extensions flexcal reads, for messages.
-    pub const EXTENSIONS: &'static [&'static str] = &["toml"];
+    pub const EXTENSIONS: &'static [&'static str] = &["toml", "urdf", "par"];
 
     /// The format of `path`, from its extension (case-insensitive).
     ///
@@ -49,6 +57,8 @@ impl RobotFileFormat {
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
         match ext.as_deref() {
             None | Some("toml") => Ok(Self::Toml),
+            Some("urdf") | Some("xacro") => Ok(Self::Urdf),
+            Some("par") => Ok(Self::Par),
             Some(other) => Err(Error::RobotFormat {
                 path: path.to_path_buf(),
                 extension: other.to_string(),
@@ -57,11 +67,19 @@ impl RobotFileFormat {
         }
     }
 
-    /// Reads a robot description from `path` in this format.
-    pub fn read(self, path: &Path) -> Result<RobotDescription, Error> {
-        match self {
-            Self::Toml => Ok(RobotDescription::from_toml_file(path)?),
-        }
+    /// Reads a robot from `path` in this format; `options` choose a URDF's
+    /// tip and root and give a `.par` file's symbol values (a TOML file
+    /// ignores them).
+    pub fn read(self, path: &Path, options: &ImportOptions) -> Result<ImportedRobot, Error> {
+        Ok(match self {
+            Self::Toml => ImportedRobot {
+                description: RobotDescription::from_toml_file(path)?,
+                masses: Vec::new(),
+                notes: Vec::new(),
+            },
+            Self::Urdf => ImportedRobot::read_urdf(path, options)?,
+            Self::Par => ImportedRobot::read_par(path, options)?,
+        })
     }
 }
 
@@ -83,17 +101,37 @@ impl RobotSpec {
         })
     }
 
-    /// Reads the robot's description.
+    /// Reads the robot's description (a URDF's single leaf as its tip).
     pub fn description(&self) -> Result<RobotDescription, Error> {
+        self.description_with(&ImportOptions::default())
+    }
+
+    /// Reads the robot's description with the options of a URDF or `.par` file.
+    pub fn description_with(&self, options: &ImportOptions) -> Result<RobotDescription, Error> {
+        Ok(self.import(options)?.description)
+    }
+
+    /// Reads the robot with what its file holds besides the description
+    /// (a URDF's link masses) and notes on the conversion.
+    pub fn import(&self, options: &ImportOptions) -> Result<ImportedRobot, Error> {
         match self {
-            Self::Builtin(name) => Ok(RobotDescription::builtin(name)?),
-            Self::File(path) => RobotFileFormat::from_path(path)?.read(path),
+            Self::Builtin(name) => Ok(ImportedRobot {
+                description: RobotDescription::builtin(name)?,
+                masses: Vec::new(),
+                notes: Vec::new(),
+            }),
+            Self::File(path) => RobotFileFormat::from_path(path)?.read(path, options),
         }
     }
 
     /// Reads and builds the robot's model (validated once, then frozen).
     pub fn model(&self) -> Result<Model, Error> {
-        let description = self.description()?;
+        self.model_with(&ImportOptions::default())
+    }
+
+    /// [`RobotSpec::model`] with the options of a URDF or `.par` file.
+    pub fn model_with(&self, options: &ImportOptions) -> Result<Model, Error> {
+        let description = self.description_with(options)?;
         description.build().map_err(|source| Error::RobotBuild {
             robot: self.to_string(),
             source,
@@ -126,6 +164,11 @@ pub fn load_description(spec: &str) -> Result<RobotDescription, Error> {
 /// [`RobotSpec`]).
 pub fn load_robot(spec: &str) -> Result<Model, Error> {
     RobotSpec::parse(spec)?.model()
+}
+
+/// [`load_robot`] with the options of a URDF or `.par` file.
+pub fn load_robot_with(spec: &str, options: &ImportOptions) -> Result<Model, Error> {
+    RobotSpec::parse(spec)?.model_with(options)
 }
 
 #[cfg(test)]
@@ -167,5 +210,21 @@ mod tests {
         std::fs::write(&path, "x").unwrap();
         let err = load_robot(path.to_str().unwrap()).unwrap_err().to_string();
         assert!(err.contains("robot.xyz") && err.contains("toml"), "{err}");
+    }
+
+    #[test]
+    fn a_urdf_file_is_read_with_its_tip() {
+        let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../flexcal-kinematics/tests/data/urdf/edge_cases.urdf");
+        let spec = RobotSpec::parse(path.to_str().unwrap()).unwrap();
+        // Two leaves: the tip must be chosen.
+        assert!(spec.model().is_err());
+        let options = ImportOptions {
+            tip: Some("tip".into()),
+            ..ImportOptions::default()
+        };
+        let imported = spec.import(&options).unwrap();
+        assert!(!imported.masses.is_empty());
+        assert_eq!(spec.model_with(&options).unwrap().n_actuated(), 6);
     }
 }

@@ -1,0 +1,75 @@
+//! Seeded fuzzing of the calibration readers: flexcal's measurement CSV and
+//! the mass table, 10 000 mutants of a real file each (flexcal_io::fuzz):
+//! every mutant gives a valid result or a named error, never a panic.
+
+use flexcal_calib::{GravityCompliance, MeasurementSet};
+use flexcal_io::fuzz::TextMutator;
+use flexcal_kinematics::RobotDescription;
+
+const CASES: usize = 10_000;
+
+/// A measurement file as flexcal writes it: UR10 configurations with
+/// positions, orientations, standard deviations and temperatures.
+fn measurement_csv() -> String {
+    let mut text = String::from(
+        "pose_id,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,sx_mm,sy_mm,sz_mm,temperature_c\n",
+    );
+    for k in 0..12 {
+        let t = k as f64 * 0.1;
+        text.push_str(&format!(
+            "p{k},{},{},{},{},{},{},{},{},{},{},{},{},0.01,0.01,0.02,{}\n",
+            0.1 + t,
+            -1.2 + t,
+            1.0 - t,
+            -0.5,
+            1.3,
+            0.2 * t,
+            800.0 + 10.0 * t,
+            -150.0 + t,
+            420.5,
+            179.0,
+            -2.0 * t,
+            45.0,
+            21.5 + t
+        ));
+    }
+    text
+}
+
+#[test]
+fn measurement_csv_reader_survives_mutated_files() {
+    let source = measurement_csv();
+    MeasurementSet::from_csv_str(&source, "source.csv").expect("the source file is valid");
+    let mut mutator = TextMutator::new(19);
+    let mut valid = 0;
+    for _ in 0..CASES {
+        let text = mutator.mutate(&source);
+        match MeasurementSet::from_csv_str(&text, "fuzz.csv") {
+            Ok(set) => {
+                valid += 1;
+                assert!(!set.measurements().is_empty());
+            }
+            Err(e) => assert!(e.to_string().contains("fuzz.csv"), "{e}"),
+        }
+    }
+    println!("measurement CSV: {valid} valid of {CASES}");
+}
+
+#[test]
+fn mass_table_reader_survives_mutated_files() {
+    let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+    let source = GravityCompliance::ur10_urdf(&model)
+        .unwrap()
+        .to_toml_string()
+        .unwrap();
+    let mut mutator = TextMutator::new(20);
+    let mut valid = 0;
+    for _ in 0..CASES {
+        let text = mutator.mutate(&source);
+        match GravityCompliance::from_toml_str(&text, "fuzz.toml") {
+            Ok(_) => valid += 1,
+            Err(e) => assert!(e.to_string().contains("fuzz.toml"), "{e}"),
+        }
+    }
+    println!("mass table: {valid} valid of {CASES}");
+}

@@ -1,0 +1,654 @@
+//! SYMORO / OpenSYMORO `.par` files: the geometric part (NL, NJ, NF, `Ant`,
+//! `Sigma`, `Mu`, `gamma`, `B`, `Alpha`, `d`, `Theta`, `R`) read into a
+//! Khalil-Kleinfinger [`RobotDescription`]; the dynamic parameters are ignored.
+//!
+//! Layout (Khalil and Kleinfinger's numbering, as SYMORO writes it): frames
+//! 1..NL are the links, NL+1..NJ the cut joints of closed loops and
+//! NJ+1..NF (sigma = 2) the frames that coincide with them, so that
+//! NF = NJ + (NJ - NL); each pair (NL+i, NJ+i) becomes a flexcal loop with a
+//! full closure constraint. `Mu` = 1 marks actuated joints; passive joints
+//! must lie in a loop.
+//!
+//! Entries are numbers or expressions (`+ - * /`, parentheses, `Pi`) of
+//! symbols whose values (SI: m, rad) come from a values file:
+//!
+//! ```toml
+//! D3 = 0.45          # symbol = value (m or rad)
+//! RL4 = 0.45
+//! [home]             # optional: joint values that pick each loop's assembly branch
+//! th2 = 0.3
+//! ```
+//!
+//! In `Theta` of a revolute joint (`R` of a prismatic one) the one symbol
+//! without a value is the joint variable, which must appear with
+//! coefficient 1 (`th2`, `th2 - Pi/2`); it names the actuated coordinate.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+use crate::KinematicsError;
+use crate::description::{
+    FrameDescription, JointType, LoopConstraint, LoopDescription, LoopSolver, RobotDescription,
+    TransformDescription,
+};
+use crate::import::{ImportOptions, ImportedRobot};
+
+fn par_error(source: &str, line: usize, message: impl Into<String>) -> KinematicsError {
+    KinematicsError::Symoro {
+        source_name: source.to_string(),
+        line,
+        message: message.into(),
+    }
+}
+
+/// An arithmetic expression of a `.par` entry.
+#[derive(Debug, Clone, PartialEq)]
+enum Expr {
+    Number(f64),
+    Symbol(String),
+    Negate(Box<Expr>),
+    Binary(char, Box<Expr>, Box<Expr>),
+}
+
+impl Expr {
+    fn symbols(&self, out: &mut BTreeSet<String>) {
+        match self {
+            Expr::Number(_) => {}
+            Expr::Symbol(s) => {
+                out.insert(s.clone());
+            }
+            Expr::Negate(e) => e.symbols(out),
+            Expr::Binary(_, a, b) => {
+                a.symbols(out);
+                b.symbols(out);
+            }
+        }
+    }
+
+    fn eval(&self, value: &dyn Fn(&str) -> f64) -> f64 {
+        match self {
+            Expr::Number(x) => *x,
+            Expr::Symbol(s) => value(s),
+            Expr::Negate(e) => -e.eval(value),
+            Expr::Binary(op, a, b) => {
+                let (a, b) = (a.eval(value), b.eval(value));
+                match op {
+                    '+' => a + b,
+                    '-' => a - b,
+                    '*' => a * b,
+                    _ => a / b,
+                }
+            }
+        }
+    }
+}
+
+/// Recursive-descent parser of one entry.
+struct Parser<'a> {
+    chars: Vec<char>,
+    at: usize,
+    text: &'a str,
+}
+
+impl Parser<'_> {
+    fn skip(&mut self) {
+        while self.at < self.chars.len() && self.chars[self.at].is_whitespace() {
+            self.at += 1;
+        }
+    }
+    fn peek(&mut self) -> Option<char> {
+        self.skip();
+        self.chars.get(self.at).copied()
+    }
+    fn sum(&mut self, depth: usize) -> Result<Expr, String> {
+        let mut left = self.product(depth)?;
+        while let Some(op @ ('+' | '-')) = self.peek() {
+            self.at += 1;
+            let right = self.product(depth)?;
+            left = Expr::Binary(op, Box::new(left), Box::new(right));
+        }
+        Ok(left)
+    }
+    fn product(&mut self, depth: usize) -> Result<Expr, String> {
+        let mut left = self.unary(depth)?;
+        while let Some(op @ ('*' | '/')) = self.peek() {
+            self.at += 1;
+            let right = self.unary(depth)?;
+            left = Expr::Binary(op, Box::new(left), Box::new(right));
+        }
+        Ok(left)
+    }
+    fn unary(&mut self, depth: usize) -> Result<Expr, String> {
+        if depth > 64 {
+            return Err(format!("`{}` is nested too deeply", self.text));
+        }
+        match self.peek() {
+            Some('-') => {
+                self.at += 1;
+                Ok(Expr::Negate(Box::new(self.unary(depth + 1)?)))
+            }
+            Some('+') => {
+                self.at += 1;
+                self.unary(depth + 1)
+            }
+            Some('(') => {
+                self.at += 1;
+                let e = self.sum(depth + 1)?;
+                if self.peek() != Some(')') {
+                    return Err(format!("`{}`: missing `)`", self.text));
+                }
+                self.at += 1;
+                Ok(e)
+            }
+            Some(c) if c.is_ascii_digit() || c == '.' => {
+                let start = self.at;
+                while self.at < self.chars.len() {
+                    let c = self.chars[self.at];
+                    let exponent_sign = (c == '-' || c == '+')
+                        && self.at > start
+                        && matches!(self.chars[self.at - 1], 'e' | 'E');
+                    if c.is_ascii_digit() || c == '.' || c == 'e' || c == 'E' || exponent_sign {
+                        self.at += 1;
+                    } else {
+                        break;
+                    }
+                }
+                let s: String = self.chars[start..self.at].iter().collect();
+                let x: f64 = s
+                    .parse()
+                    .map_err(|_| format!("`{s}` in `{}` is not a number", self.text))?;
+                if !x.is_finite() {
+                    return Err(format!("`{s}` in `{}` is not finite", self.text));
+                }
+                Ok(Expr::Number(x))
+            }
+            Some(c) if c.is_alphabetic() || c == '_' => {
+                let start = self.at;
+                while self.at < self.chars.len()
+                    && (self.chars[self.at].is_alphanumeric() || self.chars[self.at] == '_')
+                {
+                    self.at += 1;
+                }
+                let s: String = self.chars[start..self.at].iter().collect();
+                if s.eq_ignore_ascii_case("pi") {
+                    Ok(Expr::Number(std::f64::consts::PI))
+                } else {
+                    Ok(Expr::Symbol(s))
+                }
+            }
+            Some(c) => Err(format!("unexpected `{c}` in `{}`", self.text)),
+            None => Err(format!("`{}` ends too early", self.text)),
+        }
+    }
+}
+
+fn parse_expr(text: &str) -> Result<Expr, String> {
+    let mut p = Parser {
+        chars: text.chars().collect(),
+        at: 0,
+        text,
+    };
+    let e = p.sum(0)?;
+    if p.peek().is_some() {
+        return Err(format!("`{text}`: unexpected text after the expression"));
+    }
+    Ok(e)
+}
+
+/// Removes `(* ... *)` comments, keeping line breaks for line numbers.
+fn strip_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut depth = 0usize;
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '(' && chars.peek() == Some(&'*') {
+            chars.next();
+            depth += 1;
+        } else if depth > 0 && c == '*' && chars.peek() == Some(&')') {
+            chars.next();
+            depth -= 1;
+        } else if depth == 0 || c == '\n' {
+            out.push(if depth > 0 { '\n' } else { c });
+        }
+    }
+    out
+}
+
+/// The assignments of a `.par` file: key (lower case) -> (line, entries).
+fn assignments(
+    text: &str,
+    source: &str,
+) -> Result<BTreeMap<String, (usize, Vec<String>)>, KinematicsError> {
+    let text = strip_comments(text);
+    let mut out = BTreeMap::new();
+    let mut pending: Option<(String, usize, String)> = None;
+    for (k, line) in text.lines().enumerate() {
+        let number = k + 1;
+        if let Some((key, start, mut value)) = pending.take() {
+            value.push_str(line);
+            if value.contains('}') {
+                out.insert(key, (start, list_entries(&value, source, start)?));
+            } else {
+                pending = Some((key, start, value));
+            }
+            continue;
+        }
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        let Some((key, value)) = line.split_once('=') else {
+            return Err(par_error(
+                source,
+                number,
+                format!("`{line}` is no `name = value` line"),
+            ));
+        };
+        let key = key.trim().to_ascii_lowercase();
+        let value = value.trim().to_string();
+        if value.starts_with('{') && !value.contains('}') {
+            pending = Some((key, number, value));
+        } else if value.starts_with('{') {
+            out.insert(key, (number, list_entries(&value, source, number)?));
+        } else {
+            out.insert(
+                key,
+                (number, vec![value.trim_end_matches(';').trim().to_string()]),
+            );
+        }
+    }
+    if let Some((key, start, _)) = pending {
+        return Err(par_error(
+            source,
+            start,
+            format!("the list `{key}` has no closing `}}`"),
+        ));
+    }
+    Ok(out)
+}
+
+fn list_entries(value: &str, source: &str, line: usize) -> Result<Vec<String>, KinematicsError> {
+    let open = value.find('{').unwrap_or(0);
+    let close = value
+        .rfind('}')
+        .ok_or_else(|| par_error(source, line, "a list has no closing `}`"))?;
+    if close < open {
+        return Err(par_error(source, line, "a list closes before it opens"));
+    }
+    Ok(value[open + 1..close]
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect())
+}
+
+/// Symbol values and the home configuration of a values file.
+#[derive(Default)]
+struct Values {
+    symbols: BTreeMap<String, f64>,
+    home: BTreeMap<String, f64>,
+}
+
+fn read_values(path: &Path) -> Result<Values, KinematicsError> {
+    let source = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
+        path: source.clone(),
+        message: e.to_string(),
+    })?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
+            .unwrap_or(0);
+        KinematicsError::Toml {
+            source_name: source.clone(),
+            line,
+            message: e.message().to_string(),
+        }
+    })?;
+    let number = |key: &str, v: &toml::Value| -> Result<f64, KinematicsError> {
+        let x = match v {
+            toml::Value::Float(x) => *x,
+            toml::Value::Integer(i) => *i as f64,
+            _ => {
+                return Err(KinematicsError::Toml {
+                    source_name: source.clone(),
+                    line: 0,
+                    message: format!("`{key}` is not a number"),
+                });
+            }
+        };
+        if !x.is_finite() {
+            return Err(KinematicsError::NotFinite {
+                what: format!("{source}: `{key}`"),
+            });
+        }
+        Ok(x)
+    };
+    let mut values = Values::default();
+    for (key, v) in &table {
+        if key == "home" {
+            let toml::Value::Table(home) = v else {
+                return Err(KinematicsError::Toml {
+                    source_name: source.clone(),
+                    line: 0,
+                    message: "`home` must be a table of joint values".into(),
+                });
+            };
+            for (k, v) in home {
+                values.home.insert(k.clone(), number(k, v)?);
+            }
+        } else {
+            values.symbols.insert(key.clone(), number(key, v)?);
+        }
+    }
+    Ok(values)
+}
+
+impl ImportedRobot {
+    /// Reads a SYMORO `.par` file with the symbol values of `options.values`
+    /// (see [`ImportedRobot::from_par_str`]).
+    pub fn read_par(path: &Path, options: &ImportOptions) -> Result<Self, KinematicsError> {
+        let text = std::fs::read_to_string(path).map_err(|e| KinematicsError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_par_str(&text, &path.display().to_string(), options)
+    }
+
+    /// Converts the text of a SYMORO `.par` file (see the module
+    /// documentation of `symoro`); `source` names it in errors and, without
+    /// its directories and extension, names the robot. The symbols' values
+    /// come from the TOML file `options.values`; `options.tip` names the end
+    /// frame by number.
+    pub fn from_par_str(
+        text: &str,
+        source: &str,
+        options: &ImportOptions,
+    ) -> Result<Self, KinematicsError> {
+        let values = match &options.values {
+            Some(v) => read_values(v)?,
+            None => Values::default(),
+        };
+        let stem = Path::new(source)
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("symoro")
+            .to_string();
+        par_from_str(text, source, &stem, &values, options)
+    }
+}
+
+/// The value of `expr` with the symbols' values and `variable` (if any) at `at`.
+fn evaluate(expr: &Expr, values: &Values, variable: Option<&str>, at: f64) -> f64 {
+    expr.eval(&|n: &str| {
+        if Some(n) == variable {
+            at
+        } else {
+            values.symbols.get(n).copied().unwrap_or(0.0)
+        }
+    })
+}
+
+/// SI value of each quantity of a frame, and its joint variable (if any).
+struct FrameValues {
+    quantities: [f64; 6], // gamma, b, alpha, d, theta, r
+    variable: Option<String>,
+}
+
+fn par_from_str(
+    text: &str,
+    source: &str,
+    name: &str,
+    values: &Values,
+    options: &ImportOptions,
+) -> Result<ImportedRobot, KinematicsError> {
+    let table = assignments(text, source)?;
+    let count = |key: &str| -> Result<usize, KinematicsError> {
+        let (line, entries) = table
+            .get(key)
+            .ok_or_else(|| par_error(source, 0, format!("no `{}` line", key.to_uppercase())))?;
+        entries[0].parse::<usize>().map_err(|_| {
+            par_error(
+                source,
+                *line,
+                format!("{} = {} is not a count", key.to_uppercase(), entries[0]),
+            )
+        })
+    };
+    let (nl, nj, nf) = (count("nl")?, count("nj")?, count("nf")?);
+    if nl == 0 || nj < nl || nf != nj + (nj - nl) || nf > 10_000 {
+        return Err(par_error(
+            source,
+            table.get("nf").map_or(0, |e| e.0),
+            format!(
+                "inconsistent NL = {nl}, NJ = {nj}, NF = {nf}: NF must be NJ + (NJ - NL) = {} (one extra frame per cut joint) and NJ >= NL >= 1",
+                (2 * nj).saturating_sub(nl)
+            ),
+        ));
+    }
+    let list =
+        |key: &str, default: Option<&str>| -> Result<(usize, Vec<String>), KinematicsError> {
+            match table.get(key) {
+                Some((line, entries)) => {
+                    if entries.len() != nf {
+                        return Err(par_error(
+                            source,
+                            *line,
+                            format!("`{key}` has {} entries for NF = {nf} frames", entries.len()),
+                        ));
+                    }
+                    Ok((*line, entries.clone()))
+                }
+                None => match default {
+                    Some(d) => Ok((0, vec![d.to_string(); nf])),
+                    None => Err(par_error(source, 0, format!("no `{key}` list"))),
+                },
+            }
+        };
+    let (ant_line, ant) = list("ant", None)?;
+    let (sigma_line, sigma) = list("sigma", None)?;
+    let (_, mu) = list("mu", Some("0"))?;
+    let integer = |line: usize, key: &str, s: &str| -> Result<i64, KinematicsError> {
+        s.parse::<i64>().map_err(|_| {
+            par_error(
+                source,
+                line,
+                format!("`{key}` entry `{s}` is not an integer"),
+            )
+        })
+    };
+    let quantity_keys = ["gamma", "b", "alpha", "d", "theta", "r"];
+    let mut lists = Vec::new();
+    for key in quantity_keys {
+        lists.push(list(key, Some("0"))?);
+    }
+    let mut missing = BTreeSet::new();
+    let mut frames_values = Vec::with_capacity(nf);
+    for j in 0..nf {
+        let s = integer(sigma_line, "sigma", &sigma[j])?;
+        let mut quantities = [0.0; 6];
+        let mut variable = None;
+        for (k, key) in quantity_keys.iter().enumerate() {
+            let (line, entries) = &lists[k];
+            let expr = parse_expr(&entries[j])
+                .map_err(|m| par_error(source, *line, format!("{key} of frame {}: {m}", j + 1)))?;
+            let mut symbols = BTreeSet::new();
+            expr.symbols(&mut symbols);
+            let unknown: Vec<String> = symbols
+                .into_iter()
+                .filter(|s| !values.symbols.contains_key(s))
+                .collect();
+            let holds_variable = (s == 0 && *key == "theta") || (s == 1 && *key == "r");
+            if holds_variable && unknown.len() == 1 {
+                let var = unknown[0].clone();
+                let at0 = evaluate(&expr, values, Some(&var), 0.0);
+                let at1 = evaluate(&expr, values, Some(&var), 1.0);
+                let at2 = evaluate(&expr, values, Some(&var), 2.0);
+                if (at1 - at0 - 1.0).abs() > 1e-12 || (at2 - 2.0 * at1 + at0).abs() > 1e-12 {
+                    return Err(par_error(
+                        source,
+                        *line,
+                        format!(
+                            "{key} of frame {}: the joint variable `{var}` must appear as `{var} + constant`",
+                            j + 1
+                        ),
+                    ));
+                }
+                quantities[k] = at0;
+                variable = Some(var);
+            } else {
+                missing.extend(unknown);
+                quantities[k] = evaluate(&expr, values, None, 0.0);
+            }
+            if !quantities[k].is_finite() {
+                return Err(par_error(
+                    source,
+                    *line,
+                    format!("{key} of frame {} is not finite", j + 1),
+                ));
+            }
+        }
+        frames_values.push(FrameValues {
+            quantities,
+            variable,
+        });
+    }
+    if !missing.is_empty() {
+        return Err(KinematicsError::MissingSymbols {
+            source_name: source.to_string(),
+            symbols: missing.into_iter().collect::<Vec<_>>().join(", "),
+        });
+    }
+    let mut notes = Vec::new();
+    let mut frames = Vec::with_capacity(nf);
+    for j in 0..nf {
+        let a = integer(ant_line, "ant", &ant[j])?;
+        if a < 0 || a as usize > nf {
+            return Err(par_error(
+                source,
+                ant_line,
+                format!("ant of frame {} is {a}, not a frame", j + 1),
+            ));
+        }
+        let s = integer(sigma_line, "sigma", &sigma[j])?;
+        let joint = match s {
+            0 => JointType::Revolute,
+            1 => JointType::Prismatic,
+            2 => JointType::Fixed,
+            _ => {
+                return Err(par_error(
+                    source,
+                    sigma_line,
+                    format!("sigma of frame {} is {s}, not 0, 1 or 2", j + 1),
+                ));
+            }
+        };
+        let m = integer(0, "mu", &mu[j])?;
+        let v = &frames_values[j];
+        let mut f = FrameDescription::new(&(j + 1).to_string(), &a.to_string(), joint);
+        let [gamma, b, alpha, d, theta, r] = v.quantities;
+        f.gamma_deg = gamma.to_degrees();
+        f.b_mm = b * 1e3;
+        f.alpha_deg = alpha.to_degrees();
+        f.d_mm = d * 1e3;
+        f.theta_deg = theta.to_degrees();
+        f.r_mm = r * 1e3;
+        if joint != JointType::Fixed && m == 1 {
+            f.actuated = true;
+            f.actuated_name = v.variable.clone();
+        } else if joint != JointType::Fixed {
+            let home = v
+                .variable
+                .as_ref()
+                .and_then(|n| values.home.get(n))
+                .copied();
+            match (home, joint) {
+                (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
+                (Some(h), _) => f.seed_mm = h * 1e3,
+                (None, _) => {}
+            }
+            if home.is_none() {
+                notes.push(format!(
+                    "passive joint {} has no home value: its loop is assembled from 0 (the branch nearest that configuration)",
+                    j + 1
+                ));
+            }
+        }
+        frames.push(f);
+    }
+    let loops = (0..nj - nl)
+        .map(|i| LoopDescription {
+            name: format!("loop{}", i + 1),
+            cut: [(nl + i + 1).to_string(), (nj + i + 1).to_string()],
+            constraint: LoopConstraint::Full,
+            solver: LoopSolver::Newton,
+            branch: 1,
+        })
+        .collect();
+    // The end frame: the tip option, or the one link frame that carries no other link.
+    let end_frame = match &options.tip {
+        Some(t) => {
+            if t.parse::<usize>().map_or(true, |k| k == 0 || k > nf) {
+                return Err(KinematicsError::UnknownLink {
+                    source_name: source.to_string(),
+                    what: format!("no frame `{t}` to take as the tip"),
+                    known: format!("1..{nf}"),
+                });
+            }
+            t.clone()
+        }
+        None => {
+            let leaves: Vec<String> = (1..=nl)
+                .filter(|k| !frames[..nl].iter().any(|f| f.antecedent == k.to_string()))
+                .map(|k| k.to_string())
+                .collect();
+            if leaves.len() != 1 {
+                return Err(KinematicsError::AmbiguousTip {
+                    source_name: source.to_string(),
+                    candidates: leaves.join(", "),
+                });
+            }
+            leaves[0].clone()
+        }
+    };
+    let description = RobotDescription {
+        name: name.to_string(),
+        notes: format!(
+            "Imported from the SYMORO file {source}: NL = {nl}, NJ = {nj}, NF = {nf}; frame numbers as in the file."
+        ),
+        end_frame: Some(end_frame),
+        parameters: None,
+        actuated_order: None,
+        base: TransformDescription::default(),
+        tool: TransformDescription::default(),
+        frames,
+        loops,
+    };
+    Ok(ImportedRobot {
+        description,
+        masses: Vec::new(),
+        notes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expressions_evaluate_with_pi_and_symbols() {
+        let e = parse_expr("-Pi/2 + 2*(D3 - 0.5e-1)").unwrap();
+        let v = e.eval(&|s: &str| if s == "D3" { 0.45 } else { f64::NAN });
+        assert!((v - (-std::f64::consts::FRAC_PI_2 + 0.8)).abs() < 1e-15);
+        assert!(parse_expr("1 +").is_err());
+        assert!(parse_expr("(1").is_err());
+        assert!(parse_expr("1 2").is_err());
+    }
+
+    #[test]
+    fn comments_are_removed_but_lines_kept() {
+        let s = strip_comments("a = 1 (* x\n y *)\nb = 2");
+        assert_eq!(s.lines().count(), 3);
+        assert!(s.contains("b = 2"));
+    }
+}
