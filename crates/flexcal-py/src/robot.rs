@@ -202,6 +202,20 @@ pub(crate) fn isometry_from_matrix(name: &str, m: &[f64]) -> PyResult<Isometry3<
     ))
 }
 
+impl Robot {
+    /// A robot file read by the facade's rule with import options.
+    fn from_robot_file(
+        path: &std::path::Path,
+        options: flexcal::kinematics::ImportOptions,
+    ) -> PyResult<Self> {
+        let spec = flexcal::RobotSpec::File(path.to_path_buf());
+        let model = spec
+            .model_with(&options)
+            .map_err(|e| crate::errors::facade_error(&e))?;
+        Ok(Self::new(model))
+    }
+}
+
 #[pymethods]
 impl Robot {
     /// A built-in robot by name (`ur10`, `ir663`, `puma560`; see
@@ -221,6 +235,39 @@ impl Robot {
     fn load(spec: &str) -> PyResult<Self> {
         let model = flexcal::load_robot(spec).map_err(|e| crate::errors::facade_error(&e))?;
         Ok(Self::new(model))
+    }
+
+    /// A robot from a URDF file: the path from `root` (default: the root of
+    /// the tree) to `tip` (default: the single leaf below the root), as a
+    /// Khalil-Kleinfinger model that reproduces the file's poses. Raises
+    /// `FlexcalError` naming the file and line of a malformed file, or the
+    /// candidate tips when the tree has several leaves.
+    #[staticmethod]
+    #[pyo3(signature = (path, tip = None, root = None))]
+    fn from_urdf(path: PathBuf, tip: Option<String>, root: Option<String>) -> PyResult<Self> {
+        Self::from_robot_file(
+            &path,
+            flexcal::kinematics::ImportOptions {
+                tip,
+                root,
+                values: None,
+            },
+        )
+    }
+
+    /// A robot from a SYMORO `.par` file, its symbols' values read from the
+    /// TOML file `values` (SI units).
+    #[staticmethod]
+    #[pyo3(signature = (path, values = None))]
+    fn from_par(path: PathBuf, values: Option<PathBuf>) -> PyResult<Self> {
+        Self::from_robot_file(
+            &path,
+            flexcal::kinematics::ImportOptions {
+                tip: None,
+                root: None,
+                values,
+            },
+        )
     }
 
     /// Names of the built-in robots.

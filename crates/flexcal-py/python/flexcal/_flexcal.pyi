@@ -84,6 +84,12 @@ class Robot:
     def load(spec: str) -> Robot:
         """The command line's rule: a built-in name, else a description file by its extension."""
     @staticmethod
+    def from_urdf(path: StrPath, tip: str | None = None, root: str | None = None) -> Robot:
+        """A robot from a URDF file: the root-to-tip path as a Khalil-Kleinfinger model (SI)."""
+    @staticmethod
+    def from_par(path: StrPath, values: StrPath | None = None) -> Robot:
+        """A robot from a SYMORO .par file, its symbols' values from a TOML file (SI)."""
+    @staticmethod
     def builtin_names() -> list[str]:
         """Names of the built-in robots."""
     @staticmethod
