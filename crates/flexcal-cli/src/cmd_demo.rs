@@ -203,8 +203,9 @@ fn geometric_step(out: &Path, seed: u64) -> anyhow::Result<GeometricStep> {
     let model = campaign.model;
     bar.set_message("geometric identification (Levenberg-Marquardt)");
     let mut options = CalibrationOptions::for_model(&model);
-    // The twin's measurements are expressed in R0, target = TCP (section 3.1).
-    options.measurement_frame = FrameTreatment::Fixed;
+    // The camera frame is registered with the robot (section 3.1); the
+    // target is the TCP.
+    options.measurement_frame = FrameTreatment::Identify;
     options.target = FrameTreatment::Fixed;
     let calibration = calibrate(&model, &identification, &options)?;
     let validation = calibration.validate(&model, &validation_set, false)?;
@@ -463,7 +464,7 @@ fn geometric_section(g: &GeometricStep, out: &Path) -> anyhow::Result<Section> {
     let dir = out.join("geometric");
     s.paragraph("Rerun this step with the individual commands:");
     s.code(format!(
-        "flexcal twin geometric --out {d} --seed SEED\nflexcal calibrate --robot ir663 --data {d}/identification.csv --validate {d}/validation.csv --fixed-frame --fixed-target --out {d}/calibrated.toml --report {d}/report.json",
+        "flexcal twin geometric --out {d} --seed SEED\nflexcal calibrate --robot ir663 --data {d}/identification.csv --validate {d}/validation.csv --fixed-target --out {d}/calibrated.toml --report {d}/report.json",
         d = dir.display()
     ));
     Ok(s)
@@ -973,15 +974,7 @@ fn forming_step(
     use flexcal_twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
     let bar = step("forming experiment: plunge 25 mm, travel 200 mm, 920 N dead weight");
     let robot = &geometric.model;
-    let truth_description = flexcal_twin::elastic::ir663_elastic_truth()?;
-    let truth_model = flexcal_elastic::model::ElasticModel::new(robot, &truth_description)?;
-    let truth_gamma = truth_model.nominal_gamma();
-    let truth = FeTcpModel::new(
-        truth_model,
-        geometric.true_xi.clone(),
-        truth_gamma,
-        "twin truth",
-    )?;
+    let twin = TwinCell::new(flexcal_twin::truth::TruthSwitches::default())?;
     let o = &elastic.outcome;
     let identified_model = flexcal_elastic::model::ElasticModel::new(robot, o.model.description())?;
     let fe = FeTcpModel::new(
@@ -999,11 +992,6 @@ fn forming_step(
         dir.join("target_path.csv"),
         flexcal_compensate::path::target_path_to_csv(&forming_path(&options)),
     )?;
-    let twin = TwinCell {
-        model: robot,
-        true_xi: geometric.true_xi.clone(),
-        true_elastic: &truth,
-    };
     let fuzzy = flexcal_elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
         elastic.fuzzy.fitted.compliance.clone(),
         robot.clone(),

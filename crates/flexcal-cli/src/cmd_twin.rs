@@ -48,11 +48,7 @@ pub struct FormingArgs {
 fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     use flexcal_twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
     let robot = crate::robot_arg::load_model("ir663")?;
-    let true_xi = flexcal_twin::geometric::ir663_true_params(&robot)?;
-    let truth_description = flexcal_twin::elastic::ir663_elastic_truth()?;
-    let truth_model = flexcal_elastic::model::ElasticModel::new(&robot, &truth_description)?;
-    let truth_gamma = truth_model.nominal_gamma();
-    let truth = FeTcpModel::new(truth_model, true_xi.clone(), truth_gamma, "twin truth")?;
+    let twin = TwinCell::new(flexcal_twin::truth::TruthSwitches::default())?;
     let xi = crate::cmd_compensate::calibrated_xi(&robot, args.calibrated.as_deref())?;
     // The FE model the user would have: the built-in description, not the twin's truth.
     let description = flexcal_elastic::description::ElasticDescription::builtin("ir663")?;
@@ -87,11 +83,6 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     let options = FormingOptions {
         seed: args.seed,
         ..FormingOptions::default()
-    };
-    let twin = TwinCell {
-        model: &robot,
-        true_xi,
-        true_elastic: &truth,
     };
     let result = run_forming(&twin, &xi, &models, &options)?;
     flexcal_io::write_atomic(
@@ -222,8 +213,8 @@ pub fn run(command: TwinCommand) -> anyhow::Result<()> {
                 args.out.display()
             );
             println!(
-                "measurements in the robot base frame R0 (target = TCP): calibrate with \
-                 `flexcal calibrate --robot ir663 --data {0}/identification.csv --validate {0}/validation.csv --fixed-frame --fixed-target`",
+                "measurements in the camera frame, which the calibration registers (target = TCP): calibrate with \
+                 `flexcal calibrate --robot ir663 --data {0}/identification.csv --validate {0}/validation.csv --fixed-target`",
                 args.out.display()
             );
             Ok(())
