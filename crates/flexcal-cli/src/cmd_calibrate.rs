@@ -10,7 +10,7 @@ use flexcal_calib::{
     SplitCheck, UnknownStatus, ValidationReport, Weighting, calibrate,
 };
 use flexcal_fuzzy::FuzzyParams;
-use flexcal_kinematics::{Model, RobotDescription};
+use flexcal_kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 /// Measurement file formats.
@@ -156,19 +156,6 @@ pub struct CalibrateArgs {
     pub residuals: Option<PathBuf>,
 }
 
-/// Loads a robot by built-in name or description file.
-pub fn load_robot(robot: &str) -> anyhow::Result<Model> {
-    let path = Path::new(robot);
-    let description = if path.exists() || robot.ends_with(".toml") {
-        RobotDescription::from_toml_file(path)?
-    } else {
-        RobotDescription::builtin(robot)?
-    };
-    description
-        .build()
-        .with_context(|| format!("robot `{robot}`"))
-}
-
 fn read_set(path: &Path, format: DataFormat) -> anyhow::Result<MeasurementSet> {
     Ok(match format {
         DataFormat::Own => MeasurementSet::read_csv(path)?,
@@ -199,7 +186,7 @@ fn excluding(
 
 /// Runs `flexcal calibrate`.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
-    let model = load_robot(&args.robot)?;
+    let model = crate::robot_arg::load_model(&args.robot)?;
     let data = excluding(
         read_set(&args.data, args.format)?,
         &args.exclude,

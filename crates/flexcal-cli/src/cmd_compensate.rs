@@ -183,45 +183,8 @@ pub(crate) fn read_gamma_report(
     path: &Path,
     model: &flexcal_elastic::model::ElasticModel,
 ) -> anyhow::Result<Vec<f64>> {
-    let text = flexcal_io::read_to_string(path)?;
-    let report: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not valid JSON", path.display()))?;
-    let parameters = report
-        .get("parameters")
-        .and_then(|p| p.as_array())
-        .with_context(|| format!("{}: no \"parameters\" array", path.display()))?;
-    let names = model.parameter_names();
-    if parameters.len() != names.len() {
-        bail!(
-            "{}: {} stiffness parameters, the elastic model '{}' has {}",
-            path.display(),
-            parameters.len(),
-            model.description().name,
-            names.len()
-        );
-    }
-    let mut gamma = Vec::with_capacity(names.len());
-    for (j, (entry, expected)) in parameters.iter().zip(&names).enumerate() {
-        let name = entry.get("name").and_then(|n| n.as_str()).unwrap_or("");
-        if name != expected {
-            bail!(
-                "{}: parameter {j} is '{name}', the elastic model expects '{expected}'",
-                path.display()
-            );
-        }
-        let value = entry
-            .get("value")
-            .and_then(|v| v.as_f64())
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .with_context(|| {
-                format!(
-                    "{}: parameter '{name}' has no finite positive value",
-                    path.display()
-                )
-            })?;
-        gamma.push(value);
-    }
-    Ok(gamma)
+    use flexcal_elastic::workflow::StiffnessReport;
+    Ok(StiffnessReport::read(path)?.gamma_for(model, path)?)
 }
 
 /// Geometric parameters of a calibrated robot description, checked against `model`.

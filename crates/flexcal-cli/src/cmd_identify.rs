@@ -4,14 +4,10 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal_elastic::campaign::read_campaign_dir;
 use flexcal_elastic::description::ElasticDescription;
-use flexcal_elastic::identify::{
-    StiffnessIdentificationOptions, identify_stiffness, residual_samples,
+use flexcal_elastic::workflow::{
+    StiffnessOutcome, StiffnessWorkflowOptions, identify_stiffness_in_dir,
 };
-use flexcal_elastic::metrics::per_load_metrics;
-use flexcal_elastic::model::ElasticModel;
-use serde_json::json;
 
 use crate::robot_arg::load_model;
 
@@ -65,137 +61,18 @@ pub fn run(command: IdentifyCommand) -> anyhow::Result<()> {
     }
 }
 
-/// Splits a campaign's sets into the items of the training sets (those whose
-/// load is `train_load` N, within 0.5 N) and the items of every set, with the
-/// names of the training sets. `items` turns one set into what is fitted.
-pub fn split_by_load<T>(
-    sets: &[flexcal_elastic::campaign::DeflectionSet],
-    train_load: f64,
-    data: &std::path::Path,
-    items: impl Fn(&flexcal_elastic::campaign::DeflectionSet) -> anyhow::Result<Vec<T>>,
-) -> anyhow::Result<(Vec<T>, Vec<T>, Vec<String>)>
-where
-    T: Clone,
-{
-    let mut train = Vec::new();
-    let mut all = Vec::new();
-    let mut train_sets = Vec::new();
-    for set in sets {
-        let set_items = items(set)?;
-        if (set.load_n() - train_load).abs() <= 0.5 {
-            train.extend(set_items.iter().cloned());
-            train_sets.push(set.name.clone());
-        }
-        all.extend(set_items);
-    }
-    if train.is_empty() {
-        let loads: Vec<String> = sets
-            .iter()
-            .map(|s| format!("{} ({:.0} N)", s.name, s.load_n()))
-            .collect();
-        anyhow::bail!(
-            "no deflection set in {} has the training load {} N (sets: {})",
-            data.display(),
-            train_load,
-            loads.join(", ")
-        );
-    }
-    Ok((train, all, train_sets))
-}
-
-/// Everything `identify stiffness` computes, for printing or for the demo.
-pub struct StiffnessOutcome {
-    /// The robot's geometric model.
-    pub robot: flexcal_kinematics::Model,
-    /// The elastic model that was identified.
-    pub model: ElasticModel,
-    /// The identified Gamma with the solver and identifiability reports.
-    pub fitted: flexcal_elastic::identify::IdentifiedStiffness,
-    /// Names of the training sets.
-    pub train_sets: Vec<String>,
-    /// Residuals of the identified model on every set (Table 5).
-    pub table: flexcal_elastic::metrics::LoadMetricsTable,
-    /// RMS norm of the deflection noise stated in the files (mm).
-    pub noise_floor_mm: f64,
-    /// The JSON report.
-    pub report: serde_json::Value,
-}
-
-/// Identifies the stiffness parameters from the files named by `args`
-/// (the code path of `flexcal identify stiffness`, without printing).
-pub fn identify_stiffness_from_files(args: &StiffnessArgs) -> anyhow::Result<StiffnessOutcome> {
-    if !(args.train_load.is_finite() && args.train_load > 0.0) {
-        anyhow::bail!(
-            "--train-load must be a positive load in N, got {}",
-            args.train_load
-        );
-    }
+/// Identifies the stiffness parameters from the files named by `args`.
+fn identify_stiffness_from_args(args: &StiffnessArgs) -> anyhow::Result<StiffnessOutcome> {
     let robot = load_model(&args.robot)?;
     let description = ElasticDescription::builtin_or_file(&args.elastic)
         .with_context(|| format!("elastic description '{}'", args.elastic))?;
-    let model = ElasticModel::new(&robot, &description)
-        .with_context(|| format!("elastic description '{}'", description.name))?;
-    let sets = read_campaign_dir(&args.data, robot.n_actuated())?;
-    let (train, all, train_sets) = split_by_load(&sets, args.train_load, &args.data, |set| {
-        Ok(set.measurements.clone())
-    })?;
-    let xi = robot.nominal_params().to_vec();
-    let options = StiffnessIdentificationOptions {
+    let options = StiffnessWorkflowOptions {
+        train_load_n: args.train_load,
         seed: args.seed,
-        global_search_evaluations: args.search_evaluations,
-        ..StiffnessIdentificationOptions::default()
+        search_evaluations: args.search_evaluations,
     };
-    let fitted = identify_stiffness(&model, &train, &xi, &options)?;
-    let samples = residual_samples(&model, &all, &xi, &fitted.gamma)?;
-    let table = per_load_metrics(&samples);
-    // What a perfect model would still show: the RMS norm of the measurement
-    // noise of the deflections.
-    let noise_floor_mm =
-        (all.iter().map(|m| m.sigma.norm_squared()).sum::<f64>() / all.len() as f64).sqrt() * 1e3;
-    let s = &fitted.solve;
-    let report = json!({
-        "robot": robot.name(),
-        "elastic": description.name,
-        "train_load_n": args.train_load,
-        "train_sets": train_sets,
-        "seed": args.seed,
-        "parameters": fitted.names.iter().enumerate().map(|(j, n)| json!({
-            "name": n,
-            "value": fitted.gamma[j],
-            "unit": fitted.units[j],
-            "after_global_search": fitted.gamma_global_search[j],
-            "sensitivity_sigma_per_ln": fitted.identifiability.sensitivity[j],
-        })).collect::<Vec<_>>(),
-        "identifiability": fitted.identifiability,
-        "identifiability_text": fitted.identifiability.describe(),
-        "solver": {
-            "termination": format!("{:?}", s.termination),
-            "iterations": s.iterations,
-            "residual_evaluations": s.residual_evaluations,
-            "jacobian_evaluations": s.jacobian_evaluations,
-            "rank": s.rank,
-            "n_free": s.n_free,
-            "singular_values": s.singular_values,
-            "condition_number": if s.condition_number.is_finite() { json!(s.condition_number) } else { json!(null) },
-            "cost_history": s.cost_history,
-        },
-        "global_search": {
-            "evaluations": fitted.global_search_evaluations,
-            "best_value": if fitted.global_search_value.is_finite() { json!(fitted.global_search_value) } else { json!(null) },
-        },
-        "criterion_mm2": fitted.criterion_mm2,
-        "per_load": table,
-        "noise_floor_rms_mm": noise_floor_mm,
-    });
-    Ok(StiffnessOutcome {
-        robot,
-        model,
-        fitted,
-        train_sets,
-        table,
-        noise_floor_mm,
-        report,
-    })
+    identify_stiffness_in_dir(&robot, &description, &args.data, &options)
+        .with_context(|| format!("elastic description '{}'", description.name))
 }
 
 fn stiffness(args: StiffnessArgs) -> anyhow::Result<()> {
@@ -206,7 +83,7 @@ fn stiffness(args: StiffnessArgs) -> anyhow::Result<()> {
         args.data.display(),
         args.seed
     );
-    let outcome = identify_stiffness_from_files(&args)?;
+    let outcome = identify_stiffness_from_args(&args)?;
     let fitted = &outcome.fitted;
     let s = &fitted.solve;
     println!("training sets: {}", outcome.train_sets.join(", "));
@@ -244,7 +121,7 @@ fn stiffness(args: StiffnessArgs) -> anyhow::Result<()> {
         outcome.noise_floor_mm
     );
     if let Some(path) = &args.report {
-        flexcal_io::write_atomic(path, serde_json::to_string_pretty(&outcome.report)?)?;
+        outcome.report.write(path)?;
         println!("report written to {}", path.display());
     }
     Ok(())

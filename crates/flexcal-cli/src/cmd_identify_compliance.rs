@@ -4,13 +4,10 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-use flexcal_elastic::campaign::read_campaign_dir;
-use flexcal_elastic::fuzzy_compliance::{
-    ComplianceComponent, ComplianceFitParams, RobotInputs, compliance_samples, identify_compliance,
-    noise_floor_rms,
+use flexcal_elastic::fuzzy_compliance::ComplianceComponent;
+use flexcal_elastic::workflow::{
+    ComplianceOutcome, ComplianceStructure, ComplianceWorkflowOptions, identify_compliance_in_dir,
 };
-use flexcal_elastic::metrics::per_load_metrics;
 use serde_json::json;
 
 use crate::robot_arg::load_model;
@@ -54,77 +51,30 @@ pub struct ComplianceArgs {
 }
 
 /// Runs `flexcal identify compliance`.
-/// Everything `identify compliance` computes, for printing or for the demo.
-pub struct ComplianceOutcome {
-    /// The robot's geometric model.
-    pub robot: flexcal_kinematics::Model,
-    /// The fitted compliance model and its report.
-    pub fitted: flexcal_elastic::fuzzy_compliance::FittedCompliance,
-    /// Names of the training sets.
-    pub train_sets: Vec<String>,
-    /// Number of training deflections.
-    pub training_samples: usize,
-    /// Residuals on every set in the x-z plane (Table 5).
-    pub table: flexcal_elastic::metrics::LoadMetricsTable,
-    /// RMS norm of the stated deflection noise in the x-z plane (mm).
-    pub noise_floor_mm: f64,
-    /// Whether the components share one structure.
-    pub shared_structure: bool,
-}
-
-/// Identifies the fuzzy compliance model from the files named by `args`
-/// (the code path of `flexcal identify compliance`, without printing).
-pub fn compliance_from_files(args: &ComplianceArgs) -> anyhow::Result<ComplianceOutcome> {
-    if !(args.train_load.is_finite() && args.train_load > 0.0) {
-        anyhow::bail!(
-            "--train-load must be a positive load in N, got {}",
-            args.train_load
-        );
-    }
+pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
     let robot = load_model(&args.robot)?;
-    let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
-    let inputs = RobotInputs::resolve(&robot, &names).context("--inputs")?;
-    let sets = read_campaign_dir(&args.data, robot.n_actuated())?;
-    let (train, all, train_sets) =
-        super::split_by_load(&sets, args.train_load, &args.data, |set| {
-            compliance_samples(&robot, &inputs, &set.measurements)
-                .with_context(|| format!("{}", set.path.display()))
-        })?;
-    let components = ComplianceComponent::plane_xz();
-    let mut params = ComplianceFitParams {
-        shared_structure: !args.separate_structures,
+    let options = ComplianceWorkflowOptions {
+        inputs: args.inputs.clone(),
+        train_load_n: args.train_load,
         test_fraction: args.test_fraction,
         seed: args.seed,
-        ..ComplianceFitParams::default()
+        max_rules: args.max_rules,
+        structure: if args.separate_structures {
+            ComplianceStructure::Separate
+        } else {
+            ComplianceStructure::Shared
+        },
     };
-    params.fuzzy.search.max_rules = args.max_rules;
-    let fitted = identify_compliance(inputs.specs(), &components, &train, &params, &mut |_| {})?;
-    let residuals = fitted.compliance.residual_samples(&all)?;
-    let table = per_load_metrics(&residuals);
-    let noise_floor_mm = noise_floor_rms(&all, &fitted.compliance.displacement_axes()) * 1e3;
-    Ok(ComplianceOutcome {
-        robot,
-        fitted,
-        train_sets,
-        training_samples: train.len(),
-        table,
-        noise_floor_mm,
-        shared_structure: params.shared_structure,
-    })
-}
-
-/// Runs `flexcal identify compliance`.
-pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
-    let outcome = compliance_from_files(&args)?;
+    let outcome = identify_compliance_in_dir(&robot, &args.data, &options)?;
     let ComplianceOutcome {
-        robot,
         fitted,
         train_sets,
         training_samples,
         table,
         noise_floor_mm: floor_mm,
-        shared_structure,
+        ..
     } = &outcome;
+    let shared_structure = &(options.structure == ComplianceStructure::Shared);
     let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
     let components = ComplianceComponent::plane_xz();
     println!(

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use flexcal_calib::{read_configurations, select_calibration_poses};
 use flexcal_optim::ObservabilityIndex;
 
-use crate::cmd_calibrate::load_robot;
+use crate::robot_arg::load_model;
 
 /// Observability index to maximise.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,7 +58,7 @@ pub struct SelectArgs {
 /// Runs `flexcal poses ...`.
 pub fn run(command: PosesCommand) -> anyhow::Result<()> {
     let PosesCommand::Select(args) = command;
-    let model = load_robot(&args.robot)?;
+    let model = load_model(&args.robot)?;
     let candidates = read_configurations(&args.candidates)?;
     let index = match args.index {
         IndexKind::O1 => ObservabilityIndex::O1,

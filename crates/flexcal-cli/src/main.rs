@@ -20,7 +20,6 @@ mod cmd_identify;
 mod cmd_poses;
 mod cmd_robot;
 mod cmd_twin;
-mod report;
 mod robot_arg;
 
 /// flexcal: elasto-geometrical calibration and compensation of industrial robots.

@@ -332,11 +332,26 @@ fn identified_models_compensate_the_twin_forming_path() {
 fn gamma_report_of_another_model_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let report = dir.path().join("stiffness.json");
-    std::fs::write(
-        &report,
-        r#"{"parameters": [{"name": "k_wrong", "value": 1.0}]}"#,
-    )
-    .unwrap();
+    // A well-formed stiffness report of a model with another parameter.
+    let mut text = String::from(
+        r#"{"robot": "ir663", "elastic": "other", "train_load_n": 900.0,
+        "train_sets": [], "seed": 1,
+        "parameters": [{"name": "k_wrong", "value": 1.0, "unit": "N.m/rad",
+                        "after_global_search": 1.0, "sensitivity_sigma_per_ln": 1.0}],
+        "identifiability": {"names": ["k_wrong"], "structural_rank": 1,
+            "structural_singular_values": [1.0], "weighted_singular_values": [1.0],
+            "sensitivity": [1.0], "groups": [], "identifiable": ["k_wrong"], "undetermined": []},
+        "identifiability_text": [],
+        "solver": {"termination": "Converged", "iterations": 1, "residual_evaluations": 1,
+            "jacobian_evaluations": 1, "rank": 1, "n_free": 1, "singular_values": [1.0],
+            "condition_number": 1.0, "cost_history": []},
+        "global_search": {"evaluations": 0, "best_value": null},
+        "criterion_mm2": 0.0,
+        "per_load": {"rows": [], "overall_rms_mm": 0.0, "count": 0},
+        "noise_floor_rms_mm": 0.0}"#,
+    );
+    text.push('\n');
+    std::fs::write(&report, text).unwrap();
     let path = dir.path().join("path.csv");
     std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n").unwrap();
     let out = flexcal(&[
@@ -360,6 +375,38 @@ fn gamma_report_of_another_model_is_refused() {
     let err = stderr(&out);
     assert!(
         err.contains("stiffness.json") && err.contains("parameters"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_file_that_is_not_a_stiffness_report_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("stiffness.json");
+    std::fs::write(&report, r#"{"parameters": [{"name": "k", "value": 1.0}]}"#).unwrap();
+    let path = dir.path().join("path.csv");
+    std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n").unwrap();
+    let out = flexcal(&[
+        "compensate",
+        "--robot",
+        "ir663",
+        "--elastic",
+        "fe:ir663",
+        "--gamma-report",
+        report.to_str().unwrap(),
+        "--path",
+        path.to_str().unwrap(),
+        "--part-pose",
+        "1200,0,1450,0,0,0",
+        "--process",
+        "constant:0,0,0,0,0,0",
+        "--out",
+        dir.path().join("out.csv").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.contains("stiffness.json") && err.contains("not a stiffness report"),
         "{err}"
     );
 }

@@ -13,7 +13,7 @@ use flexcal_optim::{
     analyze_identifiability,
 };
 use nalgebra::{DMatrix, Vector3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::campaign::DeflectionMeasurement;
 use crate::error::{ElasticError, Result};
@@ -242,7 +242,7 @@ impl Default for StiffnessIdentificationOptions {
 }
 
 /// How the members of a non-separable group combine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum GroupKind {
     /// Springs in series: only `K_req = (sum 1/k_i)^-1` is identifiable ((68)-(69)).
     Series,
@@ -253,7 +253,7 @@ pub enum GroupKind {
 }
 
 /// Stiffness parameters that the data cannot separate.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StiffnessGroup {
     /// Member names.
     pub members: Vec<String>,
@@ -272,7 +272,7 @@ pub struct StiffnessGroup {
 }
 
 /// Identifiability of Gamma.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StiffnessIdentifiability {
     /// Parameter names.
     pub names: Vec<String>,

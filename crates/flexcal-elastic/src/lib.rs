@@ -106,8 +106,10 @@ pub mod campaign;
 pub mod description;
 pub mod error;
 pub mod fuzzy_compliance;
+pub mod grid;
 pub mod identify;
 pub mod metrics;
 pub mod model;
+pub mod workflow;
 
 pub use error::{ElasticError, Result};

@@ -9,7 +9,7 @@
 use std::fmt;
 
 use nalgebra::Vector3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One residual `predicted - measured` TCP displacement (m, base axes) and
 /// the magnitude of the load that produced it (N).
@@ -22,7 +22,7 @@ pub struct ResidualSample {
 }
 
 /// Metrics of one load magnitude (mm).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LoadMetrics {
     /// Load magnitude (N).
     pub load_n: f64,
@@ -39,7 +39,7 @@ pub struct LoadMetrics {
 }
 
 /// The per-load table (rows by increasing load) and the overall RMS.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LoadMetricsTable {
     /// One row per load magnitude.
     pub rows: Vec<LoadMetrics>,

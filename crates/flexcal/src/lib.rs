@@ -14,6 +14,20 @@
 //! [`compensate`] (process models and compensation of tool paths) and
 //! [`twin`] (the virtual robots that stand in for a real robot and
 //! instrument).
+//!
+//! A robot argument (built-in name or description file) is resolved by one
+//! rule, [`RobotSpec`]; [`load_robot`] reads and builds it. The reference
+//! study behind `flexcal demo` is [`study::run_study`], which returns typed
+//! results and a [`study::Summary`]; [`study::study_report`] lays them out
+//! as a self-contained HTML page ([`report`]).
+
+mod error;
+pub mod report;
+pub mod robot;
+pub mod study;
+
+pub use error::{Error, Result};
+pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot};
 
 pub use flexcal_calib as calib;
 pub use flexcal_compensate as compensate;

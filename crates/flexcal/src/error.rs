@@ -1,0 +1,94 @@
+//! The facade's error type: every library error, plus the few the facade's
+//! own workflows raise, each naming the file, robot or parameter at fault.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in a facade call.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A robot argument that is neither a built-in robot nor an existing file.
+    #[error("unknown robot '{spec}': not a built-in robot ({known}) and no such file")]
+    UnknownRobot {
+        /// The argument as given.
+        spec: String,
+        /// The built-in robot names, comma-separated.
+        known: String,
+    },
+    /// A robot description file whose extension names no format flexcal reads.
+    #[error("{}: robot description format '.{extension}' is not supported (supported: {known})", path.display())]
+    RobotFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its extension.
+        extension: String,
+        /// The supported extensions, comma-separated.
+        known: String,
+    },
+    /// A robot description that does not build into a valid model.
+    #[error("building robot '{robot}': {source}")]
+    RobotBuild {
+        /// The robot argument.
+        robot: String,
+        /// Why the model is invalid.
+        source: flexcal_kinematics::KinematicsError,
+    },
+    /// A parameter of a workflow is out of its allowed range.
+    #[error("{parameter}: {message}")]
+    InvalidParameter {
+        /// The parameter, as the user spells it.
+        parameter: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// Kinematics (robot descriptions, forward and inverse models).
+    #[error(transparent)]
+    Kinematics(#[from] flexcal_kinematics::KinematicsError),
+    /// Measurement sets and geometric calibration.
+    #[error(transparent)]
+    Calib(#[from] flexcal_calib::CalibError),
+    /// Elastic models and their identification.
+    #[error(transparent)]
+    Elastic(#[from] flexcal_elastic::ElasticError),
+    /// Identification workflows on a campaign directory.
+    #[error(transparent)]
+    Workflow(#[from] flexcal_elastic::workflow::WorkflowError),
+    /// Fuzzy compliance models.
+    #[error(transparent)]
+    FuzzyCompliance(#[from] flexcal_elastic::fuzzy_compliance::FuzzyComplianceError),
+    /// Compensation of tool paths.
+    #[error(transparent)]
+    Compensation(#[from] flexcal_compensate::compensation::CompensationError),
+    /// Tool path files.
+    #[error(transparent)]
+    Path(#[from] flexcal_compensate::path::PathError),
+    /// Process models.
+    #[error(transparent)]
+    Process(#[from] flexcal_compensate::process::ProcessError),
+    /// The virtual robot's geometric campaign.
+    #[error(transparent)]
+    GeometricTwin(#[from] flexcal_twin::geometric::GeometricTwinError),
+    /// The virtual robot's elastic campaign.
+    #[error(transparent)]
+    ElasticTwin(#[from] flexcal_twin::elastic::ElasticTwinError),
+    /// The virtual forming experiment.
+    #[error(transparent)]
+    Forming(#[from] flexcal_twin::forming::FormingError),
+    /// The virtual robot's truth.
+    #[error(transparent)]
+    Truth(#[from] flexcal_twin::truth::TruthError),
+    /// Reading or writing files.
+    #[error(transparent)]
+    Io(#[from] flexcal_io::IoError),
+    /// A JSON file that does not parse or a value that does not serialise.
+    #[error("{context}: {source}")]
+    Json {
+        /// The file or value.
+        context: String,
+        /// The parser's message.
+        source: serde_json::Error,
+    },
+}
+
+/// The facade's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

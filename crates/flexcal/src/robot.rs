@@ -1,0 +1,171 @@
+//! One rule for naming a robot: a built-in name or a description file.
+//!
+//! Every command and every library caller that takes a robot argument goes
+//! through [`RobotSpec`]: a string that is the name of a built-in robot
+//! ([`builtin_robot_names`]) is that robot; any other string is a path to a
+//! description file, read by the reader its extension selects
+//! ([`RobotFileFormat::from_path`], the one place where file formats are
+//! dispatched). A file that happens to carry a built-in name must be given
+//! with a directory (`./ur10`).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use flexcal_kinematics::{Model, RobotDescription, builtin_robot_names};
+
+use crate::Error;
+
+/// A robot argument, resolved: a built-in robot or a description file.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum RobotSpec {
+    /// A built-in robot by name (`ur10`, `ir663`, ...).
+    Builtin(String),
+    /// A robot description file, read according to its extension.
+    File(PathBuf),
+}
+
+/// The description file formats flexcal reads, chosen by file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum RobotFileFormat {
+    /// flexcal's own TOML description (`.toml`, or a file without extension).
+    Toml,
+}
+
+impl RobotFileFormat {
+    /// The extensions flexcal reads, for messages.
+    pub const EXTENSIONS: &'static [&'static str] = &["toml"];
+
+    /// The format of `path`, from its extension (case-insensitive).
+    ///
+    /// This is the single place where robot file formats are dispatched: a
+    /// new reader adds a variant, its extension here, and an arm in
+    /// [`RobotFileFormat::read`].
+    pub fn from_path(path: &Path) -> Result<Self, Error> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            None | Some("toml") => Ok(Self::Toml),
+            Some(other) => Err(Error::RobotFormat {
+                path: path.to_path_buf(),
+                extension: other.to_string(),
+                known: Self::EXTENSIONS.join(", "),
+            }),
+        }
+    }
+
+    /// Reads a robot description from `path` in this format.
+    pub fn read(self, path: &Path) -> Result<RobotDescription, Error> {
+        match self {
+            Self::Toml => Ok(RobotDescription::from_toml_file(path)?),
+        }
+    }
+}
+
+impl RobotSpec {
+    /// Resolves a robot argument: a built-in name is that robot, anything
+    /// else a file path (which must exist).
+    pub fn parse(spec: &str) -> Result<Self, Error> {
+        let spec = spec.trim();
+        if builtin_robot_names().contains(&spec) {
+            return Ok(Self::Builtin(spec.to_string()));
+        }
+        let path = Path::new(spec);
+        if path.is_file() {
+            return Ok(Self::File(path.to_path_buf()));
+        }
+        Err(Error::UnknownRobot {
+            spec: spec.to_string(),
+            known: builtin_robot_names().join(", "),
+        })
+    }
+
+    /// Reads the robot's description.
+    pub fn description(&self) -> Result<RobotDescription, Error> {
+        match self {
+            Self::Builtin(name) => Ok(RobotDescription::builtin(name)?),
+            Self::File(path) => RobotFileFormat::from_path(path)?.read(path),
+        }
+    }
+
+    /// Reads and builds the robot's model (validated once, then frozen).
+    pub fn model(&self) -> Result<Model, Error> {
+        let description = self.description()?;
+        description.build().map_err(|source| Error::RobotBuild {
+            robot: self.to_string(),
+            source,
+        })
+    }
+}
+
+impl fmt::Display for RobotSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Builtin(name) => write!(f, "{name}"),
+            Self::File(path) => write!(f, "{}", path.display()),
+        }
+    }
+}
+
+impl std::str::FromStr for RobotSpec {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        Self::parse(s)
+    }
+}
+
+/// Reads a robot description named by a robot argument (see [`RobotSpec`]).
+pub fn load_description(spec: &str) -> Result<RobotDescription, Error> {
+    RobotSpec::parse(spec)?.description()
+}
+
+/// Reads and builds the robot model named by a robot argument (see
+/// [`RobotSpec`]).
+pub fn load_robot(spec: &str) -> Result<Model, Error> {
+    RobotSpec::parse(spec)?.model()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtin_names_resolve_to_builtin_robots() {
+        for name in builtin_robot_names() {
+            assert_eq!(
+                RobotSpec::parse(name).unwrap(),
+                RobotSpec::Builtin(name.to_string())
+            );
+            assert_eq!(load_robot(name).unwrap().name(), *name);
+        }
+    }
+
+    #[test]
+    fn a_file_is_read_by_its_extension_and_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("robot.toml");
+        let ur10 = RobotDescription::builtin("ur10").unwrap();
+        std::fs::write(&path, ur10.to_toml_string()).unwrap();
+        let spec = RobotSpec::parse(path.to_str().unwrap()).unwrap();
+        assert_eq!(spec, RobotSpec::File(path.clone()));
+        let model = spec.model().unwrap();
+        assert_eq!(model.n_params(), ur10.build().unwrap().n_params());
+    }
+
+    #[test]
+    fn unknown_names_and_extensions_are_errors_that_say_what_is_known() {
+        let err = RobotSpec::parse("no-such-robot").unwrap_err().to_string();
+        assert!(
+            err.contains("no-such-robot") && err.contains("ur10"),
+            "{err}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("robot.xyz");
+        std::fs::write(&path, "x").unwrap();
+        let err = load_robot(path.to_str().unwrap()).unwrap_err().to_string();
+        assert!(err.contains("robot.xyz") && err.contains("toml"), "{err}");
+    }
+}
