@@ -121,8 +121,16 @@ pub struct FormingOptions {
     /// (default 0.005: a tool exactly at the edge would slide off the bent beam).
     pub edge_margin_m: f64,
     /// Pose of the part frame (clamp at its origin, beam along +x, top surface
-    /// at z = 0) in the robot base frame.
+    /// at z = 0) in the robot base frame: where the part truly is.
     pub x_base_part: Isometry3<f64>,
+    /// The part pose the user commands with, when it differs from the true
+    /// one: a user locates the part with the measurement system and carries
+    /// it into the calibrated robot's base frame through the registered
+    /// camera frame, `x_base_part_user = x_meas_base_identified^-1 *
+    /// x_meas_part` (default `None`: the true pose). The calibrated robot's
+    /// base differs from the true base by what the registration absorbed
+    /// (the base parameters, the mean of the gravity sag).
+    pub x_base_part_user: Option<Isometry3<f64>>,
     /// The beam as the user models it (handbook modulus, no friction); the
     /// twin's true beam differs ([`FormingTruth::true_beam`]).
     pub beam: CantileverBeam,
@@ -143,6 +151,7 @@ impl Default for FormingOptions {
             // calibration's box (59) and the elastic campaign's grid (65), where
             // the identified models hold.
             x_base_part: Isometry3::translation(1.2, 0.0, 1.45),
+            x_base_part_user: None,
             beam: CantileverBeam::reference(BeamTheory::LargeDeflection),
         }
     }
@@ -315,9 +324,10 @@ pub fn run_forming(
     let x_part_base = options.x_base_part.inverse();
     // Start near the working area: upper arm forward, forearm down.
     let start = actuated_from_joint_angles(model, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
+    let x_base_part_user = options.x_base_part_user.unwrap_or(options.x_base_part);
     let targets: Vec<Isometry3<f64>> = path
         .iter()
-        .map(|p| options.x_base_part * p.x_part_tcp)
+        .map(|p| x_base_part_user * p.x_part_tcp)
         .collect();
     let motion = |k: usize| -> Vector3<f64> {
         if k + 1 < targets.len() {
@@ -389,7 +399,7 @@ pub fn run_forming(
             xi: calibrated_xi.to_vec(),
             elastic: *elastic,
             process: Some(user_process),
-            cell: payload(options.x_base_part, options.dead_weight_n),
+            cell: payload(x_base_part_user, options.dead_weight_n),
         };
         let outcomes = user.compensate_path(&mut data, &path, &uncompensated_q[0], &compensation);
         let mut commands = Vec::with_capacity(outcomes.len());

@@ -14,8 +14,8 @@
 //! Everything a figure of the report shows is computed here; the report
 //! ([`study_report`]) only lays it out.
 
-mod seeds;
 mod sections;
+mod seeds;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -36,14 +36,14 @@ use flexcal_elastic::workflow::{
 use flexcal_kinematics::{Data, Model, SensitivityTable, sensitivity_indices};
 use flexcal_twin::elastic::{ElasticCampaignOptions, ElasticCampaignSummary};
 use flexcal_twin::forming::FormingResult;
-use flexcal_twin::truth::{TruthSwitches, TwinTerm};
 use flexcal_twin::geometric::{
     GeometricCampaignOptions, geometric_campaign, write_geometric_campaign,
 };
+use flexcal_twin::truth::{TruthSwitches, TwinTerm};
 use serde::{Deserialize, Serialize};
 
-pub use seeds::{LoadComparison, MultiSeedSummary, Spread, multi_seed_study};
 pub use sections::study_report;
+pub use seeds::{LoadComparison, MultiSeedSummary, Spread, multi_seed_study};
 
 use crate::{Error, Result};
 
@@ -825,8 +825,13 @@ fn forming_step(
         s.fitted.gamma.clone(),
         "identified FE beam model",
     )?;
+    // The part is located by the camera; the user carries its pose into the
+    // calibrated robot's base frame through the registered camera frame.
+    let true_part = FormingOptions::default().x_base_part;
+    let x_meas_part = twin.camera.x_meas_base * true_part;
     let options = FormingOptions {
         seed,
+        x_base_part_user: Some(geometric.calibration.x_meas_base.inverse() * x_meas_part),
         ..FormingOptions::default()
     };
     let dir = out.join("forming");

@@ -150,7 +150,8 @@ impl MultiSeedSummary {
         for (name, pick) in [
             (
                 "plane_xz",
-                (|s: &Summary| &s.elastic.same_metric.plane_xz) as fn(&Summary) -> &super::SameMetric,
+                (|s: &Summary| &s.elastic.same_metric.plane_xz)
+                    as fn(&Summary) -> &super::SameMetric,
             ),
             ("three_d", |s: &Summary| &s.elastic.same_metric.three_d),
         ] {
@@ -212,10 +213,7 @@ impl MultiSeedSummary {
             self.elasto_geometric_mean_mm.text(4),
             self.elasto_geometric_max_mm.text(4)
         );
-        out += &format!(
-            "| noise floor | {} | |\n",
-            self.noise_floor_mean_mm.text(4)
-        );
+        out += &format!("| noise floor | {} | |\n", self.noise_floor_mean_mm.text(4));
         out += "| paper (real IR-663) | 0.96 -> 0.24 | |\n\n";
         out += &format!(
             "Elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
@@ -225,7 +223,11 @@ impl MultiSeedSummary {
             let floor = self.table5_noise_floor_mm.get(metric);
             out += &format!(
                 "| Table 5, {} (noise floor {} mm) | parametric RMS [mm] | fuzzy RMS [mm] | fuzzy better |\n|---|---|---|---|\n",
-                if metric == "plane_xz" { "x-z plane" } else { "3-D" },
+                if metric == "plane_xz" {
+                    "x-z plane"
+                } else {
+                    "3-D"
+                },
                 floor.map_or(String::new(), |s| s.text(4))
             );
             for (load, c) in loads {
