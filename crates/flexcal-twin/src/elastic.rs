@@ -82,7 +82,7 @@ pub enum ElasticTwinError {
     Io(#[from] flexcal_io::IoError),
     /// The twin's truth failed.
     #[error(transparent)]
-    Truth(#[from] TruthError),
+    Truth(Box<TruthError>),
     /// An option is out of range.
     #[error("invalid option '{name}': {message}")]
     InvalidOption {
@@ -101,6 +101,12 @@ pub enum ElasticTwinError {
         /// Why.
         message: String,
     },
+}
+
+impl From<TruthError> for ElasticTwinError {
+    fn from(e: TruthError) -> Self {
+        Self::Truth(Box::new(e))
+    }
 }
 
 /// Options of the elastic campaign.

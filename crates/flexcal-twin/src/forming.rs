@@ -228,10 +228,16 @@ pub enum FormingError {
     Kinematics(#[from] flexcal_kinematics::KinematicsError),
     /// The twin's truth failed.
     #[error(transparent)]
-    Truth(#[from] TruthError),
+    Truth(Box<TruthError>),
     /// An option is out of range.
     #[error("invalid forming option: {0}")]
     InvalidOption(String),
+}
+
+impl From<TruthError> for FormingError {
+    fn from(e: TruthError) -> Self {
+        Self::Truth(Box::new(e))
+    }
 }
 
 /// The forming cell as it is: the true robot, the true beam, contact and

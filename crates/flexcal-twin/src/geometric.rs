@@ -59,7 +59,7 @@ pub enum GeometricTwinError {
     Io(#[from] flexcal_io::IoError),
     /// The twin's truth failed.
     #[error(transparent)]
-    Truth(#[from] TruthError),
+    Truth(Box<TruthError>),
     /// An option is out of range.
     #[error("invalid option `{name}`: {reason}")]
     InvalidOption {
@@ -68,6 +68,12 @@ pub enum GeometricTwinError {
         /// What is wrong.
         reason: String,
     },
+}
+
+impl From<TruthError> for GeometricTwinError {
+    fn from(e: TruthError) -> Self {
+        Self::Truth(Box::new(e))
+    }
 }
 
 /// Settings of [`geometric_campaign`].

@@ -413,7 +413,7 @@ fn elastic_section(e: &ElasticResults, out: &std::path::Path) -> Section {
             .collect()
     };
     s.table(
-        &format!(
+        format!(
             "Table 5 on the same metric: residual norms in the x-z plane (noise floor {:.4} mm) and in 3-D (noise floor {:.4} mm; the fuzzy model predicts no y deflection)",
             same.plane_xz.noise_floor_mm, same.three_d.noise_floor_mm
         ),
