@@ -188,6 +188,7 @@ pub mod residual;
 pub mod screen;
 pub mod select;
 pub mod split;
+pub mod temperature;
 pub mod validate;
 
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};

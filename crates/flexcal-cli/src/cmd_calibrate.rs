@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use flexcal_calib::temperature::{TemperatureCheck, write_pose_errors};
 use flexcal_calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ErrorStatistics,
     FrameTreatment, GravityCompliance, MeasurementSet, Method, ResidualModel, ResidualModelJson,
@@ -193,7 +194,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         "--exclude",
     )?;
     if !args.exclude_validation.is_empty() && args.validate.is_none() {
-        anyhow::bail!("--exclude-validation needs --validate");
+        crate::usage_bail!("--exclude-validation needs --validate");
     }
     let validation_set = args
         .validate
@@ -219,7 +220,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         WeightsKind::Uniform => Weighting::Uniform,
     };
     if args.with_orientation && args.format != DataFormat::Ipa {
-        anyhow::bail!(
+        crate::usage_bail!(
             "--with-orientation is for --format ipa (flexcal's own files use their orientation columns when present)"
         );
     }
@@ -241,13 +242,13 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     }
     if !args.target_mm.is_empty() {
         let [x, y, z] = args.target_mm[..] else {
-            anyhow::bail!(
+            crate::usage_bail!(
                 "--target-mm takes three values x,y,z (mm), got {}",
                 args.target_mm.len()
             );
         };
         if ![x, y, z].iter().all(|v| v.is_finite()) {
-            anyhow::bail!("--target-mm: values must be finite, got {x},{y},{z}");
+            crate::usage_bail!("--target-mm: values must be finite, got {x},{y},{z}");
         }
         let rotation = data
             .nominal_target
@@ -271,7 +272,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
             None => GravityCompliance::builtin(&model).context("--model elasto-geometric")?,
         });
     } else if args.masses.is_some() {
-        anyhow::bail!("--masses is for --model elasto-geometric");
+        crate::usage_bail!("--masses is for --model elasto-geometric");
     }
     println!(
         "Calibrating `{}` ({} parameters{}) from {} poses of {}",
@@ -322,23 +323,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     };
     print_temperature_analysis(per_pose_name, per_pose_set, per_pose);
     if let Some(path) = &args.residuals {
-        let mut text = String::from(
-            "pose,temperature_c,position_error_mm,orientation_error_deg,dx_mm,dy_mm,dz_mm\n",
-        );
-        for (k, (e, m)) in per_pose.iter().zip(per_pose_set.measurements()).enumerate() {
-            let optional = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
-            text.push_str(&format!(
-                "{},{},{},{},{},{},{}\n",
-                m.label(k).replace(',', ";"),
-                optional(m.temperature_c),
-                e.position * 1e3,
-                optional(e.orientation.map(f64::to_degrees)),
-                e.position_vector.x * 1e3,
-                e.position_vector.y * 1e3,
-                e.position_vector.z * 1e3
-            ));
-        }
-        flexcal_io::write_atomic(path, text)?;
+        write_pose_errors(path, per_pose_set, per_pose)?;
         println!(
             "per-pose errors of the {per_pose_name} set written to {}",
             path.display()
@@ -522,40 +507,17 @@ fn print_temperature_analysis(
     set: &MeasurementSet,
     errors: &[flexcal_calib::PoseError],
 ) {
-    let pairs: Vec<(f64, f64)> = set
-        .measurements()
-        .iter()
-        .zip(errors)
-        .filter_map(|(m, e)| m.temperature_c.map(|t| (t, e.position * 1e3)))
-        .collect();
-    if pairs.len() < 3 {
+    let Some(check) = TemperatureCheck::of(set, errors) else {
         return;
+    };
+    let (lo, hi) = (check.min_c, check.max_c);
+    match (check.correlation, check.slope_mm_per_k) {
+        (Some(r), Some(slope)) => println!(
+            "temperature on the {name} set: {lo:.2} to {hi:.2} C; correlation of the position error with it r = {r:.3} (r^2 = {:.3}), slope {slope:.4} mm/K",
+            r * r
+        ),
+        _ => println!("temperature on the {name} set: constant {lo:.2} C; no analysis"),
     }
-    let n = pairs.len() as f64;
-    let (mt, me) = pairs
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (t, e)| (a + t / n, b + e / n));
-    let (mut stt, mut see, mut ste) = (0.0, 0.0, 0.0);
-    for (t, e) in &pairs {
-        stt += (t - mt) * (t - mt);
-        see += (e - me) * (e - me);
-        ste += (t - mt) * (e - me);
-    }
-    let (lo, hi) = pairs
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (t, _)| {
-            (l.min(*t), h.max(*t))
-        });
-    if stt <= 0.0 || see <= 0.0 {
-        println!("temperature on the {name} set: constant {lo:.2} C; no analysis");
-        return;
-    }
-    println!(
-        "temperature on the {name} set: {lo:.2} to {hi:.2} C; correlation of the position error with it r = {:.3} (r^2 = {:.3}), slope {:.4} mm/K",
-        ste / (stt * see).sqrt(),
-        ste * ste / (stt * see),
-        ste / stt
-    );
 }
 
 /// `v` with `digits` decimals, or `-` when there is none.

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::bail;
 use flexcal_fuzzy::{
     Dataset, FuzzyError, FuzzyModel, FuzzyParams, SearchPhase, SearchProgress,
     StructureSearchParams,
@@ -102,7 +101,7 @@ fn read_dataset(path: &PathBuf, inputs: &[&str], output: &str) -> anyhow::Result
 fn fit(args: FitArgs) -> anyhow::Result<()> {
     let inputs = crate::list_items(&args.inputs);
     if inputs.is_empty() {
-        bail!("--inputs names no column");
+        crate::usage_bail!("--inputs names no column");
     }
     let data = read_dataset(&args.data, &inputs, &args.output)?;
     let (train, test) = match &args.test_data {

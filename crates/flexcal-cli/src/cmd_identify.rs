@@ -61,6 +61,14 @@ pub fn run(command: IdentifyCommand) -> anyhow::Result<()> {
     }
 }
 
+/// `--train-load` must be a positive load in N.
+pub(crate) fn check_train_load(train_load: f64) -> anyhow::Result<()> {
+    if !(train_load.is_finite() && train_load > 0.0) {
+        crate::usage_bail!("--train-load must be a positive load in N, got {train_load}");
+    }
+    Ok(())
+}
+
 /// Identifies the stiffness parameters from the files named by `args`.
 fn identify_stiffness_from_args(args: &StiffnessArgs) -> anyhow::Result<StiffnessOutcome> {
     let robot = load_model(&args.robot)?;
@@ -76,6 +84,7 @@ fn identify_stiffness_from_args(args: &StiffnessArgs) -> anyhow::Result<Stiffnes
 }
 
 fn stiffness(args: StiffnessArgs) -> anyhow::Result<()> {
+    check_train_load(args.train_load)?;
     println!(
         "identifying the stiffness parameters of '{}' on the {} N sets of {}, seed {}",
         args.elastic,

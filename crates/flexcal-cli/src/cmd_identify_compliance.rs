@@ -6,9 +6,9 @@ use std::path::PathBuf;
 
 use flexcal_elastic::fuzzy_compliance::ComplianceComponent;
 use flexcal_elastic::workflow::{
-    ComplianceOutcome, ComplianceStructure, ComplianceWorkflowOptions, identify_compliance_in_dir,
+    ComplianceOutcome, ComplianceReport, ComplianceStructure, ComplianceWorkflowOptions,
+    identify_compliance_in_dir,
 };
-use serde_json::json;
 
 use crate::robot_arg::load_model;
 
@@ -52,6 +52,7 @@ pub struct ComplianceArgs {
 
 /// Runs `flexcal identify compliance`.
 pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
+    super::check_train_load(args.train_load)?;
     let robot = load_model(&args.robot)?;
     let options = ComplianceWorkflowOptions {
         inputs: args.inputs.clone(),
@@ -132,47 +133,7 @@ pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
         println!("model written to {}", path.display());
     }
     if let Some(path) = &args.report {
-        let components_json: Vec<_> = model
-            .components()
-            .iter()
-            .zip(model.models())
-            .map(|(c, m)| {
-                json!({
-                    "name": c.name(),
-                    "unit": c.table_unit(),
-                    "modal_values": m.structure().partitions().iter().zip(model.inputs()).map(|(p, spec)| {
-                        let (factor, unit) = spec.unit.table_unit();
-                        json!({
-                            "input": spec.name,
-                            "unit": unit,
-                            "values": p.modal_values().iter().map(|v| v * factor).collect::<Vec<_>>(),
-                        })
-                    }).collect::<Vec<_>>(),
-                    "conclusions": m.conclusions().iter().map(|b| b * 1e6).collect::<Vec<_>>(),
-                })
-            })
-            .collect();
-        let report = json!({
-            "robot": robot.name(),
-            "inputs": model.inputs(),
-            "train_load_n": args.train_load,
-            "train_sets": train_sets,
-            "seed": args.seed,
-            "test_fraction": args.test_fraction,
-            "shared_structure": shared_structure,
-            "training_configurations": r.training_configurations,
-            "test_configurations": r.test_configurations,
-            "training_rmse_mm": r.training_mm.rmse,
-            "test_rmse_mm": r.test_mm.rmse,
-            "termination": format!("{:?}", r.search.termination),
-            "evaluations": r.search.evaluations,
-            "elapsed_s": r.elapsed_s,
-            "history": r.search.history,
-            "components": components_json,
-            "per_load": table,
-            "noise_floor_mm": floor_mm,
-        });
-        flexcal_io::write_atomic(path, serde_json::to_string_pretty(&report)?)?;
+        ComplianceReport::new(robot.name(), &options, &outcome).write(path)?;
         println!("report written to {}", path.display());
     }
     Ok(())

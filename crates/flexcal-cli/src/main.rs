@@ -65,6 +65,43 @@ enum Command {
     // <wire: new subcommand variants go above this line>
 }
 
+/// A flag value that fails flexcal's own validation: the command exits with
+/// code 2, like clap's own usage errors (failures of the work exit with 1).
+#[derive(Debug)]
+pub(crate) struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
+
+/// Returns a [`UsageError`] (exit code 2) with a formatted message.
+macro_rules! usage_bail {
+    ($($arg:tt)*) => {
+        return Err(anyhow::Error::new(crate::UsageError(format!($($arg)*))))
+    };
+}
+pub(crate) use usage_bail;
+
+/// Whether an error is a usage error: a flag value flexcal rejects before
+/// doing any work (exit code 2).
+fn is_usage_error(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause.is::<UsageError>()
+            || matches!(
+                cause.downcast_ref::<flexcal::Error>(),
+                Some(
+                    flexcal::Error::InvalidParameter { .. }
+                        | flexcal::Error::UnknownRobot { .. }
+                        | flexcal::Error::RobotFormat { .. }
+                )
+            )
+    })
+}
+
 /// The items of a comma-separated option, trimmed, empty ones dropped.
 pub(crate) fn list_items(values: &[String]) -> Vec<&str> {
     values
@@ -106,7 +143,11 @@ fn main() -> ExitCode {
                 }
             }
             eprintln!("error: {line}");
-            ExitCode::FAILURE
+            if is_usage_error(&err) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

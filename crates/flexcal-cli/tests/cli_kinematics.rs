@@ -204,3 +204,33 @@ fn unreachable_ik_target_is_an_error_and_writes_nothing() {
         "previous contents\n"
     );
 }
+
+#[test]
+fn usage_errors_exit_with_2_and_failures_with_1() {
+    // A flag value flexcal rejects before any work: usage error.
+    let o = flexcal(&["fk", "--robot", "no-such-robot", "--joints", "0,0,0,0,0,0"]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // clap's own usage errors exit with 2 too.
+    let o = flexcal(&["fk", "--no-such-flag"]);
+    assert_eq!(o.status.code(), Some(2));
+    // A failure of the work (a file that does not exist): 1.
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.csv");
+    let o = flexcal(&[
+        "identify",
+        "compliance",
+        "--data",
+        missing.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}

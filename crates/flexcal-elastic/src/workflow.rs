@@ -533,3 +533,143 @@ pub fn identify_compliance_in_dir(
         noise_floor_mm,
     })
 }
+
+/// Modal values of one input of a component model, in table units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModalValuesReport {
+    /// Input name.
+    pub input: String,
+    /// Unit of the values (`deg`, `mm`).
+    pub unit: String,
+    /// Modal values, increasing.
+    pub values: Vec<f64>,
+}
+
+/// One compliance component of a [`ComplianceReport`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ComplianceComponentReport {
+    /// Component name (`C_xx`, ...).
+    pub name: String,
+    /// Unit of the conclusions (`mm/kN`, ...).
+    pub unit: String,
+    /// Modal values of each input.
+    pub modal_values: Vec<ModalValuesReport>,
+    /// Rule conclusions, in `unit`.
+    pub conclusions: Vec<f64>,
+}
+
+/// The report of a compliance identification: the file `flexcal identify
+/// compliance --report` writes. The same type writes and reads it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ComplianceReport {
+    /// Robot name.
+    pub robot: String,
+    /// Model inputs.
+    pub inputs: Vec<crate::fuzzy_compliance::InputSpec>,
+    /// Training load (N).
+    pub train_load_n: f64,
+    /// Names of the training sets.
+    pub train_sets: Vec<String>,
+    /// Seed of the train/test split.
+    pub seed: u64,
+    /// Fraction of the training configurations held out.
+    pub test_fraction: f64,
+    /// Whether the components share one structure.
+    pub shared_structure: bool,
+    /// Training configurations.
+    pub training_configurations: usize,
+    /// Test configurations.
+    pub test_configurations: usize,
+    /// RMSE per displacement component on the training configurations (mm).
+    pub training_rmse_mm: f64,
+    /// RMSE per displacement component on the test configurations (mm).
+    pub test_rmse_mm: f64,
+    /// Why structure growth stopped.
+    pub termination: String,
+    /// Fits evaluated by the search.
+    pub evaluations: usize,
+    /// Wall-clock time of the fit (s).
+    pub elapsed_s: f64,
+    /// Every growth step, the initial structure first.
+    pub history: Vec<flexcal_fuzzy::GrowthStep>,
+    /// The component models.
+    pub components: Vec<ComplianceComponentReport>,
+    /// Residuals per load in the x-z plane (Table 5).
+    pub per_load: LoadMetricsTable,
+    /// RMS norm of the stated deflection noise in the x-z plane (mm).
+    pub noise_floor_mm: f64,
+}
+
+impl ComplianceReport {
+    /// The report of a compliance identification of `robot`.
+    pub fn new(
+        robot: &str,
+        options: &ComplianceWorkflowOptions,
+        outcome: &ComplianceOutcome,
+    ) -> Self {
+        let model = &outcome.fitted.compliance;
+        let r = &outcome.fitted.report;
+        let components = model
+            .components()
+            .iter()
+            .zip(model.models())
+            .map(|(c, m)| ComplianceComponentReport {
+                name: c.name(),
+                unit: c.table_unit().to_string(),
+                modal_values: m
+                    .structure()
+                    .partitions()
+                    .iter()
+                    .zip(model.inputs())
+                    .map(|(p, spec)| {
+                        let (factor, unit) = spec.unit.table_unit();
+                        ModalValuesReport {
+                            input: spec.name.clone(),
+                            unit: unit.to_string(),
+                            values: p.modal_values().iter().map(|v| v * factor).collect(),
+                        }
+                    })
+                    .collect(),
+                conclusions: m.conclusions().iter().map(|b| b * 1e6).collect(),
+            })
+            .collect();
+        Self {
+            robot: robot.to_string(),
+            inputs: model.inputs().to_vec(),
+            train_load_n: options.train_load_n,
+            train_sets: outcome.train_sets.clone(),
+            seed: options.seed,
+            test_fraction: options.test_fraction,
+            shared_structure: options.structure == ComplianceStructure::Shared,
+            training_configurations: r.training_configurations,
+            test_configurations: r.test_configurations,
+            training_rmse_mm: r.training_mm.rmse,
+            test_rmse_mm: r.test_mm.rmse,
+            termination: format!("{:?}", r.search.termination),
+            evaluations: r.search.evaluations,
+            elapsed_s: r.elapsed_s,
+            history: r.search.history.clone(),
+            components,
+            per_load: outcome.table.clone(),
+            noise_floor_mm: outcome.noise_floor_mm,
+        }
+    }
+
+    /// Writes the report (pretty JSON, atomically).
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<(), WorkflowError> {
+        let text = serde_json::to_string_pretty(self)
+            .unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+        flexcal_io::write_atomic(path, text).map_err(ElasticError::from)?;
+        Ok(())
+    }
+
+    /// Reads a report written by [`ComplianceReport::write`].
+    pub fn read(path: impl AsRef<Path>) -> Result<Self, WorkflowError> {
+        let path = path.as_ref();
+        let text = flexcal_io::read_to_string(path).map_err(ElasticError::from)?;
+        serde_json::from_str(&text).map_err(|e| WorkflowError::Report {
+            path: path.to_path_buf(),
+            message: format!("not a compliance report: {e}"),
+        })
+    }
+}

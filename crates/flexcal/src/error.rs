@@ -41,6 +41,16 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
+    /// Points of a path that could not be compensated, each named by its line.
+    #[error("{failed} of {total} path points could not be compensated: {}", failures.join("; "))]
+    PathPoints {
+        /// Number of failed points.
+        failed: usize,
+        /// Number of points of the path.
+        total: usize,
+        /// One message per failed point (file, line, reason).
+        failures: Vec<String>,
+    },
     /// Kinematics (robot descriptions, forward and inverse models).
     #[error(transparent)]
     Kinematics(#[from] flexcal_kinematics::KinematicsError),
