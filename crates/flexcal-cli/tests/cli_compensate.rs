@@ -219,7 +219,6 @@ fn identified_models_compensate_the_twin_forming_path() {
         &identification,
         "--validate",
         &validation,
-        "--fixed-frame",
         "--fixed-target",
         "--out",
         &p("calibrated.toml"),
