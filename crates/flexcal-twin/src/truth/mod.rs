@@ -13,9 +13,9 @@
 //! | temperature drift (off) | [`temperature`] | 2 K x 11.7e-6 /K | steel handbook |
 //! | beam modulus, friction, payload | [`process`] | +3 %, mu 0.15, +0.5 % | handbooks, scale |
 //!
-//! The campaigns ([`crate::geometric`], [`crate::elastic`],
-//! [`crate::forming`]) use the same [`TwinRobot`] and [`Photogrammetry`],
-//! and publish [`TwinTerms`] with their truth files.
+//! The campaigns (the crate's `geometric`, `elastic` and `forming`
+//! modules) use the same [`TwinRobot`] and [`Photogrammetry`], and publish
+//! [`TwinTerms`] with their truth files.
 
 /// The drives' lost motion and torque-hardening stiffness.
 pub mod drive;
