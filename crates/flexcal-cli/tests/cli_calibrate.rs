@@ -71,10 +71,10 @@ fn twin_files_calibrate_end_to_end() {
     let rank = id["rank"].as_u64().unwrap() as usize;
     let non = id["non_identifiable"].as_array().unwrap().len();
     let poor = id["poorly_identifiable"].as_array().unwrap().len();
-    assert_eq!(rank + non + poor, 43, "{id}");
-    // The camera's frame is identified: it absorbs the base's four
-    // parameters (alpha1, d1, theta1, r1).
-    assert!((31..=35).contains(&rank), "rank {rank}");
+    // With the camera's frame identified (6 unknowns), which absorbs the
+    // base's four parameters (alpha1, d1, theta1, r1).
+    assert_eq!(rank + non + poor, 43 + 6, "{id}");
+    assert!((37..=41).contains(&rank), "rank {rank}");
     assert!(!id["combinations"].as_array().unwrap().is_empty());
     let v = &report["validation"];
     for key in [
