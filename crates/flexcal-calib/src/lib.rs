@@ -228,7 +228,7 @@ pub use identify::{
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
-pub use report::{CalibrationReportJson, ResidualModelJson};
+pub use report::{CalibrationReportJson, FrameJson, ResidualModelJson, read_measurement_frame};
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,

@@ -1,6 +1,9 @@
 //! The JSON report of a calibration (mm and deg at this boundary).
 
-use serde::Serialize;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::identify::{Calibration, UnknownStatus};
@@ -113,6 +116,10 @@ pub struct IdentificationJson {
     pub parameters: Vec<ParameterJson>,
     /// Repeated readings and suspect poses of the identification set.
     pub data_checks: DataChecks,
+    /// The identified (or fixed) measurement frame `x_meas_base`: the
+    /// robot base seen from the instrument. A part located by the instrument
+    /// is carried into the calibrated robot's base through it.
+    pub measurement_frame: FrameJson,
 }
 
 /// The `validation` object.
@@ -141,6 +148,77 @@ pub struct ExtrapolationJson {
     pub coordinate: String,
     /// Fraction of the validation poses outside the range (0-1).
     pub fraction_outside: f64,
+}
+
+/// A rigid transform in a report: translation (mm) and unit quaternion
+/// `[w, x, y, z]`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct FrameJson {
+    /// Translation (mm).
+    pub translation_mm: [f64; 3],
+    /// Rotation as a unit quaternion `[w, x, y, z]`.
+    pub quaternion_wxyz: [f64; 4],
+}
+
+impl From<&Isometry3<f64>> for FrameJson {
+    fn from(x: &Isometry3<f64>) -> Self {
+        let t = x.translation.vector * 1e3;
+        let q = x.rotation.quaternion();
+        Self {
+            translation_mm: [t.x, t.y, t.z],
+            quaternion_wxyz: [q.w, q.i, q.j, q.k],
+        }
+    }
+}
+
+impl FrameJson {
+    /// The transform in SI (m); the quaternion is normalised.
+    pub fn isometry(&self) -> Isometry3<f64> {
+        let [x, y, z] = self.translation_mm;
+        let [w, i, j, k] = self.quaternion_wxyz;
+        Isometry3::from_parts(
+            Translation3::new(x * 1e-3, y * 1e-3, z * 1e-3),
+            UnitQuaternion::from_quaternion(Quaternion::new(w, i, j, k)),
+        )
+    }
+}
+
+/// Reads the identified measurement frame `x_meas_base` from a calibration
+/// report written by `calibrate --report` ([`CalibrationReportJson`]).
+///
+/// # Errors
+/// [`CalibError::Io`] for an unreadable file, [`CalibError::InvalidOption`]
+/// naming the file when it is not such a report or its frame is not finite.
+pub fn read_measurement_frame(path: &Path) -> Result<Isometry3<f64>, CalibError> {
+    #[derive(Deserialize)]
+    struct Report {
+        identification: Identification,
+    }
+    #[derive(Deserialize)]
+    struct Identification {
+        measurement_frame: FrameJson,
+    }
+    let text = flexcal_io::read_to_string(path)?;
+    let invalid = |reason: String| CalibError::InvalidOption {
+        name: "calibration report",
+        reason: format!("{}: {reason}", path.display()),
+    };
+    let report: Report = serde_json::from_str(&text).map_err(|e| invalid(e.to_string()))?;
+    let frame = report.identification.measurement_frame;
+    let q = frame.quaternion_wxyz;
+    let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if !frame
+        .translation_mm
+        .iter()
+        .chain(q.iter())
+        .all(|v| v.is_finite())
+        || norm < 1e-9
+    {
+        return Err(invalid(
+            "identification.measurement_frame is not a finite rigid transform".into(),
+        ));
+    }
+    Ok(frame.isometry())
 }
 
 /// The whole report.
@@ -270,6 +348,7 @@ impl CalibrationReportJson {
                 .collect(),
             parameters,
             data_checks: calibration.data_checks.clone(),
+            measurement_frame: FrameJson::from(&calibration.x_meas_base),
         };
         let validation = validation.map(|v| ValidationJson {
             after: StatisticsJson::from(&v.after),

@@ -35,6 +35,12 @@ pub struct FormingArgs {
     /// commands the robot; default the nominal xi.
     #[arg(long)]
     pub calibrated: Option<PathBuf>,
+    /// The calibration's report (`flexcal calibrate --report` JSON): its
+    /// identified measurement frame carries the part, located by the
+    /// camera, into the calibrated robot's base. Without it the part's pose
+    /// in the robot base is taken as known exactly.
+    #[arg(long)]
+    pub calibration_report: Option<PathBuf>,
     /// Identified Gamma (`flexcal identify stiffness --report` JSON) for the
     /// FE beam model; default the nominal Gamma.
     #[arg(long)]
@@ -48,11 +54,7 @@ pub struct FormingArgs {
 fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     use flexcal::twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
     let robot = crate::robot_arg::load_model("ir663", &Default::default())?;
-    let true_xi = flexcal::twin::geometric::ir663_true_params(&robot)?;
-    let truth_description = flexcal::twin::elastic::ir663_elastic_truth()?;
-    let truth_model = flexcal::elastic::model::ElasticModel::new(&robot, &truth_description)?;
-    let truth_gamma = truth_model.nominal_gamma();
-    let truth = FeTcpModel::new(truth_model, true_xi.clone(), truth_gamma, "twin truth")?;
+    let twin = TwinCell::new(flexcal::twin::truth::TruthSwitches::default())?;
     let xi = crate::cmd_compensate::calibrated_xi(&robot, args.calibrated.as_deref())?;
     // The FE model the user would have: the built-in description, not the twin's truth.
     let description = flexcal::elastic::description::ElasticDescription::builtin("ir663")?;
@@ -87,14 +89,18 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     }
     models.push((&fe_label, &fe));
 
+    let defaults = FormingOptions::default();
+    let x_base_part_user = match &args.calibration_report {
+        Some(path) => Some(twin.part_located_by_camera(
+            &defaults.x_base_part,
+            &flexcal::calib::read_measurement_frame(path)?,
+        )),
+        None => None,
+    };
     let options = FormingOptions {
         seed: args.seed,
-        ..FormingOptions::default()
-    };
-    let twin = TwinCell {
-        model: &robot,
-        true_xi,
-        true_elastic: &truth,
+        x_base_part_user,
+        ..defaults
     };
     let result = run_forming(&twin, &xi, &models, &options)?;
     flexcal::io::write_atomic(
@@ -225,8 +231,8 @@ pub fn run(command: TwinCommand) -> anyhow::Result<()> {
                 args.out.display()
             );
             println!(
-                "measurements in the robot base frame R0 (target = TCP): calibrate with \
-                 `flexcal calibrate --robot ir663 --data {0}/identification.csv --validate {0}/validation.csv --fixed-frame --fixed-target`",
+                "measurements in the camera frame, which the calibration registers (target = TCP): calibrate with \
+                 `flexcal calibrate --robot ir663 --data {0}/identification.csv --validate {0}/validation.csv --fixed-target`",
                 args.out.display()
             );
             Ok(())

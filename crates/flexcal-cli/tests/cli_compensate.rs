@@ -219,10 +219,11 @@ fn identified_models_compensate_the_twin_forming_path() {
         &identification,
         "--validate",
         &validation,
-        "--fixed-frame",
         "--fixed-target",
         "--out",
         &p("calibrated.toml"),
+        "--report",
+        &p("calibration.json"),
     ]);
     run_ok(&["twin", "elastic", "--seed", "7", "--out", &p("elastic")]);
     run_ok(&[
@@ -262,6 +263,8 @@ fn identified_models_compensate_the_twin_forming_path() {
         &p("forming"),
         "--calibrated",
         &p("calibrated.toml"),
+        "--calibration-report",
+        &p("calibration.json"),
         "--fe-report",
         &p("stiffness.json"),
         "--fuzzy",

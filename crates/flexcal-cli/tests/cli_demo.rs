@@ -98,7 +98,6 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
         geo.join("identification.csv").to_str().unwrap(),
         "--validate",
         geo.join("validation.csv").to_str().unwrap(),
-        "--fixed-frame",
         "--fixed-target",
         "--report",
         report.to_str().unwrap(),

@@ -1,17 +1,19 @@
 //! The virtual IR-663's elastic campaign (paper section 3.3.1).
 //!
-//! The twin's truth is richer than the identification model
-//! (`flexcal_elastic`'s built-in `ir663`, Figure 8):
-//! - joints 2 and 8 are driven by ball screws modelled as axial springs
-//!   between their slider-crank pivots, so their stiffness about the joint
-//!   is `k_screw h(q)^2`, `h = l1 l3 sin(phi) / r'` being the lever arm of the
-//!   screw about the joint axis, which changes with the configuration;
-//! - the pivots sit on stiff but elastic levers, and the forearm is split at
-//!   the wrist centre (forearm beam to the wrist, stiff wrist beam to the TCP);
-//! - the radial joint stiffnesses are Table 3 (design 1) read in N/mm;
-//! - the measurement system is the geometric campaign's: 21 um Gaussian
-//!   noise per axis on every measured position, so a measured deflection
-//!   (loaded minus unloaded) carries about 30 um per axis.
+//! The twin's truth is richer than every identification model: the loads
+//! act on the twin itself ([`TwinRobot`]): its own FE structure (own mesh
+//! and sections, ball screws of joints 2 and 8 as axial springs whose
+//! stiffness about the joint, `k_screw h(q)^2`, changes with the
+//! configuration, finite bearings), its own weight in every pose, the
+//! drives' lost motion and torque hardening (so the response to 300, 600,
+//! 900 and 1100 N is not proportional), its transmission errors and
+//! geometric errors; the photogrammetry system of [`crate::truth::measurement`]
+//! measures every position (12.3 um per axis on the target origin, so a
+//! measured deflection, loaded minus unloaded, carries about 17 um per
+//! axis). As in the paper the positions are expressed in R0 with the frame
+//! registered by the geometric campaign; the registration's own error (a
+//! few micrometres and 1e-5 rad over 27 poses) changes a 2 mm deflection by
+//! less than 0.1 um, so the twin applies the true frame.
 //!
 //! The campaign is the paper's: the 63 poses of the 7 x 9 grid (65) in the
 //! plane y = 0 (x 1.25-2.25 m, z 0.85-2.15 m, tool pointing down), loads of
@@ -49,10 +51,7 @@
 use std::path::{Path, PathBuf};
 
 use flexcal_elastic::campaign::{PositionRow, write_position_rows};
-use flexcal_elastic::description::{
-    BeamDescription, ElasticDescription, NodeDescription, SectionDescription, SpringDescription,
-};
-use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
+use flexcal_elastic::description::ElasticDescription;
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, Model, RobotDescription, actuated_from_joint_angles,
     forward_frames, forward_pose, inverse_pose, joint_angles_from_actuated,
@@ -60,8 +59,14 @@ use flexcal_kinematics::{
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use serde::Serialize;
+
+pub use crate::truth::structure::{
+    SCREW_2_STIFFNESS, SCREW_8_STIFFNESS, crank, screw_lever_arm, twin_structure,
+};
+use crate::truth::{
+    FormingTruth, Photogrammetry, TruthError, TruthSwitches, TwinRobot, TwinTerms, twin_terms,
+};
 
 /// Errors of the elastic twin.
 #[derive(Debug, thiserror::Error)]
@@ -75,6 +80,9 @@ pub enum ElasticTwinError {
     /// A file could not be written.
     #[error(transparent)]
     Io(#[from] flexcal_io::IoError),
+    /// The twin's truth failed.
+    #[error(transparent)]
+    Truth(Box<TruthError>),
     /// An option is out of range.
     #[error("invalid option '{name}': {message}")]
     InvalidOption {
@@ -95,20 +103,11 @@ pub enum ElasticTwinError {
     },
 }
 
-/// Axial stiffness of the joint 2 screw (N/m). Tuned so that the TCP
-/// deflection norm under 1100 N vertical spans about 1.6-2.5 mm over the
-/// grid, as measured in the paper: `k h^2` is then 1.9e6 to 5.1e6 N.m/rad
-/// over the grid (lever arm h from 0.22 to 0.35 m), the magnitude of Table
-/// 3's Kar(1,2) = 1.72e6 N.m/rad (2.2 times it at a 0.30 m lever arm).
-pub const SCREW_2_STIFFNESS: f64 = 4.2e7;
-/// Axial stiffness of the joint 8 screw (N/m), tuned like
-/// [`SCREW_2_STIFFNESS`]: `k h^2` is 3.2e6 to 5.0e6 N.m/rad over the grid
-/// (h from 0.24 to 0.30 m), the magnitude of Table 3's Kar(1,8) = 1.56e6 N.m/rad.
-pub const SCREW_8_STIFFNESS: f64 = 5.5e7;
-
-/// Standard deviation of each measured position coordinate (m): 21 um, the
-/// photogrammetry system of the geometric campaign.
-pub const POSITION_NOISE_M: f64 = 21e-6;
+impl From<TruthError> for ElasticTwinError {
+    fn from(e: TruthError) -> Self {
+        Self::Truth(Box::new(e))
+    }
+}
 
 /// Options of the elastic campaign.
 #[derive(Debug, Clone, PartialEq)]
@@ -117,11 +116,13 @@ pub struct ElasticCampaignOptions {
     pub seed: u64,
     /// Load magnitudes (N) (default 300, 600, 900, 1100).
     pub loads_n: Vec<f64>,
-    /// Standard deviation of each measured coordinate (m) (default 21e-6).
-    pub position_noise_m: f64,
     /// What to do with the grid's corner the four-bar cannot reach with the
     /// tool down (default [`GridCorner::ShiftOutward`]).
     pub corner: GridCorner,
+    /// Which truth terms are on (default all but the temperature drift).
+    pub switches: TruthSwitches,
+    /// The measurement system.
+    pub camera: Photogrammetry,
 }
 
 /// How the grid (65) treats its three points that no Table 2 IR-663 reaches
@@ -141,131 +142,22 @@ impl Default for ElasticCampaignOptions {
         Self {
             seed: 1,
             loads_n: vec![300.0, 600.0, 900.0, 1100.0],
-            position_noise_m: POSITION_NOISE_M,
             corner: GridCorner::default(),
+            switches: TruthSwitches::default(),
+            camera: Photogrammetry::default(),
         }
     }
 }
 
-/// The lever arm `h = l1 l3 sin(phi) / r'` (m) of a slider-crank screw
-/// about its joint, from the crank geometry and the joint angle.
-pub fn screw_lever_arm(l1: f64, l3: f64, kappa: f64, lambda: f64, joint_angle: f64) -> f64 {
-    let phi = joint_angle - lambda + kappa;
-    let screw = (l1 * l1 + l3 * l3 - 2.0 * l1 * l3 * phi.cos()).sqrt();
-    l1 * l3 * phi.sin().abs() / screw
-}
-
-/// Slider-crank geometry of the built-in IR-663 (mm, deg): `(l1, l3, kappa, lambda)`.
-fn crank(robot: &RobotDescription, frame: &str) -> (f64, f64, f64, f64) {
-    let f = robot.frames.iter().find(|f| f.name == frame);
-    match f.and_then(|f| f.slider_crank) {
-        Some(c) => (c.l1_mm, c.l3_mm, c.kappa_deg, c.lambda_deg),
-        None => (0.0, 0.0, 0.0, 0.0),
-    }
-}
-
-/// The twin's true elastic description: the built-in `ir663` plus the wrist
-/// centre node, the screws between their pivots (joints 2 and 8 then turn
-/// freely), and their stiff levers.
+/// The twin's true elastic structure
+/// ([`twin_structure`](crate::truth::structure::twin_structure) of the
+/// built-in `ir663`).
 ///
 /// # Errors
 /// Never for the built-in robot (the error type is that of the descriptions).
 pub fn ir663_elastic_truth() -> Result<ElasticDescription, ElasticTwinError> {
     let robot = RobotDescription::builtin("ir663")?;
-    let mut d = ElasticDescription::builtin("ir663")?;
-    d.name = "ir663-twin".into();
-    d.notes = "Truth of the virtual IR-663: the built-in ir663 beam model with ball screws as axial \
-               springs between the slider-crank pivots of joints 2 and 8 (joints 2 and 8 free about \
-               their axes), stiff pivot levers, and the forearm split at the wrist centre W."
-        .into();
-    // Forearm to the wrist centre, then a stiff wrist to the TCP.
-    let forearm = d
-        .beams
-        .iter()
-        .find(|b| b.name == "10E")
-        .cloned()
-        .ok_or_else(|| ElasticTwinError::InvalidOption {
-            name: "ir663",
-            message: "built-in description has no beam 10E".into(),
-        })?;
-    d.beams.retain(|b| b.name != "10E");
-    d.nodes.push(NodeDescription {
-        name: "W".into(),
-        frame: "4".into(),
-        offset_mm: [0.0; 3],
-    });
-    d.beams.push(BeamDescription {
-        name: "10W".into(),
-        j: "W".into(),
-        ..forearm.clone()
-    });
-    let wrist = SectionDescription::steel_box(0.3, 0.3, 0.05);
-    d.beams.push(BeamDescription {
-        name: "WE".into(),
-        i: "W".into(),
-        j: "E".into(),
-        section: wrist,
-        vecxz: [1.0, 0.0, 0.0],
-        vecxz_frame: Some("E".into()),
-        mass_per_length_kg_m: 0.0,
-    });
-    let lever = SectionDescription::steel_box(0.4, 0.3, 0.05);
-    for (joint, antecedent_alpha_deg, theta_const_deg, k_screw) in [
-        ("2", -90.0f64, -90.0f64, SCREW_2_STIFFNESS),
-        ("8", -90.0, 0.0, SCREW_8_STIFFNESS),
-    ] {
-        let (l1, l3, kappa, lambda) = crank(&robot, joint);
-        let (kappa, lambda) = (kappa.to_radians(), lambda.to_radians());
-        // Pivot A on the driven body, in the joint's frame.
-        let a = [l1 * kappa.cos(), l1 * kappa.sin(), 0.0];
-        // Pivot B on the antecedent (frame 1), at lambda from the joint frame's
-        // x axis at zero joint angle: frame 1 -> Rx(alpha) Rz(theta_const).
-        let rot = nalgebra::Rotation3::from_axis_angle(
-            &Vector3::x_axis(),
-            antecedent_alpha_deg.to_radians(),
-        ) * nalgebra::Rotation3::from_axis_angle(
-            &Vector3::z_axis(),
-            theta_const_deg.to_radians(),
-        );
-        let b = rot * Vector3::new(l3 * lambda.cos(), l3 * lambda.sin(), 0.0);
-        let (node_a, node_b) = (format!("A{joint}"), format!("B{joint}"));
-        d.nodes.push(NodeDescription {
-            name: node_a.clone(),
-            frame: joint.into(),
-            offset_mm: a,
-        });
-        d.nodes.push(NodeDescription {
-            name: node_b.clone(),
-            frame: "1".into(),
-            offset_mm: [b.x, b.y, b.z],
-        });
-        let lever_beam = |name: String, i: &str, j: &str| BeamDescription {
-            name,
-            i: i.into(),
-            j: j.into(),
-            section: lever,
-            vecxz: [0.0, 0.0, 1.0],
-            vecxz_frame: Some(joint.into()),
-            mass_per_length_kg_m: 0.0,
-        };
-        d.beams
-            .push(lever_beam(format!("lever{node_a}"), joint, &node_a));
-        d.beams
-            .push(lever_beam(format!("lever{node_b}"), "1", &node_b));
-        d.springs.push(SpringDescription {
-            name: format!("screw{joint}"),
-            i: node_a,
-            j: node_b,
-            k_n_m: k_screw,
-        });
-    }
-    for j in d.joints.iter_mut() {
-        if j.name == "12" || j.name == "18" {
-            j.kar_nm_rad = 0.0;
-        }
-        j.identify.clear();
-    }
-    Ok(d)
+    Ok(twin_structure(&robot))
 }
 
 /// One pose of the grid (65).
@@ -419,13 +311,15 @@ pub struct PoseTruth {
     pub screw2_lever_m: f64,
     /// Lever arm of the joint 8 screw (m).
     pub screw8_lever_m: f64,
-    /// Stiffness of joint 2 through its screw, `k h^2` (N.m/rad).
+    /// Stiffness of joint 2 through its screw alone, `k h^2` (N.m/rad).
     pub kar2_effective_nm_rad: f64,
-    /// Stiffness of joint 8 through its screw, `k h^2` (N.m/rad).
+    /// Stiffness of joint 8 through its screw alone, `k h^2` (N.m/rad).
     pub kar8_effective_nm_rad: f64,
-    /// True TCP deflection under 1100 N along -z (mm).
+    /// Torques of joints 2 and 8 under the robot's own weight (N.m).
+    pub gravity_torques_nm: [f64; 2],
+    /// True TCP deflection under 1100 N along -z, loaded minus unloaded (mm).
     pub deflection_1100n_z_mm: [f64; 3],
-    /// True TCP deflection under 1100 N along +x (mm).
+    /// True TCP deflection under 1100 N along +x, loaded minus unloaded (mm).
     pub deflection_1100n_x_mm: [f64; 3],
 }
 
@@ -436,8 +330,10 @@ pub struct ElasticCampaign {
     pub sets: Vec<(String, Vec<PositionRow>)>,
     /// Per-pose truth.
     pub truth: Vec<PoseTruth>,
-    /// The true elastic description.
+    /// The true elastic structure.
     pub description: ElasticDescription,
+    /// The truth's terms.
+    pub terms: TwinTerms,
 }
 
 /// Summary written to `elastic_truth.json`.
@@ -452,8 +348,13 @@ struct TruthFile<'a> {
     kar8_effective_range_nm_rad: [f64; 2],
     files: Vec<&'a str>,
     grid_corner: GridCorner,
+    terms: &'a TwinTerms,
     poses: &'a [PoseTruth],
 }
+
+/// The two load directions of the campaign: along +x (a cable over a
+/// pulley) and along -z (a dead weight).
+const DIRECTIONS: [(&str, [f64; 3]); 2] = [("x", [1.0, 0.0, 0.0]), ("z", [0.0, 0.0, -1.0])];
 
 /// Simulates the campaign.
 ///
@@ -462,10 +363,17 @@ struct TruthFile<'a> {
 pub fn simulate_elastic_campaign(
     options: &ElasticCampaignOptions,
 ) -> Result<ElasticCampaign, ElasticTwinError> {
-    if !(options.position_noise_m.is_finite() && options.position_noise_m >= 0.0) {
+    let camera = &options.camera;
+    if !(camera.single_point_accuracy_m.is_finite()
+        && camera.single_point_accuracy_m >= 0.0
+        && camera.led_count >= 3
+        && camera.led_radius_m > 0.0)
+    {
         return Err(ElasticTwinError::InvalidOption {
-            name: "position_noise_m",
-            message: format!("must be >= 0 and finite, got {}", options.position_noise_m),
+            name: "camera",
+            message: format!(
+                "need a finite accuracy >= 0, 3 or more LEDs and a positive LED radius, got {camera:?}"
+            ),
         });
     }
     if options.loads_n.is_empty() || options.loads_n.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
@@ -474,76 +382,63 @@ pub fn simulate_elastic_campaign(
             message: format!("need positive finite loads, got {:?}", options.loads_n),
         });
     }
+    let twin = TwinRobot::new(options.switches)?;
     let robot_description = RobotDescription::builtin("ir663")?;
-    let robot = robot_description.clone().build()?;
-    let xi = robot.nominal_params().to_vec();
-    let description = ir663_elastic_truth()?;
-    let truth_model = ElasticModel::new(&robot, &description)?;
-    let mut data = ElasticData::new(&truth_model)?;
-    let mut kinematics = Data::new(&robot);
+    let robot = twin.model().clone();
+    let description = twin.structure().description().clone();
+    let mut workspace = twin.workspace()?;
     let poses = grid_configurations(&robot, options.corner)?;
     let (l1_2, l3_2, k2, la2) = crank(&robot_description, "2");
     let (l1_8, l3_8, k8, la8) = crank(&robot_description, "8");
-    let noise = Normal::new(0.0, options.position_noise_m).map_err(|e| {
-        ElasticTwinError::InvalidOption {
-            name: "position_noise_m",
-            message: e.to_string(),
-        }
-    })?;
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    let mut draw = |p: Vector3<f64>| p + Vector3::from_fn(|_, _| noise.sample(&mut rng));
-    let sigma = Vector3::repeat(options.position_noise_m);
-    let gamma: Vec<f64> = Vec::new();
+    let noise = options.switches.measurement_noise;
+    let mut camera = camera.clone();
+    if !options.switches.measurement_frame {
+        camera.x_meas_base = Isometry3::identity();
+    }
+    let mut draw = |x: &Isometry3<f64>| -> Vector3<f64> {
+        camera.measure(x, noise, true, &mut rng).translation.vector
+    };
+    let sigma = Vector3::repeat(camera.position_std_per_axis().max(f64::MIN_POSITIVE));
     let mut truth = Vec::with_capacity(poses.len());
     let mut sets: Vec<(String, Vec<PositionRow>)> = Vec::new();
-    let directions = [
-        ("x", Vector3::new(1.0, 0.0, 0.0)),
-        ("z", Vector3::new(0.0, 0.0, -1.0)),
-    ];
-    for (dir_name, _) in &directions {
+    for (dir_name, _) in &DIRECTIONS {
         for load in &options.loads_n {
             sets.push((format!("elastic_{dir_name}_{load:04.0}N.csv"), Vec::new()));
         }
     }
-    for pose in &poses {
-        let x_nominal = forward_pose(&robot, &mut kinematics, &pose.q, &xi)?
-            .translation
-            .vector;
-        let zero = Vector6::zeros();
-        let sag = tcp_deflection(&truth_model, &mut data, &pose.q, &xi, &gamma, &zero, true)?;
-        let unloaded_true = x_nominal + sag.fixed_rows::<3>(0);
+    let last = (poses.len().max(2) - 1) as f64;
+    for (k, pose) in poses.iter().enumerate() {
+        let fraction = k as f64 / last;
+        let unloaded = twin.pose(&mut workspace, &pose.q, &Vector6::zeros(), fraction)?;
         let mut set_index = 0;
         let mut tip = [[0.0; 3]; 2];
-        for (d, (_, direction)) in directions.iter().enumerate() {
-            let unit = tcp_deflection(
-                &truth_model,
-                &mut data,
-                &pose.q,
-                &xi,
-                &gamma,
-                &Vector6::new(direction.x, direction.y, direction.z, 0.0, 0.0, 0.0),
-                false,
-            )?;
-            let unit = unit.fixed_rows::<3>(0).into_owned();
-            let u1100 = unit * 1100.0 * 1e3;
-            tip[d] = [u1100.x, u1100.y, u1100.z];
-            for &load in &options.loads_n {
+        for (d, (_, direction)) in DIRECTIONS.iter().enumerate() {
+            let direction = Vector3::from(*direction);
+            let wrench = |load: f64| {
                 let f = direction * load;
-                let wrench = Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0);
+                Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0)
+            };
+            let at_1100 = twin.pose(&mut workspace, &pose.q, &wrench(1100.0), fraction)?;
+            let u = (at_1100.x_base_tcp.translation.vector
+                - unloaded.x_base_tcp.translation.vector)
+                * 1e3;
+            tip[d] = [u.x, u.y, u.z];
+            for &load in &options.loads_n {
+                let loaded = twin.pose(&mut workspace, &pose.q, &wrench(load), fraction)?;
                 let rows = &mut sets[set_index].1;
                 rows.push(PositionRow {
                     pose_id: pose.pose_id,
                     q: pose.q.clone(),
-                    position: draw(unloaded_true),
+                    position: draw(&unloaded.x_base_tcp),
                     wrench: Vector6::zeros(),
                     sigma,
                 });
-                // Linear statics: the load adds to the own-weight sag.
                 rows.push(PositionRow {
                     pose_id: pose.pose_id,
                     q: pose.q.clone(),
-                    position: draw(unloaded_true + unit * load),
-                    wrench,
+                    position: draw(&loaded.x_base_tcp),
+                    wrench: wrench(load),
                     sigma,
                 });
                 set_index += 1;
@@ -569,14 +464,17 @@ pub fn simulate_elastic_campaign(
             screw8_lever_m: h8,
             kar2_effective_nm_rad: SCREW_2_STIFFNESS * h2 * h2,
             kar8_effective_nm_rad: SCREW_8_STIFFNESS * h8 * h8,
+            gravity_torques_nm: unloaded.joint_torques_nm,
             deflection_1100n_x_mm: tip[0],
             deflection_1100n_z_mm: tip[1],
         });
     }
+    let terms = twin_terms(&twin, &options.camera, &FormingTruth::default());
     Ok(ElasticCampaign {
         sets,
         truth,
         description,
+        terms,
     })
 }
 
@@ -603,8 +501,8 @@ pub struct ElasticCampaignSummary {
 
 /// Simulates the campaign and writes it into `out_dir`: the eight data files
 /// `elastic_{x,z}_{load}N.csv`, `elastic_truth.json` (per-pose truth,
-/// lever arms, effective joint stiffness) and `elastic_truth.toml` (the true
-/// elastic description).
+/// lever arms, screw stiffness about the joints, gravity torques, the
+/// truth's terms) and `elastic_truth.toml` (the twin's FE structure).
 ///
 /// # Errors
 /// As [`simulate_elastic_campaign`], and file errors.
@@ -636,7 +534,7 @@ pub fn write_elastic_campaign(
     let names: Vec<&str> = campaign.sets.iter().map(|(n, _)| n.as_str()).collect();
     let file = TruthFile {
         seed: options.seed,
-        position_noise_mm: options.position_noise_m * 1e3,
+        position_noise_mm: options.camera.position_std_per_axis() * 1e3,
         screw2_stiffness_n_m: SCREW_2_STIFFNESS,
         screw8_stiffness_n_m: SCREW_8_STIFFNESS,
         deflection_norm_1100n_z_mm: norms,
@@ -644,6 +542,7 @@ pub fn write_elastic_campaign(
         kar8_effective_range_nm_rad: kar8,
         files: names,
         grid_corner: options.corner,
+        terms: &campaign.terms,
         poses: &campaign.truth,
     };
     let json_path = out_dir.join("elastic_truth.json");

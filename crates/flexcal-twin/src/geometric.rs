@@ -1,172 +1,43 @@
 //! The virtual IR-663's geometric campaign (section 3.2 of the reference
-//! paper): a true robot = nominal + the errors of Appendix C, measured by a
-//! simulated photogrammetry system in 27 identification and 16 validation
-//! poses of box (59), written as flexcal measurement files.
+//! paper): the twin ([`TwinRobot`]) commanded to 27 identification and 16
+//! validation poses of box (59), measured by its photogrammetry system
+//! ([`Photogrammetry`]), written as flexcal measurement files.
 //!
-//! - True parameters: nominal + errors such that the paper's identified
-//!   combinations (C.1) of the truth equal the values printed in
-//!   (C.2)-(C.11) (mm, deg). The six parameters the paper could not identify
-//!   (kappa8, kappa2, r8p, d9, r2, r7) and l32, whose printed value is lost
-//!   in (C.3), take plausible non-zero values
-//!   ([`IR663_TRUE_ERRORS`](crate::geometric::IR663_TRUE_ERRORS)).
+//! - Truth: every term of [`crate::truth`] that a geometric campaign meets:
+//!   the geometric errors of Appendix C
+//!   ([`IR663_TRUE_ERRORS`](crate::geometric::IR663_TRUE_ERRORS)), the
+//!   robot's own weight through its FE structure, the drives' lost motion
+//!   and hardening under that weight, the joints' transmission errors, and
+//!   optionally a temperature drift over the campaign (the pose order is
+//!   the measurement order).
 //! - Poses: the 3 x 3 x 3 grid of box (59) (x 1.4-2.1, y -0.3-0.3,
 //!   z 1.4-1.7 m) for identification and 16 seeded random points of the box
 //!   for validation, the tool pointing down tilted by up to
 //!   [`GeometricCampaignOptions::max_tilt`](crate::geometric::GeometricCampaignOptions::max_tilt) and turned at random about its axis.
 //!   The commanded q come from the nominal inverse model (as a controller
-//!   would), the measured poses from the true forward model.
-//! - Measurement system: the K600 photogrammetry of section 3.1 — Gaussian
-//!   noise of 21 um per position axis (37 um RMS in 3D) and 0.01 deg per
-//!   orientation axis; the standard deviations are written into the files.
-//!   As in the paper the measurements are expressed in the robot base frame
-//!   R0, the target is the TCP.
+//!   would), the measured poses from the twin.
+//! - Measurement system: the K600-10 class photogrammetry of
+//!   [`crate::truth::measurement`]: poses in the camera frame, an unknown
+//!   rigid transform away from the robot base (the calibration registers
+//!   it), noise derived from the instrument's published accuracy and the
+//!   LED target; the standard deviations are written into the files. The
+//!   target is the TCP.
 
 use std::path::Path;
 
 use flexcal_calib::{Measurement, MeasurementSet, rotation_from_vector, vector_from_rotation};
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, KinematicsError, Model, RobotDescription,
-    actuated_from_joint_angles, forward_pose, inverse_pose,
+    actuated_from_joint_angles, inverse_pose,
 };
-use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 
-/// True error of kappa2 (deg): not identifiable (only lambda2 - kappa2 is,
-/// (C.1)), so the paper gives no value; a plausible 0.02 deg.
-const KAPPA2: f64 = 0.02;
-/// True error of kappa8 (deg), as [`KAPPA2`]: a plausible -0.015 deg.
-const KAPPA8: f64 = -0.015;
-/// True error of r2 (mm): not identifiable (it acts along joint 3's axis
-/// like r3, (C.1)); a plausible 0.05 mm.
-const R2: f64 = 0.05;
-/// True error of r7 (mm): not identifiable (it acts along the tool axis like
-/// rE, (C.1)); a plausible -0.06 mm.
-const R7: f64 = -0.06;
-/// True error of the screw offset r'8 (mm): not identifiable independently
-/// (C.1); a plausible 0.08 mm.
-const R8P: f64 = 0.08;
-/// True error of d9 (mm): not identifiable independently (C.1); a plausible
-/// 0.12 mm.
-const D9: f64 = 0.12;
-/// True error of d10 (mm): the identified combination (C.11)
-/// d10_id = d10 - 0.82 d9 = -0.4441 mm solved for d10.
-const D10: f64 = -0.4441 + 0.82 * D9;
-/// The paper's combination coefficients (C.1) relate errors in SI units: an
-/// angle (rad) per length (m) is 1e-3 rad per mm, written here in deg per mm.
-const RAD_PER_M_IN_DEG_PER_MM: f64 = 1e-3 * 180.0 / std::f64::consts::PI;
-
-/// The true geometric errors of the virtual IR-663, `(parameter, error)`, in
-/// mm for lengths and deg for angles, in the order of Appendix B.
-///
-/// The values printed in Appendix C (C.2)-(C.11) are *identified* values:
-/// for the parameters that enter a combination of (C.1) they are the
-/// combination `xi_id = xi + K xi_N`, which has absorbed the true errors
-/// `xi_N` of the six parameters the paper could not identify (kappa8,
-/// kappa2, r'8, d9, r2, r7). The twin gives those six plausible non-zero
-/// values (`KAPPA2`, `KAPPA8`, `R8P`, `D9`, `R2`, `R7` in this file) and solves
-/// each combination of (C.1) for the true value, `xi = xi_id - K xi_N`, so
-/// that the paper's combinations of the twin's truth are exactly the printed
-/// values. (Setting `xi = xi_id` *and* non-zero `xi_N` would add the
-/// non-identifiable errors on top of the printed ones: kappa2 alone then
-/// turns lambda2 - kappa2 from -0.0026 into -0.0226 deg, 0.33 mm at the TCP.)
-/// The exact combinations (lambda - kappa, r3 + r2, rE + r7) hold for any
-/// geometry; the near ones (d9, r'8) use the paper's coefficients, which
-/// flexcal's four-bar reproduces (the paper's d9 direction
-/// d9 + 0.82 d10 + 0.39 d11 + ... moves the TCP by ~0.02 mm per mm in box
-/// (59), d9 alone by ~4 mm per mm), and its slider crank 8 approximately.
-///
-/// Two further readings:
-/// - (C.3) prints `dr2_id = -0.0453` third and `dr2 = ×` last, and (C.1)'s
-///   first line `dr2_id = dr'2 + ...` is the screw offset's combination:
-///   -0.0453 mm is r'2 (`r2p`), the last × is r2. (C.3) also prints l32 as ×
-///   although (C.1) lists l32 among the identified parameters: its value is
-///   lost; a plausible 0.06 mm.
-/// - Table 1 row 4 has `r = r4 + d10`, and flexcal's description adds the d10
-///   parameter to frame 4's r (joint 10 and the wrist move together). The
-///   paper's Jacobian (Appendix B) lets d10 act through theta3 only (J'10)
-///   and dr4 is the whole error of row 4's r (J'4), so the twin's r4 error is
-///   the printed -0.030 mm minus its d10 error.
-///
-/// Before calibration these errors give 2.85 mm / 0.072 deg mean on the 16
-/// validation poses, not the paper's 0.96 mm / 0.14 deg; no faithful choice
-/// closes the gap. The printed errors of frames 4 to E alone (mostly the
-/// offsets d4, d6, d7 and rE, pure translations, mm for mm) move the TCP by
-/// 1.3 mm mean: d7 (along x6) and rE (along z7, perpendicular to x6) alone
-/// make 1.01 mm in every pose. The four-bar lengths d3, d10, d11 (0.94,
-/// 1.22, 1.25 mm each, 0.9 mm together) add to them. The printed angles,
-/// even all about one axis, sum to 0.156 deg (theta5 twice, as
-/// theta6 = -theta5), and the four-bar's rotation adds about 0.03 deg: a
-/// mean of 0.14 deg would need them nearly aligned in every pose. The
-/// paper's before figures therefore do not follow from its printed errors
-/// through Table 1 alone (a measurement frame registered on the nominal
-/// model, for example, would take up most of the difference: a rigid fit on
-/// the validation poses leaves 0.4 mm).
-pub const IR663_TRUE_ERRORS: [(&str, f64); 43] = [
-    ("alpha1", -0.0045),
-    ("d1", -0.1117),
-    ("theta1", 0.0059),
-    // (C.1): r1_id = r1 - 0.0012 d9.
-    ("r1", -0.04512 + 0.0012 * D9),
-    ("alpha2", -0.0058),
-    ("d2", 0.0944),
-    ("r2", R2),
-    // (C.1): r'2_id = r'2 + 0.003 d9 - 0.011 r'8.
-    ("r2p", -0.0453 - 0.003 * D9 + 0.011 * R8P),
-    ("kappa2", KAPPA2),
-    // (C.1): lambda2_id = lambda2 - kappa2.
-    ("lambda2", -0.0026 + KAPPA2),
-    // (C.1): l12_id = l12 + 0.0011 d9 + 0.0066 r'8.
-    ("l12", -0.0456 - 0.0011 * D9 - 0.0066 * R8P),
-    ("l32", 0.06),
-    ("beta3", 0.0067),
-    ("alpha3", -0.0013),
-    // (C.1): d3_id = d3 + 0.0013 d9.
-    ("d3", 0.1804 - 0.0013 * D9),
-    // (C.1): r3_id = r3 + r2.
-    ("r3", -0.0855 - R2),
-    ("alpha4", 0.0032),
-    ("d4", -0.4196),
-    ("theta4", 0.0395),
-    // Row 4's r error is -0.030 mm in the paper; flexcal adds d10 to it.
-    ("r4", -0.030 - D10),
-    ("alpha5", -0.0033),
-    // (C.1): d5_id = d5 + 0.0053 d9 + 0.0025 r'8.
-    ("d5", 0.0729 - 0.0053 * D9 - 0.0025 * R8P),
-    ("theta5", -0.0056),
-    // (C.1): r5_id = r5 - 0.0036 d9 - 0.0019 r'8.
-    ("r5", -0.0995 + 0.0036 * D9 + 0.0019 * R8P),
-    ("alpha6", -0.0011),
-    ("d6", -0.4267),
-    // (C.1): r6_id = r6 - 0.0038 d9 - 0.0021 r'8.
-    ("r6", -0.1536 + 0.0038 * D9 + 0.0021 * R8P),
-    ("alpha7", 0.0272),
-    // (C.1): d7_id = d7 - 0.0057 d9 - 0.0025 r'8.
-    ("d7", -0.6448 + 0.0057 * D9 + 0.0025 * R8P),
-    ("theta7", 0.0228),
-    ("r7", R7),
-    ("betaE", 0.0132),
-    ("alphaE", 0.0048),
-    ("dE", -0.0285),
-    // (C.1): rE_id = rE + r7.
-    ("rE", 0.7799 - R7),
-    ("r8p", R8P),
-    ("kappa8", KAPPA8),
-    // (C.1): lambda8_id = lambda8 - kappa8 + 0.098 d9 - 0.78 r'8 (rad, m).
-    (
-        "lambda8",
-        0.0027 + KAPPA8 - (0.098 * D9 - 0.78 * R8P) * RAD_PER_M_IN_DEG_PER_MM,
-    ),
-    // (C.1): l18_id = l18 - 0.0014 r'8.
-    ("l18", 0.3134 + 0.0014 * R8P),
-    // (C.1): l38_id = l38 - 0.0012 d9 - 0.84 r'8.
-    ("l38", -0.080 + 0.0012 * D9 + 0.84 * R8P),
-    ("d9", D9),
-    ("d10", D10),
-    // (C.1): d11_id = d11 - 0.39 d9.
-    ("d11", 0.2074 + 0.39 * D9),
-];
+pub use crate::truth::geometry::{IR663_TRUE_ERRORS, ir663_true_params};
+use crate::truth::{
+    FormingTruth, Photogrammetry, TruthError, TruthSwitches, TwinRobot, TwinTerms, twin_terms,
+};
 
 /// Errors of the geometric twin.
 #[derive(Debug, thiserror::Error)]
@@ -186,6 +57,9 @@ pub enum GeometricTwinError {
     /// A file could not be written.
     #[error(transparent)]
     Io(#[from] flexcal_io::IoError),
+    /// The twin's truth failed.
+    #[error(transparent)]
+    Truth(Box<TruthError>),
     /// An option is out of range.
     #[error("invalid option `{name}`: {reason}")]
     InvalidOption {
@@ -196,6 +70,12 @@ pub enum GeometricTwinError {
     },
 }
 
+impl From<TruthError> for GeometricTwinError {
+    fn from(e: TruthError) -> Self {
+        Self::Truth(Box::new(e))
+    }
+}
+
 /// Settings of [`geometric_campaign`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct GeometricCampaignOptions {
@@ -203,12 +83,13 @@ pub struct GeometricCampaignOptions {
     pub seed: u64,
     /// Number of random validation poses (default 16).
     pub n_validation: usize,
-    /// Position noise per axis (m; default 21e-6, i.e. 37 um RMS in 3D).
-    pub position_noise: f64,
-    /// Orientation noise per axis (rad; default 0.01 deg).
-    pub orientation_noise: f64,
     /// Largest tilt of the tool axis away from vertical (rad; default 20 deg).
     pub max_tilt: f64,
+    /// Which truth terms are on (default all but the temperature drift).
+    pub switches: TruthSwitches,
+    /// The measurement system (default the K600-10 class system of
+    /// [`crate::truth::measurement`]).
+    pub camera: Photogrammetry,
 }
 
 impl Default for GeometricCampaignOptions {
@@ -216,9 +97,9 @@ impl Default for GeometricCampaignOptions {
         Self {
             seed: 663,
             n_validation: 16,
-            position_noise: 21e-6,
-            orientation_noise: 0.01f64.to_radians(),
             max_tilt: 20f64.to_radians(),
+            switches: TruthSwitches::default(),
+            camera: Photogrammetry::default(),
         }
     }
 }
@@ -228,38 +109,19 @@ impl Default for GeometricCampaignOptions {
 pub struct GeometricCampaign {
     /// The nominal model.
     pub model: Model,
-    /// True parameter vector xi (m, rad).
+    /// True parameter vector xi (m, rad) at the start of the campaign.
     pub true_xi: Vec<f64>,
-    /// The true robot as a description (mm, deg).
+    /// The true robot as a description (mm, deg): the geometry only.
     pub true_description: RobotDescription,
+    /// The true measurement frame `x_meas_base` (identity when the term is
+    /// off).
+    pub x_meas_base: Isometry3<f64>,
+    /// The truth's terms.
+    pub terms: TwinTerms,
     /// 27 poses of the 3 x 3 x 3 grid of box (59).
     pub identification: MeasurementSet,
     /// Random poses of box (59).
     pub validation: MeasurementSet,
-}
-
-/// True xi of the virtual IR-663: nominal + [`IR663_TRUE_ERRORS`].
-///
-/// # Errors
-/// When `model` lacks one of the named parameters (it is not the IR-663).
-pub fn ir663_true_params(model: &Model) -> Result<Vec<f64>, GeometricTwinError> {
-    let mut xi = model.nominal_params().to_vec();
-    for (name, error) in IR663_TRUE_ERRORS {
-        let j = model
-            .param_index(name)
-            .ok_or_else(|| GeometricTwinError::InvalidOption {
-                name: "robot",
-                reason: format!(
-                    "parameter `{name}` of the IR-663 errors is not in robot `{}`",
-                    model.name()
-                ),
-            })?;
-        xi[j] += match model.params()[j].kind {
-            flexcal_kinematics::ParamKind::Length => error * 1e-3,
-            flexcal_kinematics::ParamKind::Angle => error.to_radians(),
-        };
-    }
-    Ok(xi)
 }
 
 /// Generates the geometric campaign of the virtual IR-663.
@@ -270,25 +132,32 @@ pub fn ir663_true_params(model: &Model) -> Result<Vec<f64>, GeometricTwinError> 
 pub fn geometric_campaign(
     options: &GeometricCampaignOptions,
 ) -> Result<GeometricCampaign, GeometricTwinError> {
-    for (name, v) in [
-        ("position_noise", options.position_noise),
-        ("orientation_noise", options.orientation_noise),
-        ("max_tilt", options.max_tilt),
-    ] {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(GeometricTwinError::InvalidOption {
-                name,
-                reason: format!("must be finite and >= 0, found {v}"),
-            });
-        }
+    if !(options.max_tilt.is_finite() && options.max_tilt >= 0.0) {
+        return Err(GeometricTwinError::InvalidOption {
+            name: "max_tilt",
+            reason: format!("must be finite and >= 0, found {}", options.max_tilt),
+        });
+    }
+    let camera = &options.camera;
+    if !(camera.single_point_accuracy_m.is_finite()
+        && camera.single_point_accuracy_m >= 0.0
+        && camera.led_radius_m > 0.0
+        && camera.led_count >= 3)
+    {
+        return Err(GeometricTwinError::InvalidOption {
+            name: "camera",
+            reason: format!(
+                "need a finite accuracy >= 0, 3 or more LEDs and a positive LED radius, found {camera:?}"
+            ),
+        });
     }
     let kin = |step: &str| {
         let step = step.to_string();
         move |source| GeometricTwinError::Kinematics { step, source }
     };
-    let description = RobotDescription::builtin("ir663").map_err(kin("built-in ir663"))?;
-    let model = description.build().map_err(kin("built-in ir663"))?;
-    let true_xi = ir663_true_params(&model)?;
+    let twin = TwinRobot::new(options.switches)?;
+    let model = twin.model().clone();
+    let true_xi = twin.true_xi().to_vec();
     let true_description = model
         .description_with_params(&true_xi)
         .map_err(kin("true description"))?;
@@ -314,27 +183,67 @@ pub fn geometric_campaign(
             )
         })
         .collect();
-    let identification = measure(&model, &true_xi, &grid, options, &mut rng, "identification")?;
-    let validation = measure(&model, &true_xi, &random, options, &mut rng, "validation")?;
+    // Identification then validation, in measurement order (the
+    // temperature drift runs over both).
+    let total = (grid.len() + random.len()).max(2) as f64 - 1.0;
+    // The noise has its own stream, so that the poses do not depend on
+    // whether the noise is on.
+    let mut noise_rng = ChaCha8Rng::seed_from_u64(options.seed ^ NOISE_STREAM);
+    let identification = measure(
+        &twin,
+        &grid,
+        0,
+        total,
+        options,
+        &mut rng,
+        &mut noise_rng,
+        "identification",
+    )?;
+    let validation = measure(
+        &twin,
+        &random,
+        grid.len(),
+        total,
+        options,
+        &mut rng,
+        &mut noise_rng,
+        "validation",
+    )?;
+    let x_meas_base = if options.switches.measurement_frame {
+        options.camera.x_meas_base
+    } else {
+        Isometry3::identity()
+    };
+    let terms = twin_terms(&twin, &options.camera, &FormingTruth::default());
     Ok(GeometricCampaign {
         model,
         true_xi,
         true_description,
+        x_meas_base,
+        terms,
         identification,
         validation,
     })
 }
 
+/// Mixed into the seed of the noise stream.
+const NOISE_STREAM: u64 = 0x6e6f_6973_6500;
+
+#[allow(clippy::too_many_arguments)]
 fn measure(
-    model: &Model,
-    true_xi: &[f64],
+    twin: &TwinRobot,
     points: &[Vector3<f64>],
+    first_index: usize,
+    last_index: f64,
     options: &GeometricCampaignOptions,
     rng: &mut ChaCha8Rng,
+    noise_rng: &mut ChaCha8Rng,
     name: &str,
 ) -> Result<MeasurementSet, GeometricTwinError> {
     let kin = |step: String| move |source| GeometricTwinError::Kinematics { step, source };
+    let model = twin.model();
     let mut data = Data::new(model);
+    let mut workspace = twin.workspace()?;
     let nominal = model.nominal_params();
     let start = actuated_from_joint_angles(model, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])
         .map_err(kin("start configuration".into()))?;
@@ -342,19 +251,13 @@ fn measure(
         target: InverseTarget::PositionAndToolAxis,
         ..InverseOptions::default()
     };
-    // Normal::new fails only for a negative or non-finite deviation, checked above.
-    let position_noise = Normal::new(0.0, options.position_noise).map_err(|e| {
-        GeometricTwinError::InvalidOption {
-            name: "position_noise",
-            reason: e.to_string(),
-        }
-    })?;
-    let orientation_noise = Normal::new(0.0, options.orientation_noise).map_err(|e| {
-        GeometricTwinError::InvalidOption {
-            name: "orientation_noise",
-            reason: e.to_string(),
-        }
-    })?;
+    let switches = options.switches;
+    let mut camera = options.camera.clone();
+    if !switches.measurement_frame {
+        camera.x_meas_base = Isometry3::identity();
+    }
+    let position_std = camera.position_std_per_axis();
+    let orientation_std = camera.orientation_std_target();
     let down = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
     let mut seed = start.clone();
     let mut measurements = Vec::with_capacity(points.len());
@@ -376,29 +279,29 @@ fn measure(
             }
         };
         seed = solution.q.clone();
-        let x_base_tcp = forward_pose(model, &mut data, &solution.q, true_xi)
-            .map_err(kin(format!("{name} pose {k}: true forward model")))?;
-        let dp = Vector3::from_fn(|_, _| position_noise.sample(rng));
-        let dphi = Vector3::from_fn(|_, _| orientation_noise.sample(rng));
-        let measured_rotation = rotation_from_vector(&dphi) * x_base_tcp.rotation;
-        let mut m = Measurement::new(solution.q, x_base_tcp.translation.vector + dp);
+        let fraction = (first_index + k) as f64 / last_index;
+        let reached = twin.pose(&mut workspace, &solution.q, &Vector6::zeros(), fraction)?;
+        let x_meas_tcp = camera.measure(
+            &reached.x_base_tcp,
+            switches.measurement_noise,
+            false,
+            noise_rng,
+        );
+        let mut m = Measurement::new(solution.q, x_meas_tcp.translation.vector);
         m.pose_id = Some(format!("{name}-{}", k + 1));
-        m.orientation = Some(vector_from_rotation(&measured_rotation));
-        m.position_std = Some(Vector3::repeat(
-            options.position_noise.max(f64::MIN_POSITIVE),
-        ));
-        m.orientation_std = Some(Vector3::repeat(
-            options.orientation_noise.max(f64::MIN_POSITIVE),
-        ));
+        m.orientation = Some(vector_from_rotation(&x_meas_tcp.rotation));
+        m.position_std = Some(Vector3::repeat(position_std.max(f64::MIN_POSITIVE)));
+        m.orientation_std = Some(orientation_std.map(|s| s.max(f64::MIN_POSITIVE)));
         measurements.push(m);
     }
     Ok(MeasurementSet::new(name, measurements)?)
 }
 
 /// Writes a campaign into `dir`: `identification.csv`, `validation.csv`
-/// (flexcal's measurement format), `truth.toml` (the true robot description)
-/// and `truth.json` (`{"robot": "ir663", "xi": {name: value}, "units": ...}`
-/// with lengths in mm and angles in deg, and the errors from nominal).
+/// (flexcal's measurement format, poses in the camera frame), `truth.toml`
+/// (the true robot geometry) and `truth.json` (`{"robot": "ir663", "xi":
+/// {name: value}, "units": ...}` with lengths in mm and angles in deg, the
+/// errors from nominal, the true measurement frame and the truth's terms).
 ///
 /// # Errors
 /// Files that cannot be written.
@@ -432,8 +335,12 @@ pub fn write_geometric_campaign(
         "units": "lengths in mm, angles in deg",
         "xi": xi,
         "errors_from_nominal": errors,
-        "measurement_frame": "robot base frame R0 (fixed)",
-        "target": "TCP (fixed)",
+        "measurement_frame": {
+            "x_meas_base_translation_mm": (campaign.x_meas_base.translation.vector * 1e3).as_slice(),
+            "x_meas_base_rotation_vector_deg": campaign.x_meas_base.rotation.scaled_axis().map(f64::to_degrees).as_slice(),
+        },
+        "target": "TCP",
+        "terms": campaign.terms,
     });
     let text = serde_json::to_string_pretty(&json).unwrap_or_default();
     flexcal_io::write_atomic(dir.join("truth.json"), text)?;

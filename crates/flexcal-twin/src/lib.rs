@@ -1,10 +1,14 @@
 //! # flexcal-twin
 //!
 //! The virtual robot on which flexcal proves its identification and
-//! compensation: a KUKA IR-663 whose behaviour is richer than the models
-//! identified from it (true geometric errors of Appendix C, slider-crank
-//! screws as configuration-dependent springs, flexible links, measurement
-//! noise), and the campaigns of the reference paper simulated on it: the
+//! compensation: a KUKA IR-663 whose behaviour is richer than every model
+//! identified from it ([`truth`]: true geometric errors of Appendix C, its
+//! own FE structure with its own weight in every campaign, slider-crank
+//! screws as configuration-dependent springs, drives with lost motion and
+//! torque hardening, cyclic transmission errors, a measurement system in an
+//! unknown frame with noise derived from its published accuracy, a forming
+//! beam, contact and dead weight that differ from the user's process
+//! model), and the campaigns of the reference paper simulated on it: the
 //! geometric campaign of section 3.2 (27 + 16 poses in box (59), equations
 //! (48)-(53)), the elastic campaign of section 3.3.1 (63 poses of grid (65),
 //! 8 load sets) and the forming experiment of section 4 (Figure 17).
@@ -12,9 +16,15 @@
 //! ## Limitations
 //! - Three points of grid (65) cannot be reached with the tool down by the
 //!   geometry of Table 2 ([`elastic::GridCorner`] says what replaces them).
-//! - The geometric error before calibration is 2.85 mm mean, not the
-//!   paper's 0.96 mm: the printed errors of Appendix C alone move the TCP by
-//!   more than 1 mm (see [`geometric`]).
+//! - The geometric error before calibration is larger than the paper's
+//!   0.96 mm: the printed errors of Appendix C alone move the TCP by more
+//!   than 1 mm (see [`geometric`]).
+//! - It is a simulation: every term is chosen from a source (listed with
+//!   [`truth::twin_terms`]), not measured on a real IR-663.
+
+/// The twin's truth: one module per term, each with its magnitude, source
+/// and switch.
+pub mod truth;
 
 /// The virtual IR-663's geometric campaign (paper section 3.2): true
 /// parameters from Appendix C, simulated photogrammetry, identification and

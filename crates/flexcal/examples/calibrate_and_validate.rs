@@ -17,8 +17,9 @@ pub fn calibrate_and_validate(dir: &Path) -> Result<ValidationReport, Box<dyn Er
     let identification = MeasurementSet::read_csv(&dir.join("identification.csv"))?;
     let validation = MeasurementSet::read_csv(&dir.join("validation.csv"))?;
     let mut options = CalibrationOptions::for_model(&robot);
-    // These measurements are in the robot base frame, at the TCP.
-    options.measurement_frame = FrameTreatment::Fixed;
+    // These measurements are in the camera's frame, which the calibration
+    // registers with the robot; the target is the TCP.
+    options.measurement_frame = FrameTreatment::Identify;
     options.target = FrameTreatment::Fixed;
     let calibration = calibrate(&robot, &identification, &options)?;
     println!(

@@ -92,6 +92,9 @@ pub enum Error {
     /// The virtual forming experiment.
     #[error(transparent)]
     Forming(#[from] flexcal_twin::forming::FormingError),
+    /// The virtual robot's truth.
+    #[error(transparent)]
+    Truth(#[from] flexcal_twin::truth::TruthError),
     /// Reading or writing files.
     #[error(transparent)]
     Io(#[from] flexcal_io::IoError),

@@ -21,7 +21,8 @@
 //! let robot = flexcal::load_robot("ir663")?; // built-in name or description file
 //! let poses = calib::MeasurementSet::read_csv(&dir.join("identification.csv"))?;
 //! let mut options = calib::CalibrationOptions::for_model(&robot);
-//! (options.measurement_frame, options.target) = (calib::FrameTreatment::Fixed, calib::FrameTreatment::Fixed);
+//! // The camera's frame is registered with the robot; the target is the TCP.
+//! (options.measurement_frame, options.target) = (calib::FrameTreatment::Identify, calib::FrameTreatment::Fixed);
 //! let calibration = calib::calibrate(&robot, &poses, &options)?;
 //! let validation = calibration.validate(&robot, &calib::MeasurementSet::read_csv(&dir.join("validation.csv"))?, false)?;
 //! let fuzzy = workflow::identify_compliance_in_dir(&robot, &dir.join("elastic"), &Default::default())?;

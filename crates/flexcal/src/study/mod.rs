@@ -15,14 +15,15 @@
 //! ([`study_report`]) only lays it out.
 
 mod sections;
+mod seeds;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use flexcal_calib::{
-    Calibration, CalibrationOptions, ErrorStatistics, FrameTreatment, MeasurementSet,
-    UnknownStatus, ValidationReport, calibrate,
+    Calibration, CalibrationOptions, ErrorStatistics, FrameTreatment, GravityCompliance,
+    MeasurementSet, PointMass, UnknownStatus, ValidationReport, calibrate,
 };
 use flexcal_elastic::campaign::DeflectionSet;
 use flexcal_elastic::description::ElasticDescription;
@@ -38,9 +39,11 @@ use flexcal_twin::forming::FormingResult;
 use flexcal_twin::geometric::{
     GeometricCampaignOptions, geometric_campaign, write_geometric_campaign,
 };
+use flexcal_twin::truth::{TruthSwitches, TwinTerm};
 use serde::{Deserialize, Serialize};
 
 pub use sections::study_report;
+pub use seeds::{LoadComparison, MultiSeedSummary, Spread, multi_seed_study};
 
 use crate::{Error, Result};
 
@@ -115,8 +118,15 @@ pub struct GeometricSummary {
     pub non_identifiable: Vec<String>,
     /// Validation errors with the nominal robot.
     pub validation_before: ValidationFigures,
-    /// Validation errors with the calibrated robot.
+    /// Validation errors with the calibrated robot (geometric model).
     pub validation_after: ValidationFigures,
+    /// Validation errors with the elasto-geometric model (geometry and
+    /// joint compliances under gravity, identified on the same poses).
+    pub elasto_geometric: ValidationFigures,
+    /// Mean position error a perfect model would show on the validation
+    /// poses: the measurement noise (mm), `2 sqrt(2 / pi) sigma` for a
+    /// Gaussian of `sigma` per axis.
+    pub noise_floor_position_mean_mm: f64,
 }
 
 /// Table 5 figures of one load (mm).
@@ -176,15 +186,47 @@ impl From<&flexcal_elastic::metrics::LoadMetricsTable> for Table5 {
     }
 }
 
+/// Table 5 of both elastic models on one metric, and its noise floor.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SameMetric {
+    /// The parametric (FE beam) model.
+    pub parametric: Table5,
+    /// The fuzzy compliance model (it predicts x and z only: in 3-D its
+    /// residual along y is the measured y deflection).
+    pub fuzzy: Table5,
+    /// RMS norm of the deflection noise on this metric (mm): no model can
+    /// get below it on these data.
+    pub noise_floor_mm: f64,
+}
+
+/// The elastic models compared on the same metric: residuals in the x-z
+/// plane, and in 3-D.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Table5Comparison {
+    /// Residual norm in the x-z plane (the paper's metric).
+    pub plane_xz: SameMetric,
+    /// Residual norm in 3-D.
+    pub three_d: SameMetric,
+}
+
 /// The elastic part of the summary.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ElasticSummary {
-    /// Table 5 of the parametric (FE beam) model.
+    /// Table 5 of the parametric (FE beam) model (3-D residuals).
     pub parametric: Table5,
     /// Table 5 of the fuzzy compliance model (x-z plane).
     pub fuzzy: Table5,
     /// Stiffness parameters that the campaign cannot identify separately.
     pub stiffness_non_identifiable: Vec<String>,
+    /// Both models on the same metric, each with its noise floor.
+    pub same_metric: Table5Comparison,
+}
+
+/// The twin's part of the summary: what its truth contains.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TwinSummary {
+    /// Every truth term with its magnitude, source and switch.
+    pub terms: Vec<TwinTerm>,
 }
 
 /// The forming part of the summary.
@@ -207,6 +249,8 @@ pub struct Summary {
     pub elastic: ElasticSummary,
     /// Forming path compensation.
     pub forming: FormingSummary,
+    /// The virtual robot's truth (a simulation, not a real IR-663).
+    pub twin: TwinSummary,
     /// Seed used.
     pub seed: u64,
     /// Wall-clock time of the whole study (s).
@@ -245,10 +289,14 @@ pub struct GeometricResults {
     pub model: Model,
     /// The twin's true parameters (SI).
     pub true_xi: Vec<f64>,
-    /// The calibration.
+    /// The calibration (geometric model).
     pub calibration: Calibration,
     /// Its validation on the other poses.
     pub validation: ValidationReport,
+    /// The elasto-geometric calibration on the same poses.
+    pub elasto_geometric: Calibration,
+    /// Its validation on the other poses.
+    pub elasto_geometric_validation: ValidationReport,
     /// Sensitivity indices (55), (56) over the identification poses
     /// (Figs. C.21-C.24).
     pub sensitivity: SensitivityTable,
@@ -342,10 +390,14 @@ pub fn run_study(options: &StudyOptions, observer: &mut dyn StudyObserver) -> Re
     let geometric = geometric_step(&options.out, options.seed, observer)?;
     let elastic = elastic_step(&options.out, options.seed, observer)?;
     let forming = forming_step(&options.out, options.seed, &geometric, &elastic, observer)?;
+    let terms = flexcal_twin::forming::TwinCell::new(TruthSwitches::default())?
+        .terms()
+        .terms;
     let summary = Summary {
         geometric: geometric.summary.clone(),
         elastic: elastic.summary.clone(),
         forming: forming.summary.clone(),
+        twin: TwinSummary { terms },
         seed: options.seed,
         runtime_s: start.elapsed().as_secs_f64(),
     };
@@ -387,11 +439,31 @@ fn geometric_step(
     let model = campaign.model;
     observer.stage("geometric identification (Levenberg-Marquardt)");
     let mut calibration_options = CalibrationOptions::for_model(&model);
-    // The twin's measurements are expressed in R0, target = TCP (section 3.1).
-    calibration_options.measurement_frame = FrameTreatment::Fixed;
+    // The camera's frame is registered with the robot (section 3.1): it is
+    // identified; the target is the TCP.
+    calibration_options.measurement_frame = FrameTreatment::Identify;
     calibration_options.target = FrameTreatment::Fixed;
     let calibration = calibrate(&model, &identification, &calibration_options)?;
     let validation = calibration.validate(&model, &validation_set, false)?;
+    observer.stage("elasto-geometric identification (geometry + joint compliances under gravity)");
+    let mut elastic_options = calibration_options.clone();
+    elastic_options.gravity = Some(ir663_mass_table(&model)?);
+    let elasto_geometric = calibrate(&model, &identification, &elastic_options)?;
+    let elasto_geometric_validation = elasto_geometric.validate(&model, &validation_set, false)?;
+    let elasto_description = elasto_geometric.description(&model)?;
+    flexcal_io::write_atomic(
+        dir.join("calibrated_elasto_geometric.toml"),
+        elasto_description.to_toml_string(),
+    )?;
+    let noise_floor_position_mean_mm = {
+        let sigmas: Vec<f64> = validation_set
+            .measurements()
+            .iter()
+            .filter_map(|m| m.position_std.map(|s| s.norm() / 3f64.sqrt()))
+            .collect();
+        let sigma = sigmas.iter().sum::<f64>() / sigmas.len().max(1) as f64;
+        2.0 * (2.0 / std::f64::consts::PI).sqrt() * sigma * 1e3
+    };
     let calibrated = calibration.description(&model)?;
     flexcal_io::write_atomic(dir.join("calibrated.toml"), calibrated.to_toml_string())?;
     let report =
@@ -410,15 +482,20 @@ fn geometric_step(
         non_identifiable,
         validation_before: (&validation.before).into(),
         validation_after: (&validation.after).into(),
+        elasto_geometric: (&elasto_geometric_validation.after).into(),
+        noise_floor_position_mean_mm,
     };
     observer.finished(&format!(
-        "geometric calibration: rank {} of {}, validation {:.3} mm / {:.3} deg -> {:.3} mm / {:.3} deg (mean)",
+        "geometric calibration: rank {} of {}, validation mean {:.3} mm / {:.3} deg -> geometric {:.3} mm / {:.3} deg, elasto-geometric {:.3} mm / {:.3} deg (noise floor {:.3} mm)",
         summary.rank,
         summary.parameters,
         summary.validation_before.position_mean_mm,
         summary.validation_before.orientation_mean_deg,
         summary.validation_after.position_mean_mm,
-        summary.validation_after.orientation_mean_deg
+        summary.validation_after.orientation_mean_deg,
+        summary.elasto_geometric.position_mean_mm,
+        summary.elasto_geometric.orientation_mean_deg,
+        summary.noise_floor_position_mean_mm
     ));
     let identification_q: Vec<Vec<f64>> = identification
         .measurements()
@@ -433,9 +510,55 @@ fn geometric_step(
         true_xi: campaign.true_xi,
         calibration,
         validation,
+        elasto_geometric,
+        elasto_geometric_validation,
         sensitivity,
         summary,
     })
+}
+
+/// The IR-663's masses as a user would estimate them for the
+/// elasto-geometric calibration (kg, centres in the frames of the built-in
+/// `ir663`): the links as steel castings of the published arm lengths, the
+/// wrist motors behind the elbow, the wrist at its centre. Estimates, not
+/// the twin's values; the payload (the tool) is identified.
+///
+/// # Errors
+/// A robot without the `ir663` frames.
+pub fn ir663_mass_table(model: &Model) -> Result<GravityCompliance> {
+    let mass = |name: &str, frame: &str, kg: f64, center_mm: [f64; 3]| PointMass {
+        name: name.into(),
+        frame: frame.into(),
+        mass: kg,
+        center: nalgebra::Vector3::from(center_mm) * 1e-3,
+    };
+    let table = GravityCompliance {
+        gravity: nalgebra::Vector3::new(0.0, 0.0, -flexcal_calib::gravity::STANDARD_GRAVITY),
+        masses: vec![
+            mass("upper arm", "2", 190.0, [523.5, 0.0, 0.0]),
+            mass("forearm", "4", 160.0, [0.0, 0.0, -880.0]),
+            mass("wrist motors", "4", 70.0, [0.0, 0.0, -2000.0]),
+            mass("wrist", "4", 100.0, [0.0, 0.0, 0.0]),
+            mass("crank", "8", 40.0, [236.5, 0.0, 0.0]),
+            mass("coupler", "9", 30.0, [606.0, 0.0, 0.0]),
+        ],
+        payload_mass: 10.0,
+        payload_center: nalgebra::Vector3::zeros(),
+        initial_compliance: 1e-8,
+    };
+    for m in &table.masses {
+        if model.frame_index(&m.frame).is_none() {
+            return Err(Error::InvalidParameter {
+                parameter: "robot".into(),
+                message: format!(
+                    "the IR-663 mass table needs frame `{}`; robot `{}` has none",
+                    m.frame,
+                    model.name()
+                ),
+            });
+        }
+    }
+    Ok(table)
 }
 
 fn elastic_step(out: &Path, seed: u64, observer: &mut dyn StudyObserver) -> Result<ElasticResults> {
@@ -510,10 +633,12 @@ fn elastic_step(out: &Path, seed: u64, observer: &mut dyn StudyObserver) -> Resu
         compliance.table.overall_rms_mm,
         compliance.noise_floor_mm
     ));
+    let same_metric = same_metric(&robot, &stiffness, &compliance)?;
     let summary = ElasticSummary {
         parametric: (&stiffness.table).into(),
         fuzzy: (&compliance.table).into(),
         stiffness_non_identifiable: not_separable,
+        same_metric,
     };
     let vertical = match largest_vertical_set(&stiffness.sets) {
         Some(set) => Some(vertical_figures(&robot, set, &stiffness, &compliance)?),
@@ -527,6 +652,76 @@ fn elastic_step(out: &Path, seed: u64, observer: &mut dyn StudyObserver) -> Resu
         vertical,
         surface,
         summary,
+    })
+}
+
+/// Both elastic models' residuals on every set, on the same metrics: the
+/// x-z plane and 3-D (the fuzzy model predicts no y deflection).
+fn same_metric(
+    robot: &Model,
+    stiffness: &StiffnessOutcome,
+    compliance: &ComplianceOutcome,
+) -> Result<Table5Comparison> {
+    use flexcal_elastic::metrics::{ResidualSample, per_load_metrics};
+    let all: Vec<flexcal_elastic::campaign::DeflectionMeasurement> = stiffness
+        .sets
+        .iter()
+        .flat_map(|s| s.measurements.clone())
+        .collect();
+    let fe = flexcal_elastic::identify::residual_samples(
+        &stiffness.model,
+        &all,
+        robot.nominal_params(),
+        &stiffness.fitted.gamma,
+    )?;
+    let inputs = RobotInputs::resolve(robot, &["theta2", "theta8"])?;
+    let samples = compliance_samples(robot, &inputs, &all)?;
+    let fuzzy_xz = compliance.fitted.compliance.residual_samples(&samples)?;
+    // The fuzzy model's prediction along y is zero: its 3-D residual there
+    // is minus the measured y deflection.
+    let fuzzy_3d: Vec<ResidualSample> = fuzzy_xz
+        .iter()
+        .zip(&all)
+        .map(|(r, m)| {
+            let mut residual = r.residual;
+            residual.y = -m.deflection.y;
+            ResidualSample {
+                load_n: r.load_n,
+                residual,
+            }
+        })
+        .collect();
+    let plane = |samples: &[ResidualSample]| -> Vec<ResidualSample> {
+        samples
+            .iter()
+            .map(|r| {
+                let mut residual = r.residual;
+                residual.y = 0.0;
+                ResidualSample {
+                    load_n: r.load_n,
+                    residual,
+                }
+            })
+            .collect()
+    };
+    let floor = |axes: &[usize]| -> f64 {
+        let sum: f64 = all
+            .iter()
+            .map(|m| axes.iter().map(|&a| m.sigma[a] * m.sigma[a]).sum::<f64>())
+            .sum();
+        (sum / all.len().max(1) as f64).sqrt() * 1e3
+    };
+    Ok(Table5Comparison {
+        plane_xz: SameMetric {
+            parametric: (&per_load_metrics(&plane(&fe))).into(),
+            fuzzy: (&per_load_metrics(&plane(&fuzzy_xz))).into(),
+            noise_floor_mm: floor(&[0, 2]),
+        },
+        three_d: SameMetric {
+            parametric: (&per_load_metrics(&fe)).into(),
+            fuzzy: (&per_load_metrics(&fuzzy_3d)).into(),
+            noise_floor_mm: floor(&[0, 1, 2]),
+        },
     })
 }
 
@@ -619,15 +814,9 @@ fn forming_step(
     use flexcal_twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
     observer.started("forming experiment: plunge 25 mm, travel 200 mm, 920 N dead weight");
     let robot = &geometric.model;
-    let truth_description = flexcal_twin::elastic::ir663_elastic_truth()?;
-    let truth_model = flexcal_elastic::model::ElasticModel::new(robot, &truth_description)?;
-    let truth_gamma = truth_model.nominal_gamma();
-    let truth = FeTcpModel::new(
-        truth_model,
-        geometric.true_xi.clone(),
-        truth_gamma,
-        "twin truth",
-    )?;
+    // The twin's truth (its own robot, beam, contact and weight); the user's
+    // side below has the identified models only.
+    let twin = TwinCell::new(TruthSwitches::default())?;
     let s = &elastic.stiffness;
     let identified_model = flexcal_elastic::model::ElasticModel::new(robot, s.model.description())?;
     let fe = FeTcpModel::new(
@@ -636,8 +825,14 @@ fn forming_step(
         s.fitted.gamma.clone(),
         "identified FE beam model",
     )?;
+    // The part is located by the camera; the user carries its pose into the
+    // calibrated robot's base frame through the registered camera frame.
     let options = FormingOptions {
         seed,
+        x_base_part_user: Some(twin.part_located_by_camera(
+            &FormingOptions::default().x_base_part,
+            &geometric.calibration.x_meas_base,
+        )),
         ..FormingOptions::default()
     };
     let dir = out.join("forming");
@@ -645,11 +840,6 @@ fn forming_step(
         dir.join("target_path.csv"),
         flexcal_compensate::path::target_path_to_csv(&forming_path(&options)),
     )?;
-    let twin = TwinCell {
-        model: robot,
-        true_xi: geometric.true_xi.clone(),
-        true_elastic: &truth,
-    };
     let fuzzy =
         RobotFuzzyCompliance::new(elastic.compliance.fitted.compliance.clone(), robot.clone())?;
     let result = run_forming(

@@ -1,0 +1,56 @@
+//! The twin's truth: every way the virtual IR-663 and its measurement
+//! system differ from the models flexcal identifies, one module per term,
+//! each with its magnitude, its source and a switch ([`TruthSwitches`]).
+//!
+//! | term | module | magnitude (default) | source |
+//! |---|---|---|---|
+//! | geometric errors | [`geometry`] | Appendix C, up to 0.78 mm / 0.04 deg | the paper |
+//! | gravity | [`structure`], [`robot`] | steel links, 75 + 100 + 20 kg | the twin's own FE model |
+//! | drive non-linearity | [`drive`] | lost motion 1 arcmin, K3/K1 ~ 2.5 | RV / strain-wave catalogues |
+//! | transmission errors | [`transmission`] | 0.35 + 0.15 arcmin harmonics | reducer catalogues |
+//! | measurement frame | [`measurement`] | 3.5 m, 155 deg away | the paper's registration step |
+//! | measurement noise | [`measurement`] | 12.3 um per axis, 0.017 / 0.012 deg | K600-10, 37 um |
+//! | temperature drift (off) | [`temperature`] | 2 K x 11.7e-6 /K | steel handbook |
+//! | beam modulus, friction, payload | [`process`] | +3 %, mu 0.15, +0.5 % | handbooks, scale |
+//!
+//! The campaigns (the crate's `geometric`, `elastic` and `forming`
+//! modules) use the same [`TwinRobot`] and [`Photogrammetry`], and publish
+//! [`TwinTerms`] with their truth files.
+
+/// The drives' lost motion and torque-hardening stiffness.
+pub mod drive;
+/// Errors of the truth.
+pub mod error;
+/// The true geometric errors (Appendix C).
+pub mod geometry;
+/// The photogrammetry system: frame and noise.
+pub mod measurement;
+/// The forming cell's truth: beam modulus, friction, payload.
+pub mod process;
+/// The true robot: commands to reached poses.
+pub mod robot;
+/// The twin's own FE structure.
+pub mod structure;
+/// The optional temperature drift.
+pub mod temperature;
+/// The published list of terms and their switches.
+pub mod terms;
+/// Cyclic transmission errors of the joints.
+pub mod transmission;
+
+pub use error::TruthError;
+pub use measurement::Photogrammetry;
+pub use process::FormingTruth;
+pub use robot::{TwinAsElastic, TwinPose, TwinRobot, TwinWorkspace};
+pub use terms::{TERM_NAMES, TruthSwitches, TwinTerm, TwinTerms};
+
+/// Every term of the twin, with its switch: the robot's, the measurement
+/// system's and the forming cell's.
+pub fn twin_terms(robot: &TwinRobot, camera: &Photogrammetry, forming: &FormingTruth) -> TwinTerms {
+    let s = robot.switches;
+    let mut terms = robot.terms();
+    terms.push(camera.frame_term(s.measurement_frame));
+    terms.push(camera.noise_term(s.measurement_noise));
+    terms.extend(forming.terms(s.beam_modulus_offset, s.tool_friction, s.payload_error));
+    TwinTerms { terms }
+}

@@ -1,0 +1,297 @@
+//! The study over several seeds: the acceptance figures as min / median /
+//! max, so that no conclusion rests on one draw of the noise.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{StudyObserver, StudyOptions, Summary, Table5, run_study};
+use crate::Result;
+
+/// Smallest, median and largest value of a figure over the seeds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Spread {
+    /// Smallest value.
+    pub min: f64,
+    /// Median (the mean of the two middle values for an even count).
+    pub median: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Spread {
+    /// The spread of `values` (NaN everywhere when empty).
+    pub fn of(values: &[f64]) -> Self {
+        let mut v: Vec<f64> = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n == 0 {
+            return Self {
+                min: f64::NAN,
+                median: f64::NAN,
+                max: f64::NAN,
+            };
+        }
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Self {
+            min: v[0],
+            median,
+            max: v[n - 1],
+        }
+    }
+
+    fn text(&self, digits: usize) -> String {
+        format!(
+            "{:.d$} / {:.d$} / {:.d$}",
+            self.min,
+            self.median,
+            self.max,
+            d = digits
+        )
+    }
+}
+
+/// One load of Table 5, both models on the same metric, over the seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoadComparison {
+    /// RMS of the parametric model (mm).
+    pub parametric_rms_mm: Spread,
+    /// RMS of the fuzzy model (mm).
+    pub fuzzy_rms_mm: Spread,
+    /// Seeds on which the fuzzy model's RMS is below the parametric one's.
+    pub fuzzy_better_seeds: usize,
+}
+
+/// The acceptance figures of the study over several seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MultiSeedSummary {
+    /// The seeds.
+    pub seeds: Vec<u64>,
+    /// Validation mean position error before calibration (mm).
+    pub before_mean_mm: Spread,
+    /// Validation mean position error, geometric model (mm).
+    pub geometric_mean_mm: Spread,
+    /// Validation max position error, geometric model (mm).
+    pub geometric_max_mm: Spread,
+    /// Validation mean position error, elasto-geometric model (mm).
+    pub elasto_geometric_mean_mm: Spread,
+    /// Validation max position error, elasto-geometric model (mm).
+    pub elasto_geometric_max_mm: Spread,
+    /// Seeds on which the elasto-geometric mean is below the geometric one.
+    pub elasto_geometric_better_mean_seeds: usize,
+    /// Seeds on which the elasto-geometric max is below the geometric one.
+    pub elasto_geometric_better_max_seeds: usize,
+    /// Noise floor of the validation mean (mm).
+    pub noise_floor_mean_mm: Spread,
+    /// Table 5 per metric (`"plane_xz"`, `"three_d"`) and load (`"300"`,
+    /// ..., `"all"`).
+    pub table5: BTreeMap<String, BTreeMap<String, LoadComparison>>,
+    /// Noise floor of each Table 5 metric (mm).
+    pub table5_noise_floor_mm: BTreeMap<String, Spread>,
+    /// Forming: largest |deviation| along z_p without compensation (mm).
+    pub forming_uncompensated_mm: Spread,
+    /// Forming: largest |deviation| along z_p with compensation (mm).
+    pub forming_compensated_mm: Spread,
+    /// Forming: improvement (%).
+    pub forming_improvement_percent: Spread,
+    /// Wall-clock time of one study (s).
+    pub runtime_s: Spread,
+    /// Every seed's summary.
+    pub summaries: Vec<Summary>,
+}
+
+fn compare_loads(parametric: &[&Table5], fuzzy: &[&Table5]) -> BTreeMap<String, LoadComparison> {
+    let mut keys: Vec<String> = parametric
+        .first()
+        .map(|t| t.loads.keys().cloned().collect())
+        .unwrap_or_default();
+    keys.push("all".into());
+    keys.into_iter()
+        .map(|key| {
+            let pick = |t: &Table5| -> f64 {
+                if key == "all" {
+                    t.all.rms_mm
+                } else {
+                    t.loads.get(&key).map_or(f64::NAN, |f| f.rms_mm)
+                }
+            };
+            let p: Vec<f64> = parametric.iter().map(|t| pick(t)).collect();
+            let f: Vec<f64> = fuzzy.iter().map(|t| pick(t)).collect();
+            let better = p.iter().zip(&f).filter(|(p, f)| f < p).count();
+            (
+                key,
+                LoadComparison {
+                    parametric_rms_mm: Spread::of(&p),
+                    fuzzy_rms_mm: Spread::of(&f),
+                    fuzzy_better_seeds: better,
+                },
+            )
+        })
+        .collect()
+}
+
+impl MultiSeedSummary {
+    /// The acceptance figures of the study summaries `summaries` (one per
+    /// seed).
+    pub fn from_summaries(summaries: Vec<Summary>) -> Self {
+        let f = |get: &dyn Fn(&Summary) -> f64| -> Spread {
+            Spread::of(&summaries.iter().map(get).collect::<Vec<_>>())
+        };
+        fn g(s: &Summary) -> &super::GeometricSummary {
+            &s.geometric
+        }
+        let mut table5 = BTreeMap::new();
+        let mut floors = BTreeMap::new();
+        for (name, pick) in [
+            (
+                "plane_xz",
+                (|s: &Summary| &s.elastic.same_metric.plane_xz)
+                    as fn(&Summary) -> &super::SameMetric,
+            ),
+            ("three_d", |s: &Summary| &s.elastic.same_metric.three_d),
+        ] {
+            let parametric: Vec<&Table5> = summaries.iter().map(|s| &pick(s).parametric).collect();
+            let fuzzy: Vec<&Table5> = summaries.iter().map(|s| &pick(s).fuzzy).collect();
+            table5.insert(name.to_string(), compare_loads(&parametric, &fuzzy));
+            floors.insert(name.to_string(), f(&|s| pick(s).noise_floor_mm));
+        }
+        Self {
+            seeds: summaries.iter().map(|s| s.seed).collect(),
+            before_mean_mm: f(&|s| g(s).validation_before.position_mean_mm),
+            geometric_mean_mm: f(&|s| g(s).validation_after.position_mean_mm),
+            geometric_max_mm: f(&|s| g(s).validation_after.position_max_mm),
+            elasto_geometric_mean_mm: f(&|s| g(s).elasto_geometric.position_mean_mm),
+            elasto_geometric_max_mm: f(&|s| g(s).elasto_geometric.position_max_mm),
+            elasto_geometric_better_mean_seeds: summaries
+                .iter()
+                .filter(|s| {
+                    g(s).elasto_geometric.position_mean_mm < g(s).validation_after.position_mean_mm
+                })
+                .count(),
+            elasto_geometric_better_max_seeds: summaries
+                .iter()
+                .filter(|s| {
+                    g(s).elasto_geometric.position_max_mm < g(s).validation_after.position_max_mm
+                })
+                .count(),
+            noise_floor_mean_mm: f(&|s| g(s).noise_floor_position_mean_mm),
+            table5,
+            table5_noise_floor_mm: floors,
+            forming_uncompensated_mm: f(&|s| s.forming.max_deviation_uncompensated_mm),
+            forming_compensated_mm: f(&|s| s.forming.max_deviation_compensated_mm),
+            forming_improvement_percent: f(&|s| s.forming.improvement_percent),
+            runtime_s: f(&|s| s.runtime_s),
+            summaries,
+        }
+    }
+
+    /// The figures as Markdown tables (min / median / max).
+    pub fn to_markdown(&self) -> String {
+        let n = self.seeds.len();
+        let seeds: Vec<String> = self.seeds.iter().map(u64::to_string).collect();
+        let mut out = format!(
+            "Seeds {} (min / median / max over {n} seeds).\n\n",
+            seeds.join(", ")
+        );
+        out += "| geometric step, validation | mean position [mm] | max position [mm] |\n|---|---|---|\n";
+        out += &format!(
+            "| nominal (frame registered) | {} | |\n",
+            self.before_mean_mm.text(3)
+        );
+        out += &format!(
+            "| geometric | {} | {} |\n",
+            self.geometric_mean_mm.text(4),
+            self.geometric_max_mm.text(4)
+        );
+        out += &format!(
+            "| elasto-geometric | {} | {} |\n",
+            self.elasto_geometric_mean_mm.text(4),
+            self.elasto_geometric_max_mm.text(4)
+        );
+        out += &format!("| noise floor | {} | |\n", self.noise_floor_mean_mm.text(4));
+        out += "| paper (real IR-663) | 0.96 -> 0.24 | |\n\n";
+        out += &format!(
+            "Elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
+            self.elasto_geometric_better_mean_seeds, self.elasto_geometric_better_max_seeds
+        );
+        for (metric, loads) in &self.table5 {
+            let floor = self.table5_noise_floor_mm.get(metric);
+            out += &format!(
+                "| Table 5, {} (noise floor {} mm) | parametric RMS [mm] | fuzzy RMS [mm] | fuzzy better |\n|---|---|---|---|\n",
+                if metric == "plane_xz" {
+                    "x-z plane"
+                } else {
+                    "3-D"
+                },
+                floor.map_or(String::new(), |s| s.text(4))
+            );
+            for (load, c) in loads {
+                out += &format!(
+                    "| {load} {} | {} | {} | {} of {n} |\n",
+                    if load == "all" { "" } else { "N" },
+                    c.parametric_rms_mm.text(4),
+                    c.fuzzy_rms_mm.text(4),
+                    c.fuzzy_better_seeds
+                );
+            }
+            out += "\n";
+        }
+        out += "| forming, largest deviation along z_p | value |\n|---|---|\n";
+        out += &format!(
+            "| uncompensated [mm] | {} |\n",
+            self.forming_uncompensated_mm.text(3)
+        );
+        out += &format!(
+            "| compensated [mm] | {} |\n",
+            self.forming_compensated_mm.text(3)
+        );
+        out += &format!(
+            "| improvement [%] | {} |\n",
+            self.forming_improvement_percent.text(1)
+        );
+        out += "| paper (real IR-663) | 80 %, within +/-0.15 mm |\n";
+        out
+    }
+}
+
+/// Runs the study once per seed (each under `out_root/seed-N`, without the
+/// HTML report) and gathers the acceptance figures.
+///
+/// # Errors
+/// Any study's failure.
+pub fn multi_seed_study(
+    seeds: &[u64],
+    out_root: &Path,
+    observer: &mut dyn StudyObserver,
+) -> Result<MultiSeedSummary> {
+    let mut summaries = Vec::with_capacity(seeds.len());
+    for &seed in seeds {
+        let options = StudyOptions {
+            out: out_root.join(format!("seed-{seed}")),
+            seed,
+        };
+        let study = run_study(&options, observer)?;
+        study.summary.write(options.out.join("summary.json"))?;
+        summaries.push(study.summary);
+    }
+    Ok(MultiSeedSummary::from_summaries(summaries))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Spread;
+
+    #[test]
+    fn spread_is_min_median_max() {
+        let s = Spread::of(&[3.0, 1.0, 2.0, 10.0, -1.0]);
+        assert_eq!((s.min, s.median, s.max), (-1.0, 2.0, 10.0));
+        let s = Spread::of(&[4.0, 1.0, 2.0, 3.0]);
+        assert_eq!((s.min, s.median, s.max), (1.0, 2.5, 4.0));
+        assert!(Spread::of(&[]).median.is_nan());
+    }
+}
