@@ -74,6 +74,14 @@ pub struct CompensateArgs {
     /// then one LIN per point).
     #[arg(long)]
     pub krl: Option<PathBuf>,
+    /// Also write the commanded path as an ABB RAPID module (`MoveL`
+    /// through `robtarget`s, mm and quaternions).
+    #[arg(long)]
+    pub rapid: Option<PathBuf>,
+    /// Also write the commanded actuated coordinates as a joint-trajectory
+    /// CSV (deg, mm; one row per point).
+    #[arg(long)]
+    pub joints_csv: Option<PathBuf>,
 }
 
 fn parse_part_pose(text: &str) -> anyhow::Result<Isometry3<f64>> {
@@ -135,13 +143,36 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         &setup,
         &args.path,
     )?;
-    let krl = match &args.krl {
-        Some(_) => Some(commanded.to_krl()?),
-        None => None,
-    };
+    // Every export is built before anything is written, so a failing one
+    // leaves no file half-updated.
+    let exports = [
+        (
+            &args.krl,
+            "KRL program",
+            args.krl.as_ref().map(|_| commanded.to_krl()).transpose()?,
+        ),
+        (
+            &args.rapid,
+            "RAPID module",
+            args.rapid
+                .as_ref()
+                .map(|_| commanded.to_rapid())
+                .transpose()?,
+        ),
+        (
+            &args.joints_csv,
+            "joint trajectory",
+            args.joints_csv
+                .as_ref()
+                .map(|_| commanded.to_joint_csv(&model))
+                .transpose()?,
+        ),
+    ];
     flexcal::io::write_atomic(&args.out, commanded.to_csv(model.n_actuated()))?;
-    if let (Some(path), Some(text)) = (&args.krl, krl) {
-        flexcal::io::write_atomic(path, text)?;
+    for (path, _, text) in &exports {
+        if let (Some(path), Some(text)) = (path, text) {
+            flexcal::io::write_atomic(path, text)?;
+        }
     }
     println!(
         "compensated {} points with {} and {}: max predicted deviation {:.4} mm, max residual {:.3e} mm",
@@ -152,8 +183,10 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         commanded.max_residual_m() * 1e3
     );
     println!("commanded path written to {}", args.out.display());
-    if let Some(path) = &args.krl {
-        println!("KRL program written to {}", path.display());
+    for (path, what, _) in &exports {
+        if let Some(path) = path {
+            println!("{what} written to {}", path.display());
+        }
     }
     Ok(())
 }

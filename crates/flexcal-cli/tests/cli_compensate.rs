@@ -124,6 +124,59 @@ fn twin_forming_compensation_reaches_the_target_and_writes_krl() {
 }
 
 #[test]
+fn rapid_and_joint_trajectory_exports_carry_the_commanded_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = forming_target(dir.path());
+    let out_csv = dir.path().join("commanded.csv");
+    let rapid = dir.path().join("path.mod");
+    let joints = dir.path().join("joints.csv");
+    let out = flexcal(&[
+        "compensate",
+        "--robot",
+        "ir663",
+        "--elastic",
+        "fe:ir663",
+        "--path",
+        target.to_str().unwrap(),
+        "--part-pose",
+        "1200,0,1450,0,0,0",
+        "--process",
+        "constant:0,0,-920,0,0,0",
+        "--out",
+        out_csv.to_str().unwrap(),
+        "--rapid",
+        rapid.to_str().unwrap(),
+        "--joints-csv",
+        joints.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (header, rows) = read_csv(&out_csv);
+    let module = text(&rapid);
+    assert!(module.contains("MODULE"), "{module}");
+    // One robtarget per point: a joint move to the first, linear moves on.
+    assert_eq!(module.matches("CONST robtarget").count(), rows.len());
+    assert_eq!(module.matches("MoveJ ").count(), 1);
+    assert_eq!(module.matches("MoveL ").count(), rows.len() - 1);
+    let (j_header, j_rows) = read_csv(&joints);
+    assert_eq!(j_rows.len(), rows.len());
+    // The trajectory holds the commanded coordinates of the main output
+    // (rad and m there, deg and mm in the trajectory).
+    for (k, name) in j_header.iter().enumerate() {
+        let q = column(&header, &rows, &format!("q{}", k + 1));
+        let scale = if name.ends_with("_deg") {
+            180.0 / std::f64::consts::PI
+        } else {
+            assert!(name.ends_with("_mm"), "{name}");
+            1e3
+        };
+        let exported = column(&j_header, &j_rows, name);
+        for (a, b) in q.iter().zip(&exported) {
+            assert!((a * scale - b).abs() < 1e-6, "{name}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
 fn zero_load_commands_the_inverse_model() {
     let dir = tempfile::tempdir().unwrap();
     let target = forming_target(dir.path());

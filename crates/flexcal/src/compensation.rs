@@ -438,9 +438,39 @@ impl CommandedPath {
     /// The commanded path as a KRL program (PTP to the first point, then
     /// one LIN per point).
     pub fn to_krl(&self) -> Result<String> {
-        let commanded: Vec<Isometry3<f64>> =
-            self.points.iter().map(|(_, p)| p.commanded_base).collect();
-        Ok(krl_program(&commanded, &KrlOptions::default())?)
+        Ok(krl_program(
+            &self.commanded_poses(),
+            &KrlOptions::default(),
+        )?)
+    }
+
+    /// The commanded path as an ABB RAPID module (`MoveL` through
+    /// `robtarget`s; [`flexcal_compensate::export::rapid_module`] with its
+    /// default speed, zone, tool and work object).
+    pub fn to_rapid(&self) -> Result<String> {
+        Ok(flexcal_compensate::export::rapid_module(
+            &self.commanded_poses(),
+            &flexcal_compensate::export::RapidOptions::default(),
+        )?)
+    }
+
+    /// The commanded actuated coordinates as a joint-trajectory CSV (one
+    /// row per point, no time column; deg and mm, in columns named by the
+    /// robot's actuated coordinates with their unit).
+    pub fn to_joint_csv(&self, robot: &Model) -> Result<String> {
+        let q: Vec<Vec<f64>> = self
+            .points
+            .iter()
+            .map(|(_, p)| p.q_commanded.clone())
+            .collect();
+        Ok(flexcal_compensate::export::joint_trajectory_csv(
+            robot, &q, None,
+        )?)
+    }
+
+    /// The commanded TCP poses in the robot base frame.
+    fn commanded_poses(&self) -> Vec<Isometry3<f64>> {
+        self.points.iter().map(|(_, p)| p.commanded_base).collect()
     }
 }
 

@@ -80,6 +80,9 @@ pub enum Error {
     /// Tool path files.
     #[error(transparent)]
     Path(#[from] flexcal_compensate::path::PathError),
+    /// A commanded path could not be exported (RAPID, joint trajectory).
+    #[error(transparent)]
+    PathExport(#[from] flexcal_compensate::export::PathExportError),
     /// Process models.
     #[error(transparent)]
     Process(#[from] flexcal_compensate::process::ProcessError),
