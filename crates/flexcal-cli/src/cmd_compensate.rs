@@ -145,34 +145,19 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     )?;
     // Every export is built before anything is written, so a failing one
     // leaves no file half-updated.
-    let exports = [
-        (
-            &args.krl,
-            "KRL program",
-            args.krl.as_ref().map(|_| commanded.to_krl()).transpose()?,
-        ),
-        (
-            &args.rapid,
-            "RAPID module",
-            args.rapid
-                .as_ref()
-                .map(|_| commanded.to_rapid())
-                .transpose()?,
-        ),
-        (
-            &args.joints_csv,
-            "joint trajectory",
-            args.joints_csv
-                .as_ref()
-                .map(|_| commanded.to_joint_csv(&model))
-                .transpose()?,
-        ),
-    ];
+    let mut exports = Vec::new();
+    if let Some(path) = &args.krl {
+        exports.push((path, "KRL program", commanded.to_krl()?));
+    }
+    if let Some(path) = &args.rapid {
+        exports.push((path, "RAPID module", commanded.to_rapid()?));
+    }
+    if let Some(path) = &args.joints_csv {
+        exports.push((path, "joint trajectory", commanded.to_joint_csv(&model)?));
+    }
     flexcal::io::write_atomic(&args.out, commanded.to_csv(model.n_actuated()))?;
     for (path, _, text) in &exports {
-        if let (Some(path), Some(text)) = (path, text) {
-            flexcal::io::write_atomic(path, text)?;
-        }
+        flexcal::io::write_atomic(path, text)?;
     }
     println!(
         "compensated {} points with {} and {}: max predicted deviation {:.4} mm, max residual {:.3e} mm",
@@ -184,9 +169,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     );
     println!("commanded path written to {}", args.out.display());
     for (path, what, _) in &exports {
-        if let Some(path) = path {
-            println!("{what} written to {}", path.display());
-        }
+        println!("{what} written to {}", path.display());
     }
     Ok(())
 }
