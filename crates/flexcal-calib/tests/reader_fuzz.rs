@@ -1,5 +1,5 @@
-//! Seeded fuzzing of the calibration readers: flexcal's measurement CSV and
-//! the mass table, 10 000 mutants of a real file each (flexcal_io::fuzz):
+//! Seeded fuzzing of the calibration readers: flexcal's measurement CSV, the
+//! IPA laser-tracker CSV and the mass table, 10 000 mutants of a real file each (flexcal_io::fuzz):
 //! every mutant gives a valid result or a named error, never a panic.
 
 use flexcal_calib::{GravityCompliance, MeasurementSet};
@@ -72,4 +72,76 @@ fn mass_table_reader_survives_mutated_files() {
         }
     }
     println!("mass table: {valid} valid of {CASES}");
+}
+
+/// An IPA laser-tracker export as the dataset writes it: semicolons,
+/// decimal commas, the joint and measurement columns
+/// ([`MeasurementSet::read_ipa`]).
+fn ipa_csv() -> String {
+    let joints = [
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ];
+    let measured = ["x", "y", "z", "rx", "ry", "rz"];
+    let mut header: Vec<String> = joints.iter().map(|j| j.to_string()).collect();
+    header.extend(measured.iter().map(|a| format!("measurement_{a}")));
+    header.extend(measured.iter().map(|a| format!("measurement_std_{a}")));
+    header.push("measurement_temperature".into());
+    let mut text = header.join(";") + "\r\n";
+    for k in 0..12 {
+        let t = k as f64 * 0.1;
+        let values = [
+            0.1 + t,
+            -1.2 + t,
+            1.0 - t,
+            -0.5,
+            1.3,
+            0.2 * t,
+            800.0 + 10.0 * t,
+            -150.0 + t,
+            420.5,
+            179.0,
+            -2.0 * t,
+            45.0,
+            0.01,
+            0.01,
+            0.02,
+            0.001,
+            0.001,
+            0.001,
+            21.5 + t,
+        ];
+        let row: Vec<String> = values
+            .iter()
+            .map(|v| format!("{v}").replace('.', ","))
+            .collect();
+        text += &(row.join(";") + "\r\n");
+    }
+    text
+}
+
+#[test]
+fn ipa_reader_survives_mutated_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("fuzz.csv");
+    let source = ipa_csv();
+    std::fs::write(&path, &source).unwrap();
+    MeasurementSet::read_ipa(&path).expect("the source file is valid");
+    let mut mutator = TextMutator::new(21);
+    let mut valid = 0;
+    for _ in 0..CASES {
+        std::fs::write(&path, mutator.mutate(&source)).unwrap();
+        match MeasurementSet::read_ipa(&path) {
+            Ok(set) => {
+                valid += 1;
+                assert!(!set.measurements().is_empty());
+            }
+            Err(e) => assert!(e.to_string().contains("fuzz.csv"), "{e}"),
+        }
+    }
+    println!("IPA CSV: {valid} valid of {CASES}");
 }

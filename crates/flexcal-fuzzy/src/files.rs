@@ -86,15 +86,18 @@ impl FuzzyModel {
         let mut names = Vec::new();
         let mut partitions = Vec::new();
         for input in file.inputs {
-            let partition =
-                Partition::new(input.modal_values).map_err(|source| FuzzyError::Partition {
+            // Errors name the file as well as the input.
+            let partition = Partition::new(input.modal_values).map_err(|source| {
+                bad(FuzzyError::Partition {
                     input: input.name.clone(),
                     source,
-                })?;
+                }
+                .to_string())
+            })?;
             names.push(input.name);
             partitions.push(partition);
         }
-        let structure = FuzzyStructure::new(names, partitions)?;
+        let structure = FuzzyStructure::new(names, partitions).map_err(|e| bad(e.to_string()))?;
         Self::new(structure, file.output, file.conclusions).map_err(|e| bad(e.to_string()))
     }
 
