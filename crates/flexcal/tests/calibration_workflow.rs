@@ -14,7 +14,8 @@ fn workflow_on_the_twin_campaign() {
     flexcal::twin::geometric::write_geometric_campaign(&campaign, dir).unwrap();
     let robot = flexcal::load_robot("ir663").unwrap();
     let mut options = CalibrationOptions::for_model(&robot);
-    options.measurement_frame = FrameTreatment::Fixed;
+    // The twin's camera is not at the robot base: its frame is registered.
+    options.measurement_frame = FrameTreatment::Identify;
     options.target = FrameTreatment::Fixed;
     let config = CalibrationConfig {
         validate: Some(dir.join("validation.csv")),
