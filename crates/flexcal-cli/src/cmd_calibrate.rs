@@ -153,7 +153,7 @@ pub struct CalibrateArgs {
     #[arg(long)]
     pub select: Option<flexcal::calib::SelectionMethod>,
     /// Predicted accuracy at the configurations of this CSV (columns
-    /// q1..qn), written beside it as <name>.accuracy.csv.
+    /// q1..qn), written beside it as `<name>.accuracy.csv`.
     #[arg(long)]
     pub accuracy_map: Option<PathBuf>,
     /// Write the calibrated robot description here.

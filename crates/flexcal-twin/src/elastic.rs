@@ -29,15 +29,15 @@
 //! below 32.0 deg (the crank d9 and the coupler d11 in line, joint 9 at
 //! -180 deg: joints 2 and 10 are then d11 - d9 = 739 mm apart), which keeps
 //! the wrist centre at least 1.388 m away (see the `ir663` robot of
-//! flexcal-kinematics). [`GridCorner`](crate::elastic::GridCorner) says
+//! flexcal-kinematics). [`GridCorner`] says
 //! what the twin does there; every other point keeps joint 9 at least
 //! 10 deg off that dead centre, as these three are then kept:
-//! - [`GridCorner::ShiftOutward`](crate::elastic::GridCorner::ShiftOutward)
+//! - [`GridCorner::ShiftOutward`]
 //!   (default): the tool stays down and the point moves along +x by the
 //!   smallest multiple of 5 mm (to x = 1.41, 1.375 and 1.32 m). The fuzzy
 //!   model's inputs theta2 and theta8 then still fix the TCP relative to the
 //!   wrist, as over the rest of the grid.
-//! - [`GridCorner::TiltTool`](crate::elastic::GridCorner::TiltTool): the
+//! - [`GridCorner::TiltTool`]. The
 //!   point keeps its position (the paper gives only positions for (65)) and
 //!   the tool leans back towards the base about y by the smallest multiple
 //!   of 5 deg (45, 35 and 20 deg). The TCP compliance at those three poses
@@ -150,7 +150,7 @@ impl Default for ElasticCampaignOptions {
 }
 
 /// The twin's true elastic structure
-/// ([`twin_structure`](crate::truth::structure::twin_structure) of the
+/// ([`twin_structure`] of the
 /// built-in `ir663`).
 ///
 /// # Errors

@@ -7,7 +7,7 @@
 //! and the beam are solved together.
 //!
 //! The twin plays the real cell ([`TwinCell`]): the robot is the
-//! [`TwinRobot`](crate::truth::TwinRobot) of the other campaigns (Appendix C
+//! [`TwinRobot`] of the other campaigns (Appendix C
 //! geometry, its own weight through its own FE structure, the drives' lost
 //! motion and hardening, transmission errors), the beam is stiffer than its
 //! handbook value and rubs on the tool with Coulomb friction, the dead

@@ -5,7 +5,7 @@
 //!
 //! - Truth: every term of [`crate::truth`] that a geometric campaign meets:
 //!   the geometric errors of Appendix C
-//!   ([`IR663_TRUE_ERRORS`](crate::geometric::IR663_TRUE_ERRORS)), the
+//!   ([`IR663_TRUE_ERRORS`]), the
 //!   robot's own weight through its FE structure, the drives' lost motion
 //!   and hardening under that weight, the joints' transmission errors, and
 //!   optionally a temperature drift over the campaign (the pose order is

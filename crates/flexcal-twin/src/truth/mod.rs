@@ -17,25 +17,15 @@
 //! modules) use the same [`TwinRobot`] and [`Photogrammetry`], and publish
 //! [`TwinTerms`] with their truth files.
 
-/// The drives' lost motion and torque-hardening stiffness.
 pub mod drive;
-/// Errors of the truth.
 pub mod error;
-/// The true geometric errors (Appendix C).
 pub mod geometry;
-/// The photogrammetry system: frame and noise.
 pub mod measurement;
-/// The forming cell's truth: beam modulus, friction, payload.
 pub mod process;
-/// The true robot: commands to reached poses.
 pub mod robot;
-/// The twin's own FE structure.
 pub mod structure;
-/// The optional temperature drift.
 pub mod temperature;
-/// The published list of terms and their switches.
 pub mod terms;
-/// Cyclic transmission errors of the joints.
 pub mod transmission;
 
 pub use error::TruthError;
