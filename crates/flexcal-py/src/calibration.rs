@@ -113,6 +113,15 @@ fn status_name(s: UnknownStatus) -> &'static str {
     }
 }
 
+/// The position error norm of every pose, shape (n,), m.
+fn position_norms<'py>(
+    py: Python<'py>,
+    errors: &[flexcal::calib::PoseError],
+) -> Bound<'py, PyArrayDyn<f64>> {
+    let e: Vec<f64> = errors.iter().map(|e| e.position).collect();
+    to_numpy(py, e, &[errors.len()])
+}
+
 fn matrix<'py>(py: Python<'py>, x: &Isometry3<f64>) -> Bound<'py, PyArrayDyn<f64>> {
     let m = x.to_homogeneous().transpose();
     to_numpy(py, m.as_slice().to_vec(), &[4, 4])
@@ -142,14 +151,7 @@ impl ValidationResult {
     /// Position error of every pose after calibration, shape (n,), m.
     #[getter]
     fn position_errors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
-        let e: Vec<f64> = self
-            .report
-            .after_per_pose
-            .iter()
-            .map(|e| e.position)
-            .collect();
-        let n = e.len();
-        to_numpy(py, e, &[n])
+        position_norms(py, &self.report.after_per_pose)
     }
 
     /// `measured - predicted` position of every pose after calibration, in
@@ -403,14 +405,7 @@ impl CalibrationResult {
     /// shape (n,), m.
     #[getter]
     fn position_errors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
-        let e: Vec<f64> = self
-            .calibration
-            .training_after_per_pose
-            .iter()
-            .map(|e| e.position)
-            .collect();
-        let n = e.len();
-        to_numpy(py, e, &[n])
+        position_norms(py, &self.calibration.training_after_per_pose)
     }
 
     /// The identified measurement frame x_meas_base (4 x 4, m).
