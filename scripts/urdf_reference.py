@@ -63,6 +63,8 @@ CASES = [
     # Calibrated-like exports written by flexcal (tests/robot_export.rs).
     ("exported_ur10", "repo", "exported_ur10.urdf", "frame_0", "tcp"),
     ("exported_puma560", "repo", "exported_puma560.urdf", "frame_0", "tcp"),
+    # A UR5e from the published DH table (the shared folder holds only the UR5).
+    ("ur5e", "repo", "ur5e.urdf", None, "tool0"),
 ]
 
 

@@ -179,9 +179,62 @@ fn hand_written_urdfs_match_their_references() {
         "irb6640_like",
         "irb6640_like_rod",
         "continuous_mimic",
+        "ur5e",
     ] {
         assert!(check_case(case));
     }
+}
+
+/// The hand-written UR5e URDF says what Universal Robots' published standard
+/// DH table says: its imported pose equals the product of
+/// `Rz(q) Tz(d) Tx(a) Rx(alpha)` over the six links, evaluated here from the
+/// table itself (not from the URDF), at seeded configurations.
+#[test]
+fn ur5e_urdf_reproduces_the_published_dh_table() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+    // (d, a, alpha) of links 1..6, m and rad.
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let table = [
+        (0.1625, 0.0, half_pi),
+        (0.0, -0.425, 0.0),
+        (0.0, -0.3922, 0.0),
+        (0.1333, 0.0, half_pi),
+        (0.0997, 0.0, -half_pi),
+        (0.0996, 0.0, 0.0),
+    ];
+    let path = data_dir().join("urdf/ur5e.urdf");
+    let options = ImportOptions {
+        tip: Some("tool0".into()),
+        ..ImportOptions::default()
+    };
+    let imported = ImportedRobot::read_urdf(&path, &options).unwrap();
+    let model = imported.description.build().unwrap();
+    let mut data = Data::new(&model);
+    let xi = model.nominal_params().to_vec();
+    let mut state = 0x5eed_u64;
+    let mut uniform = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..50 {
+        let q: Vec<f64> = (0..6).map(|_| (2.0 * uniform() - 1.0) * 3.0).collect();
+        let mut expected = Isometry3::identity();
+        for (qi, (d, a, alpha)) in q.iter().zip(table) {
+            expected = expected
+                * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), *qi)
+                * Translation3::new(a, 0.0, d)
+                * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), alpha);
+        }
+        let pose = forward_pose(&model, &mut data, &q, &xi).unwrap();
+        let dp = (pose.translation.vector - expected.translation.vector).norm();
+        let dr = pose.rotation.angle_to(&expected.rotation);
+        assert!(dp < 1e-12 && dr < 1e-12, "q {q:?}: {dp:e} m, {dr:e} rad");
+    }
+    // The published link masses arrive with the import.
+    let total: f64 = imported.masses.iter().map(|m| m.mass_kg).sum();
+    assert!((total - 17.7).abs() < 1e-9, "total mass {total} kg");
 }
 
 #[test]
