@@ -5,9 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use flexcal::elastic::description::ElasticDescription;
-use flexcal::elastic::workflow::{
-    StiffnessOutcome, StiffnessWorkflowOptions, identify_stiffness_in_dir,
-};
+use flexcal::elastic::workflow::{StiffnessWorkflowOptions, identify_stiffness_in_dir};
 
 use crate::robot_arg::load_model;
 
@@ -71,20 +69,6 @@ pub(crate) fn check_train_load(train_load: f64) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Identifies the stiffness parameters from the files named by `args`.
-fn identify_stiffness_from_args(args: &StiffnessArgs) -> anyhow::Result<StiffnessOutcome> {
-    let robot = load_model(&args.robot, &args.robot_file)?;
-    let description = ElasticDescription::builtin_or_file(&args.elastic)
-        .with_context(|| format!("elastic description '{}'", args.elastic))?;
-    let options = StiffnessWorkflowOptions {
-        train_load_n: args.train_load,
-        seed: args.seed,
-        search_evaluations: args.search_evaluations,
-    };
-    identify_stiffness_in_dir(&robot, &description, &args.data, &options)
-        .with_context(|| format!("elastic description '{}'", description.name))
-}
-
 fn stiffness(args: StiffnessArgs) -> anyhow::Result<()> {
     check_train_load(args.train_load)?;
     println!(
@@ -94,43 +78,17 @@ fn stiffness(args: StiffnessArgs) -> anyhow::Result<()> {
         args.data.display(),
         args.seed
     );
-    let outcome = identify_stiffness_from_args(&args)?;
-    let fitted = &outcome.fitted;
-    let s = &fitted.solve;
-    println!("training sets: {}", outcome.train_sets.join(", "));
-    println!(
-        "global search: {} evaluations, best mean squared weighted residual {:.4e}",
-        fitted.global_search_evaluations, fitted.global_search_value
-    );
-    println!(
-        "Levenberg-Marquardt: {:?} after {} iterations ({} residual evaluations), rank {} of {} free, cond {:.3e}",
-        s.termination, s.iterations, s.residual_evaluations, s.rank, s.n_free, s.condition_number
-    );
-    println!(
-        "criterion (67) C(Gamma) = {:.5} mm^2 on the training sets",
-        fitted.criterion_mm2
-    );
-    println!("identified Gamma:");
-    for (j, name) in fitted.names.iter().enumerate() {
-        let sens = fitted.identifiability.sensitivity[j];
-        println!(
-            "  {name:<10} {:>12.4e} {:<8} (sensitivity {:.3e} sigma per ln unit)",
-            fitted.gamma[j], fitted.units[j], sens
-        );
-    }
-    println!("identifiability:");
-    for line in fitted.identifiability.describe() {
-        println!("  {line}");
-    }
-    println!(
-        "residuals of the identified model, per load (both directions pooled; train load {} N):",
-        args.train_load
-    );
-    println!("{}", outcome.table);
-    println!(
-        "noise floor (RMS norm of the deflection noise, from the files' standard deviations): {:.4} mm",
-        outcome.noise_floor_mm
-    );
+    let robot = load_model(&args.robot, &args.robot_file)?;
+    let description = ElasticDescription::builtin_or_file(&args.elastic)
+        .with_context(|| format!("elastic description '{}'", args.elastic))?;
+    let options = StiffnessWorkflowOptions {
+        train_load_n: args.train_load,
+        seed: args.seed,
+        search_evaluations: args.search_evaluations,
+    };
+    let outcome = identify_stiffness_in_dir(&robot, &description, &args.data, &options)
+        .with_context(|| format!("elastic description '{}'", description.name))?;
+    print!("{}", outcome.summary_text());
     if let Some(path) = &args.report {
         outcome.report.write(path)?;
         println!("report written to {}", path.display());

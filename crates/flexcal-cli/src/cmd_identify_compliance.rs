@@ -4,10 +4,8 @@
 
 use std::path::PathBuf;
 
-use flexcal::elastic::fuzzy_compliance::ComplianceComponent;
 use flexcal::elastic::workflow::{
-    ComplianceOutcome, ComplianceReport, ComplianceStructure, ComplianceWorkflowOptions,
-    identify_compliance_in_dir,
+    ComplianceReport, ComplianceStructure, ComplianceWorkflowOptions, identify_compliance_in_dir,
 };
 
 use crate::robot_arg::load_model;
@@ -69,69 +67,9 @@ pub fn run_compliance(args: ComplianceArgs) -> anyhow::Result<()> {
         },
     };
     let outcome = identify_compliance_in_dir(&robot, &args.data, &options)?;
-    let ComplianceOutcome {
-        fitted,
-        train_sets,
-        training_samples,
-        table,
-        noise_floor_mm: floor_mm,
-        ..
-    } = &outcome;
-    let shared_structure = &(options.structure == ComplianceStructure::Shared);
-    let names: Vec<&str> = args.inputs.iter().map(|s| s.trim()).collect();
-    let components = ComplianceComponent::plane_xz();
-    println!(
-        "fuzzy compliance (C_xx, C_xz, C_zx, C_zz) of ({}) identified on {} deflections ({}), split seed {}",
-        names.join(", "),
-        training_samples,
-        train_sets.join(", "),
-        args.seed
-    );
-    let model = &fitted.compliance;
-    let r = &fitted.report;
-    let grid: Vec<String> = model.models()[0]
-        .structure()
-        .membership_counts()
-        .iter()
-        .map(usize::to_string)
-        .collect();
-    println!(
-        "{} training + {} test configurations; structure {} ({} rules per component{}), growth stopped: {:?}",
-        r.training_configurations,
-        r.test_configurations,
-        grid.join(" x "),
-        model.models()[0].conclusions().len(),
-        if *shared_structure {
-            ", shared"
-        } else {
-            " for C_xx"
-        },
-        r.search.termination
-    );
-    println!(
-        "{} fits, {} Solis-Wets placements, {:.3} s; RMSE per displacement component: training {:.4} mm, test {:.4} mm; cond >= {:.2e}",
-        r.search.evaluations,
-        r.search.placement_runs,
-        r.elapsed_s,
-        r.training_mm.rmse,
-        r.test_mm.rmse,
-        r.conclusions.condition_lower_bound.unwrap_or(f64::NAN)
-    );
-    println!("rule base of C_xx (Table 4):");
-    if let Some(table) = model.rule_base_table(components[0]) {
-        print!("{table}");
-    }
-    println!(
-        "fuzzy model residuals in the x-z plane, per load (both directions pooled; train load {} N) (Table 5):",
-        args.train_load
-    );
-    println!("{table}");
-    println!(
-        "measurement-noise floor (RMS norm of the stated deflection noise in the x-z plane): {floor_mm:.4} mm; overall RMS / floor = {:.2}",
-        table.overall_rms_mm / floor_mm
-    );
+    print!("{}", outcome.summary_text(&options));
     if let Some(path) = &args.out {
-        model.write(path)?;
+        outcome.fitted.compliance.write(path)?;
         println!("model written to {}", path.display());
     }
     if let Some(path) = &args.report {

@@ -10,6 +10,9 @@
 //! [`calib::CalibrationOptions`] inside [`CalibrationConfig`]; the workflow
 //! adds what needs the measurement files (the target's starting position
 //! keeps the files' nominal orientation).
+//!
+//! [`CalibrationRun::summary_text`] is the human-readable summary of a run
+//! (the text `flexcal calibrate` prints); [`text`] has its pieces.
 
 use std::path::{Path, PathBuf};
 
@@ -21,6 +24,8 @@ use crate::calib::{
     PoseError, ResidualModel, ResidualModelJson, SplitCheck, ValidationReport,
 };
 use crate::{Error, Result};
+
+pub mod text;
 
 /// Format of a measurement file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -41,6 +41,23 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
+    /// A value read from a file that cannot be used (the file's own format
+    /// is respected, the value is not).
+    #[error("{origin}: {message}")]
+    InvalidData {
+        /// Where the value is: `file:line`.
+        origin: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A kinematic computation that failed for one row of input.
+    #[error("{origin}: {source}")]
+    KinematicsAt {
+        /// Where the row came from: `file:line`, or the option that gave it.
+        origin: String,
+        /// Why it failed (an unreachable pose, a loop that cannot close).
+        source: flexcal_kinematics::KinematicsError,
+    },
     /// Points of a path that could not be compensated, each named by its line.
     #[error("{failed} of {total} path points could not be compensated: {}", failures.join("; "))]
     PathPoints {

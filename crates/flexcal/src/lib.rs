@@ -56,6 +56,8 @@
 pub mod calibration;
 pub mod compensation;
 mod error;
+pub mod forming;
+pub mod pose_file;
 pub mod report;
 pub mod robot;
 pub mod study;

@@ -19,6 +19,8 @@ use flexcal_kinematics::{
 
 use crate::Error;
 
+pub mod text;
+
 /// A robot argument, resolved: a built-in robot or a description file.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -41,6 +41,32 @@ fn workflow_on_the_twin_campaign() {
     assert!(report.split_check.is_some());
     assert!(report.cross_check.is_none());
 
+    // The human-readable summary: the exclusion first, then one row per
+    // unknown, the split-half check and the errors of both sets.
+    let text = run.summary_text(&robot);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("--exclude: 2 of the"), "{text}");
+    assert!(lines[1].starts_with("Calibrating `"), "{text}");
+    for u in &run.calibration.unknowns {
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.split_whitespace().next() == Some(u.name.as_str())),
+            "no row for {}: {text}",
+            u.name
+        );
+    }
+    assert!(text.contains("\nSplit-half check"), "{text}");
+    let after = lines
+        .iter()
+        .find(|l| l.starts_with("validation after"))
+        .expect("a validation row");
+    let rms_mm: f64 = after.split_whitespace().nth(4).unwrap().parse().unwrap();
+    assert!(
+        (rms_mm - validation.after.position_rms * 1e3).abs() < 1e-4,
+        "{after}"
+    );
+
     // Refused by name: a cross-series check without a validation set, and
     // a label that names no pose.
     let no_validation = CalibrationConfig {
