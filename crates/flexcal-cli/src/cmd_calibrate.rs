@@ -4,9 +4,10 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal::calib::temperature::write_pose_errors;
 use flexcal::calib::{CalibrationOptions, FrameTreatment, GravityCompliance, Method, Weighting};
-use flexcal::calibration::{CalibrationConfig, MeasurementFormat, run_calibration};
+use flexcal::calibration::{
+    CalibrationConfig, CalibrationOutputs, MeasurementFormat, run_calibration,
+};
 use flexcal::kinematics::Model;
 
 /// Measurement file formats.
@@ -171,31 +172,14 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let config = config(&args, &model)?;
     let run = run_calibration(&model, &config)?;
     print!("{}", run.summary_text(&model));
-    let (per_pose_name, per_pose_set, per_pose) = run.per_pose();
-    if let Some(path) = &args.residuals {
-        write_pose_errors(path, per_pose_set, per_pose)?;
-        println!(
-            "per-pose errors of the {per_pose_name} set written to {}",
-            path.display()
-        );
-    }
-    if let (Some(grid), Some(map)) = (&args.accuracy_map, &run.accuracy_map) {
-        let path = grid.with_extension("accuracy.csv");
-        map.write_csv(&path)?;
-        println!(
-            "predicted accuracy at {} poses written to {}",
-            map.poses.len(),
-            path.display()
-        );
-    }
-    if let Some(out) = &args.out {
-        let description = run.calibration.description(&model)?;
-        flexcal::io::write_atomic(out, description.to_toml_string())?;
-        println!("calibrated robot written to {}", out.display());
-    }
-    if let Some(path) = &args.report {
-        flexcal::io::write_atomic(path, run.report(&model).to_json_string()?)?;
-        println!("report written to {}", path.display());
+    let outputs = CalibrationOutputs {
+        residuals: args.residuals,
+        accuracy_grid: args.accuracy_map,
+        description: args.out,
+        report: args.report,
+    };
+    for line in run.write_outputs(&model, &outputs)? {
+        println!("{line}");
     }
     Ok(())
 }
@@ -214,25 +198,20 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
         SolverKind::Lm => Method::LevenbergMarquardt,
         SolverKind::Gn => Method::GaussNewton,
     };
-    options.weighting = match args.weights.unwrap_or(match args.format {
-        DataFormat::Own => WeightsKind::File,
-        DataFormat::Ipa => WeightsKind::Uniform,
-    }) {
-        WeightsKind::File => Weighting::FromFile,
-        WeightsKind::Uniform => Weighting::Uniform,
+    options.weighting = match args.weights {
+        Some(WeightsKind::File) => Weighting::FromFile,
+        Some(WeightsKind::Uniform) => Weighting::Uniform,
+        None => format.default_weighting(),
     };
     if args.with_orientation && args.format != DataFormat::Ipa {
         crate::usage_bail!(
             "--with-orientation is for --format ipa (flexcal's own files use their orientation columns when present)"
         );
     }
-    if args.position_only || (args.format == DataFormat::Ipa && !args.with_orientation) {
+    if args.position_only || !(args.with_orientation || format.uses_orientation_by_default()) {
         options.use_orientation = Some(false);
     }
-    options.fixed = crate::list_items(&args.fix)
-        .into_iter()
-        .map(String::from)
-        .collect();
+    options.fixed = crate::list_items(&args.fix);
     if !args.defer.is_empty() {
         options.deferred = args.defer.iter().map(|s| s.trim().to_string()).collect();
     }
@@ -265,19 +244,16 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
     } else if args.masses.is_some() {
         crate::usage_bail!("--masses is for --model elasto-geometric");
     }
-    let items = |v: &[String]| -> Vec<String> {
-        crate::list_items(v).into_iter().map(String::from).collect()
-    };
     Ok(CalibrationConfig {
         format,
         validate: args.validate.clone(),
-        exclude: items(&args.exclude),
-        exclude_validation: items(&args.exclude_validation),
+        exclude: crate::list_items(&args.exclude),
+        exclude_validation: crate::list_items(&args.exclude_validation),
         target_mm,
         refit_target: args.refit_target,
         split_check: args.split_check,
         cross_check: args.cross_check,
-        residual_inputs: items(&args.residual_model),
+        residual_inputs: crate::list_items(&args.residual_model),
         selection: args.select,
         accuracy_grid: args.accuracy_map.clone(),
         ..CalibrationConfig::new(&args.data, options)

@@ -106,25 +106,16 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         &setup,
         &args.path,
     )?;
-    // Every export is built before anything is written, so a failing one
-    // leaves no file half-updated.
-    let exports = [
-        (&args.krl, PathExport::Krl),
-        (&args.rapid, PathExport::Rapid),
-        (&args.joints_csv, PathExport::JointCsv),
+    let exports: Vec<(PathExport, PathBuf)> = [
+        (PathExport::Krl, args.krl),
+        (PathExport::Rapid, args.rapid),
+        (PathExport::JointCsv, args.joints_csv),
     ]
     .into_iter()
-    .filter_map(|(path, kind)| Some((path.as_ref()?, kind)))
-    .map(|(path, kind)| Ok((path, kind, commanded.export(kind, &model)?)))
-    .collect::<anyhow::Result<Vec<_>>>()?;
-    flexcal::io::write_atomic(&args.out, commanded.to_csv(model.n_actuated()))?;
-    for (path, _, text) in &exports {
-        flexcal::io::write_atomic(path, text)?;
-    }
+    .filter_map(|(kind, path)| Some((kind, path?)))
+    .collect();
+    let written = commanded.write(&model, &args.out, &exports)?;
     println!("{}", commanded.summary_line());
-    println!("commanded path written to {}", args.out.display());
-    for (path, kind, _) in &exports {
-        println!("{} written to {}", kind.description(), path.display());
-    }
+    written.iter().for_each(|line| println!("{line}"));
     Ok(())
 }

@@ -4,8 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use flexcal::fem::{
-    FemError, FemModel, condensation_json, condensation_text, displacements_json,
-    displacements_text,
+    FemModel, condensation_json, condensation_text, displacements_json, displacements_text,
 };
 
 /// Subcommands of `flexcal fem`.
@@ -48,18 +47,8 @@ pub fn run(command: FemCommand) -> anyhow::Result<()> {
     }
 }
 
-fn load(file: &PathBuf) -> anyhow::Result<FemModel> {
-    FemModel::read(file).map_err(|err| match err {
-        // These already name the file.
-        FemError::Parse { .. } | FemError::Io(_) | FemError::UnknownExtension { .. } => {
-            anyhow::Error::new(err)
-        }
-        other => anyhow::Error::new(other).context(file.display().to_string()),
-    })
-}
-
 fn solve(args: SolveArgs) -> anyhow::Result<()> {
-    let model = load(&args.file)?;
+    let model = FemModel::read(&args.file)?;
     let cases = model
         .solve()
         .with_context(|| args.file.display().to_string())?;
@@ -72,7 +61,7 @@ fn solve(args: SolveArgs) -> anyhow::Result<()> {
 }
 
 fn condense(args: CondenseArgs) -> anyhow::Result<()> {
-    let model = load(&args.file)?;
+    let model = FemModel::read(&args.file)?;
     let condensed = model
         .condense(&args.node)
         .with_context(|| args.file.display().to_string())?;

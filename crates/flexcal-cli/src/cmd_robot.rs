@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::robot_arg::{RobotFileArgs, load_description_with};
+use crate::robot_arg::RobotFileArgs;
 use anyhow::Context;
 use flexcal::kinematics::{ExportFormat, ExportOptions, export_robot};
 
@@ -87,16 +87,11 @@ fn export(
     tolerance_mm: f64,
     import: &RobotFileArgs,
 ) -> anyhow::Result<()> {
-    let model = load_description_with(robot, &import.options())?
-        .build()
-        .with_context(|| format!("building robot '{robot}'"))?;
+    let model = crate::robot_arg::load_model(robot, import)?;
     let format = match format {
         ExportFormatArg::Urdf => ExportFormat::Urdf,
         ExportFormatArg::Toml => ExportFormat::Toml,
-        ExportFormatArg::Mdh => match out.as_ref().and_then(|p| p.extension()) {
-            Some(e) if e != "md" => ExportFormat::MdhCsv,
-            _ => ExportFormat::MdhMarkdown,
-        },
+        ExportFormatArg::Mdh => flexcal::robot::mdh_format_for(out.as_deref()),
     };
     let options = ExportOptions {
         tolerance_m: tolerance_mm / 1e3,

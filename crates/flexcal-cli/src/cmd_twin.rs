@@ -12,10 +12,10 @@ use flexcal::twin::geometric::{
 pub enum TwinCommand {
     /// The virtual IR-663's geometric campaign: 27 identification + 16
     /// validation poses of box (59), photogrammetry noise, and the truth.
-    Geometric(GeometricArgs),
+    Geometric(CampaignArgs),
     /// The virtual IR-663's elastic campaign: the 63-pose grid (65), loads of
     /// 300-1100 N along x and z, loaded and unloaded poses (8 files), and the truth.
-    Elastic(ElasticArgs),
+    Elastic(CampaignArgs),
     /// The forming experiment (paper section 4, Figure 17) on the virtual
     /// IR-663: a 920 N tool plunges 25 mm into a clamped Al-5005 beam and
     /// travels 200 mm, commanded without and with compensation.
@@ -82,18 +82,18 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Arguments of `flexcal twin elastic`.
+/// Arguments of `flexcal twin geometric` and `flexcal twin elastic`.
 #[derive(clap::Args, Debug)]
-pub struct ElasticArgs {
+pub struct CampaignArgs {
     /// Output folder (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// Seed of the measurement noise.
+    /// Seed of every random draw of the campaign.
     #[arg(long, default_value_t = 663)]
     pub seed: u64,
 }
 
-fn run_elastic(args: ElasticArgs) -> anyhow::Result<()> {
+fn run_elastic(args: CampaignArgs) -> anyhow::Result<()> {
     let options = flexcal::twin::elastic::ElasticCampaignOptions {
         seed: args.seed,
         ..Default::default()
@@ -105,32 +105,12 @@ fn run_elastic(args: ElasticArgs) -> anyhow::Result<()> {
         summary.data_files.len(),
         args.out.display()
     );
-    println!(
-        "true TCP deflection under 1100 N vertical: {:.2} to {:.2} mm over the grid; screw joints k h^2: \
-         joint 2 {:.2e} to {:.2e}, joint 8 {:.2e} to {:.2e} N.m/rad",
-        summary.deflection_norm_1100n_z_mm[0],
-        summary.deflection_norm_1100n_z_mm[1],
-        summary.kar2_effective_range_nm_rad[0],
-        summary.kar2_effective_range_nm_rad[1],
-        summary.kar8_effective_range_nm_rad[0],
-        summary.kar8_effective_range_nm_rad[1]
-    );
+    println!("{}", summary.truth_line());
     println!(
         "identify with `flexcal identify stiffness --robot ir663 --elastic ir663 --data {} --train-load 900`",
         args.out.display()
     );
     Ok(())
-}
-
-/// Arguments of `flexcal twin geometric`.
-#[derive(clap::Args, Debug)]
-pub struct GeometricArgs {
-    /// Output folder (created if missing).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Seed of every random draw.
-    #[arg(long, default_value_t = 663)]
-    pub seed: u64,
 }
 
 /// Runs `flexcal twin ...`.

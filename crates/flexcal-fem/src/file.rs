@@ -465,9 +465,16 @@ pub struct Condensation {
 }
 
 impl FemModel {
-    /// Reads and builds a structure file.
+    /// Reads and builds a structure file. Every error names the file:
+    /// errors of the structure it describes come as [`FemError::InFile`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self> {
-        StructureFile::read(path)?.build()
+        let path = path.as_ref();
+        StructureFile::read(path)?
+            .build()
+            .map_err(|source| FemError::InFile {
+                path: path.to_path_buf(),
+                source: Box::new(source),
+            })
     }
 
     /// Solves every load case with one factorization.

@@ -198,6 +198,18 @@ fn bad_input_gives_errors_naming_element_and_field() {
 }
 
 #[test]
+fn a_structure_error_read_from_a_file_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("unknown_node.toml");
+    std::fs::write(&path, CANTILEVER.replace("j = \"tip\"", "j = \"tipp\"")).unwrap();
+    let err = FemModel::read(&path).unwrap_err();
+    assert!(matches!(err, FemError::InFile { .. }), "{err:?}");
+    let msg = err.to_string();
+    assert!(msg.starts_with(&path.display().to_string()), "{msg}");
+    assert!(msg.contains("beam 'b1'") && msg.contains("tipp"), "{msg}");
+}
+
+#[test]
 fn singular_structures_name_the_node_and_dof() {
     // An unconnected node.
     let lonely = CANTILEVER.replace(

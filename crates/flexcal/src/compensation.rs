@@ -544,6 +544,36 @@ impl CommandedPath {
         }
     }
 
+    /// Writes the commanded path as CSV to `csv` ([`CommandedPath::to_csv`])
+    /// and each export of `exports` to its file, and returns one line per
+    /// file written. Every text is built before any file is written, so a
+    /// path a format cannot express leaves every file as it was.
+    ///
+    /// # Errors
+    /// A path an export cannot express; a file that cannot be written.
+    pub fn write(
+        &self,
+        robot: &Model,
+        csv: &Path,
+        exports: &[(PathExport, PathBuf)],
+    ) -> Result<Vec<String>> {
+        let texts = exports
+            .iter()
+            .map(|(kind, _)| self.export(*kind, robot))
+            .collect::<Result<Vec<_>>>()?;
+        flexcal_io::write_atomic(csv, self.to_csv(robot.n_actuated()))?;
+        let mut written = vec![format!("commanded path written to {}", csv.display())];
+        for ((kind, path), text) in exports.iter().zip(texts) {
+            flexcal_io::write_atomic(path, text)?;
+            written.push(format!(
+                "{} written to {}",
+                kind.description(),
+                path.display()
+            ));
+        }
+        Ok(written)
+    }
+
     /// One line: the number of points, the models, the largest predicted
     /// deviation without compensation and the largest residual (mm).
     pub fn summary_line(&self) -> String {

@@ -58,6 +58,17 @@ pub enum Error {
         /// Why it failed (an unreachable pose, a loop that cannot close).
         source: flexcal_kinematics::KinematicsError,
     },
+    /// A fuzzy model's learning or evaluation.
+    #[error(transparent)]
+    Fuzzy(#[from] flexcal_fuzzy::FuzzyError),
+    /// A dataset file a fuzzy model cannot take.
+    #[error("{}: {source}", path.display())]
+    FuzzyData {
+        /// The dataset file.
+        path: PathBuf,
+        /// What is wrong.
+        source: flexcal_fuzzy::FuzzyError,
+    },
     /// Points of a path that could not be compensated, each named by its line.
     #[error("{failed} of {total} path points could not be compensated: {}", failures.join("; "))]
     PathPoints {
@@ -126,6 +137,19 @@ pub enum Error {
         /// The parser's message.
         source: serde_json::Error,
     },
+}
+
+impl Error {
+    /// Whether the error rejects an argument before any work is done (a
+    /// parameter out of its range, an unknown robot, a robot file format
+    /// flexcal does not read): a usage error, which a command line reports
+    /// with its own exit code.
+    pub fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            Self::InvalidParameter { .. } | Self::UnknownRobot { .. } | Self::RobotFormat { .. }
+        )
+    }
 }
 
 /// The facade's result type.

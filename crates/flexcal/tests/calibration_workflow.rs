@@ -4,7 +4,7 @@
 //! and configurations that cannot run are refused by name.
 
 use flexcal::calib::{CalibrationOptions, FrameTreatment};
-use flexcal::calibration::{CalibrationConfig, run_calibration};
+use flexcal::calibration::{CalibrationConfig, CalibrationOutputs, run_calibration};
 
 #[test]
 fn workflow_on_the_twin_campaign() {

@@ -63,4 +63,6 @@ fn compensate_path_with_each_model_closes_the_predicted_error() {
     }
     assert!(dir.path().join("commanded_fe.csv").is_file());
     assert!(dir.path().join("commanded_fuzzy.src").is_file());
+    let csv = std::fs::read_to_string(dir.path().join("commanded_fuzzy.csv")).unwrap();
+    assert_eq!(csv, fuzzy.to_csv(6));
 }
