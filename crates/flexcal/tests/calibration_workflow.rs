@@ -67,6 +67,29 @@ fn workflow_on_the_twin_campaign() {
         "{after}"
     );
 
+    // The files of the run: every one written, and each reads back.
+    let outputs = CalibrationOutputs {
+        residuals: Some(dir.join("out/residuals.csv")),
+        accuracy_grid: None,
+        description: Some(dir.join("out/calibrated.toml")),
+        report: Some(dir.join("out/report.json")),
+    };
+    let written = run.write_outputs(&robot, &outputs).unwrap();
+    assert_eq!(written.len(), 3, "{written:?}");
+    let residuals = std::fs::read_to_string(dir.join("out/residuals.csv")).unwrap();
+    assert_eq!(residuals.lines().count(), 1 + set.len());
+    let calibrated =
+        flexcal::load_robot(dir.join("out/calibrated.toml").to_str().unwrap()).unwrap();
+    let largest_change = calibrated
+        .nominal_params()
+        .iter()
+        .zip(&run.calibration.xi)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(largest_change < 1e-12, "{largest_change}");
+    let json = std::fs::read_to_string(dir.join("out/report.json")).unwrap();
+    assert_eq!(json, report.to_json_string().unwrap());
+
     // Refused by name: a cross-series check without a validation set, and
     // a label that names no pose.
     let no_validation = CalibrationConfig {

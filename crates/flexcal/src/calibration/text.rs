@@ -3,7 +3,7 @@
 //! flexcal shows its users the same tables.
 //!
 //! Units in the text: the unit column of each unknown (mm or deg from
-//! [`calib::error_model::UnknownKind::display_unit`]), position errors in mm,
+//! [`crate::calib::error_model::UnknownKind::display_unit`]), position errors in mm,
 //! orientation errors in deg, temperatures in deg C.
 
 use std::fmt::Write as _;
