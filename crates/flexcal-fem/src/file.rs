@@ -570,7 +570,7 @@ pub fn displacements_json(structure: &Structure, cases: &[CaseDisplacements]) ->
 }
 
 /// The displacements as text for people: per load case a table of every
-/// node's displacements [m] and rotations [rad] in global axes, in load
+/// node's displacements (m) and rotations (rad) in global axes, in load
 /// case and node file order (what `displacements_json` holds).
 pub fn displacements_text(structure: &Structure, cases: &[CaseDisplacements]) -> String {
     use std::fmt::Write as _;
