@@ -25,41 +25,6 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
-    let width = report
-        .operations
-        .iter()
-        .map(|t| t.name.len())
-        .max()
-        .unwrap_or(0);
-    println!(
-        "{:<width$} {:>14} {:>14} {:>8} {:>14}",
-        "operation", "min ns/op", "median ns/op", "samples", "cpu ns/op"
-    );
-    for t in &report.operations {
-        let cpu = t
-            .cpu_ns_per_op
-            .map_or_else(|| "-".to_string(), |ns| format!("{ns:.1}"));
-        println!(
-            "{:<width$} {:>14.1} {:>14.1} {:>8} {:>14}",
-            t.name, t.min_ns, t.ns_per_op, t.samples, cpu
-        );
-    }
-    match report.load_average {
-        Some([one, five, fifteen]) => {
-            let busy = if one > report.cores as f64 * 0.75 {
-                " (busy: other work competes for the cores; medians above the minimum show it)"
-            } else {
-                ""
-            };
-            println!(
-                "load average {one:.2} {five:.2} {fifteen:.2} on {} cores, {} compensation threads{busy}",
-                report.cores, report.threads
-            );
-        }
-        None => println!(
-            "{} cores, {} compensation threads",
-            report.cores, report.threads
-        ),
-    }
+    print!("{}", report.table_text());
     Ok(())
 }

@@ -6,16 +6,13 @@
 //! moments in N.m; joint coordinates in the robot's own units (rad for
 //! revolute, m for prismatic), as in `flexcal fk`/`ik`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 use flexcal::compensation::{
-    CompensationSetup, ElasticSpec, ProcessSpec, calibrated_xi as facade_calibrated_xi,
-    compensate_path_file, default_start_joints, load_elastic, parse_numbers, pose_mm_deg,
+    CompensationSetup, ElasticSpec, PathExport, ProcessSpec, calibrated_xi, compensate_path_file,
+    load_elastic,
 };
-use flexcal::elastic::workflow::StiffnessReport;
-use flexcal::kinematics::Model;
-use flexcal::nalgebra::{Isometry3, Vector6};
 
 use crate::robot_arg::load_model;
 
@@ -84,57 +81,23 @@ pub struct CompensateArgs {
     pub joints_csv: Option<PathBuf>,
 }
 
-fn parse_part_pose(text: &str) -> anyhow::Result<Isometry3<f64>> {
-    let v = parse_numbers(text, 6, "--part-pose x_mm,y_mm,z_mm,a_deg,b_deg,c_deg")?;
-    Ok(pose_mm_deg(&[v[0], v[1], v[2], v[3], v[4], v[5]]))
-}
-
-/// Reads the identified Gamma of a `flexcal identify stiffness --report`
-/// JSON file, checked by name against the elastic model's parameters.
-pub(crate) fn read_gamma_report(
-    path: &Path,
-    model: &flexcal::elastic::model::ElasticModel,
-) -> anyhow::Result<Vec<f64>> {
-    Ok(StiffnessReport::read(path)?.gamma_for(model, path)?)
-}
-
-/// Geometric parameters of a calibrated robot description, checked against `model`.
-pub(crate) fn calibrated_xi(model: &Model, file: Option<&Path>) -> anyhow::Result<Vec<f64>> {
-    Ok(facade_calibrated_xi(model, file)?)
-}
-
 /// Runs `flexcal compensate`.
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     let model = load_model(&args.robot, &args.robot_file)?;
     let xi = calibrated_xi(&model, args.calibrated.as_deref())?;
-    let mut spec: ElasticSpec = args.elastic.parse()?;
-    match (&mut spec, &args.gamma_report) {
-        (ElasticSpec::Fe { gamma_report, .. }, Some(path)) => *gamma_report = Some(path.clone()),
-        (ElasticSpec::Fuzzy(_), Some(_)) => {
-            crate::usage_bail!("--gamma-report applies to an fe: elastic model, not fuzzy:")
-        }
-        _ => {}
-    }
+    let spec = args
+        .elastic
+        .parse::<ElasticSpec>()?
+        .with_gamma_report(args.gamma_report.clone())?;
     let elastic =
         load_elastic(&spec, &model, &xi).with_context(|| format!("--elastic {}", args.elastic))?;
     let process: ProcessSpec = args.process.parse()?;
-    let x_base_part = parse_part_pose(&args.part_pose)?;
-    let payload_base = match &args.payload {
-        Some(text) => {
-            let f = parse_numbers(text, 3, "--payload fx,fy,fz")?;
-            Vector6::new(f[0], f[1], f[2], 0.0, 0.0, 0.0)
-        }
-        None => Vector6::zeros(),
-    };
-    let start_joints = match &args.seed_joints {
-        Some(text) => parse_numbers(text, model.n_actuated(), "--seed-joints")?,
-        None => default_start_joints(&model),
-    };
-    let setup = CompensationSetup {
-        x_base_part,
-        payload_base,
-        start_joints,
-    };
+    let setup = CompensationSetup::from_text(
+        &model,
+        &args.part_pose,
+        args.payload.as_deref(),
+        args.seed_joints.as_deref(),
+    )?;
     let commanded = compensate_path_file(
         &model,
         xi,
@@ -143,50 +106,16 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         &setup,
         &args.path,
     )?;
-    // Every export is built before anything is written, so a failing one
-    // leaves no file half-updated.
-    let mut exports = Vec::new();
-    if let Some(path) = &args.krl {
-        exports.push((path, "KRL program", commanded.to_krl()?));
-    }
-    if let Some(path) = &args.rapid {
-        exports.push((path, "RAPID module", commanded.to_rapid()?));
-    }
-    if let Some(path) = &args.joints_csv {
-        exports.push((path, "joint trajectory", commanded.to_joint_csv(&model)?));
-    }
-    flexcal::io::write_atomic(&args.out, commanded.to_csv(model.n_actuated()))?;
-    for (path, _, text) in &exports {
-        flexcal::io::write_atomic(path, text)?;
-    }
-    println!(
-        "compensated {} points with {} and {}: max predicted deviation {:.4} mm, max residual {:.3e} mm",
-        commanded.points.len(),
-        commanded.elastic,
-        commanded.process,
-        commanded.max_predicted_deviation_m() * 1e3,
-        commanded.max_residual_m() * 1e3
-    );
-    println!("commanded path written to {}", args.out.display());
-    for (path, what, _) in &exports {
-        println!("{what} written to {}", path.display());
-    }
+    let exports: Vec<(PathExport, PathBuf)> = [
+        (PathExport::Krl, args.krl),
+        (PathExport::Rapid, args.rapid),
+        (PathExport::JointCsv, args.joints_csv),
+    ]
+    .into_iter()
+    .filter_map(|(kind, path)| Some((kind, path?)))
+    .collect();
+    let written = commanded.write(&model, &args.out, &exports)?;
+    println!("{}", commanded.summary_line());
+    written.iter().for_each(|line| println!("{line}"));
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use flexcal::nalgebra::Vector3;
-
-    #[test]
-    fn part_pose_is_read_in_mm_and_deg() {
-        let x = parse_part_pose("1200,0,1450,90,0,0").unwrap();
-        assert!((x.translation.vector - Vector3::new(1.2, 0.0, 1.45)).norm() < 1e-12);
-        // A = 90 deg turns the part's x axis onto the base y axis.
-        let x_axis = x.rotation * Vector3::x();
-        assert!((x_axis - Vector3::y()).norm() < 1e-12);
-        assert!(parse_part_pose("1200,0,1450,0,0").is_err());
-        assert!(parse_part_pose("1200,0,inf,0,0,0").is_err());
-    }
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use flexcal::study::{StudyObserver, StudyOptions, run_study, write_study};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 
 /// Arguments of `flexcal demo`.
 #[derive(clap::Args, Debug)]
@@ -27,11 +27,7 @@ struct Spinners {
 
 impl StudyObserver for Spinners {
     fn started(&mut self, what: &str) {
-        let bar = ProgressBar::new_spinner();
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} {msg} [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-        );
+        let bar = crate::spinner("{spinner} {msg} [{elapsed}]", false);
         bar.enable_steady_tick(Duration::from_millis(120));
         bar.set_message(what.to_string());
         self.bar = Some(bar);

@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal::fem::{Dof, FemError, FemModel, condensation_json, displacements_json};
+use flexcal::fem::{
+    FemModel, condensation_json, condensation_text, displacements_json, displacements_text,
+};
 
 /// Subcommands of `flexcal fem`.
 #[derive(clap::Subcommand, Debug)]
@@ -45,85 +47,28 @@ pub fn run(command: FemCommand) -> anyhow::Result<()> {
     }
 }
 
-fn load(file: &PathBuf) -> anyhow::Result<FemModel> {
-    FemModel::read(file).map_err(|err| match err {
-        // These already name the file.
-        FemError::Parse { .. } | FemError::Io(_) | FemError::UnknownExtension { .. } => {
-            anyhow::Error::new(err)
-        }
-        other => anyhow::Error::new(other).context(file.display().to_string()),
-    })
-}
-
 fn solve(args: SolveArgs) -> anyhow::Result<()> {
-    let model = load(&args.file)?;
+    let model = FemModel::read(&args.file)?;
     let cases = model
         .solve()
         .with_context(|| args.file.display().to_string())?;
     if args.json {
         println!("{}", displacements_json(&model.structure, &cases));
-        return Ok(());
-    }
-    let names = model.structure.node_names();
-    let width = names.iter().map(String::len).max().unwrap_or(4).max(4);
-    for case in &cases {
-        println!(
-            "load case '{}': displacements [m] and rotations [rad], global axes",
-            case.name
-        );
-        print!("{:<width$}", "node");
-        for dof in Dof::ALL {
-            print!(" {:>24}", dof.name());
-        }
-        println!();
-        for (name, u) in names.iter().zip(&case.nodes) {
-            print!("{name:<width$}");
-            for value in u.iter() {
-                print!(" {value:>24e}");
-            }
-            println!();
-        }
-        println!();
+    } else {
+        print!("{}", displacements_text(&model.structure, &cases));
     }
     Ok(())
 }
 
-fn print_matrix(title: &str, m: &flexcal::nalgebra::Matrix6<f64>) {
-    println!("{title}");
-    for r in 0..6 {
-        print!("  {:<3}", Dof::from_index(r).name());
-        for c in 0..6 {
-            print!(" {:>24e}", m[(r, c)]);
-        }
-        println!();
-    }
-}
-
 fn condense(args: CondenseArgs) -> anyhow::Result<()> {
-    let model = load(&args.file)?;
+    let model = FemModel::read(&args.file)?;
     let condensed = model
         .condense(&args.node)
         .with_context(|| args.file.display().to_string())?;
     if args.json {
         println!("{}", condensation_json(&condensed));
-        return Ok(());
-    }
-    println!(
-        "condensation onto node '{}', global axes, order [ux uy uz rx ry rz]",
-        args.node
-    );
-    print_matrix("K_eq [N/m, N/rad; N.m/m, N.m/rad]:", &condensed.k_eq);
-    print_matrix(
-        "C_eq = K_eq^-1 [m/N, m/(N.m); rad/N, rad/(N.m)]:",
-        &condensed.c_eq,
-    );
-    println!("F_eq [N, N.m] per load case:");
-    for (name, f) in &condensed.f_eq {
-        print!("  {name}:");
-        for value in f.iter() {
-            print!(" {value:e}");
-        }
-        println!();
+    } else {
+        print!("{}", condensation_text(&condensed, &args.node));
     }
     Ok(())
 }

@@ -1,23 +1,12 @@
-//! `flexcal fk` and `flexcal ik`: forward and inverse models from the command line.
-//!
-//! Joint files have a header `q1,...,qn` (actuated coordinates in the
-//! robot's actuated order, rad for revolute joints and m for prismatic joints
-//! and screws). Pose files have the columns `x_m,y_m,z_m,qw,qx,qy,qz`: the
-//! TCP in the robot base frame, position in metres, orientation as a unit
-//! quaternion. `fk` output adds one column `passive_<frame>` per passive
-//! joint of a closed loop (rad or m).
+//! `flexcal fk` and `flexcal ik`: forward and inverse models from the
+//! command line, over the configuration and pose files of
+//! [`flexcal::pose_file`].
 
-use anyhow::{Context, bail};
-use flexcal::io::{CsvOptions, CsvTable, write_atomic};
-use flexcal::kinematics::{Data, InverseOptions, Model, forward_pose, inverse_pose};
-use flexcal::nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::robot_arg::load_model;
+use flexcal::pose_file::{self, Located};
 
-/// Pose columns of `fk` output and `ik` input.
-pub const POSE_COLUMNS: [&str; 7] = ["x_m", "y_m", "z_m", "qw", "qx", "qy", "qz"];
+use crate::robot_arg::load_model;
 
 /// Arguments of `flexcal fk`.
 #[derive(clap::Args, Debug)]
@@ -59,157 +48,41 @@ pub struct IkArgs {
     pub seed: Option<String>,
 }
 
-fn parse_joint_list(text: &str, model: &Model) -> anyhow::Result<Vec<f64>> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|s| {
-            let s = s.trim();
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .with_context(|| format!("'{s}' is not a finite number"))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    if values.len() != model.n_actuated() {
-        bail!(
-            "robot '{}' has {} actuated coordinates ({}), {} given",
-            model.name(),
-            model.n_actuated(),
-            model.actuated_names().join(", "),
-            values.len()
-        );
-    }
-    Ok(values)
-}
-
+/// Writes `text` to `output`, or prints it when there is none.
 fn emit(output: &Option<PathBuf>, text: String) -> anyhow::Result<()> {
     match output {
-        Some(path) => {
-            write_atomic(path, text)?;
-            Ok(())
-        }
-        None => {
-            print!("{text}");
-            Ok(())
-        }
+        Some(path) => flexcal::io::write_atomic(path, text)?,
+        None => print!("{text}"),
     }
-}
-
-fn format_row(out: &mut String, values: impl IntoIterator<Item = f64>) {
-    let mut first = true;
-    for v in values {
-        if !first {
-            out.push(',');
-        }
-        first = false;
-        let _ = write!(out, "{v}");
-    }
-    out.push('\n');
+    Ok(())
 }
 
 /// Runs `flexcal fk`.
 pub fn run_fk(args: FkArgs) -> anyhow::Result<()> {
     let model = load_model(&args.robot, &args.robot_file)?;
-    let n = model.n_actuated();
-    let (configurations, lines): (Vec<Vec<f64>>, Vec<String>) = match (&args.joints, &args.input) {
-        (Some(text), None) => (
-            vec![parse_joint_list(text, &model).context("--joints")?],
-            vec!["--joints".into()],
-        ),
-        (None, Some(path)) => {
-            let table = CsvTable::read(path, &CsvOptions::default())?;
-            table.require_rows()?;
-            let columns: Vec<Vec<f64>> = (1..=n)
-                .map(|i| table.column_f64(&format!("q{i}")))
-                .collect::<Result<_, _>>()?;
-            let rows = (0..table.len())
-                .map(|r| columns.iter().map(|c| c[r]).collect())
-                .collect();
-            let lines = (0..table.len())
-                .map(|r| format!("{}:{}", path.display(), table.line_of(r)))
-                .collect();
-            (rows, lines)
-        }
-        _ => bail!("give either --joints or --input"),
+    let configurations = match (&args.joints, &args.input) {
+        (Some(text), None) => vec![Located {
+            value: pose_file::parse_configuration(text, &model, "--joints")?,
+            origin: "--joints".into(),
+        }],
+        (None, Some(path)) => pose_file::read_configurations(path, &model)?,
+        _ => crate::usage_bail!("give either --joints or --input"),
     };
-    let xi = model.nominal_params().to_vec();
-    let mut data = Data::new(&model);
-    let mut out = String::with_capacity(configurations.len() * 160);
-    let mut header: Vec<String> = POSE_COLUMNS.iter().map(|s| s.to_string()).collect();
-    header.extend(model.passive_names().iter().map(|n| format!("passive_{n}")));
-    out.push_str(&header.join(","));
-    out.push('\n');
-    for (q, line) in configurations.iter().zip(&lines) {
-        // forward_pose also assembles the loops, so the passive joint values
-        // are in `data` afterwards.
-        let x = forward_pose(&model, &mut data, q, &xi).with_context(|| line.clone())?;
-        let t = x.translation.vector;
-        let r = x.rotation;
-        format_row(
-            &mut out,
-            [t.x, t.y, t.z, r.w, r.i, r.j, r.k]
-                .into_iter()
-                .chain(data.passive_values().iter().copied()),
-        );
-    }
-    emit(&args.output, out)
-}
-
-/// Reads a pose file (columns [`POSE_COLUMNS`]); returns the poses and the
-/// line of each in the file.
-pub fn read_poses(path: &PathBuf) -> anyhow::Result<Vec<(Isometry3<f64>, usize)>> {
-    let table = CsvTable::read(path, &CsvOptions::default())?;
-    table.require_rows()?;
-    let c: Vec<Vec<f64>> = POSE_COLUMNS
-        .iter()
-        .map(|name| table.column_f64(name))
-        .collect::<Result<_, _>>()?;
-    (0..table.len())
-        .map(|r| {
-            let q = Quaternion::new(c[3][r], c[4][r], c[5][r], c[6][r]);
-            if q.norm() < 1e-9 {
-                bail!(
-                    "{}:{}: the orientation quaternion has zero norm",
-                    path.display(),
-                    table.line_of(r)
-                );
-            }
-            Ok((
-                Isometry3::from_parts(
-                    Translation3::new(c[0][r], c[1][r], c[2][r]),
-                    UnitQuaternion::from_quaternion(q),
-                ),
-                table.line_of(r),
-            ))
-        })
-        .collect()
+    let poses = pose_file::forward_poses(&model, &configurations)?;
+    emit(&args.output, poses.to_csv())
 }
 
 /// Runs `flexcal ik`.
 pub fn run_ik(args: IkArgs) -> anyhow::Result<()> {
     let model = load_model(&args.robot, &args.robot_file)?;
-    let poses = read_poses(&args.input)?;
-    let mut seed = match &args.seed {
-        Some(text) => parse_joint_list(text, &model).context("--seed")?,
-        None => model
-            .actuated_limits()
-            .iter()
-            .map(|(lo, hi)| 0.5 * (lo + hi))
-            .collect(),
+    let targets = pose_file::read_poses(&args.input)?;
+    let start = match &args.seed {
+        Some(text) => pose_file::parse_configuration(text, &model, "--seed")?,
+        None => pose_file::middle_of_limits(&model),
     };
-    let xi = model.nominal_params().to_vec();
-    let mut data = Data::new(&model);
-    let options = InverseOptions::default();
-    let n = model.n_actuated();
-    let mut out = String::with_capacity(poses.len() * 20 * n);
-    let header: Vec<String> = (1..=n).map(|i| format!("q{i}")).collect();
-    out.push_str(&header.join(","));
-    out.push('\n');
-    for (target, line) in &poses {
-        let solution = inverse_pose(&model, &mut data, target, &seed, &xi, &options)
-            .with_context(|| format!("{}:{line}", args.input.display()))?;
-        format_row(&mut out, solution.q.iter().copied());
-        seed = solution.q;
-    }
-    emit(&args.output, out)
+    let solutions = pose_file::inverse_path(&model, &targets, &start)?;
+    emit(
+        &args.output,
+        pose_file::configurations_to_csv(model.n_actuated(), &solutions),
+    )
 }

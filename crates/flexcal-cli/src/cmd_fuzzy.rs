@@ -3,11 +3,8 @@
 
 use std::path::PathBuf;
 
-use flexcal::fuzzy::{
-    Dataset, FuzzyError, FuzzyModel, FuzzyParams, SearchPhase, SearchProgress,
-    StructureSearchParams,
-};
-use flexcal::io::{CsvOptions, CsvTable};
+use flexcal::fuzzy::SearchProgress;
+use flexcal::fuzzy_csv::{CsvFitConfig, TestSet, evaluate_csv, export_fis, fit_csv, progress_line};
 
 /// Subcommands of `flexcal fuzzy`.
 #[derive(clap::Subcommand, Debug)]
@@ -89,111 +86,47 @@ pub fn run(command: FuzzyCommand) -> anyhow::Result<()> {
     }
 }
 
-fn read_dataset(path: &PathBuf, inputs: &[&str], output: &str) -> anyhow::Result<Dataset> {
-    let table = CsvTable::read(path, &CsvOptions::default())?;
-    Dataset::from_csv(&table, inputs, output).map_err(|err| match err {
-        // File errors already name the file, line and column.
-        FuzzyError::Io(_) => anyhow::Error::new(err),
-        other => anyhow::Error::new(other).context(path.display().to_string()),
-    })
-}
-
 fn fit(args: FitArgs) -> anyhow::Result<()> {
     let inputs = crate::list_items(&args.inputs);
     if inputs.is_empty() {
         crate::usage_bail!("--inputs names no column");
     }
-    let data = read_dataset(&args.data, &inputs, &args.output)?;
-    let (train, test) = match &args.test_data {
-        Some(path) => (data, read_dataset(path, &inputs, &args.output)?),
-        None => data.split_random(args.test_fraction, args.seed)?,
-    };
-    let defaults = StructureSearchParams::default();
-    let params = FuzzyParams {
-        search: StructureSearchParams {
-            max_rules: args.max_rules,
-            placement: flexcal::optim::solis_wets::SolisWetsParams {
-                seed: args.seed,
-                ..defaults.placement.clone()
-            },
-            ..defaults
+    let config = CsvFitConfig {
+        test: match args.test_data {
+            Some(path) => TestSet::File(path),
+            None => TestSet::HeldOut(args.test_fraction),
         },
+        max_rules: args.max_rules,
+        seed: args.seed,
         ridge: args.ridge,
-        ..FuzzyParams::default()
+        ..CsvFitConfig::new(&args.data, inputs, &args.output)
     };
-    let bar = if args.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new_spinner()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
+    let bar = crate::spinner("{spinner} [{elapsed}] {msg}", args.quiet);
     let mut on_progress = |p: &SearchProgress| {
-        let doing = match p.phase {
-            SearchPhase::Initial => "initial placement".to_string(),
-            SearchPhase::Candidate { input, .. } => {
-                format!("trying one more MF on '{}'", inputs[input])
-            }
-            SearchPhase::StepDone => "step done".to_string(),
-        };
-        bar.set_message(format!(
-            "growth step {}, MFs {:?}, best test rmse {:.4e}, {} evaluations: {doing}",
-            p.growth_step, p.memberships[0], p.best_test_error, p.evaluations
-        ));
+        bar.set_message(progress_line(p, &config.inputs));
         bar.tick();
     };
-    let fitted = params.fit(&train, &test, &mut on_progress);
+    let fitted = fit_csv(&config, &mut on_progress);
     bar.finish_and_clear();
     let fitted = fitted?;
-    fitted.model.write(&args.out)?;
-    let report = &fitted.report;
-    println!(
-        "{} rules {:?}, {} training / {} test samples, train rmse {:.6e}, test rmse {:.6e}, test max |error| {:.6e} ({:?} after {} evaluations); wrote {}",
-        fitted.model.structure().rule_count(),
-        fitted.model.structure().membership_counts(),
-        train.len(),
-        test.len(),
-        report.training.rmse,
-        report.test.rmse,
-        report.test.max_abs,
-        report.search.termination,
-        report.search.evaluations,
-        args.out.display()
-    );
+    fitted.fit.model.write(&args.out)?;
+    println!("{}; wrote {}", fitted.summary_line(), args.out.display());
     Ok(())
 }
 
 fn eval(args: EvalArgs) -> anyhow::Result<()> {
-    let model = FuzzyModel::read(&args.model)?;
-    let inputs: Vec<&str> = model.input_names().iter().map(String::as_str).collect();
-    let data = read_dataset(&args.data, &inputs, model.output_name())?;
-    let stats = model.error_stats(&data)?;
+    let evaluation = evaluate_csv(&args.model, &args.data)?;
     if args.json {
         // The field order of `ErrorStats` is the documented key order.
-        println!("{}", serde_json::to_string(&stats)?);
+        println!("{}", serde_json::to_string(&evaluation.stats)?);
     } else {
-        println!(
-            "{} samples: rmse {:.6e}, mae {:.6e}, max |error| {:.6e} (output '{}')",
-            stats.n,
-            stats.rmse,
-            stats.mae,
-            stats.max_abs,
-            model.output_name()
-        );
+        println!("{}", evaluation.summary_line());
     }
     Ok(())
 }
 
 fn export(args: ExportArgs) -> anyhow::Result<()> {
-    let model = FuzzyModel::read(&args.model)?;
-    let name = args
-        .model
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| model.output_name().to_string());
-    model.write_fis(&args.fis, &name)?;
+    export_fis(&args.model, &args.fis)?;
     println!("wrote {}", args.fis.display());
     Ok(())
 }

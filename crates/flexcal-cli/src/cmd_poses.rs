@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
-use flexcal::calib::{read_configurations, select_calibration_poses};
 use flexcal::optim::ObservabilityIndex;
+use flexcal::pose_file::configurations_to_csv;
+use flexcal::pose_selection::{PoseSelectionConfig, select_poses};
 
 use crate::robot_arg::load_model;
 
@@ -61,48 +62,22 @@ pub struct SelectArgs {
 pub fn run(command: PosesCommand) -> anyhow::Result<()> {
     let PosesCommand::Select(args) = command;
     let model = load_model(&args.robot, &args.robot_file)?;
-    let candidates = read_configurations(&args.candidates)?;
-    let index = match args.index {
-        IndexKind::O1 => ObservabilityIndex::O1,
-        IndexKind::O2 => ObservabilityIndex::O2,
-        IndexKind::O3 => ObservabilityIndex::O3,
-        IndexKind::O4 => ObservabilityIndex::O4,
-        IndexKind::O5 => ObservabilityIndex::O5,
+    let config = PoseSelectionConfig {
+        index: match args.index {
+            IndexKind::O1 => ObservabilityIndex::O1,
+            IndexKind::O2 => ObservabilityIndex::O2,
+            IndexKind::O3 => ObservabilityIndex::O3,
+            IndexKind::O4 => ObservabilityIndex::O4,
+            IndexKind::O5 => ObservabilityIndex::O5,
+        },
+        use_orientation: args.orientation,
+        fixed: args.fix,
+        ..PoseSelectionConfig::new(args.candidates, args.count)
     };
-    let result = select_calibration_poses(
-        &model,
-        &candidates,
-        args.count,
-        index,
-        args.orientation,
-        &args.fix,
-    )?;
-    let s = &result.selection;
-    println!(
-        "selected {} of {} candidates over {} identifiable parameters ({} exchanges, {} evaluations)",
-        s.selected.len(),
-        candidates.len(),
-        result.parameters.len(),
-        s.exchanges,
-        s.evaluations
-    );
-    println!(
-        "O1 {:.4e}  O2 {:.4e}  O3 {:.4e}  O4 {:.4e}  O5 {:.4e}",
-        s.indices.o1, s.indices.o2, s.indices.o3, s.indices.o4, s.indices.o5
-    );
-    println!(
-        "selected candidates (0-based rows): {}",
-        s.selected
-            .iter()
-            .map(|i| i.to_string())
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
+    let run = select_poses(&model, &config)?;
+    print!("{}", run.summary_text());
     if let Some(out) = &args.out {
-        let header: Vec<String> = (1..=model.n_actuated()).map(|i| format!("q{i}")).collect();
-        let header: Vec<&str> = header.iter().map(String::as_str).collect();
-        let text =
-            flexcal::io::format_csv(&header, s.selected.iter().map(|&i| candidates[i].clone()));
+        let text = configurations_to_csv(model.n_actuated(), &run.selected());
         flexcal::io::write_atomic(out, text)?;
         println!("selected configurations written to {}", out.display());
     }

@@ -3,11 +3,9 @@
 
 use std::path::PathBuf;
 
-use crate::robot_arg::{RobotFileArgs, load_description_with};
+use crate::robot_arg::RobotFileArgs;
 use anyhow::Context;
-use flexcal::kinematics::{
-    ActuatedKind, ExportFormat, ExportOptions, ParamKind, builtin_robot_names, export_robot,
-};
+use flexcal::kinematics::{ExportFormat, ExportOptions, export_robot};
 
 /// Formats of `flexcal robot export`.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,112 +54,28 @@ pub enum RobotCommand {
 /// Runs `flexcal robot ...`.
 pub fn run(command: RobotCommand) -> anyhow::Result<()> {
     match command {
-        RobotCommand::List => {
-            for name in builtin_robot_names() {
-                let description = flexcal::kinematics::RobotDescription::builtin(name)?;
-                let model = description.build()?;
-                println!(
-                    "{name:<10} {} actuated, {} parameters{}",
-                    model.n_actuated(),
-                    model.n_params(),
-                    if model.is_serial() {
-                        ", serial"
-                    } else {
-                        ", closed loops"
-                    }
-                );
-            }
-            Ok(())
-        }
+        RobotCommand::List => print!("{}", flexcal::robot::text::builtin_robots_text()?),
         RobotCommand::Show {
             robot,
             toml,
             import,
-        } => show(&robot, toml, &import),
+        } => {
+            let imported = flexcal::RobotSpec::parse(&robot)?
+                .import(&import.options())
+                .with_context(|| format!("reading robot {robot}"))?;
+            if toml {
+                print!("{}", imported.description.to_toml_string());
+            } else {
+                print!("{}", flexcal::robot::text::robot_text(&imported)?);
+            }
+        }
         RobotCommand::Export {
             robot,
             format,
             out,
             tolerance_mm,
             import,
-        } => export(&robot, format, out, tolerance_mm, &import),
-    }
-}
-
-fn show(robot: &str, toml: bool, import: &RobotFileArgs) -> anyhow::Result<()> {
-    let imported = flexcal::RobotSpec::parse(robot)?
-        .import(&import.options())
-        .with_context(|| format!("reading robot {robot}"))?;
-    let description = imported.description.clone();
-    if toml {
-        print!("{}", description.to_toml_string());
-        return Ok(());
-    }
-    let model = description.build()?;
-    println!("robot {}", model.name());
-    if !description.notes.is_empty() {
-        println!("{}", description.notes.trim());
-    }
-    for note in &imported.notes {
-        println!("note: {note}");
-    }
-    println!("\nactuated coordinates (q, in this order):");
-    for ((name, kind), (lo, hi)) in model
-        .actuated_names()
-        .iter()
-        .zip(model.actuated_kinds())
-        .zip(model.actuated_limits())
-    {
-        let (unit, scale) = match kind {
-            ActuatedKind::Revolute => ("deg", 180.0 / std::f64::consts::PI),
-            ActuatedKind::Prismatic | ActuatedKind::Screw => ("mm", 1e3),
-        };
-        println!(
-            "  {name:<10} {:<10} limits [{:.3}, {:.3}] {unit}",
-            format!("{kind:?}").to_lowercase(),
-            lo * scale,
-            hi * scale
-        );
-    }
-    if !model.passive_names().is_empty() {
-        println!("passive joints: {}", model.passive_names().join(", "));
-    }
-    println!("\nparameter vector xi ({} parameters):", model.n_params());
-    println!(
-        "  {:>3}  {:<10} {:<6} {:>14}  unit",
-        "#", "name", "frame", "nominal"
-    );
-    for (i, (p, v)) in model
-        .params()
-        .iter()
-        .zip(model.nominal_params())
-        .enumerate()
-    {
-        let (value, unit) = match p.kind {
-            ParamKind::Length => (v * 1e3, "mm"),
-            ParamKind::Angle => (v.to_degrees(), "deg"),
-        };
-        println!(
-            "  {:>3}  {:<10} {:<6} {:>14.6}  {unit}",
-            i + 1,
-            p.name,
-            p.frame,
-            value
-        );
-    }
-    if !imported.masses.is_empty() {
-        println!("\nlink masses (from <inertial>):");
-        for m in &imported.masses {
-            println!(
-                "  {:<16} {:>10.3} kg on frame {:<4} centre ({:.1}, {:.1}, {:.1}) mm",
-                m.link,
-                m.mass_kg,
-                m.frame,
-                m.center_m[0] * 1e3,
-                m.center_m[1] * 1e3,
-                m.center_m[2] * 1e3
-            );
-        }
+        } => export(&robot, format, out, tolerance_mm, &import)?,
     }
     Ok(())
 }
@@ -173,16 +87,11 @@ fn export(
     tolerance_mm: f64,
     import: &RobotFileArgs,
 ) -> anyhow::Result<()> {
-    let model = load_description_with(robot, &import.options())?
-        .build()
-        .with_context(|| format!("building robot '{robot}'"))?;
+    let model = crate::robot_arg::load_model(robot, import)?;
     let format = match format {
         ExportFormatArg::Urdf => ExportFormat::Urdf,
         ExportFormatArg::Toml => ExportFormat::Toml,
-        ExportFormatArg::Mdh => match out.as_ref().and_then(|p| p.extension()) {
-            Some(e) if e != "md" => ExportFormat::MdhCsv,
-            _ => ExportFormat::MdhMarkdown,
-        },
+        ExportFormatArg::Mdh => flexcal::robot::mdh_format_for(out.as_deref()),
     };
     let options = ExportOptions {
         tolerance_m: tolerance_mm / 1e3,

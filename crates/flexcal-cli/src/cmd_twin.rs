@@ -12,10 +12,10 @@ use flexcal::twin::geometric::{
 pub enum TwinCommand {
     /// The virtual IR-663's geometric campaign: 27 identification + 16
     /// validation poses of box (59), photogrammetry noise, and the truth.
-    Geometric(GeometricArgs),
+    Geometric(CampaignArgs),
     /// The virtual IR-663's elastic campaign: the 63-pose grid (65), loads of
     /// 300-1100 N along x and z, loaded and unloaded poses (8 files), and the truth.
-    Elastic(ElasticArgs),
+    Elastic(CampaignArgs),
     /// The forming experiment (paper section 4, Figure 17) on the virtual
     /// IR-663: a 920 N tool plunges 25 mm into a clamped Al-5005 beam and
     /// travels 200 mm, commanded without and with compensation.
@@ -52,98 +52,16 @@ pub struct FormingArgs {
 }
 
 fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
-    use flexcal::twin::forming::{FeTcpModel, FormingOptions, TwinCell, forming_path, run_forming};
-    let robot = crate::robot_arg::load_model("ir663", &Default::default())?;
-    let twin = TwinCell::new(flexcal::twin::truth::TruthSwitches::default())?;
-    let xi = crate::cmd_compensate::calibrated_xi(&robot, args.calibrated.as_deref())?;
-    // The FE model the user would have: the built-in description, not the twin's truth.
-    let description = flexcal::elastic::description::ElasticDescription::builtin("ir663")?;
-    let fe_model = flexcal::elastic::model::ElasticModel::new(&robot, &description)?;
-    let (gamma, origin) = match &args.fe_report {
-        Some(path) => (
-            crate::cmd_compensate::read_gamma_report(path, &fe_model)?,
-            "identified Gamma",
-        ),
-        None => (fe_model.nominal_gamma(), "nominal Gamma"),
-    };
-    let fe_label = format!("compensated, FE beam model ({origin})");
-    let fe = FeTcpModel::new(fe_model, xi.clone(), gamma, fe_label.clone())?;
-    let fuzzy = match &args.fuzzy {
-        Some(path) => {
-            let compliance = flexcal::elastic::fuzzy_compliance::FuzzyCompliance::read(path)?;
-            Some(
-                flexcal::elastic::fuzzy_compliance::RobotFuzzyCompliance::new(
-                    compliance,
-                    robot.clone(),
-                )?,
-            )
-        }
-        None => None,
-    };
-    let mut models: Vec<(
-        &str,
-        &dyn flexcal::compensate::compensation::DynTcpDeflection,
-    )> = Vec::new();
-    if let Some(f) = &fuzzy {
-        models.push(("compensated, fuzzy model", f));
-    }
-    models.push((&fe_label, &fe));
-
-    let defaults = FormingOptions::default();
-    let x_base_part_user = match &args.calibration_report {
-        Some(path) => Some(twin.part_located_by_camera(
-            &defaults.x_base_part,
-            &flexcal::calib::read_measurement_frame(path)?,
-        )),
-        None => None,
-    };
-    let options = FormingOptions {
+    let config = flexcal::forming::FormingConfig {
         seed: args.seed,
-        x_base_part_user,
-        ..defaults
+        calibrated: args.calibrated,
+        calibration_report: args.calibration_report,
+        fe_report: args.fe_report,
+        fuzzy: args.fuzzy,
     };
-    let result = run_forming(&twin, &xi, &models, &options)?;
-    flexcal::io::write_atomic(
-        args.out.join("target_path.csv"),
-        flexcal::compensate::path::target_path_to_csv(&forming_path(&options)),
-    )?;
-    flexcal::io::write_atomic(
-        args.out.join("forming_result.json"),
-        serde_json::to_string_pretty(&result)? + "\n",
-    )?;
-    // Figure 17 data: one row per (path, point), target and measured in the part frame.
-    let mut rows = Vec::new();
-    let mut labels = Vec::new();
-    for (p, path) in std::iter::once(&result.uncompensated)
-        .chain(&result.compensated)
-        .enumerate()
-    {
-        labels.push(format!("{p}: {}", path.label));
-        for (k, &(x, z)) in result.target_mm.iter().enumerate() {
-            rows.push(vec![
-                p as f64,
-                k as f64,
-                x,
-                z,
-                x + path.deviation_x_mm[k],
-                z + path.deviation_z_mm[k],
-            ]);
-        }
-    }
-    flexcal::io::write_atomic(
-        args.out.join("forming_paths.csv"),
-        flexcal::io::format_csv(
-            &[
-                "path",
-                "point",
-                "x_target_mm",
-                "z_target_mm",
-                "x_measured_mm",
-                "z_measured_mm",
-            ],
-            rows,
-        ),
-    )?;
+    let experiment = flexcal::forming::run_forming_experiment(&config)?;
+    experiment.write(&args.out)?;
+    let result = &experiment.result;
     println!(
         "virtual IR-663 forming (seed {}): max |deviation along z_p| {:.3} mm uncompensated",
         args.seed, result.uncompensated.max_abs_deviation_z_mm
@@ -151,6 +69,11 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     for c in &result.compensated {
         println!("  {}: {:.3} mm", c.label, c.max_abs_deviation_z_mm);
     }
+    let labels: Vec<String> = result
+        .paths()
+        .enumerate()
+        .map(|(p, path)| format!("{p}: {}", path.label))
+        .collect();
     println!(
         "target_path.csv, forming_result.json and forming_paths.csv (paths {}) written to {}",
         labels.join("; "),
@@ -159,18 +82,18 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Arguments of `flexcal twin elastic`.
+/// Arguments of `flexcal twin geometric` and `flexcal twin elastic`.
 #[derive(clap::Args, Debug)]
-pub struct ElasticArgs {
+pub struct CampaignArgs {
     /// Output folder (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// Seed of the measurement noise.
+    /// Seed of every random draw of the campaign.
     #[arg(long, default_value_t = 663)]
     pub seed: u64,
 }
 
-fn run_elastic(args: ElasticArgs) -> anyhow::Result<()> {
+fn run_elastic(args: CampaignArgs) -> anyhow::Result<()> {
     let options = flexcal::twin::elastic::ElasticCampaignOptions {
         seed: args.seed,
         ..Default::default()
@@ -182,32 +105,12 @@ fn run_elastic(args: ElasticArgs) -> anyhow::Result<()> {
         summary.data_files.len(),
         args.out.display()
     );
-    println!(
-        "true TCP deflection under 1100 N vertical: {:.2} to {:.2} mm over the grid; screw joints k h^2: \
-         joint 2 {:.2e} to {:.2e}, joint 8 {:.2e} to {:.2e} N.m/rad",
-        summary.deflection_norm_1100n_z_mm[0],
-        summary.deflection_norm_1100n_z_mm[1],
-        summary.kar2_effective_range_nm_rad[0],
-        summary.kar2_effective_range_nm_rad[1],
-        summary.kar8_effective_range_nm_rad[0],
-        summary.kar8_effective_range_nm_rad[1]
-    );
+    println!("{}", summary.truth_line());
     println!(
         "identify with `flexcal identify stiffness --robot ir663 --elastic ir663 --data {} --train-load 900`",
         args.out.display()
     );
     Ok(())
-}
-
-/// Arguments of `flexcal twin geometric`.
-#[derive(clap::Args, Debug)]
-pub struct GeometricArgs {
-    /// Output folder (created if missing).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Seed of every random draw.
-    #[arg(long, default_value_t = 663)]
-    pub seed: u64,
 }
 
 /// Runs `flexcal twin ...`.

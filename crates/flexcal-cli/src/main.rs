@@ -91,22 +91,31 @@ pub(crate) use usage_bail;
 fn is_usage_error(err: &anyhow::Error) -> bool {
     err.chain().any(|cause| {
         cause.is::<UsageError>()
-            || matches!(
-                cause.downcast_ref::<flexcal::Error>(),
-                Some(
-                    flexcal::Error::InvalidParameter { .. }
-                        | flexcal::Error::UnknownRobot { .. }
-                        | flexcal::Error::RobotFormat { .. }
-                )
-            )
+            || cause
+                .downcast_ref::<flexcal::Error>()
+                .is_some_and(flexcal::Error::is_usage)
     })
 }
 
+/// A spinner with the `indicatif` template `template` (hidden when `quiet`).
+pub(crate) fn spinner(template: &str, quiet: bool) -> indicatif::ProgressBar {
+    let bar = if quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new_spinner()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar
+}
+
 /// The items of a comma-separated option, trimmed, empty ones dropped.
-pub(crate) fn list_items(values: &[String]) -> Vec<&str> {
+pub(crate) fn list_items(values: &[String]) -> Vec<String> {
     values
         .iter()
-        .map(|s| s.trim())
+        .map(|s| s.trim().to_string())
         .filter(|s| !s.is_empty())
         .collect()
 }

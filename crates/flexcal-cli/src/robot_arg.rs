@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use flexcal::kinematics::{ImportOptions, Model, RobotDescription};
+use flexcal::kinematics::{ImportOptions, Model};
 
 /// How to read a robot file that is not flexcal's TOML (flattened into
 /// every command that takes a robot).
@@ -31,16 +31,8 @@ impl RobotFileArgs {
     }
 }
 
-/// Loads a robot description: a built-in name (`ur10`, `ir663`, ...) or a
-/// robot file (`.toml`, `.urdf`, `.par`).
-pub fn load_description_with(
-    spec: &str,
-    options: &ImportOptions,
-) -> anyhow::Result<RobotDescription> {
-    Ok(flexcal::RobotSpec::parse(spec)?.description_with(options)?)
-}
-
-/// Loads and builds a robot model (see [`load_description_with`]).
+/// Loads and builds a robot model: a built-in name (`ur10`, `ir663`, ...)
+/// or a robot file (`.toml`, `.urdf`, `.par`).
 pub fn load_model(spec: &str, file: &RobotFileArgs) -> anyhow::Result<Model> {
     Ok(flexcal::load_robot_with(spec, &file.options())?)
 }

@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::{flexcal, stderr};
+use common::{flexcal, identify_compliance, identify_stiffness, run, stderr, twin_elastic};
 
 fn text(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap()
@@ -46,13 +46,10 @@ fn forming_target(dir: &Path) -> std::path::PathBuf {
     twin.join("target_path.csv")
 }
 
-fn compensate(
-    path: &Path,
-    process: &str,
-    payload: Option<&str>,
-    out: &Path,
-    krl: Option<&Path>,
-) -> Output {
+/// `flexcal compensate` of the path file `path` with the built-in FE model,
+/// the forming cell's part pose and `process`, into `out`, with `extra`
+/// arguments.
+fn compensate(path: &Path, process: &str, out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "compensate",
         "--robot",
@@ -68,12 +65,7 @@ fn compensate(
         "--out",
         out.to_str().unwrap(),
     ];
-    if let Some(p) = payload {
-        args.extend(["--payload", p]);
-    }
-    if let Some(k) = krl {
-        args.extend(["--krl", k.to_str().unwrap()]);
-    }
+    args.extend(extra);
     flexcal(&args)
 }
 
@@ -100,9 +92,8 @@ fn twin_forming_compensation_reaches_the_target_and_writes_krl() {
     let out = compensate(
         &target,
         "cantilever:585,50,14,Al-5005,large",
-        Some("0,0,-920"),
         &out_csv,
-        Some(&krl),
+        &["--payload", "0,0,-920", "--krl", krl.to_str().unwrap()],
     );
     assert!(out.status.success(), "{}", stderr(&out));
     let n_points = text(&target).lines().count() - 1;
@@ -130,25 +121,17 @@ fn rapid_and_joint_trajectory_exports_carry_the_commanded_path() {
     let out_csv = dir.path().join("commanded.csv");
     let rapid = dir.path().join("path.mod");
     let joints = dir.path().join("joints.csv");
-    let out = flexcal(&[
-        "compensate",
-        "--robot",
-        "ir663",
-        "--elastic",
-        "fe:ir663",
-        "--path",
-        target.to_str().unwrap(),
-        "--part-pose",
-        "1200,0,1450,0,0,0",
-        "--process",
+    let out = compensate(
+        &target,
         "constant:0,0,-920,0,0,0",
-        "--out",
-        out_csv.to_str().unwrap(),
-        "--rapid",
-        rapid.to_str().unwrap(),
-        "--joints-csv",
-        joints.to_str().unwrap(),
-    ]);
+        &out_csv,
+        &[
+            "--rapid",
+            rapid.to_str().unwrap(),
+            "--joints-csv",
+            joints.to_str().unwrap(),
+        ],
+    );
     assert!(out.status.success(), "{}", stderr(&out));
     let (header, rows) = read_csv(&out_csv);
     let module = text(&rapid);
@@ -181,7 +164,7 @@ fn zero_load_commands_the_inverse_model() {
     let dir = tempfile::tempdir().unwrap();
     let target = forming_target(dir.path());
     let out_csv = dir.path().join("commanded.csv");
-    let out = compensate(&target, "constant:0,0,0,0,0,0", None, &out_csv, None);
+    let out = compensate(&target, "constant:0,0,0,0,0,0", &out_csv, &[]);
     assert!(out.status.success(), "{}", stderr(&out));
     let (header, rows) = read_csv(&out_csv);
     let (t_header, t_rows) = read_csv(&target);
@@ -220,7 +203,12 @@ fn unreachable_point_is_named_and_nothing_is_written() {
     let out_csv = dir.path().join("commanded.csv");
     std::fs::write(&out_csv, "previous content\n").unwrap();
     let krl = dir.path().join("path.src");
-    let out = compensate(&path, "constant:0,0,-100,0,0,0", None, &out_csv, Some(&krl));
+    let out = compensate(
+        &path,
+        "constant:0,0,-100,0,0,0",
+        &out_csv,
+        &["--krl", krl.to_str().unwrap()],
+    );
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("line 3:"), "{err}");
@@ -243,7 +231,7 @@ fn malformed_path_gives_a_one_line_error() {
     for (name, content, expected) in cases {
         let path = dir.path().join(name);
         std::fs::write(&path, content).unwrap();
-        let out = compensate(&path, "constant:0,0,0,0,0,0", None, &out_csv, None);
+        let out = compensate(&path, "constant:0,0,0,0,0,0", &out_csv, &[]);
         assert!(!out.status.success());
         let err = stderr(&out);
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
@@ -278,37 +266,28 @@ fn identified_models_compensate_the_twin_forming_path() {
         "--report",
         &p("calibration.json"),
     ]);
-    run_ok(&["twin", "elastic", "--seed", "7", "--out", &p("elastic")]);
-    run_ok(&[
-        "identify",
-        "stiffness",
-        "--robot",
-        "ir663",
-        "--elastic",
-        "ir663",
-        "--data",
-        &p("elastic"),
-        "--train-load",
-        "900",
-        "--search-evaluations",
-        "0",
-        "--report",
-        &p("stiffness.json"),
-    ]);
-    run_ok(&[
-        "identify",
-        "compliance",
-        "--data",
-        &p("elastic"),
-        "--inputs",
-        "theta2,theta8",
-        "--train-load",
-        "900",
-        "--seed",
-        "1",
-        "--out",
-        &p("fuzzy.toml"),
-    ]);
+    let elastic = dir.path().join("elastic");
+    twin_elastic(&elastic, 7);
+    run(identify_stiffness("ir663", &elastic)
+        .args([
+            "--train-load",
+            "900",
+            "--search-evaluations",
+            "0",
+            "--report",
+        ])
+        .arg(dir.path().join("stiffness.json")));
+    run(identify_compliance(&elastic)
+        .args([
+            "--inputs",
+            "theta2,theta8",
+            "--train-load",
+            "900",
+            "--seed",
+            "1",
+            "--out",
+        ])
+        .arg(dir.path().join("fuzzy.toml")));
     run_ok(&[
         "twin",
         "forming",
@@ -384,13 +363,29 @@ fn identified_models_compensate_the_twin_forming_path() {
     }
 }
 
-#[test]
-fn gamma_report_of_another_model_is_refused() {
+/// Runs `flexcal compensate` with the FE model and the stiffness report
+/// `report_text` on a one-point path; returns its standard error, after
+/// checking that it failed.
+fn compensate_with_gamma_report(report_text: &str) -> String {
     let dir = tempfile::tempdir().unwrap();
     let report = dir.path().join("stiffness.json");
+    std::fs::write(&report, report_text).unwrap();
+    let path = dir.path().join("path.csv");
+    std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n").unwrap();
+    let out = compensate(
+        &path,
+        "constant:0,0,0,0,0,0",
+        &dir.path().join("out.csv"),
+        &["--gamma-report", report.to_str().unwrap()],
+    );
+    assert!(!out.status.success());
+    stderr(&out)
+}
+
+#[test]
+fn gamma_report_of_another_model_is_refused() {
     // A well-formed stiffness report of a model with another parameter.
-    let mut text = String::from(
-        r#"{"robot": "ir663", "elastic": "other", "train_load_n": 900.0,
+    let text = r#"{"robot": "ir663", "elastic": "other", "train_load_n": 900.0,
         "train_sets": [], "seed": 1,
         "parameters": [{"name": "k_wrong", "value": 1.0, "unit": "N.m/rad",
                         "after_global_search": 1.0, "sensitivity_sigma_per_ln": 1.0}],
@@ -404,31 +399,9 @@ fn gamma_report_of_another_model_is_refused() {
         "global_search": {"evaluations": 0, "best_value": null},
         "criterion_mm2": 0.0,
         "per_load": {"rows": [], "overall_rms_mm": 0.0, "count": 0},
-        "noise_floor_rms_mm": 0.0}"#,
-    );
-    text.push('\n');
-    std::fs::write(&report, text).unwrap();
-    let path = dir.path().join("path.csv");
-    std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n").unwrap();
-    let out = flexcal(&[
-        "compensate",
-        "--robot",
-        "ir663",
-        "--elastic",
-        "fe:ir663",
-        "--gamma-report",
-        report.to_str().unwrap(),
-        "--path",
-        path.to_str().unwrap(),
-        "--part-pose",
-        "1200,0,1450,0,0,0",
-        "--process",
-        "constant:0,0,0,0,0,0",
-        "--out",
-        dir.path().join("out.csv").to_str().unwrap(),
-    ]);
-    assert!(!out.status.success());
-    let err = stderr(&out);
+        "noise_floor_rms_mm": 0.0}
+"#;
+    let err = compensate_with_gamma_report(text);
     assert!(
         err.contains("stiffness.json") && err.contains("parameters"),
         "{err}"
@@ -437,30 +410,7 @@ fn gamma_report_of_another_model_is_refused() {
 
 #[test]
 fn a_file_that_is_not_a_stiffness_report_is_refused_by_name() {
-    let dir = tempfile::tempdir().unwrap();
-    let report = dir.path().join("stiffness.json");
-    std::fs::write(&report, r#"{"parameters": [{"name": "k", "value": 1.0}]}"#).unwrap();
-    let path = dir.path().join("path.csv");
-    std::fs::write(&path, "x_mm,y_mm,z_mm\n580,0,0\n").unwrap();
-    let out = flexcal(&[
-        "compensate",
-        "--robot",
-        "ir663",
-        "--elastic",
-        "fe:ir663",
-        "--gamma-report",
-        report.to_str().unwrap(),
-        "--path",
-        path.to_str().unwrap(),
-        "--part-pose",
-        "1200,0,1450,0,0,0",
-        "--process",
-        "constant:0,0,0,0,0,0",
-        "--out",
-        dir.path().join("out.csv").to_str().unwrap(),
-    ]);
-    assert!(!out.status.success());
-    let err = stderr(&out);
+    let err = compensate_with_gamma_report(r#"{"parameters": [{"name": "k", "value": 1.0}]}"#);
     assert!(
         err.contains("stiffness.json") && err.contains("not a stiffness report"),
         "{err}"

@@ -2,9 +2,6 @@
 //! (the paper's protocol), against the parametric model of
 //! `flexcal identify stiffness` on the same files, and on bad input.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
 use flexcal::elastic::campaign::{DeflectionMeasurement, read_campaign_dir};
 use flexcal::elastic::description::ElasticDescription;
 use flexcal::elastic::fuzzy_compliance::FuzzyCompliance;
@@ -14,22 +11,7 @@ use flexcal::elastic::model::ElasticModel;
 use flexcal::kinematics::RobotDescription;
 
 mod common;
-use common::command as flexcal;
-
-fn run(command: &mut Command) -> Output {
-    let out = command.output().unwrap();
-    assert!(
-        out.status.success(),
-        "stdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-fn read_json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::{identify_compliance, identify_stiffness, read_json, run, stderr, twin_elastic};
 
 /// Per-load RMS (mm) rows of a report's `per_load` table, by load.
 fn rms_by_load(table: &serde_json::Value) -> Vec<(f64, f64)> {
@@ -45,16 +27,11 @@ fn rms_by_load(table: &serde_json::Value) -> Vec<(f64, f64)> {
 fn fuzzy_compliance_beats_the_parametric_model_on_the_twin_campaign() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("campaign");
-    std::fs::create_dir_all(&data).unwrap();
-    run(flexcal()
-        .args(["twin", "elastic", "--seed", "7", "--out"])
-        .arg(&data));
+    twin_elastic(&data, 7);
 
     let report = dir.path().join("fuzzy.json");
     let model_path = dir.path().join("compliance.toml");
-    let out = run(flexcal()
-        .args(["identify", "compliance", "--data"])
-        .arg(&data)
+    let out = run(identify_compliance(&data)
         .args(["--inputs", "theta2,theta8", "--train-load", "900"])
         .args(["--test-fraction", "0.286", "--seed", "1", "--report"])
         .arg(&report)
@@ -93,18 +70,8 @@ fn fuzzy_compliance_beats_the_parametric_model_on_the_twin_campaign() {
 
     // The parametric beam model identified on the same 900 N sets.
     let parametric_report = dir.path().join("parametric.json");
-    run(flexcal()
-        .args([
-            "identify",
-            "stiffness",
-            "--robot",
-            "ir663",
-            "--elastic",
-            "ir663",
-        ])
-        .args(["--train-load", "900", "--data"])
-        .arg(&data)
-        .arg("--report")
+    run(identify_stiffness("ir663", &data)
+        .args(["--train-load", "900", "--report"])
         .arg(&parametric_report));
     let parametric = read_json(&parametric_report);
     let gamma: Vec<f64> = parametric["parameters"]
@@ -153,36 +120,20 @@ fn bad_arguments_give_clear_errors() {
     }
     std::fs::write(dir.path().join("elastic_x_0900N.csv"), &text).unwrap();
 
-    let out = flexcal()
-        .args(["identify", "compliance", "--data"])
-        .arg(dir.path())
-        .args(["--inputs", "theta2,theta9"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("'theta9'") && err.contains("theta8"), "{err}");
-
-    let out = flexcal()
-        .args(["identify", "compliance", "--data"])
-        .arg(dir.path())
-        .args(["--train-load", "600"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("600") && err.contains("elastic_x_0900N"),
-        "{err}"
-    );
-
-    // Only horizontal loads on three configurations: C_xz is not determined.
-    let out = flexcal()
-        .args(["identify", "compliance", "--data"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("fz") || err.contains("fewer than"), "{err}");
+    // Each case: further arguments, what the error must name (`a|b`: either).
+    let cases: [(&[&str], &[&str]); 3] = [
+        (&["--inputs", "theta2,theta9"], &["'theta9'", "theta8"]),
+        (&["--train-load", "600"], &["600", "elastic_x_0900N"]),
+        // Only horizontal loads on three configurations: C_xz is not determined.
+        (&[], &["fz|fewer than"]),
+    ];
+    for (args, expected) in cases {
+        let out = identify_compliance(dir.path()).args(args).output().unwrap();
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{args:?}: {err}");
+        for what in expected {
+            let named = what.split('|').any(|w| err.contains(w));
+            assert!(named, "{args:?} {what}: {err}");
+        }
+    }
 }

@@ -3,7 +3,7 @@
 //! commands run on the demo's own files.
 
 mod common;
-use common::flexcal;
+use common::{flexcal, identify_compliance, identify_stiffness, read_json, run};
 
 #[test]
 fn demo_writes_its_folder_and_matches_the_individual_commands() {
@@ -28,8 +28,7 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
     ] {
         assert!(out.join(file).is_file(), "missing {file}");
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = read_json(&out.join("summary.json"));
     assert_eq!(summary["seed"], 7);
     assert!(summary["runtime_s"].as_f64().unwrap() > 0.0);
     let g = &summary["geometric"];
@@ -103,10 +102,8 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
         report.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let again: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-    let demo_report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(geo.join("report.json")).unwrap()).unwrap();
+    let again = read_json(&report);
+    let demo_report = read_json(&geo.join("report.json"));
     assert_eq!(again["validation"], demo_report["validation"]);
     assert_eq!(again["identification"], demo_report["identification"]);
 
@@ -126,46 +123,25 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
         }
         assert_eq!(per_load["overall_rms_mm"], table5["all"]["rms_mm"]);
     };
-    let stiffness_report = dir.path().join("stiffness.json");
-    let o = flexcal(&[
-        "identify",
-        "stiffness",
-        "--robot",
-        "ir663",
-        "--elastic",
-        "ir663",
-        "--data",
-        elastic_dir.to_str().unwrap(),
-        "--train-load",
-        "900",
-        "--seed",
-        "7",
-        "--report",
-        stiffness_report.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let stiffness: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stiffness_report).unwrap()).unwrap();
-    compare(&stiffness["per_load"], &summary["elastic"]["parametric"]);
-    let compliance_report = dir.path().join("compliance.json");
-    let o = flexcal(&[
-        "identify",
-        "compliance",
-        "--data",
-        elastic_dir.to_str().unwrap(),
-        "--inputs",
-        "theta2,theta8",
-        "--train-load",
-        "900",
-        "--seed",
-        "7",
-        "--report",
-        compliance_report.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let compliance: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&compliance_report).unwrap()).unwrap();
-    compare(&compliance["per_load"], &summary["elastic"]["fuzzy"]);
+    // Both identifications on the demo's own campaign, with its seed.
+    let identifications = [
+        (
+            "stiffness",
+            identify_stiffness("ir663", &elastic_dir),
+            "parametric",
+        ),
+        ("compliance", identify_compliance(&elastic_dir), "fuzzy"),
+    ];
+    for (name, mut command, in_summary) in identifications {
+        let report = dir.path().join(format!("{name}.json"));
+        run(command
+            .args(["--train-load", "900", "--seed", "7", "--report"])
+            .arg(&report));
+        compare(
+            &read_json(&report)["per_load"],
+            &summary["elastic"][in_summary],
+        );
+    }
 }
 
 #[test]
@@ -175,9 +151,7 @@ fn demo_is_deterministic_for_a_seed() {
         let out = dir.path().join(name);
         let o = flexcal(&["demo", "--out", out.to_str().unwrap(), "--seed", "3"]);
         assert!(o.status.success());
-        let mut v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
+        let mut v = read_json(&out.join("summary.json"));
         v["runtime_s"] = serde_json::Value::Null;
         v
     };

@@ -1,7 +1,7 @@
 //! `flexcal fuzzy fit`, `eval --json` and `export`, end to end on a CSV file.
 
 mod common;
-use common::command as flexcal;
+use common::{command as flexcal, run};
 
 /// A smooth function of two inputs on a seeded-free regular grid (the grid
 /// itself is the data; no random draw is involved).
@@ -28,7 +28,7 @@ fn fit_eval_export_end_to_end() {
     write_csv(&data, 15, 0.0);
     write_csv(&check, 7, 0.37);
 
-    let out = flexcal()
+    run(flexcal()
         .args(["fuzzy", "fit", "--data"])
         .arg(&data)
         .args([
@@ -42,29 +42,15 @@ fn fit_eval_export_end_to_end() {
             "30",
         ])
         .args(["--seed", "3", "--quiet", "--out"])
-        .arg(&model)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .arg(&model));
     assert!(model.exists());
 
-    let out = flexcal()
+    let out = run(flexcal()
         .args(["fuzzy", "eval", "--model"])
         .arg(&model)
         .arg("--data")
         .arg(&check)
-        .arg("--json")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .arg("--json"));
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let object = json.as_object().unwrap();
     let mut keys: Vec<&str> = object.keys().map(String::as_str).collect();
@@ -80,18 +66,11 @@ fn fit_eval_export_end_to_end() {
     // The function spans about 3 units: a fitted model does far better.
     assert!(rmse < 0.05, "{text}");
 
-    let out = flexcal()
+    run(flexcal()
         .args(["fuzzy", "export", "--model"])
         .arg(&model)
         .arg("--fis")
-        .arg(&fis)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .arg(&fis));
     let fis_text = std::fs::read_to_string(&fis).unwrap();
     let from_fis = flexcal::fuzzy::FuzzyModel::from_fis_str(&fis_text).unwrap();
     let from_toml = flexcal::fuzzy::FuzzyModel::read(&model).unwrap();

@@ -2,51 +2,19 @@
 //! bad input.
 
 mod common;
-use common::command as flexcal;
+use common::{identify_stiffness, read_json, run, stderr, stdout, twin_elastic};
 
 #[test]
 fn twin_elastic_then_identify_stiffness() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("elastic");
-    let out = flexcal()
-        .args(["twin", "elastic", "--out"])
-        .arg(&data)
-        .args(["--seed", "4"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    twin_elastic(&data, 4);
     let report = dir.path().join("report.json");
-    let out = flexcal()
-        .args([
-            "identify",
-            "stiffness",
-            "--robot",
-            "ir663",
-            "--elastic",
-            "ir663",
-            "--data",
-        ])
-        .arg(&data)
-        .args([
-            "--train-load",
-            "900",
-            "--search-evaluations",
-            "700",
-            "--report",
-        ])
-        .arg(&report)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = run(identify_stiffness("ir663", &data)
+        .args(["--train-load", "900", "--search-evaluations", "700"])
+        .arg("--report")
+        .arg(&report));
+    let stdout = stdout(&out);
     assert!(stdout.contains("springs in series"), "{stdout}");
     assert!(
         stdout.contains("Kr_12, Kr_33'") && stdout.contains("Kr_18, Kr_99', Kr_1010'"),
@@ -58,8 +26,7 @@ fn twin_elastic_then_identify_stiffness() {
             "{load}: {stdout}"
         );
     }
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let json = read_json(&report);
     let rows = json["per_load"]["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 4);
     let overall = json["per_load"]["overall_rms_mm"].as_f64().unwrap();
@@ -72,73 +39,42 @@ fn twin_elastic_then_identify_stiffness() {
 #[test]
 fn identify_stiffness_reports_bad_input() {
     let dir = tempfile::tempdir().unwrap();
-    // No data at the training load.
+    let header = "pose_id,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm\n";
     let file = dir.path().join("set.csv");
-    std::fs::write(
-        &file,
-        "pose_id,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm\n\
-         0,0,0.9,0.9,0.9,1.3,0,1500,0,1000,0,0,0,0,0,0\n\
-         0,0,0.9,0.9,0.9,1.3,0,1500,0,999,0,0,-300,0,0,0\n",
-    )
-    .unwrap();
-    let out = flexcal()
-        .args([
-            "identify",
-            "stiffness",
-            "--robot",
+    // Each case: the set file, the elastic description, what the one-line
+    // error must name.
+    let cases = [
+        // No data at the training load.
+        (
+            "0,0,0.9,0.9,0.9,1.3,0,1500,0,1000,0,0,0,0,0,0\n\
+             0,0,0.9,0.9,0.9,1.3,0,1500,0,999,0,0,-300,0,0,0\n",
             "ir663",
-            "--elastic",
+            vec!["training load 900"],
+        ),
+        // A malformed number names file, line and column.
+        (
+            "0,0,0.9,0.9,0.9,1.3,0,1500,0,abc,0,0,0,0,0,0\n",
             "ir663",
-            "--data",
-        ])
-        .arg(dir.path())
-        .args(["--train-load", "900"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("training load 900"), "{err}");
-
-    // A malformed number names file, line and column.
-    std::fs::write(
-        &file,
-        "pose_id,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm\n\
-         0,0,0.9,0.9,0.9,1.3,0,1500,0,abc,0,0,0,0,0,0\n",
-    )
-    .unwrap();
-    let out = flexcal()
-        .args([
-            "identify",
-            "stiffness",
-            "--robot",
-            "ir663",
-            "--elastic",
-            "ir663",
-            "--data",
-        ])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("set.csv:2") && err.contains("z_mm"),
-        "{err}"
-    );
-
-    // Unknown elastic description.
-    let out = flexcal()
-        .args([
-            "identify",
-            "stiffness",
-            "--robot",
-            "ir663",
-            "--elastic",
+            vec!["set.csv:2", "z_mm"],
+        ),
+        // Unknown elastic description.
+        (
+            "0,0,0.9,0.9,0.9,1.3,0,1500,0,1000,0,0,0,0,0,0\n",
             "nope.toml",
-            "--data",
-        ])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("nope.toml"), "{err}");
+            vec!["nope.toml"],
+        ),
+    ];
+    for (rows, elastic, expected) in cases {
+        std::fs::write(&file, format!("{header}{rows}")).unwrap();
+        let out = identify_stiffness(elastic, dir.path())
+            .args(["--train-load", "900"])
+            .output()
+            .unwrap();
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{elastic}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        for what in expected {
+            assert!(err.contains(what), "{what}: {err}");
+        }
+    }
 }

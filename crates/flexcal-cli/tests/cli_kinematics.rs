@@ -9,6 +9,22 @@ fn path_str(p: &Path) -> &str {
     p.to_str().expect("temp paths are UTF-8")
 }
 
+/// `flexcal ik --robot ur10` from the pose file `input` into `output`, with
+/// `extra` arguments.
+fn ik_ur10(input: &Path, output: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "ik",
+        "--robot",
+        "ur10",
+        "--input",
+        path_str(input),
+        "--output",
+        path_str(output),
+    ];
+    args.extend(extra);
+    flexcal(&args)
+}
+
 #[test]
 fn robot_list_and_show_round_trip_through_a_file() {
     let list = flexcal(&["robot", "list"]);
@@ -62,17 +78,7 @@ fn fk_then_ik_round_trips_a_batch() {
     let pose_text = std::fs::read_to_string(&poses).unwrap();
     assert!(pose_text.starts_with("x_m,y_m,z_m,qw,qx,qy,qz\n"));
     assert_eq!(pose_text.lines().count(), 21);
-    let ik = flexcal(&[
-        "ik",
-        "--robot",
-        "ur10",
-        "--input",
-        path_str(&poses),
-        "--output",
-        path_str(&back),
-        "--seed",
-        "0.1,-1.2,1.0,-0.5,1.3,0.2",
-    ]);
+    let ik = ik_ur10(&poses, &back, &["--seed", "0.1,-1.2,1.0,-0.5,1.3,0.2"]);
     assert!(ik.status.success(), "{}", stderr(&ik));
     let parse = |s: &str| -> Vec<Vec<f64>> {
         s.lines()
@@ -188,15 +194,7 @@ fn unreachable_ik_target_is_an_error_and_writes_nothing() {
     let out = dir.path().join("out.csv");
     std::fs::write(&out, "previous contents\n").unwrap();
     std::fs::write(&poses, "x_m,y_m,z_m,qw,qx,qy,qz\n5.0,0,0,1,0,0,0\n").unwrap();
-    let o = flexcal(&[
-        "ik",
-        "--robot",
-        "ur10",
-        "--input",
-        path_str(&poses),
-        "--output",
-        path_str(&out),
-    ]);
+    let o = ik_ur10(&poses, &out, &[]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("far.csv:2"), "{}", stderr(&o));
     assert_eq!(

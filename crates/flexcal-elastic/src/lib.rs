@@ -10,7 +10,7 @@
 //!
 //! ```
 //! use flexcal_elastic::description::ElasticDescription;
-//! use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_condensation, tcp_deflection};
+//! use flexcal_elastic::model::{ElasticData, ElasticModel, OwnWeight, tcp_condensation, tcp_deflection};
 //! use flexcal_kinematics::{RobotDescription, actuated_from_joint_angles};
 //! use nalgebra::Vector6;
 //!
@@ -22,7 +22,7 @@
 //! let q = actuated_from_joint_angles(&robot, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
 //! let tcp = tcp_condensation(&model, &mut data, &q, xi, &gamma)?; // C_eq, K_eq (27), (63)
 //! let down = Vector6::new(0.0, 0.0, -1100.0, 0.0, 0.0, 0.0); // 1100 N dead weight [N; N.m]
-//! let ds = tcp_deflection(&model, &mut data, &q, xi, &gamma, &down, false)?; // dS_E (28)
+//! let ds = tcp_deflection(&model, &mut data, &q, xi, &gamma, &down, OwnWeight::Excluded)?; // dS_E (28)
 //! assert!(((tcp.c_eq * down) - ds).norm() < 1e-9 * ds.norm());
 //! assert!(ds[2] < 0.0 && ds[2] > -5e-3); // a few millimetres down
 //! # Ok::<(), Box<dyn std::error::Error>>(())

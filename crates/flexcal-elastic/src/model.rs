@@ -618,9 +618,31 @@ pub fn tcp_compliance(
         .map_err(|e| ElasticError::fem(format!("condensation at q = {q:?}"), e))
 }
 
+/// Whether a load case includes the robot's own weight (the gravity load
+/// of its links, from the elastic description's masses).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OwnWeight {
+    /// The own weight is added to the applied wrench.
+    Included,
+    /// Only the applied wrench loads the robot.
+    Excluded,
+}
+
+impl OwnWeight {
+    /// [`OwnWeight::Included`] when `included`, else [`OwnWeight::Excluded`]
+    /// (for a switch that says whether gravity acts).
+    pub fn included_if(included: bool) -> Self {
+        if included {
+            Self::Included
+        } else {
+            Self::Excluded
+        }
+    }
+}
+
 /// TCP elastic displacement `dS_E = C_eq F_eq` (28), (63)-(64) in
 /// configuration `q` for a wrench `wrench_tcp` applied at the TCP (base
-/// axes, [N; N.m]), with the own weight added when `with_gravity`.
+/// axes, [N; N.m]), with the own weight added when `own_weight` says so.
 /// Returns `[dP (m); dPhi (rad)]` in base axes.
 ///
 /// # Errors
@@ -632,10 +654,10 @@ pub fn tcp_deflection(
     xi: &[f64],
     gamma: &[f64],
     wrench_tcp: &Vector6<f64>,
-    with_gravity: bool,
+    own_weight: OwnWeight,
 ) -> Result<Vector6<f64>> {
     factor(model, data, q, xi, gamma)?;
-    fill_loads(model, data, wrench_tcp, with_gravity)?;
+    fill_loads(model, data, wrench_tcp, own_weight)?;
     let fem = |e| ElasticError::fem(format!("solve at q = {q:?}"), e);
     data.factorization
         .solve_into(&data.loads, &mut data.displacements)
@@ -647,7 +669,7 @@ fn fill_loads(
     model: &ElasticModel,
     data: &mut ElasticData,
     wrench_tcp: &Vector6<f64>,
-    with_gravity: bool,
+    own_weight: OwnWeight,
 ) -> Result<()> {
     if !wrench_tcp.iter().all(|v| v.is_finite()) {
         return Err(ElasticError::invalid(
@@ -656,7 +678,7 @@ fn fill_loads(
             format!("not finite: {wrench_tcp:?}"),
         ));
     }
-    if with_gravity {
+    if own_weight == OwnWeight::Included {
         load_vector_into(&data.structure, &model.gravity_load_case(), &mut data.loads)
             .map_err(|e| ElasticError::fem("gravity load", e))?;
     } else {
@@ -686,7 +708,7 @@ pub fn tcp_deflection_log_derivatives(
     gamma: &[f64],
     wrench_tcp: &Vector6<f64>,
 ) -> Result<(Vector6<f64>, Matrix6xX<f64>)> {
-    let u = tcp_deflection(model, data, q, xi, gamma, wrench_tcp, false)?;
+    let u = tcp_deflection(model, data, q, xi, gamma, wrench_tcp, OwnWeight::Excluded)?;
     let mut jac = Matrix6xX::zeros(model.parameters.len());
     let displacements = data.displacements.clone();
     for (p, param) in model.parameters.iter().enumerate() {

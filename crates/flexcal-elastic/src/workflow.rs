@@ -32,6 +32,8 @@ use crate::identify::{
 use crate::metrics::{LoadMetricsTable, per_load_metrics};
 use crate::model::ElasticModel;
 
+mod text;
+
 /// Errors of the identification workflows.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -8,7 +8,7 @@ use flexcal_elastic::identify::{
     GroupKind, StiffnessIdentificationOptions, identify_stiffness, residual_samples,
 };
 use flexcal_elastic::metrics::per_load_metrics;
-use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
+use flexcal_elastic::model::{ElasticData, ElasticModel, OwnWeight, tcp_deflection};
 use flexcal_kinematics::{RobotDescription, actuated_from_joint_angles};
 use nalgebra::{Vector3, Vector6};
 use rand::SeedableRng;
@@ -35,7 +35,8 @@ fn recovers_equivalent_stiffness_and_reports_serial_springs() {
             let q = actuated_from_joint_angles(&robot, &[0.0, t2, t8, 0.0, 1.6, 0.0]).unwrap();
             for (fx, fz) in [(900.0, 0.0), (0.0, -900.0)] {
                 let w = Vector6::new(fx, 0.0, fz, 0.0, 0.0, 0.0);
-                let u = tcp_deflection(&model, &mut data, &q, xi, &truth, &w, false).unwrap();
+                let u = tcp_deflection(&model, &mut data, &q, xi, &truth, &w, OwnWeight::Excluded)
+                    .unwrap();
                 let d = u.fixed_rows::<3>(0) + Vector3::from_fn(|_, _| noise.sample(&mut rng));
                 measurements.push(DeflectionMeasurement {
                     pose_id: id,

@@ -4,7 +4,8 @@
 use flexcal_elastic::ElasticError;
 use flexcal_elastic::description::{ElasticDescription, JointComponent, SectionDescription};
 use flexcal_elastic::model::{
-    ElasticData, ElasticModel, tcp_condensation, tcp_deflection, tcp_deflection_log_derivatives,
+    ElasticData, ElasticModel, OwnWeight, tcp_condensation, tcp_deflection,
+    tcp_deflection_log_derivatives,
 };
 use flexcal_kinematics::{
     FrameDescription, JointType, Model, RobotDescription, actuated_from_joint_angles,
@@ -58,7 +59,7 @@ fn ir663_condenses_to_a_60_dof_structure_with_symmetric_compliance() {
         robot.nominal_params(),
         &model.nominal_gamma(),
         &Vector6::zeros(),
-        true,
+        OwnWeight::Included,
     )
     .unwrap();
     assert!((with_gravity - sag).norm() <= 1e-9 * sag.norm());
@@ -86,8 +87,26 @@ fn log_derivatives_match_central_differences() {
             let mut minus = gamma.clone();
             plus[p] *= h.exp();
             minus[p] *= (-h).exp();
-            let up = tcp_deflection(&model, &mut data, &q, xi, &plus, &wrench, false).unwrap();
-            let um = tcp_deflection(&model, &mut data, &q, xi, &minus, &wrench, false).unwrap();
+            let up = tcp_deflection(
+                &model,
+                &mut data,
+                &q,
+                xi,
+                &plus,
+                &wrench,
+                OwnWeight::Excluded,
+            )
+            .unwrap();
+            let um = tcp_deflection(
+                &model,
+                &mut data,
+                &q,
+                xi,
+                &minus,
+                &wrench,
+                OwnWeight::Excluded,
+            )
+            .unwrap();
             let fd = (up - um) / (2.0 * h);
             let err = (fd - jac.column(p)).norm();
             assert!(
@@ -157,7 +176,7 @@ fn one_joint_arm_matches_the_closed_form() {
             robot.nominal_params(),
             &[kar],
             &Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0),
-            false,
+            OwnWeight::Excluded,
         )
         .unwrap();
         // Joint rotation F L / Kar moves the tip F L^2 / Kar; the beam adds
@@ -197,7 +216,7 @@ proptest! {
         };
         let gamma: Vec<f64> = model.nominal_gamma().iter().zip(&scale).map(|(g, s)| g * 10f64.powf(*s)).collect();
         let xi = robot.nominal_params();
-        let u0 = match tcp_deflection(&model, &mut data, &q, xi, &gamma, &Vector6::zeros(), false) {
+        let u0 = match tcp_deflection(&model, &mut data, &q, xi, &gamma, &Vector6::zeros(), OwnWeight::Excluded) {
             Ok(u) => u,
             // Configurations where the loop cannot close are not this test's business.
             Err(ElasticError::Kinematics(_)) => return Ok(()),
@@ -205,8 +224,8 @@ proptest! {
         };
         prop_assert_eq!(u0.norm(), 0.0);
         let w = Vector6::new(fx, 0.0, fz, 0.0, 0.0, 0.0);
-        let u1 = tcp_deflection(&model, &mut data, &q, xi, &gamma, &w, false).unwrap();
-        let u2 = tcp_deflection(&model, &mut data, &q, xi, &gamma, &(w * 2.0), false).unwrap();
+        let u1 = tcp_deflection(&model, &mut data, &q, xi, &gamma, &w, OwnWeight::Excluded).unwrap();
+        let u2 = tcp_deflection(&model, &mut data, &q, xi, &gamma, &(w * 2.0), OwnWeight::Excluded).unwrap();
         // Each call closes the IR-663's loops again by Newton iterations
         // warm-started from the previous call (stopping below 1e-13), so two
         // calls see geometries that differ at that level, amplified by the

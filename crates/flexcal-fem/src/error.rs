@@ -52,7 +52,16 @@ impl fmt::Display for Dof {
 /// Every variant names what it is about (node, element, field, file) so that
 /// a message alone lets a user find the faulty line of a structure file.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum FemError {
+    /// An error in the content of a structure file, with the file.
+    #[error("{}: {source}", path.display())]
+    InFile {
+        /// The structure file.
+        path: std::path::PathBuf,
+        /// What is wrong in it.
+        source: Box<FemError>,
+    },
     /// A value of a node or element is out of its allowed range (negative
     /// section value, NaN, wrong number of components, ...).
     #[error("{owner}: field '{field}': {message}")]

@@ -26,7 +26,7 @@ use serde::de::{MapAccess, Visitor};
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::error::{FemError, Result, invalid};
+use crate::error::{Dof, FemError, Result, invalid};
 use crate::solve::{Factorization, SolverOptions, assemble_and_factor, load_vector};
 use crate::structure::{Beam, Joint, LoadCase, NodeId, Section, Spring, Structure};
 
@@ -465,9 +465,16 @@ pub struct Condensation {
 }
 
 impl FemModel {
-    /// Reads and builds a structure file.
+    /// Reads and builds a structure file. Every error names the file:
+    /// errors of the structure it describes come as [`FemError::InFile`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self> {
-        StructureFile::read(path)?.build()
+        let path = path.as_ref();
+        StructureFile::read(path)?
+            .build()
+            .map_err(|source| FemError::InFile {
+                path: path.to_path_buf(),
+                source: Box::new(source),
+            })
     }
 
     /// Solves every load case with one factorization.
@@ -560,6 +567,71 @@ pub fn displacements_json(structure: &Structure, cases: &[CaseDisplacements]) ->
         })
         .collect();
     format!("{{\"load_cases\": {{{}}}}}", case_items.join(", "))
+}
+
+/// The displacements as text for people: per load case a table of every
+/// node's displacements (m) and rotations (rad) in global axes, in load
+/// case and node file order (what `displacements_json` holds).
+pub fn displacements_text(structure: &Structure, cases: &[CaseDisplacements]) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let names = structure.node_names();
+    let width = names.iter().map(String::len).max().unwrap_or(4).max(4);
+    for case in cases {
+        let _ = writeln!(
+            out,
+            "load case '{}': displacements [m] and rotations [rad], global axes",
+            case.name
+        );
+        let _ = write!(out, "{:<width$}", "node");
+        for dof in Dof::ALL {
+            let _ = write!(out, " {:>24}", dof.name());
+        }
+        out.push('\n');
+        for (name, u) in names.iter().zip(&case.nodes) {
+            let _ = write!(out, "{name:<width$}");
+            for value in u.iter() {
+                let _ = write!(out, " {value:>24e}");
+            }
+            out.push('\n');
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// A condensation as text for people: K_eq, C_eq and F_eq per load case at
+/// `node`, global axes, order `[ux uy uz rx ry rz]`.
+pub fn condensation_text(condensation: &Condensation, node: &str) -> String {
+    use std::fmt::Write as _;
+    let mut out =
+        format!("condensation onto node '{node}', global axes, order [ux uy uz rx ry rz]\n");
+    let matrices = [
+        ("K_eq [N/m, N/rad; N.m/m, N.m/rad]:", &condensation.k_eq),
+        (
+            "C_eq = K_eq^-1 [m/N, m/(N.m); rad/N, rad/(N.m)]:",
+            &condensation.c_eq,
+        ),
+    ];
+    for (title, m) in matrices {
+        let _ = writeln!(out, "{title}");
+        for r in 0..6 {
+            let _ = write!(out, "  {:<3}", Dof::from_index(r).name());
+            for c in 0..6 {
+                let _ = write!(out, " {:>24e}", m[(r, c)]);
+            }
+            out.push('\n');
+        }
+    }
+    let _ = writeln!(out, "F_eq [N, N.m] per load case:");
+    for (name, f) in &condensation.f_eq {
+        let _ = write!(out, "  {name}:");
+        for value in f.iter() {
+            let _ = write!(out, " {value:e}");
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// `{"K_eq": 6x6, "C_eq": 6x6, "F_eq": {"<case>": [6 values]}}` (rows of the

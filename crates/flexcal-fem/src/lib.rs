@@ -113,7 +113,8 @@ pub use element::{
 };
 pub use error::{Dof, FemError, Result};
 pub use file::{
-    CaseDisplacements, Condensation, FemModel, StructureFile, condensation_json, displacements_json,
+    CaseDisplacements, Condensation, FemModel, StructureFile, condensation_json, condensation_text,
+    displacements_json, displacements_text,
 };
 pub use solve::{
     Factorization, SolverOptions, assemble_and_factor, global_stiffness_dense,

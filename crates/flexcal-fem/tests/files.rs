@@ -2,7 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use flexcal_fem::{Dof, FemError, FemModel, StructureFile, condensation_json, displacements_json};
+use flexcal_fem::{
+    Dof, FemError, FemModel, StructureFile, condensation_json, condensation_text,
+    displacements_json, displacements_text,
+};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -89,6 +92,34 @@ load_cases = [ { name = "z", nodal_loads = { mid = [0, 0, 1, 0, 0, 0] } }, { nam
 }
 
 #[test]
+fn text_output_holds_the_same_values_as_json() {
+    let model = parse_toml(CANTILEVER).unwrap();
+    let cases = model.solve().unwrap();
+    let text = displacements_text(&model.structure, &cases);
+    let tip: Vec<f64> = text
+        .lines()
+        .find(|l| l.starts_with("tip "))
+        .unwrap()
+        .split_whitespace()
+        .skip(1)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(tip.as_slice(), cases[0].nodes[1].as_slice());
+    let condensed = model.condense("tip").unwrap();
+    let text = condensation_text(&condensed, "tip");
+    let lines: Vec<&str> = text.lines().collect();
+    // Title, K_eq title and 6 rows, C_eq title and 6 rows, F_eq title, one case.
+    assert_eq!(lines.len(), 1 + 7 + 7 + 1 + 1, "{text}");
+    let c_uy: Vec<f64> = lines[10]
+        .split_whitespace()
+        .skip(1)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(c_uy[1], condensed.c_eq[(1, 1)]);
+    assert_eq!(lines[16].split_whitespace().nth(2), Some("-1e2"));
+}
+
+#[test]
 fn json_output_holds_full_precision_values() {
     let model = parse_toml(CANTILEVER).unwrap();
     let cases = model.solve().unwrap();
@@ -164,6 +195,18 @@ fn bad_input_gives_errors_naming_element_and_field() {
     let bad_support = CANTILEVER.replace("[true, true, true, true, true, true]", "[true]");
     let msg = error_of(&bad_support);
     assert!(msg.contains("supports") && msg.contains("root"), "{msg}");
+}
+
+#[test]
+fn a_structure_error_read_from_a_file_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("unknown_node.toml");
+    std::fs::write(&path, CANTILEVER.replace("j = \"tip\"", "j = \"tipp\"")).unwrap();
+    let err = FemModel::read(&path).unwrap_err();
+    assert!(matches!(err, FemError::InFile { .. }), "{err:?}");
+    let msg = err.to_string();
+    assert!(msg.starts_with(&path.display().to_string()), "{msg}");
+    assert!(msg.contains("beam 'b1'") && msg.contains("tipp"), "{msg}");
 }
 
 #[test]

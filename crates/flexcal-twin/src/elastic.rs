@@ -499,6 +499,24 @@ pub struct ElasticCampaignSummary {
     pub kar8_effective_range_nm_rad: [f64; 2],
 }
 
+impl ElasticCampaignSummary {
+    /// One line on the truth: the range of the TCP deflection under 1100 N
+    /// vertical (mm) and of the screw joints' effective stiffness k h^2
+    /// (N.m/rad) over the grid.
+    pub fn truth_line(&self) -> String {
+        format!(
+            "true TCP deflection under 1100 N vertical: {:.2} to {:.2} mm over the grid; screw joints k h^2: \
+             joint 2 {:.2e} to {:.2e}, joint 8 {:.2e} to {:.2e} N.m/rad",
+            self.deflection_norm_1100n_z_mm[0],
+            self.deflection_norm_1100n_z_mm[1],
+            self.kar2_effective_range_nm_rad[0],
+            self.kar2_effective_range_nm_rad[1],
+            self.kar8_effective_range_nm_rad[0],
+            self.kar8_effective_range_nm_rad[1]
+        )
+    }
+}
+
 /// Simulates the campaign and writes it into `out_dir`: the eight data files
 /// `elastic_{x,z}_{load}N.csv`, `elastic_truth.json` (per-pose truth,
 /// lever arms, screw stiffness about the joints, gravity torques, the
@@ -561,4 +579,27 @@ pub fn write_elastic_campaign(
         kar2_effective_range_nm_rad: kar2,
         kar8_effective_range_nm_rad: kar8,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_truth_line_gives_each_range_once() {
+        let summary = ElasticCampaignSummary {
+            data_files: Vec::new(),
+            truth_files: Vec::new(),
+            deflection_norm_1100n_z_mm: [1.234, 5.678],
+            kar2_effective_range_nm_rad: [1.0e6, 2.0e6],
+            kar8_effective_range_nm_rad: [3.0e6, 4.0e6],
+        };
+        let line = summary.truth_line();
+        assert_eq!(line.lines().count(), 1);
+        assert!(line.contains("1.23 to 5.68 mm"), "{line}");
+        assert!(
+            line.contains("joint 2 1.00e6 to 2.00e6, joint 8 3.00e6 to 4.00e6 N.m/rad"),
+            "{line}"
+        );
+    }
 }

@@ -149,6 +149,44 @@ pub struct FormingResult {
     pub compensated: Vec<MeasuredPath>,
 }
 
+impl FormingResult {
+    /// The columns of [`FormingResult::paths_csv`].
+    pub const PATH_COLUMNS: [&'static str; 6] = [
+        "path",
+        "point",
+        "x_target_mm",
+        "z_target_mm",
+        "x_measured_mm",
+        "z_measured_mm",
+    ];
+
+    /// The measured paths in order: the uncompensated one (path 0), then
+    /// one per elastic model.
+    pub fn paths(&self) -> impl Iterator<Item = &MeasuredPath> {
+        std::iter::once(&self.uncompensated).chain(&self.compensated)
+    }
+
+    /// The data of the paper's Figure 17 as CSV ([`Self::PATH_COLUMNS`]):
+    /// one row per (path, point), the path's index in [`Self::paths`], the
+    /// point's index, the target and the measured TCP in the part frame
+    /// (x_p, z_p, mm).
+    pub fn paths_csv(&self) -> String {
+        let rows = self.paths().enumerate().flat_map(|(p, path)| {
+            self.target_mm.iter().enumerate().map(move |(k, &(x, z))| {
+                vec![
+                    p as f64,
+                    k as f64,
+                    x,
+                    z,
+                    x + path.deviation_x_mm[k],
+                    z + path.deviation_z_mm[k],
+                ]
+            })
+        });
+        flexcal_io::format_csv(&Self::PATH_COLUMNS, rows)
+    }
+}
+
 /// Errors of the forming experiment.
 #[derive(Debug, thiserror::Error)]
 pub enum FormingError {

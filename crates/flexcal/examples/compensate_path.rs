@@ -9,7 +9,7 @@ use std::error::Error;
 use std::path::Path;
 
 use flexcal::compensation::{
-    CommandedPath, CompensationSetup, ElasticSpec, ProcessSpec, compensate_path_file,
+    CommandedPath, CompensationSetup, ElasticSpec, PathExport, ProcessSpec, compensate_path_file,
     default_start_joints, load_elastic, pose_mm_deg,
 };
 use flexcal::elastic::description::ElasticDescription;
@@ -69,8 +69,12 @@ pub fn compensate_with_each_model(
         gamma_report: Some(out.join("stiffness_report.json")),
     })?;
     let fuzzy = run(ElasticSpec::Fuzzy(out.join("compliance.toml")))?;
-    flexcal::io::write_atomic(out.join("commanded_fe.csv"), fe.to_csv(robot.n_actuated()))?;
-    flexcal::io::write_atomic(out.join("commanded_fuzzy.src"), fuzzy.to_krl()?)?;
+    fe.write(&robot, &out.join("commanded_fe.csv"), &[])?;
+    // The fuzzy model's path also as a KRL program for the controller.
+    let krl = [(PathExport::Krl, out.join("commanded_fuzzy.src"))];
+    for line in fuzzy.write(&robot, &out.join("commanded_fuzzy.csv"), &krl)? {
+        println!("{line}");
+    }
     Ok((fe, fuzzy))
 }
 

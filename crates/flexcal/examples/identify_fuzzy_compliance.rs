@@ -16,16 +16,9 @@ pub fn identify_fuzzy_compliance(dir: &Path) -> Result<ComplianceOutcome, Box<dy
     let robot = flexcal::load_robot("ir663")?;
     let options = ComplianceWorkflowOptions::default();
     let outcome = identify_compliance_in_dir(&robot, dir, &options)?;
-    println!(
-        "trained on {} ({} deflections)",
-        outcome.train_sets.join(", "),
-        outcome.training_samples
-    );
-    println!("{}", outcome.table);
-    println!(
-        "overall RMS {:.3} mm for a noise floor of {:.3} mm",
-        outcome.table.overall_rms_mm, outcome.noise_floor_mm
-    );
+    // The same summary `flexcal identify compliance` prints: the structure,
+    // the rule base of C_xx (Table 4), the per-load residuals (Table 5).
+    print!("{}", outcome.summary_text(&options));
     Ok(outcome)
 }
 

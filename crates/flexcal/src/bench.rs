@@ -97,6 +97,57 @@ pub struct BenchReport {
     pub cores: usize,
 }
 
+impl BenchReport {
+    /// The report as a table for people: per operation the minimum and
+    /// median ns per operation, the samples and the processor time, then
+    /// the load average (flagged busy above 0.75 per core) and the threads.
+    pub fn table_text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let width = self
+            .operations
+            .iter()
+            .map(|t| t.name.len())
+            .max()
+            .unwrap_or(0);
+        let _ = writeln!(
+            out,
+            "{:<width$} {:>14} {:>14} {:>8} {:>14}",
+            "operation", "min ns/op", "median ns/op", "samples", "cpu ns/op"
+        );
+        for t in &self.operations {
+            let cpu = t
+                .cpu_ns_per_op
+                .map_or_else(|| "-".to_string(), |ns| format!("{ns:.1}"));
+            let _ = writeln!(
+                out,
+                "{:<width$} {:>14.1} {:>14.1} {:>8} {:>14}",
+                t.name, t.min_ns, t.ns_per_op, t.samples, cpu
+            );
+        }
+        let _ = match self.load_average {
+            Some([one, five, fifteen]) => {
+                let busy = if one > self.cores as f64 * 0.75 {
+                    " (busy: other work competes for the cores; medians above the minimum show it)"
+                } else {
+                    ""
+                };
+                writeln!(
+                    out,
+                    "load average {one:.2} {five:.2} {fifteen:.2} on {} cores, {} compensation threads{busy}",
+                    self.cores, self.threads
+                )
+            }
+            None => writeln!(
+                out,
+                "{} cores, {} compensation threads",
+                self.cores, self.threads
+            ),
+        };
+        out
+    }
+}
+
 /// Errors of [`run`].
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -439,4 +490,36 @@ fn compensation(budget: Duration, timings: &mut Vec<Timing>) -> Result<(), Bench
         },
     ));
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_has_a_row_per_operation_and_flags_a_busy_machine() {
+        let timing = |name: &str, cpu| Timing {
+            name: name.into(),
+            ns_per_op: 12.0,
+            min_ns: 10.0,
+            samples: 9,
+            cpu_ns_per_op: cpu,
+            iterations: 1000,
+        };
+        let mut report = BenchReport {
+            operations: vec![timing("forward pose", Some(11.0)), timing("a path", None)],
+            threads: 2,
+            load_average: Some([3.0, 2.0, 1.0]),
+            cores: 2,
+        };
+        let text = report.table_text();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 4, "{text}");
+        let row: Vec<&str> = lines[1].split_whitespace().collect();
+        assert_eq!(row, ["forward", "pose", "10.0", "12.0", "9", "11.0"]);
+        assert!(lines[2].ends_with(" -"), "{text}");
+        assert!(lines[3].contains("(busy"), "{text}");
+        report.load_average = Some([0.5, 0.5, 0.5]);
+        assert!(!report.table_text().contains("busy"));
+    }
 }

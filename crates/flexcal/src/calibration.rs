@@ -10,6 +10,9 @@
 //! [`calib::CalibrationOptions`] inside [`CalibrationConfig`]; the workflow
 //! adds what needs the measurement files (the target's starting position
 //! keeps the files' nominal orientation).
+//!
+//! [`CalibrationRun::summary_text`] is the human-readable summary of a run
+//! (the text `flexcal calibrate` prints); [`text`] has its pieces.
 
 use std::path::{Path, PathBuf};
 
@@ -21,6 +24,8 @@ use crate::calib::{
     PoseError, ResidualModel, ResidualModelJson, SplitCheck, ValidationReport,
 };
 use crate::{Error, Result};
+
+pub mod text;
 
 /// Format of a measurement file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -43,6 +48,23 @@ impl MeasurementFormat {
             Self::Own => MeasurementSet::read_csv(path)?,
             Self::Ipa => MeasurementSet::read_ipa(path)?,
         })
+    }
+
+    /// The row weighting that suits the format: 1/sigma from the file's
+    /// standard deviations for flexcal's own files, uniform for the IPA
+    /// export (whose std columns are sample spreads, not uncertainties).
+    pub fn default_weighting(self) -> calib::Weighting {
+        match self {
+            Self::Own => calib::Weighting::FromFile,
+            Self::Ipa => calib::Weighting::Uniform,
+        }
+    }
+
+    /// Whether measured orientations are used unless asked otherwise:
+    /// flexcal's own files use their orientation columns when present; the
+    /// IPA dataset's protocol uses the probe's positions only.
+    pub fn uses_orientation_by_default(self) -> bool {
+        self == Self::Own
     }
 }
 
@@ -185,6 +207,63 @@ impl CalibrationRun {
             ResidualModelJson::new(robot.actuated_names(), &r.model, r.validation.as_ref())
         });
         report
+    }
+}
+
+/// The files a calibration run writes (none by default).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CalibrationOutputs {
+    /// The per-pose errors after calibration (CSV, [`CalibrationRun::per_pose`]).
+    pub residuals: Option<PathBuf>,
+    /// The configurations file of the accuracy map: the predicted accuracy
+    /// is written beside it as `<name>.accuracy.csv`.
+    pub accuracy_grid: Option<PathBuf>,
+    /// The calibrated robot description (TOML).
+    pub description: Option<PathBuf>,
+    /// The JSON report ([`CalibrationRun::report`]).
+    pub report: Option<PathBuf>,
+}
+
+impl CalibrationRun {
+    /// Writes the files `outputs` names, each atomically, and returns one
+    /// line per file written saying what it holds.
+    ///
+    /// # Errors
+    /// The file that could not be written; a calibrated description that
+    /// cannot be built.
+    pub fn write_outputs(
+        &self,
+        robot: &crate::kinematics::Model,
+        outputs: &CalibrationOutputs,
+    ) -> Result<Vec<String>> {
+        let mut written = Vec::new();
+        if let Some(path) = &outputs.residuals {
+            let (name, set, errors) = self.per_pose();
+            calib::temperature::write_pose_errors(path, set, errors)?;
+            written.push(format!(
+                "per-pose errors of the {name} set written to {}",
+                path.display()
+            ));
+        }
+        if let (Some(grid), Some(map)) = (&outputs.accuracy_grid, &self.accuracy_map) {
+            let path = grid.with_extension("accuracy.csv");
+            map.write_csv(&path)?;
+            written.push(format!(
+                "predicted accuracy at {} poses written to {}",
+                map.poses.len(),
+                path.display()
+            ));
+        }
+        if let Some(path) = &outputs.description {
+            let description = self.calibration.description(robot)?;
+            flexcal_io::write_atomic(path, description.to_toml_string())?;
+            written.push(format!("calibrated robot written to {}", path.display()));
+        }
+        if let Some(path) = &outputs.report {
+            flexcal_io::write_atomic(path, self.report(robot).to_json_string()?)?;
+            written.push(format!("report written to {}", path.display()));
+        }
+        Ok(written)
     }
 }
 

@@ -21,6 +21,7 @@ use flexcal_elastic::model::ElasticModel;
 use flexcal_elastic::workflow::StiffnessReport;
 use flexcal_kinematics::{Model, actuated_from_joint_angles};
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
+use serde::{Deserialize, Serialize};
 
 use crate::{Error, Result};
 
@@ -46,6 +47,27 @@ pub enum ElasticSpec {
     },
     /// A fuzzy compliance model file (`flexcal identify compliance --out`).
     Fuzzy(PathBuf),
+}
+
+impl ElasticSpec {
+    /// This spec with the stiffness report whose identified Gamma an `fe:`
+    /// model uses (none: leave it as it is).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] `--gamma-report` for a fuzzy model.
+    pub fn with_gamma_report(mut self, report: Option<PathBuf>) -> Result<Self> {
+        match (&mut self, report) {
+            (Self::Fe { gamma_report, .. }, Some(path)) => *gamma_report = Some(path),
+            (Self::Fuzzy(_), Some(_)) => {
+                return Err(invalid(
+                    "--gamma-report",
+                    "applies to an fe: elastic model, not fuzzy:",
+                ));
+            }
+            (_, None) => {}
+        }
+        Ok(self)
+    }
 }
 
 impl FromStr for ElasticSpec {
@@ -131,10 +153,14 @@ impl ProcessSpec {
     }
 }
 
-/// Parses `n` comma-separated finite numbers; `what` names the parameter.
-pub fn parse_numbers(text: &str, n: usize, what: &str) -> Result<Vec<f64>> {
-    let values: Vec<f64> = text
-        .split(',')
+/// Parses comma-separated finite numbers, as many as there are; `what`
+/// names the parameter in errors.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming `what` and the item that is not a
+/// finite number.
+pub fn parse_number_list(text: &str, what: &str) -> Result<Vec<f64>> {
+    text.split(',')
         .map(|s| {
             let s = s.trim();
             s.parse::<f64>()
@@ -142,7 +168,16 @@ pub fn parse_numbers(text: &str, n: usize, what: &str) -> Result<Vec<f64>> {
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| invalid(what, format!("'{s}' is not a finite number")))
         })
-        .collect::<Result<_>>()?;
+        .collect()
+}
+
+/// Parses `n` comma-separated finite numbers; `what` names the parameter.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming `what`: an item that is not a finite
+/// number, or a count other than `n`.
+pub fn parse_numbers(text: &str, n: usize, what: &str) -> Result<Vec<f64>> {
+    let values = parse_number_list(text, what)?;
     if values.len() != n {
         return Err(invalid(
             what,
@@ -300,6 +335,67 @@ pub struct CompensationSetup {
     pub start_joints: Vec<f64>,
 }
 
+impl CompensationSetup {
+    /// The set-up from its text forms: the part frame in the robot base
+    /// `x_mm,y_mm,z_mm,a_deg,b_deg,c_deg` (KUKA A, B, C = rotations about
+    /// z, y, x), the constant force on the tool in the base frame `fx,fy,fz`
+    /// (N; none: no payload) and the start of the inverse model (actuated
+    /// coordinates, rad or m; none: [`default_start_joints`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming the option (`--part-pose`,
+    /// `--payload`, `--seed-joints`) whose text is not the right count of
+    /// finite numbers.
+    pub fn from_text(
+        model: &Model,
+        part_pose: &str,
+        payload: Option<&str>,
+        start_joints: Option<&str>,
+    ) -> Result<Self> {
+        let v = parse_numbers(part_pose, 6, "--part-pose x_mm,y_mm,z_mm,a_deg,b_deg,c_deg")?;
+        let payload_base = match payload {
+            Some(text) => {
+                let f = parse_numbers(text, 3, "--payload fx,fy,fz")?;
+                Vector6::new(f[0], f[1], f[2], 0.0, 0.0, 0.0)
+            }
+            None => Vector6::zeros(),
+        };
+        let start_joints = match start_joints {
+            Some(text) => parse_numbers(text, model.n_actuated(), "--seed-joints")?,
+            None => default_start_joints(model),
+        };
+        Ok(Self {
+            x_base_part: pose_mm_deg(&[v[0], v[1], v[2], v[3], v[4], v[5]]),
+            payload_base,
+            start_joints,
+        })
+    }
+}
+
+/// The controller formats a commanded path is exported to, besides its CSV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
+pub enum PathExport {
+    /// A KRL program ([`CommandedPath::to_krl`]).
+    Krl,
+    /// An ABB RAPID module ([`CommandedPath::to_rapid`]).
+    Rapid,
+    /// A joint-trajectory CSV ([`CommandedPath::to_joint_csv`]).
+    JointCsv,
+}
+
+impl PathExport {
+    /// What the export is, for messages (`KRL program`, ...).
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Krl => "KRL program",
+            Self::Rapid => "RAPID module",
+            Self::JointCsv => "joint trajectory",
+        }
+    }
+}
+
 /// The commanded path: one compensated point per target point.
 #[derive(Debug, Clone)]
 pub struct CommandedPath {
@@ -435,6 +531,62 @@ impl CommandedPath {
         out
     }
 
+    /// The text of the export `kind` (`robot` gives the joint names and
+    /// units of a joint trajectory).
+    ///
+    /// # Errors
+    /// A path the format cannot express.
+    pub fn export(&self, kind: PathExport, robot: &Model) -> Result<String> {
+        match kind {
+            PathExport::Krl => self.to_krl(),
+            PathExport::Rapid => self.to_rapid(),
+            PathExport::JointCsv => self.to_joint_csv(robot),
+        }
+    }
+
+    /// Writes the commanded path as CSV to `csv` ([`CommandedPath::to_csv`])
+    /// and each export of `exports` to its file, and returns one line per
+    /// file written. Every text is built before any file is written, so a
+    /// path a format cannot express leaves every file as it was.
+    ///
+    /// # Errors
+    /// A path an export cannot express; a file that cannot be written.
+    pub fn write(
+        &self,
+        robot: &Model,
+        csv: &Path,
+        exports: &[(PathExport, PathBuf)],
+    ) -> Result<Vec<String>> {
+        let texts = exports
+            .iter()
+            .map(|(kind, _)| self.export(*kind, robot))
+            .collect::<Result<Vec<_>>>()?;
+        flexcal_io::write_atomic(csv, self.to_csv(robot.n_actuated()))?;
+        let mut written = vec![format!("commanded path written to {}", csv.display())];
+        for ((kind, path), text) in exports.iter().zip(texts) {
+            flexcal_io::write_atomic(path, text)?;
+            written.push(format!(
+                "{} written to {}",
+                kind.description(),
+                path.display()
+            ));
+        }
+        Ok(written)
+    }
+
+    /// One line: the number of points, the models, the largest predicted
+    /// deviation without compensation and the largest residual (mm).
+    pub fn summary_line(&self) -> String {
+        format!(
+            "compensated {} points with {} and {}: max predicted deviation {:.4} mm, max residual {:.3e} mm",
+            self.points.len(),
+            self.elastic,
+            self.process,
+            self.max_predicted_deviation_m() * 1e3,
+            self.max_residual_m() * 1e3
+        )
+    }
+
     /// The commanded path as a KRL program (PTP to the first point, then
     /// one LIN per point).
     pub fn to_krl(&self) -> Result<String> {
@@ -477,6 +629,52 @@ impl CommandedPath {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn part_pose_is_read_in_mm_and_deg() {
+        let model = crate::load_robot("ir663").unwrap();
+        let setup =
+            CompensationSetup::from_text(&model, "1200,0,1450,90,0,0", Some("0,0,-920"), None)
+                .unwrap();
+        let x = setup.x_base_part;
+        assert!((x.translation.vector - Vector3::new(1.2, 0.0, 1.45)).norm() < 1e-12);
+        // A = 90 deg turns the part's x axis onto the base y axis.
+        let x_axis = x.rotation * Vector3::x();
+        assert!((x_axis - Vector3::y()).norm() < 1e-12);
+        assert_eq!(
+            setup.payload_base,
+            Vector6::new(0.0, 0.0, -920.0, 0.0, 0.0, 0.0)
+        );
+        assert_eq!(setup.start_joints, default_start_joints(&model));
+        for (pose, payload, seed, named) in [
+            ("1200,0,1450,0,0", None, None, "--part-pose"),
+            ("1200,0,inf,0,0,0", None, None, "--part-pose"),
+            ("0,0,0,0,0,0", Some("0,-920"), None, "--payload"),
+            ("0,0,0,0,0,0", None, Some("0,0"), "--seed-joints"),
+        ] {
+            let err = CompensationSetup::from_text(&model, pose, payload, seed)
+                .unwrap_err()
+                .to_string();
+            assert!(err.starts_with(named), "{err}");
+        }
+    }
+
+    #[test]
+    fn a_gamma_report_belongs_to_an_fe_model() {
+        let fe: ElasticSpec = "fe:ir663".parse().unwrap();
+        let with = fe.with_gamma_report(Some("s.json".into())).unwrap();
+        assert_eq!(
+            with,
+            ElasticSpec::Fe {
+                description: "ir663".into(),
+                gamma_report: Some("s.json".into())
+            }
+        );
+        let fuzzy: ElasticSpec = "fuzzy:c.toml".parse().unwrap();
+        assert_eq!(fuzzy.clone().with_gamma_report(None).unwrap(), fuzzy);
+        let err = fuzzy.with_gamma_report(Some("s.json".into())).unwrap_err();
+        assert!(err.to_string().starts_with("--gamma-report"), "{err}");
+    }
 
     #[test]
     fn cantilever_options_are_parsed_in_si() {

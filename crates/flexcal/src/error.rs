@@ -41,6 +41,34 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
+    /// A value read from a file that cannot be used (the file's own format
+    /// is respected, the value is not).
+    #[error("{origin}: {message}")]
+    InvalidData {
+        /// Where the value is: `file:line`.
+        origin: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A kinematic computation that failed for one row of input.
+    #[error("{origin}: {source}")]
+    KinematicsAt {
+        /// Where the row came from: `file:line`, or the option that gave it.
+        origin: String,
+        /// Why it failed (an unreachable pose, a loop that cannot close).
+        source: flexcal_kinematics::KinematicsError,
+    },
+    /// A fuzzy model's learning or evaluation.
+    #[error(transparent)]
+    Fuzzy(#[from] flexcal_fuzzy::FuzzyError),
+    /// A dataset file a fuzzy model cannot take.
+    #[error("{}: {source}", path.display())]
+    FuzzyData {
+        /// The dataset file.
+        path: PathBuf,
+        /// What is wrong.
+        source: flexcal_fuzzy::FuzzyError,
+    },
     /// Points of a path that could not be compensated, each named by its line.
     #[error("{failed} of {total} path points could not be compensated: {}", failures.join("; "))]
     PathPoints {
@@ -109,6 +137,19 @@ pub enum Error {
         /// The parser's message.
         source: serde_json::Error,
     },
+}
+
+impl Error {
+    /// Whether the error rejects an argument before any work is done (a
+    /// parameter out of its range, an unknown robot, a robot file format
+    /// flexcal does not read): a usage error, which a command line reports
+    /// with its own exit code.
+    pub fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            Self::InvalidParameter { .. } | Self::UnknownRobot { .. } | Self::RobotFormat { .. }
+        )
+    }
 }
 
 /// The facade's result type.

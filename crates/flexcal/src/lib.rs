@@ -56,6 +56,10 @@
 pub mod calibration;
 pub mod compensation;
 mod error;
+pub mod forming;
+pub mod fuzzy_csv;
+pub mod pose_file;
+pub mod pose_selection;
 pub mod report;
 pub mod robot;
 pub mod study;

@@ -14,10 +14,12 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use flexcal_kinematics::{
-    ImportOptions, ImportedRobot, Model, RobotDescription, builtin_robot_names,
+    ExportFormat, ImportOptions, ImportedRobot, Model, RobotDescription, builtin_robot_names,
 };
 
 use crate::Error;
+
+pub mod text;
 
 /// A robot argument, resolved: a built-in robot or a description file.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -171,9 +173,31 @@ pub fn load_robot_with(spec: &str, options: &ImportOptions) -> Result<Model, Err
     RobotSpec::parse(spec)?.model_with(options)
 }
 
+/// The modified-DH table format for an output file: Markdown for a `.md`
+/// file or for standard output (`None`), CSV for any other file.
+pub fn mdh_format_for(out: Option<&Path>) -> ExportFormat {
+    match out.and_then(Path::extension) {
+        Some(e) if e != "md" => ExportFormat::MdhCsv,
+        _ => ExportFormat::MdhMarkdown,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_mdh_table_is_markdown_unless_the_file_says_otherwise() {
+        assert_eq!(mdh_format_for(None), ExportFormat::MdhMarkdown);
+        assert_eq!(
+            mdh_format_for(Some(Path::new("t.md"))),
+            ExportFormat::MdhMarkdown
+        );
+        assert_eq!(
+            mdh_format_for(Some(Path::new("t.csv"))),
+            ExportFormat::MdhCsv
+        );
+    }
 
     #[test]
     fn builtin_names_resolve_to_builtin_robots() {

@@ -4,7 +4,7 @@
 //! and configurations that cannot run are refused by name.
 
 use flexcal::calib::{CalibrationOptions, FrameTreatment};
-use flexcal::calibration::{CalibrationConfig, run_calibration};
+use flexcal::calibration::{CalibrationConfig, CalibrationOutputs, run_calibration};
 
 #[test]
 fn workflow_on_the_twin_campaign() {
@@ -40,6 +40,55 @@ fn workflow_on_the_twin_campaign() {
     let report = run.report(&robot);
     assert!(report.split_check.is_some());
     assert!(report.cross_check.is_none());
+
+    // The human-readable summary: the exclusion first, then one row per
+    // unknown, the split-half check and the errors of both sets.
+    let text = run.summary_text(&robot);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("--exclude: 2 of the"), "{text}");
+    assert!(lines[1].starts_with("Calibrating `"), "{text}");
+    for u in &run.calibration.unknowns {
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.split_whitespace().next() == Some(u.name.as_str())),
+            "no row for {}: {text}",
+            u.name
+        );
+    }
+    assert!(text.contains("\nSplit-half check"), "{text}");
+    let after = lines
+        .iter()
+        .find(|l| l.starts_with("validation after"))
+        .expect("a validation row");
+    let rms_mm: f64 = after.split_whitespace().nth(4).unwrap().parse().unwrap();
+    assert!(
+        (rms_mm - validation.after.position_rms * 1e3).abs() < 1e-4,
+        "{after}"
+    );
+
+    // The files of the run: every one written, and each reads back.
+    let outputs = CalibrationOutputs {
+        residuals: Some(dir.join("out/residuals.csv")),
+        accuracy_grid: None,
+        description: Some(dir.join("out/calibrated.toml")),
+        report: Some(dir.join("out/report.json")),
+    };
+    let written = run.write_outputs(&robot, &outputs).unwrap();
+    assert_eq!(written.len(), 3, "{written:?}");
+    let residuals = std::fs::read_to_string(dir.join("out/residuals.csv")).unwrap();
+    assert_eq!(residuals.lines().count(), 1 + set.len());
+    let calibrated =
+        flexcal::load_robot(dir.join("out/calibrated.toml").to_str().unwrap()).unwrap();
+    let largest_change = calibrated
+        .nominal_params()
+        .iter()
+        .zip(&run.calibration.xi)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(largest_change < 1e-12, "{largest_change}");
+    let json = std::fs::read_to_string(dir.join("out/report.json")).unwrap();
+    assert_eq!(json, report.to_json_string().unwrap());
 
     // Refused by name: a cross-series check without a validation set, and
     // a label that names no pose.

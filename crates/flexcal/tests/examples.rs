@@ -33,6 +33,11 @@ fn identify_fuzzy_compliance_reaches_near_the_noise_floor() {
         outcome.table.overall_rms_mm,
         outcome.noise_floor_mm
     );
+    let text = outcome.summary_text(&Default::default());
+    assert!(text.starts_with("fuzzy compliance (C_xx, C_xz, C_zx, C_zz) of (theta2, theta8)"));
+    assert!(text.contains("rule base of C_xx (Table 4):\n"), "{text}");
+    let floor = format!("noise in the x-z plane): {:.4} mm", outcome.noise_floor_mm);
+    assert!(text.contains(&floor), "{text}");
 }
 
 #[test]
@@ -58,4 +63,6 @@ fn compensate_path_with_each_model_closes_the_predicted_error() {
     }
     assert!(dir.path().join("commanded_fe.csv").is_file());
     assert!(dir.path().join("commanded_fuzzy.src").is_file());
+    let csv = std::fs::read_to_string(dir.path().join("commanded_fuzzy.csv")).unwrap();
+    assert_eq!(csv, fuzzy.to_csv(6));
 }

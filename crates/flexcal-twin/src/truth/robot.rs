@@ -19,7 +19,7 @@
 
 use flexcal_elastic::tcp::{DeflectionError, TcpDeflection};
 
-use flexcal_elastic::model::{ElasticData, ElasticModel, tcp_deflection};
+use flexcal_elastic::model::{ElasticData, ElasticModel, OwnWeight, tcp_deflection};
 use flexcal_kinematics::{
     Data, Model, ParamKind, RobotDescription, actuated_from_joint_angles, forward_pose,
     joint_angles_from_actuated,
@@ -276,7 +276,7 @@ impl TwinRobot {
                 &xi,
                 &[],
                 wrench_base,
-                self.switches.gravity,
+                OwnWeight::included_if(self.switches.gravity),
             )?;
             let structure = &ws.fe.structure;
             let u = ws.fe.displacements();

@@ -200,7 +200,7 @@ mod tests {
                     "x",
                     "y",
                     &[svg::Series::new("s", vec![(0.0, 1.0)])],
-                    false,
+                    svg::YScale::Linear,
                 ),
                 "cap",
             )

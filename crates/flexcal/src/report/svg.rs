@@ -245,14 +245,24 @@ fn legend(out: &mut String, labels: &[(String, &str, bool)]) {
     }
 }
 
-/// A line chart of several series. With `log_y`, non-positive values are skipped.
+/// The scale of a chart's y axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum YScale {
+    /// Linear.
+    Linear,
+    /// Logarithmic (decades); non-positive values are skipped.
+    Log,
+}
+
+/// A line chart of several series. On a log scale, non-positive values are skipped.
 pub fn line_chart(
     title: &str,
     x_label: &str,
     y_label: &str,
     series: &[Series],
-    log_y: bool,
+    y_scale: YScale,
 ) -> String {
+    let log_y = y_scale == YScale::Log;
     let usable = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite() && (!log_y || y > 0.0);
     let all = || {
         series
@@ -328,8 +338,9 @@ pub fn bar_chart(
     categories: &[String],
     series_labels: &[String],
     values: &[Vec<f64>],
-    log_y: bool,
+    y_scale: YScale,
 ) -> String {
+    let log_y = y_scale == YScale::Log;
     let finite = values
         .iter()
         .flatten()
@@ -550,7 +561,7 @@ mod tests {
                 Series::new("one", vec![(0.0, 1.0), (1.0, f64::NAN), (2.0, 3.0)]),
                 Series::new("two", vec![(0.0, 0.5), (2.0, 0.25)]).dashed(),
             ],
-            true,
+            YScale::Log,
         );
         well_formed(&s);
         assert!(s.contains("a &lt; b &amp; c"));
@@ -560,7 +571,7 @@ mod tests {
             &["300".into(), "600".into()],
             &["fe".into(), "fuzzy".into()],
             &[vec![0.1, 0.2], vec![0.05, f64::INFINITY]],
-            false,
+            YScale::Linear,
         );
         well_formed(&b);
         assert_eq!(b.matches("<rect x=").count(), 3 + 1);

@@ -10,7 +10,7 @@ use flexcal_kinematics::ParamKind;
 
 use super::{ElasticResults, FormingResults, GeometricResults, Study, ValidationFigures};
 use crate::Result;
-use crate::report::svg::{Series, bar_chart, heat_map, line_chart};
+use crate::report::svg::{Series, YScale, bar_chart, heat_map, line_chart};
 use crate::report::{Report, Section};
 
 /// The study's self-contained HTML report (text, tables and SVG figures of
@@ -179,7 +179,7 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
                 "identification set",
                 history(&|h| Some(h.position_rms * 1e3)),
             )],
-            true,
+            YScale::Log,
         ),
         "RMS over the 27 identification poses of the position error at each iterate of Levenberg-Marquardt (each solve starts again from the nominal robot when the base set changes).",
     );
@@ -192,7 +192,7 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
                 "identification set",
                 history(&|h| h.orientation_rms.map(f64::to_degrees)),
             )],
-            true,
+            YScale::Log,
         ),
         "RMS over the identification poses of the orientation error angle at each iterate.",
     );
@@ -248,7 +248,7 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
             values[1].push(max * scale * per_unit(kind));
         }
         s.figure(
-            bar_chart(title, unit, &names, &series, &values, false),
+            bar_chart(title, unit, &names, &series, &values, YScale::Linear),
             format!(
                 "Sensitivity index {} of each {} parameter over the 27 identification poses.",
                 if position { "mu_P (55)" } else { "mu_Phi (56)" },
@@ -273,7 +273,7 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
             "validation pose",
             "position error [mm]",
             &[Series::new("calibrated", per_pose)],
-            false,
+            YScale::Linear,
         ),
         "Distance between measured and predicted TCP positions on the validation poses with the calibrated model.",
     );
@@ -449,7 +449,7 @@ fn elastic_section(e: &ElasticResults, out: &std::path::Path) -> Section {
                     Series::new("measured", per_pose(&v.measured_z_mm)),
                     Series::new("parametric model", per_pose(&v.parametric_z_mm)).dashed(),
                 ],
-                false,
+                YScale::Linear,
             ),
             "Measured TCP deflection and the identified beam model's prediction, pose by pose.",
         );
@@ -513,7 +513,7 @@ fn fuzzy_section(e: &ElasticResults) -> Section {
                 &format!("{} [deg]", input.name),
                 "membership degree",
                 &series,
-                false,
+                YScale::Linear,
             ),
             format!(
                 "The strong triangular partition of {} found by the search.",
@@ -550,7 +550,7 @@ fn fuzzy_section(e: &ElasticResults) -> Section {
                     Series::new("measured", per_pose(&v.measured_z_mm)),
                     Series::new("fuzzy model", per_pose(&v.fuzzy_z_mm)).dashed(),
                 ],
-                false,
+                YScale::Linear,
             ),
             "Measured TCP deflection and the fuzzy model's prediction, pose by pose.",
         );
@@ -618,7 +618,7 @@ fn forming_section(forming: &FormingResults) -> Section {
             "x_p [mm] (clamp at 0)",
             "z_p [mm]",
             &series,
-            false,
+            YScale::Linear,
         ),
         "Target path and the paths the twin measured without and with compensation.",
     );
@@ -657,7 +657,7 @@ fn forming_section(forming: &FormingResults) -> Section {
             "path point (plunge, then travel towards the clamp)",
             "deviation along z_p [mm]",
             &deviations,
-            false,
+            YScale::Linear,
         ),
         "Measured deviations point by point, and the deviation the user's model predicted before compensation.",
     );

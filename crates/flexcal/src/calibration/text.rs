@@ -1,0 +1,457 @@
+//! The human-readable summary of a calibration run: the text `flexcal
+//! calibrate` prints, one piece per result, so that a program embedding
+//! flexcal shows its users the same tables.
+//!
+//! Units in the text: the unit column of each unknown (mm or deg from
+//! [`crate::calib::error_model::UnknownKind::display_unit`]), position errors in mm,
+//! orientation errors in deg, temperatures in deg C.
+
+use std::fmt::Write as _;
+
+use crate::calib::temperature::TemperatureCheck;
+use crate::calib::{
+    Calibration, CrossCheck, ErrorStatistics, MeasurementSet, PoseError, SplitCheck, UnknownStatus,
+    ValidationReport,
+};
+use crate::kinematics::Model;
+
+use super::CalibrationRun;
+
+// Writing into a `String` cannot fail: the `fmt::Result`s below are `Ok`.
+macro_rules! put {
+    ($out:expr) => {
+        let _ = writeln!($out);
+    };
+    ($out:expr, $($arg:tt)*) => {
+        let _ = writeln!($out, $($arg)*);
+    };
+}
+
+impl CalibrationRun {
+    /// The summary of the run in the order of its steps (exclusions, model
+    /// selection, identification, split-half check, errors before and
+    /// after, predicted bounds, cross-series check, residual model,
+    /// temperature): the text `flexcal calibrate` prints.
+    pub fn summary_text(&self, robot: &Model) -> String {
+        let mut out = String::new();
+        for e in &self.exclusions {
+            put!(
+                out,
+                "{}: {} of the {} poses of {} left out",
+                e.option,
+                e.left_out,
+                e.total,
+                e.source
+            );
+        }
+        put!(
+            out,
+            "Calibrating `{}` ({} parameters{}) from {} poses of {}",
+            robot.name(),
+            robot.n_params(),
+            if self.options.gravity.is_some() {
+                ", elasto-geometric: joint compliances under gravity and the payload"
+            } else {
+                ""
+            },
+            self.data.len(),
+            self.data.source
+        );
+        if let Some(selection) = &self.selection {
+            selection.lines().iter().for_each(|l| {
+                put!(out, "{l}");
+            });
+        }
+        out += &identification_text(&self.calibration);
+        if let Some(split) = &self.split {
+            out += &split_check_text(split);
+        }
+        out += &errors_text(&self.calibration, self.validation.as_ref());
+        if let Some(map) = &self.coverage {
+            put!(
+                out,
+                "predicted 95 % bounds (mean {:.3} mm) cover {:.1} % of the validation poses",
+                map.mean_bound_95_mm,
+                100.0 * map.coverage.unwrap_or(f64::NAN)
+            );
+        }
+        if let Some(cross) = &self.cross {
+            out += &cross_check_text(cross);
+        }
+        if let Some(fit) = &self.residual {
+            let r = &fit.model;
+            put!(out);
+            put!(
+                out,
+                "Fuzzy residual model over {} (fitted on the identification poses; not part of the robot model): {:?} rules for x, y, z; held-out RMS {:.4} / {:.4} / {:.4} mm",
+                fit.inputs.join(", "),
+                r.rule_counts(),
+                r.reports[0].test.rmse * 1e3,
+                r.reports[1].test.rmse * 1e3,
+                r.reports[2].test.rmse * 1e3
+            );
+            if let Some(v) = &fit.validation {
+                out += &statistics_row("validation, + residual", &v.after);
+            }
+        }
+        let (name, set, errors) = self.per_pose();
+        out += &temperature_text(name, set, errors);
+        out
+    }
+}
+
+/// The word of an unknown's status in the identification table.
+pub fn status_word(status: UnknownStatus) -> &'static str {
+    match status {
+        UnknownStatus::Identified => "identified",
+        UnknownStatus::Fixed => "fixed",
+        UnknownStatus::NonIdentifiable => "NON-IDENTIFIABLE",
+        UnknownStatus::PoorlyIdentifiable => "poorly identifiable",
+        UnknownStatus::NoInfluence => "no influence",
+    }
+}
+
+/// The identification: every unknown with its nominal and identified value,
+/// standard error and status; rank and conditioning; what is not
+/// identifiable and the combinations the identified values stand for; the
+/// iteration history and the termination.
+pub fn identification_text(c: &Calibration) -> String {
+    let mut out = String::new();
+    put!(out);
+    put!(out, "Identifiability and identified values");
+    put!(
+        out,
+        "{:<16} {:>9} {:>13} {:>14} {:>12} {:>12} {:>9}  status",
+        "unknown",
+        "unit",
+        "nominal",
+        "identified",
+        "delta",
+        "std error",
+        "vs spread"
+    );
+    for u in &c.unknowns {
+        let (unit, scale) = u.kind.display_unit();
+        let se = u
+            .standard_error
+            .map(|s| format!("{:12.5}", s * scale))
+            .unwrap_or_else(|| format!("{:>12}", "-"));
+        let ratio = u
+            .spread_ratio
+            .map(|r| format!("{r:9.1}"))
+            .unwrap_or_else(|| format!("{:>9}", "-"));
+        put!(
+            out,
+            "{:<16} {unit:>9} {:>13.5} {:>14.5} {:>12.5} {se} {ratio}  {}",
+            u.name,
+            u.initial * scale,
+            u.value * scale,
+            (u.value - u.initial) * scale,
+            status_word(u.status)
+        );
+    }
+    put!(
+        out,
+        "rank {} of {} free unknowns; condition number {:.3e}",
+        c.rank(),
+        c.identifiability.names.len(),
+        c.solve.condition_number
+    );
+    let non = c.non_identifiable();
+    if !non.is_empty() {
+        put!(
+            out,
+            "not identifiable from these poses (kept at nominal): {}",
+            non.join(", ")
+        );
+        put!(out, "the identified values stand for the combinations:");
+        for combination in &c.combination_lines {
+            put!(out, "  {combination}");
+        }
+    }
+    let poor = c.poorly_identifiable();
+    if !poor.is_empty() {
+        put!(
+            out,
+            "poorly identifiable (standard error above the limit; kept at nominal): {}",
+            poor.join(", ")
+        );
+    }
+    for note in c.identifiability_notes() {
+        put!(out, "note: {note}");
+    }
+    put!(out);
+    put!(
+        out,
+        "Iteration history, every solve in order (cost 1/2 |W r|^2; RMS errors of the iterate)"
+    );
+    put!(
+        out,
+        "  {:>3}  {:>13}  {:>12}  {:>12}",
+        "",
+        "cost",
+        "pos RMS mm",
+        "rot RMS deg"
+    );
+    for (k, h) in c.residual_history.iter().enumerate() {
+        let rotation = h
+            .orientation_rms
+            .map(|r| format!("{:12.5}", r.to_degrees()))
+            .unwrap_or_default();
+        put!(
+            out,
+            "  {k:3}  {:13.6e}  {:12.5}  {rotation}",
+            h.cost,
+            h.position_rms * 1e3
+        );
+    }
+    put!(
+        out,
+        "termination: {:?} after {} iterations",
+        c.solve.termination,
+        c.solve.iterations
+    );
+    out
+}
+
+/// One row of the errors table: `label`, poses, position mean / RMS / max
+/// (mm), orientation mean / RMS / max (deg) when measured.
+pub fn statistics_row(label: &str, s: &ErrorStatistics) -> String {
+    let o = s
+        .orientation_mean_rms_max
+        .map(|(m, r, x)| {
+            format!(
+                "{:10.4} {:10.4} {:10.4}",
+                m.to_degrees(),
+                r.to_degrees(),
+                x.to_degrees()
+            )
+        })
+        .unwrap_or_default();
+    format!(
+        "{label:<24} {:5} {:10.4} {:10.4} {:10.4} {o}\n",
+        s.n_poses,
+        s.position_mean * 1e3,
+        s.position_rms * 1e3,
+        s.position_max * 1e3
+    )
+}
+
+/// Whether temperature explains the remaining error of the `name` set: its
+/// range and the correlation and slope of the position error against it
+/// (empty when fewer than 3 poses carry a temperature).
+pub fn temperature_text(name: &str, set: &MeasurementSet, errors: &[PoseError]) -> String {
+    let Some(check) = TemperatureCheck::of(set, errors) else {
+        return String::new();
+    };
+    let (lo, hi) = (check.min_c, check.max_c);
+    match (check.correlation, check.slope_mm_per_k) {
+        (Some(r), Some(slope)) => format!(
+            "temperature on the {name} set: {lo:.2} to {hi:.2} C; correlation of the position error with it r = {r:.3} (r^2 = {:.3}), slope {slope:.4} mm/K\n",
+            r * r
+        ),
+        _ => format!("temperature on the {name} set: constant {lo:.2} C; no analysis\n"),
+    }
+}
+
+/// `v` with `digits` decimals, or `-` when there is none.
+fn dash_or(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+}
+
+/// The split-half check: each unknown identified again on odd / even and
+/// first / second halves of the poses, against its standard error.
+pub fn split_check_text(split: &SplitCheck) -> String {
+    let mut out = String::new();
+    put!(out);
+    put!(
+        out,
+        "Split-half check (identified again on odd / even and first / second halves)"
+    );
+    put!(
+        out,
+        "{:<16} {:>9} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
+        "unknown",
+        "unit",
+        "std error",
+        "odd",
+        "even",
+        "first",
+        "second",
+        "split err",
+        "ratio"
+    );
+    for u in &split.unknowns {
+        put!(
+            out,
+            "{:<16} {:>9} {:>12.5} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
+            u.name,
+            u.unit,
+            u.standard_error,
+            dash_or(u.half_values[0], 5),
+            dash_or(u.half_values[1], 5),
+            dash_or(u.half_values[2], 5),
+            dash_or(u.half_values[3], 5),
+            dash_or(u.split_error, 5),
+            dash_or(u.ratio, 1)
+        );
+    }
+    for note in split.notes() {
+        put!(out, "note: {note}");
+    }
+    out
+}
+
+/// The cross-series check: each unknown identified again on the validation
+/// set, compared in combined standard errors (z).
+pub fn cross_check_text(cross: &CrossCheck) -> String {
+    let mut out = String::new();
+    put!(out);
+    put!(
+        out,
+        "Cross-series check (identified again on the {} validation poses{})",
+        cross.other_poses,
+        if cross.unknowns.iter().any(|u| u.z_split.is_some()) {
+            "; z split: each standard error raised to its split error where larger"
+        } else {
+            ""
+        }
+    );
+    put!(
+        out,
+        "{:<18} {:>9} {:>14} {:>12} {:>14} {:>12} {:>7} {:>8}",
+        "unknown",
+        "unit",
+        "identified",
+        "std error",
+        "validation set",
+        "std error",
+        "z",
+        "z split"
+    );
+    for u in &cross.unknowns {
+        put!(
+            out,
+            "{:<18} {:>9} {:>14.5} {:>12.5} {:>14} {:>12} {:>7} {:>8}",
+            u.name,
+            u.unit,
+            u.value,
+            u.standard_error,
+            dash_or(u.other_value, 5),
+            dash_or(u.other_standard_error, 5),
+            dash_or(u.z, 1),
+            dash_or(u.z_split, 1)
+        );
+    }
+    for note in cross.notes() {
+        put!(out, "note: {note}");
+    }
+    out
+}
+
+/// The errors before and after calibration on the identification set and,
+/// with a validation, on the validation set; the validation's frame note
+/// and extrapolated coordinates; the data checks and the option that
+/// leaves the suspect poses out.
+pub fn errors_text(c: &Calibration, validation: Option<&ValidationReport>) -> String {
+    let mut out = String::new();
+    put!(out);
+    put!(
+        out,
+        "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+        "errors",
+        "poses",
+        "mean mm",
+        "rms mm",
+        "max mm",
+        "mean deg",
+        "rms deg",
+        "max deg"
+    );
+    out += &statistics_row("identification before", &c.training_before);
+    out += &statistics_row("identification after", &c.training_after);
+    if let Some(v) = validation {
+        out += &statistics_row("validation before", &v.before);
+        out += &statistics_row("validation after", &v.after);
+        put!(out, "validation: {}", v.frame_note);
+        if !v.extrapolated_coordinates.is_empty() {
+            let list: Vec<String> = v
+                .extrapolated_coordinates
+                .iter()
+                .map(|(name, f)| format!("{name} ({:.0} % of the poses)", f * 100.0))
+                .collect();
+            put!(
+                out,
+                "validation poses outside the identification poses' range of: {}",
+                list.join(", ")
+            );
+        }
+    }
+    let validation_notes = validation.map(|v| v.data_checks.notes("validation"));
+    for note in c
+        .data_checks
+        .notes("identification")
+        .iter()
+        .chain(validation_notes.iter().flatten())
+    {
+        put!(out, "data check: {note}");
+    }
+    let checks = std::iter::once(("--exclude", &c.data_checks))
+        .chain(validation.map(|v| ("--exclude-validation", &v.data_checks)));
+    for (option, checks) in checks {
+        if !checks.suspect_poses.is_empty() {
+            let labels: Vec<&str> = checks
+                .suspect_poses
+                .iter()
+                .map(|s| s.pose.strip_prefix("line ").unwrap_or(&s.pose))
+                .collect();
+            put!(
+                out,
+                "data check: to compare without the suspect poses, run again with {option} '{}'",
+                labels.join(",")
+            );
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_status_has_its_own_word() {
+        let words = [
+            UnknownStatus::Identified,
+            UnknownStatus::Fixed,
+            UnknownStatus::NonIdentifiable,
+            UnknownStatus::PoorlyIdentifiable,
+            UnknownStatus::NoInfluence,
+        ]
+        .map(status_word);
+        let distinct: std::collections::BTreeSet<_> = words.iter().collect();
+        assert_eq!(distinct.len(), words.len());
+    }
+
+    #[test]
+    fn missing_values_print_as_a_dash() {
+        assert_eq!(dash_or(None, 5), "-");
+        assert_eq!(dash_or(Some(1.234_567), 2), "1.23");
+    }
+
+    #[test]
+    fn a_statistics_row_is_one_line_in_mm() {
+        let s = ErrorStatistics {
+            n_poses: 3,
+            position_mean: 1e-3,
+            position_rms: 2e-3,
+            position_max: 3e-3,
+            orientation_mean_rms_max: None,
+        };
+        let row = statistics_row("identification after", &s);
+        assert_eq!(row.lines().count(), 1);
+        assert!(row.ends_with('\n'));
+        let fields: Vec<&str> = row.split_whitespace().collect();
+        assert_eq!(&fields[2..], ["3", "1.0000", "2.0000", "3.0000"]);
+    }
+}
