@@ -209,6 +209,7 @@ pub mod screen;
 pub mod select;
 pub mod selection;
 pub mod split;
+pub mod targets;
 pub mod temperature;
 pub mod validate;
 
@@ -239,4 +240,8 @@ pub use selection::{
     SelectionReport, TermGroup, calibrate_selected, default_method, select_model,
 };
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
+pub use targets::{
+    TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
+    targets_from_toml_str, targets_to_toml_string, write_targets,
+};
 pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};
