@@ -324,3 +324,58 @@ fn a_target_on_a_frame_the_robot_lacks_is_a_named_error() {
         .to_string();
     assert!(err.contains("use_orientation"), "{err}");
 }
+
+#[test]
+fn one_target_on_the_tcp_matches_the_one_target_identification() {
+    use flexcal_calib::{Measurement, MeasurementSet, calibrate};
+    use flexcal_kinematics::forward_pose;
+    let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(10);
+    let truth: Vec<f64> = model
+        .nominal_params()
+        .iter()
+        .map(|v| v + rng.random_range(-2e-4..2e-4))
+        .collect();
+    let x_meas_base = Isometry3::from_parts(
+        Translation3::new(1.5, 0.2, -0.3),
+        rotation_from_vector(&Vector3::new(0.0, 0.0, 0.7)),
+    );
+    let probe = Isometry3::translation(0.01, -0.02, 0.15);
+    let noise = Normal::new(0.0, NOISE).unwrap();
+    let mut data = Data::new(&model);
+    let poses = (0..60)
+        .map(|_| {
+            let q: Vec<f64> = (0..6).map(|_| rng.random_range(-2.5..2.5)).collect();
+            let x = forward_pose(&model, &mut data, &q, &truth).unwrap();
+            let p = (x_meas_base * x * probe).translation.vector
+                + Vector3::from_fn(|_, _| noise.sample(&mut rng));
+            Measurement::new(q, p)
+        })
+        .collect();
+    let mut set = MeasurementSet::new("ur10", poses).unwrap();
+    set.nominal_target = Some(Isometry3::translation(0.01, -0.02, 0.149));
+    let options = CalibrationOptions::default();
+    let single = calibrate(&model, &set, &options).unwrap();
+    let multi_set = TargetMeasurementSet::from_measurement_set(&set, "probe").unwrap();
+    let multi = calibrate_targets(&model, &multi_set, &options).unwrap();
+    println!(
+        "one target: {:.5} mm RMS, rank {}; as a target set: {:.5} mm RMS, rank {}",
+        single.training_after.position_rms * 1e3,
+        single.rank(),
+        multi.training_after.position_rms * 1e3,
+        multi.rank()
+    );
+    // The same model of the same data: the same fit, up to which of the
+    // exactly dependent unknowns each leaves at nominal.
+    let relative = (single.training_after.position_rms - multi.training_after.position_rms).abs()
+        / single.training_after.position_rms;
+    assert!(relative < 0.02, "{relative}");
+    // The probe's identified position, in the end frame, agrees to well
+    // within the noise.
+    let multi_point = multi.targets[0].offset;
+    let single_point = single.x_tcp_target.translation.vector;
+    assert!(
+        (multi_point - single_point).norm() < 0.02e-3,
+        "{multi_point:?} vs {single_point:?}"
+    );
+}
