@@ -59,6 +59,7 @@ mod error;
 pub mod report;
 pub mod robot;
 pub mod study;
+pub mod targets;
 
 pub use error::{Error, Result};
 pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot, load_robot_with};
