@@ -83,7 +83,8 @@ pub struct CalibrationConfig {
     pub accuracy_grid: Option<PathBuf>,
     /// Targets description (TOML) of measurement files with several
     /// targets per pose (`docs/file-formats.md`): the run is then
-    /// [`crate::targets::run_target_calibration`]'s.
+    /// `targets::run_target_calibration`'s, and [`run_calibration`]
+    /// refuses it.
     pub targets: Option<PathBuf>,
 }
 
