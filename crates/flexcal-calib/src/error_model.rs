@@ -42,7 +42,7 @@ pub const TARGET_PARAMETER_NAMES: [&str; 6] = [
 
 /// Kind of an unknown of the extended vector `[xi; frame; target]` (and,
 /// elasto-geometric, `[c; m; m c]`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum UnknownKind {
     /// m.
     Length,

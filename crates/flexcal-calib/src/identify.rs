@@ -46,7 +46,7 @@ pub enum Weighting {
 }
 
 /// Whether a frame (measurement frame or target offset) is identified.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum FrameTreatment {
     /// Identified together with the robot (default).
     #[default]
@@ -245,7 +245,7 @@ impl CalibrationOptions {
 }
 
 /// What became of one unknown.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum UnknownStatus {
     /// Identified (in the base set).
     Identified,
@@ -263,7 +263,7 @@ pub enum UnknownStatus {
 }
 
 /// One unknown of the identification, by name.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct UnknownEstimate {
     /// Name (`d3`, `frame_rx`, `target_z`, `compliance_2`, ...).
     pub name: String,
@@ -1088,7 +1088,7 @@ fn problem_error(e: flexcal_optim::ProblemError) -> CalibError {
 /// `name_id = name + sum_k coefficient_k * other_k`: what an identified
 /// unknown stands for when others are not identified (the paper's (C.1)).
 /// Coefficients are in physical units (m per m, m per rad, ...).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Combination {
     /// The identified unknown.
     pub name: String,

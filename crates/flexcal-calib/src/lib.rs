@@ -51,6 +51,24 @@
 //! Residuals are `predicted - measured` positions (m) and rotation vectors
 //! `log(R_pred R_meas^T)` (rad), weighted by `1/sigma` per axis.
 //!
+//! ## Several targets, tree-structured robots
+//! [`TargetMeasurementSet`] holds several targets per pose, each fixed to a
+//! named frame of the robot (markers on the two hands of a two-armed robot,
+//! reflectors on a tool, a probe on a link), possibly occluded on some
+//! poses; its files are the CSV above with `<target>_x_mm..` columns and a
+//! TOML targets description ([`targets`]). [`calibrate_targets`] stacks the
+//! position residuals of every target on every pose, each with the
+//! parameter Jacobian of its own frame
+//! ([`flexcal_kinematics::frame_param_jacobian`]), and identifies the robot,
+//! the measurement frame and the offsets `target.<name>.x|y|z` in one
+//! identification, with the identifiability analysis below
+//! ([`TargetCalibration::identifiability_notes`] names what the targets
+//! cannot see: the other branch of a tree when its marker is missing, a
+//! marker's offset along its hand's axis against the hand frame's `r`).
+//! Reports give per-target figures ([`TargetErrors`], [`validate_targets`]).
+//! The one-target [`MeasurementSet`] is the case of one target on the TCP
+//! ([`TargetMeasurementSet::from_measurement_set`]).
+//!
 //! ## Elasto-geometric model
 //! With [`CalibrationOptions::gravity`] (a [`GravityCompliance`]: the link
 //! masses, gravity, payload start) the robot is evaluated at `q + dq`, where
@@ -182,6 +200,9 @@
 //!   weighting by them ([`Weighting::FromFile`]) over-trusts some poses; the
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
+//! - Several targets: positions only (orientation columns are read, not
+//!   fitted), geometric model only (no gravity compliance, joint terms or
+//!   Gauss-Newton), no spread ratios or split-half checks.
 //! - The spread ratio compares with poses drawn over the joint limits, not
 //!   over a collision-free or task workspace; a robot whose useful workspace
 //!   is a small part of its joint ranges scores high everywhere.
@@ -200,6 +221,7 @@ pub mod error_model;
 pub mod geometry;
 pub mod gravity;
 pub mod identify;
+pub mod identify_targets;
 pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
@@ -209,6 +231,7 @@ pub mod screen;
 pub mod select;
 pub mod selection;
 pub mod split;
+pub mod targets;
 pub mod temperature;
 pub mod validate;
 
@@ -225,6 +248,10 @@ pub use identify::{
     ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,
     Weighting, calibrate, combination_check,
 };
+pub use identify_targets::{
+    TargetCalibration, TargetErrors, TargetValidation, calibrate_targets, target_unknown_names,
+    validate_targets,
+};
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
@@ -239,4 +266,8 @@ pub use selection::{
     SelectionReport, TermGroup, calibrate_selected, default_method, select_model,
 };
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
+pub use targets::{
+    TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
+    targets_from_toml_str, targets_to_toml_string, write_targets,
+};
 pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};

@@ -18,7 +18,7 @@ pub struct PoseError {
 }
 
 /// Mean, RMS and maximum of the pose errors of a set.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ErrorStatistics {
     /// Number of poses.
     pub n_poses: usize,

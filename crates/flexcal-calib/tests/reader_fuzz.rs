@@ -145,3 +145,74 @@ fn ipa_reader_survives_mutated_files() {
     }
     println!("IPA CSV: {valid} valid of {CASES}");
 }
+
+/// A multi-target measurement file as flexcal writes it: two markers, the
+/// left one with orientation and standard deviations, each missing on a
+/// pose, and the targets description beside it.
+fn multi_target_files() -> (String, String) {
+    use flexcal_calib::{Target, TargetMeasurementSet, TargetObservation, TargetPose};
+    use nalgebra::Vector3;
+    let targets = vec![
+        Target::new("left", "LH", Vector3::new(0.03, 0.0, 0.04)),
+        Target::new("right", "RH", Vector3::new(0.03, 0.0, 0.04)),
+    ];
+    let poses = (0..10)
+        .map(|k| {
+            let t = k as f64 * 0.1;
+            let left = TargetObservation {
+                position: Vector3::new(1.2 + t, -0.3, 0.4),
+                orientation: Some(Vector3::new(0.1, -t, 0.3)),
+                position_std: Some(Vector3::new(2e-5, 2e-5, 3e-5)),
+                orientation_std: Some(Vector3::new(1e-4, 1e-4, 1e-4)),
+            };
+            TargetPose {
+                pose_id: Some(format!("p{k}")),
+                q: vec![0.1 + t, -1.2 + t, 1.0 - t, -0.5, 1.3],
+                observations: vec![
+                    (k != 3).then_some(left),
+                    (k != 6).then(|| TargetObservation::new(Vector3::new(0.8, t, -0.2))),
+                ],
+            }
+        })
+        .collect();
+    let set = TargetMeasurementSet::new("source", targets.clone(), poses).unwrap();
+    (
+        set.to_csv_string(),
+        flexcal_calib::targets_to_toml_string(&targets).unwrap(),
+    )
+}
+
+#[test]
+fn multi_target_readers_survive_mutated_files() {
+    use flexcal_calib::{TargetMeasurementSet, targets_from_toml_str};
+    let (csv, toml) = multi_target_files();
+    let targets = targets_from_toml_str(&toml, "source.toml").expect("the source file is valid");
+    TargetMeasurementSet::from_csv_str(&csv, "source.csv", &targets)
+        .expect("the source file is valid");
+    let mut mutator = TextMutator::new(23);
+    let mut valid = 0;
+    for _ in 0..CASES {
+        let text = mutator.mutate(&csv);
+        match TargetMeasurementSet::from_csv_str(&text, "fuzz.csv", &targets) {
+            Ok(set) => {
+                valid += 1;
+                assert!(set.n_observations() > 0);
+            }
+            Err(e) => assert!(e.to_string().contains("fuzz.csv"), "{e}"),
+        }
+    }
+    println!("multi-target CSV: {valid} valid of {CASES}");
+    let mut mutator = TextMutator::new(24);
+    let mut valid = 0;
+    for _ in 0..CASES {
+        let text = mutator.mutate(&toml);
+        match targets_from_toml_str(&text, "fuzz.toml") {
+            Ok(targets) => {
+                valid += 1;
+                assert!(!targets.is_empty());
+            }
+            Err(e) => assert!(e.to_string().contains("fuzz.toml"), "{e}"),
+        }
+    }
+    println!("targets description: {valid} valid of {CASES}");
+}

@@ -9,6 +9,7 @@ use flexcal::calibration::{
     CalibrationConfig, CalibrationOutputs, MeasurementFormat, run_calibration,
 };
 use flexcal::kinematics::Model;
+use flexcal::targets::run_target_calibration;
 
 /// Measurement file formats.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -153,6 +154,11 @@ pub struct CalibrateArgs {
     /// q1..qn), written beside it as `<name>.accuracy.csv`.
     #[arg(long)]
     pub accuracy_map: Option<PathBuf>,
+    /// Several targets per pose: their description (TOML: name, frame,
+    /// offset_mm, identify), the measurement files having per-target
+    /// columns `<target>_x_mm..` (docs/file-formats.md).
+    #[arg(long)]
+    pub targets: Option<PathBuf>,
     /// Write the calibrated robot description here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -170,6 +176,9 @@ pub struct CalibrateArgs {
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let model = crate::robot_arg::load_model(&args.robot, &args.robot_file)?;
     let config = config(&args, &model)?;
+    if config.targets.is_some() {
+        return run_targets(&args, &model, &config);
+    }
     let run = run_calibration(&model, &config)?;
     print!("{}", run.summary_text(&model));
     let outputs = CalibrationOutputs {
@@ -180,6 +189,35 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     };
     for line in run.write_outputs(&model, &outputs)? {
         println!("{line}");
+    }
+    Ok(())
+}
+
+/// `flexcal calibrate --targets`: [`run_target_calibration`] -> print and write.
+fn run_targets(
+    args: &CalibrateArgs,
+    model: &Model,
+    config: &CalibrationConfig,
+) -> anyhow::Result<()> {
+    if args.residuals.is_some() {
+        crate::usage_bail!("--residuals is not available with --targets");
+    }
+    let run = run_target_calibration(model, config)?;
+    println!(
+        "Calibrating `{}` ({} parameters) from {}",
+        model.name(),
+        model.n_params(),
+        args.data.display()
+    );
+    run.lines().iter().for_each(|l| println!("{l}"));
+    if let Some(out) = &args.out {
+        let description = run.calibration.description(model)?;
+        flexcal::io::write_atomic(out, description.to_toml_string())?;
+        println!("calibrated robot written to {}", out.display());
+    }
+    if let Some(path) = &args.report {
+        flexcal::io::write_atomic(path, run.to_json_string()?)?;
+        println!("report written to {}", path.display());
     }
     Ok(())
 }
@@ -256,6 +294,7 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
         residual_inputs: crate::list_items(&args.residual_model),
         selection: args.select,
         accuracy_grid: args.accuracy_map.clone(),
+        targets: args.targets.clone(),
         ..CalibrationConfig::new(&args.data, options)
     })
 }

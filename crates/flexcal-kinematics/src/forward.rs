@@ -910,6 +910,141 @@ pub fn param_jacobian(
     Ok((pose, out))
 }
 
+/// Checks a frame index against the model.
+fn check_frame(model: &Model, frame: usize) -> Result<(), KinematicsError> {
+    if frame >= model.frames.len() {
+        return Err(KinematicsError::WrongLength {
+            what: format!(
+                "frame index of model `{}` (number of frames; see Model::frame_index)",
+                model.name
+            ),
+            expected: model.frames.len(),
+            found: frame,
+        });
+    }
+    Ok(())
+}
+
+/// Pose `x_base_point` of a point frame fixed to frame `frame` of the robot
+/// (any frame of a serial chain, a tree or a closed loop: a marker on one
+/// hand of a two-armed robot, a probe on a link), `x_frame_point` giving it
+/// in that frame. The base transform is not included, as in
+/// [`forward_pose`]; with `frame = model.end_frame()` and `x_frame_point =
+/// model.tool()` this is the TCP.
+///
+/// # Errors
+/// [`KinematicsError::WrongLength`] for a frame index out of range, and the
+/// errors of the forward model.
+pub fn forward_frame_pose(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    frame: usize,
+    x_frame_point: &Isometry3<f64>,
+) -> Result<Isometry3<f64>, KinematicsError> {
+    check_frame(model, frame)?;
+    run_forward(model, data, q, xi, false)?;
+    Ok(data.poses[frame]
+        .compose(&Pose::from_isometry(x_frame_point))
+        .to_isometry())
+}
+
+/// Parameter Jacobian of a point frame fixed to any frame of the robot
+/// (equations (49)-(52) with the path from R0 to `frame` in place of the
+/// path to the end frame) into `out` (6 x n_params): column j =
+/// d[p_point; phi]/d xi_j, rows `[linear; angular]` in the base frame, the
+/// linear part at the point `x_base_frame * x_frame_point`. Returns that
+/// pose `x_base_point`.
+///
+/// Only the frames on the path from the root to `frame` move the point:
+/// on a tree the parameters of the other branches have zero columns; a
+/// passive loop joint on the path enters through the implicit
+/// differentiation of its loop's closure, as for the TCP.
+///
+/// # Errors
+/// [`KinematicsError::WrongLength`] for `out` or a frame index out of
+/// range, and the errors of the forward model.
+pub fn frame_param_jacobian_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    frame: usize,
+    x_frame_point: &Isometry3<f64>,
+    out: &mut DMatrix<f64>,
+) -> Result<Isometry3<f64>, KinematicsError> {
+    check_frame(model, frame)?;
+    let np = model.n_params();
+    if out.nrows() != 6 || out.ncols() != np {
+        return Err(KinematicsError::WrongLength {
+            what: "parameter Jacobian (6 x n_params) columns".into(),
+            expected: np,
+            found: if out.nrows() == 6 {
+                out.ncols()
+            } else {
+                out.len()
+            },
+        });
+    }
+    run_forward(model, data, q, xi, true)?;
+    let x_base_point = data.poses[frame].compose(&Pose::from_isometry(x_frame_point));
+    let point = x_base_point.p;
+    let jac = out.as_mut_slice();
+    jac.fill(0.0);
+    let mut add = |t: &[f64; 6], j: usize, w: f64| {
+        let col = &mut jac[6 * j..6 * j + 6];
+        for r in 0..6 {
+            col[r] += w * t[r];
+        }
+    };
+    let mut f = Some(frame);
+    while let Some(i) = f {
+        let frame_model = &model.frames[i];
+        for k in 0..7 {
+            if frame_model.quantity[k].terms.is_empty() {
+                continue;
+            }
+            let (u, o) = data.quantity_axis(model, i, k);
+            let t = twist_at(&u, &o, &point);
+            for &(j, coef) in &frame_model.quantity[k].terms {
+                add(&t, j, coef);
+            }
+        }
+        if frame_model.joint != JointType::Fixed && joint_depends_on_xi(model, i) {
+            let k = frame_model.joint_quantity().unwrap_or(5);
+            let (u, o) = data.quantity_axis(model, i, k);
+            let t = twist_at(&u, &o, &point);
+            for j in 0..np {
+                let w = data.djoint_dxi[i * np + j];
+                if w != 0.0 {
+                    add(&t, j, w);
+                }
+            }
+        }
+        f = frame_model.parent;
+    }
+    Ok(x_base_point.to_isometry())
+}
+
+/// Allocating twin of [`frame_param_jacobian_into`]: the pose `x_base_point`
+/// and the 6 x n_params parameter Jacobian of the point.
+///
+/// # Errors
+/// As [`frame_param_jacobian_into`].
+pub fn frame_param_jacobian(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    frame: usize,
+    x_frame_point: &Isometry3<f64>,
+) -> Result<(Isometry3<f64>, DMatrix<f64>), KinematicsError> {
+    let mut out = DMatrix::zeros(6, model.n_params());
+    let pose = frame_param_jacobian_into(model, data, q, xi, frame, x_frame_point, &mut out)?;
+    Ok((pose, out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::{slider_crank_angle, wrap_near};

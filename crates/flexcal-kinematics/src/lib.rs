@@ -45,6 +45,9 @@
 //!   closure (44) (cut-joint frames coincide; planar or full constraint),
 //!   slider cranks (45)-(46), relation V of Appendix A written with the
 //!   squared screw length: `theta = lambda - kappa + branch * acos((l1^2 + l3^2 - r'^2)/(2 l1 l3))`.
+//! - The pose and parameter Jacobian of a point on any frame, not only the
+//!   TCP ([`forward_frame_pose`], [`frame_param_jacobian`]): (49)-(52) along
+//!   the path from R0 to that frame (a hand of a tree, a link of a chain).
 //! - Parameter Jacobian (49)-(52) and Appendix B, with the derivatives of
 //!   (51): slider cranks (a2..e2) analytically, passive loop joints (a3..e3)
 //!   by implicit differentiation of the closure.
@@ -161,8 +164,9 @@ pub use description::{
 pub use error::KinematicsError;
 pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
 pub use forward::{
-    Data, PointLoad, actuated_forces_into, forward_frames, forward_pose, joint_jacobian,
-    joint_jacobian_into, param_jacobian, param_jacobian_into,
+    Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_pose,
+    frame_param_jacobian, frame_param_jacobian_into, joint_jacobian, joint_jacobian_into,
+    param_jacobian, param_jacobian_into,
 };
 pub use import::{ImportOptions, ImportedRobot, LinkMass};
 pub use inverse::{InverseOptions, InverseSolution, InverseTarget, inverse_pose};

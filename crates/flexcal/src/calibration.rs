@@ -103,6 +103,11 @@ pub struct CalibrationConfig {
     /// Configurations (CSV `q1..qn`) at which to predict the accuracy of the
     /// calibrated robot ([`CalibrationRun::accuracy_map`]).
     pub accuracy_grid: Option<PathBuf>,
+    /// Targets description (TOML) of measurement files with several
+    /// targets per pose (`docs/file-formats.md`): the run is then
+    /// `targets::run_target_calibration`'s, and [`run_calibration`]
+    /// refuses it.
+    pub targets: Option<PathBuf>,
 }
 
 impl CalibrationConfig {
@@ -122,6 +127,7 @@ impl CalibrationConfig {
             residual_inputs: Vec::new(),
             selection: None,
             accuracy_grid: None,
+            targets: None,
         }
     }
 }
@@ -309,6 +315,12 @@ pub fn run_calibration(
         parameter: parameter.to_string(),
         message,
     };
+    if config.targets.is_some() {
+        return Err(invalid(
+            "targets",
+            "several targets per pose are calibrated by run_target_calibration".into(),
+        ));
+    }
     if config.validate.is_none() {
         if !config.exclude_validation.is_empty() {
             return Err(invalid(

@@ -63,6 +63,7 @@ pub mod pose_selection;
 pub mod report;
 pub mod robot;
 pub mod study;
+pub mod targets;
 
 pub use error::{Error, Result};
 pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot, load_robot_with};

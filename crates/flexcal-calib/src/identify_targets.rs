@@ -1,0 +1,1022 @@
+//! Geometric identification from several targets on different frames of a
+//! robot (a tree's branches, links of a chain, the tool): one measurement
+//! frame, one offset per target, the robot's parameters, all from the
+//! residuals of every target on every pose stacked together.
+//!
+//! For target t on frame f(t) and pose k the model is
+//! `p_M = x_meas_base(tau) * x_base_f(q_k, xi) * x_f_target(o_t)`, the
+//! paper's (7)-(10) with the parameter Jacobian (49)-(52) of frame f(t)
+//! instead of the TCP ([`flexcal_kinematics::frame_param_jacobian`]). The
+//! unknowns are `[xi; tau; o_t for each identified target]`, the offsets
+//! named `target.<name>.x|y|z` (m, added to the nominal offset in the
+//! target's frame). Rows are positions only (m), weighted `1/sigma`.
+//!
+//! Identifiability is decided as for one target
+//! ([`crate::calibrate`]): pivoted QR of the weighted, column-scaled
+//! stacked Jacobian at the nominal robot with its frames fitted (the
+//! measurement frame first, then the target offsets, then the robot's
+//! parameters, names in [`CalibrationOptions::deferred`] last); what lies
+//! beyond the rank stays at its starting value and is named, with the
+//! combinations the identified unknowns stand for. An identified unknown
+//! whose standard error exceeds the limits of [`CalibrationOptions`] is put
+//! back to its starting value and the rest solved again
+//! ([`UnknownStatus::PoorlyIdentifiable`]).
+
+use std::cell::RefCell;
+
+use faer::prelude::SolveLstsq;
+use faer::{Mat, MatMut};
+use flexcal_kinematics::{
+    Data, Model, ParamKind, RobotDescription, forward_frame_pose, frame_param_jacobian_into,
+};
+use flexcal_optim::{
+    ColumnScaling, Control, Diagnosis, IdentifiabilityOptions, IdentifiabilityReport,
+    IterationState, Jacobian, LevenbergMarquardt, ProblemError, ProblemSetup, Residuals,
+    SolveReport, analyze_identifiability,
+};
+use nalgebra::{DMatrix, Isometry3, Translation3, Vector3};
+use serde::Serialize;
+
+use crate::CalibError;
+use crate::error_model::{FRAME_PARAMETER_NAMES, UnknownKind};
+use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew};
+use crate::identify::{
+    CalibrationOptions, Combination, FrameTreatment, Method, UnknownEstimate, UnknownStatus,
+    Weighting,
+};
+use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet, target_point};
+
+/// Names of the three unknowns of a target's offset: `target.<name>.x`,
+/// `.y`, `.z` (m, in the target's frame).
+pub fn target_unknown_names(target: &str) -> [String; 3] {
+    ["x", "y", "z"].map(|a| format!("target.{target}.{a}"))
+}
+
+/// Errors of one target over the poses where it was seen.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetErrors {
+    /// Target name.
+    pub target: String,
+    /// Frame it is fixed to.
+    pub frame: String,
+    /// Mean, RMS and maximum position error (m) over its observations.
+    pub statistics: ErrorStatistics,
+}
+
+/// A fitted multi-target calibration.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetCalibration {
+    /// Identified robot parameters xi (m, rad).
+    pub xi: Vec<f64>,
+    /// Nominal robot parameters (m, rad).
+    pub nominal_xi: Vec<f64>,
+    /// Identified (or fixed) measurement frame `x_meas_base`.
+    pub x_meas_base: Isometry3<f64>,
+    /// Starting measurement frame (registration of the nominal predictions
+    /// onto the measurements, or the given value): the `frame_*` unknowns
+    /// are increments on it (translation added, rotation vector on the left).
+    pub x_meas_base_initial: Isometry3<f64>,
+    /// Measurement frame fitted for the nominal robot (the "before").
+    pub x_meas_base_nominal_robot: Isometry3<f64>,
+    /// Whether the measurement frame was fixed.
+    pub measurement_frame_fixed: bool,
+    /// The targets with their identified (or fixed) offsets.
+    pub targets: Vec<Target>,
+    /// The targets with their offsets fitted for the nominal robot (the "before").
+    pub targets_nominal_robot: Vec<Target>,
+    /// Every unknown: robot parameters, then `frame_*`, then `target.*`.
+    pub unknowns: Vec<UnknownEstimate>,
+    /// Identifiability of the free unknowns at the start point (nominal
+    /// robot, frames fitted), at [`CalibrationOptions::rank_tolerance`].
+    pub identifiability: IdentifiabilityReport,
+    /// What each identified unknown stands for (C.1), linearised at the start point.
+    pub combinations: Vec<Combination>,
+    /// The same as text (coefficients below 1e-3 dropped).
+    pub combination_lines: Vec<String>,
+    /// The final solver report.
+    pub solve: SolveReport,
+    /// Errors of all observations with the nominal robot, frames and offsets fitted (before).
+    pub training_before: ErrorStatistics,
+    /// Errors of all observations after identification.
+    pub training_after: ErrorStatistics,
+    /// Per-target errors before identification (nominal robot, frames fitted).
+    pub per_target_before: Vec<TargetErrors>,
+    /// Per-target errors after identification.
+    pub per_target_after: Vec<TargetErrors>,
+    /// Number of poses used.
+    pub n_poses: usize,
+    /// Number of (pose, target) observations used.
+    pub n_observations: usize,
+}
+
+impl TargetCalibration {
+    fn with_status(&self, status: UnknownStatus) -> Vec<&str> {
+        self.unknowns
+            .iter()
+            .filter(|u| u.status == status)
+            .map(|u| u.name.as_str())
+            .collect()
+    }
+    /// Names of the unknowns the data cannot separate from others (exact dependencies).
+    pub fn non_identifiable(&self) -> Vec<&str> {
+        self.with_status(UnknownStatus::NonIdentifiable)
+    }
+    /// Names of the unknowns seen too weakly (standard error beyond its limit).
+    pub fn poorly_identifiable(&self) -> Vec<&str> {
+        self.with_status(UnknownStatus::PoorlyIdentifiable)
+    }
+    /// Number of identified unknowns.
+    pub fn rank(&self) -> usize {
+        self.with_status(UnknownStatus::Identified).len()
+    }
+
+    /// What the targets could not identify, in sentences for a report:
+    /// robot parameters and target offsets left at their starting values,
+    /// each with the identified unknowns that absorb it.
+    pub fn identifiability_notes(&self) -> Vec<String> {
+        let mut notes = Vec::new();
+        let absorbed_by = |name: &str| -> Vec<String> {
+            self.combinations
+                .iter()
+                .filter(|c| c.terms.iter().any(|(n, k)| n == name && k.abs() >= 1e-3))
+                .map(|c| c.name.clone())
+                .collect()
+        };
+        let describe = |names: &[&str]| -> String {
+            names
+                .iter()
+                .map(|n| {
+                    let by = absorbed_by(n);
+                    if by.is_empty() {
+                        n.to_string()
+                    } else {
+                        format!("{n} (in {})", by.join(", "))
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let np = self.xi.len();
+        let robot: Vec<&str> = self.unknowns[..np]
+            .iter()
+            .filter(|u| u.status == UnknownStatus::NonIdentifiable)
+            .map(|u| u.name.as_str())
+            .collect();
+        if !robot.is_empty() {
+            notes.push(format!(
+                "{} of {np} robot parameters cannot be told apart from others by these targets and stay at nominal: {}",
+                robot.len(),
+                describe(&robot)
+            ));
+        }
+        for t in &self.targets {
+            let prefix = format!("target.{}.", t.name);
+            let blind: Vec<&str> = self
+                .unknowns
+                .iter()
+                .filter(|u| u.name.starts_with(&prefix))
+                .filter(|u| u.status == UnknownStatus::NonIdentifiable)
+                .map(|u| u.name.as_str())
+                .collect();
+            if !blind.is_empty() {
+                notes.push(format!(
+                    "target `{}` on frame `{}`: offset not separable from the robot along {}; it stays at its nominal value",
+                    t.name,
+                    t.frame,
+                    describe(&blind)
+                ));
+            }
+        }
+        let unseen = self.with_status(UnknownStatus::NoInfluence);
+        if !unseen.is_empty() {
+            notes.push(format!(
+                "no measured target moves with these, they stay at nominal: {}",
+                unseen.join(", ")
+            ));
+        }
+        let poor = self.poorly_identifiable();
+        if !poor.is_empty() {
+            notes.push(format!(
+                "seen too weakly by these poses (standard error beyond its limit), kept at the starting value: {}",
+                poor.join(", ")
+            ));
+        }
+        let frame: Vec<&str> = self.unknowns[np..np + 6]
+            .iter()
+            .filter(|u| u.status == UnknownStatus::NonIdentifiable)
+            .map(|u| u.name.as_str())
+            .collect();
+        if !frame.is_empty() {
+            notes.push(format!(
+                "measurement frame components absorbed by the robot's base parameters: {}",
+                frame.join(", ")
+            ));
+        }
+        notes
+    }
+
+    /// The true value of each identified combination `x_B + K x_N` given a
+    /// full vector of true unknowns (`truth`, indexed like
+    /// [`TargetCalibration::unknowns`]): `(name, true combination value,
+    /// identified value, standard error)`. Absorbed unknowns stay at their
+    /// starting values in the fit, so only their true deviation from there
+    /// is absorbed.
+    pub fn combination_check(&self, truth: &[f64]) -> Vec<(String, f64, f64, Option<f64>)> {
+        let index = |name: &str| self.unknowns.iter().position(|u| u.name == name);
+        self.combinations
+            .iter()
+            .filter_map(|c| {
+                let jb = index(&c.name)?;
+                let mut value = *truth.get(jb)?;
+                for (other, k) in &c.terms {
+                    let jn = index(other)?;
+                    value += k * (truth.get(jn)? - self.unknowns[jn].initial);
+                }
+                let u = &self.unknowns[jb];
+                Some((u.name.clone(), value, u.value, u.standard_error))
+            })
+            .collect()
+    }
+
+    /// The calibrated robot description (mm, deg).
+    ///
+    /// # Errors
+    /// [`CalibError::Description`].
+    pub fn description(&self, model: &Model) -> Result<RobotDescription, CalibError> {
+        let mut d = model
+            .description_with_params(&self.xi)
+            .map_err(CalibError::Description)?;
+        let note = format!(
+            "Calibrated by flexcal from {} poses of {} targets: {} of {} unknowns identified.",
+            self.n_poses,
+            self.targets.len(),
+            self.rank(),
+            self.unknowns.len()
+        );
+        d.notes = if d.notes.is_empty() {
+            note
+        } else {
+            format!("{} {note}", d.notes)
+        };
+        Ok(d)
+    }
+}
+
+/// The stacked position residuals of every observation.
+struct TargetErrorModel<'a> {
+    model: &'a Model,
+    set: &'a TargetMeasurementSet,
+    /// Per target: frame index, on the TCP, first unknown of its offset.
+    frames: Vec<(usize, bool, Option<usize>)>,
+    /// (pose, target) of each block of three rows.
+    rows: Vec<(usize, usize)>,
+    x_meas_base0: Isometry3<f64>,
+    names: Vec<String>,
+    data: RefCell<Data>,
+    jacobian: RefCell<DMatrix<f64>>,
+}
+
+impl<'a> TargetErrorModel<'a> {
+    fn new(
+        model: &'a Model,
+        set: &'a TargetMeasurementSet,
+        x_meas_base0: Isometry3<f64>,
+    ) -> Result<Self, CalibError> {
+        let mut names: Vec<String> = model.params().iter().map(|p| p.name.clone()).collect();
+        names.extend(FRAME_PARAMETER_NAMES.iter().map(|s| s.to_string()));
+        let mut frames = Vec::with_capacity(set.targets().len());
+        for t in set.targets() {
+            let on_tcp = t.frame == TCP_FRAME;
+            let index = if on_tcp {
+                model.end_frame()
+            } else {
+                model
+                    .frame_index(&t.frame)
+                    .ok_or_else(|| CalibError::BadMeasurement {
+                        source_name: set.source.clone(),
+                        line: 0,
+                        what: format!(
+                            "target `{}`: robot `{}` has no frame `{}` (frames: {}, or `{TCP_FRAME}`)",
+                            t.name,
+                            model.name(),
+                            t.frame,
+                            model.frame_names().join(", ")
+                        ),
+                    })?
+            };
+            let offset = (t.treatment == FrameTreatment::Identify).then(|| {
+                let start = names.len();
+                names.extend(target_unknown_names(&t.name));
+                start
+            });
+            frames.push((index, on_tcp, offset));
+        }
+        let rows = set
+            .poses()
+            .iter()
+            .enumerate()
+            .flat_map(|(k, p)| {
+                p.observations
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| o.is_some())
+                    .map(move |(t, _)| (k, t))
+            })
+            .collect();
+        Ok(Self {
+            model,
+            set,
+            frames,
+            rows,
+            x_meas_base0,
+            names,
+            data: RefCell::new(Data::new(model)),
+            jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
+        })
+    }
+
+    fn frame_offset(&self) -> usize {
+        self.model.n_params()
+    }
+
+    fn kinds(&self) -> Vec<UnknownKind> {
+        let mut kinds: Vec<UnknownKind> = self
+            .model
+            .params()
+            .iter()
+            .map(|p| match p.kind {
+                ParamKind::Length => UnknownKind::Length,
+                ParamKind::Angle => UnknownKind::Angle,
+            })
+            .collect();
+        kinds.extend([UnknownKind::Length; 3]);
+        kinds.extend([UnknownKind::Angle; 3]);
+        kinds.resize(self.names.len(), UnknownKind::Length);
+        kinds
+    }
+
+    fn initial_unknowns(&self) -> Vec<f64> {
+        let mut x = self.model.nominal_params().to_vec();
+        x.resize(self.names.len(), 0.0);
+        x
+    }
+
+    fn x_meas_base(&self, x: &[f64]) -> Isometry3<f64> {
+        let f = self.frame_offset();
+        Isometry3::from_parts(
+            Translation3::from(
+                self.x_meas_base0.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2]),
+            ),
+            rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5]))
+                * self.x_meas_base0.rotation,
+        )
+    }
+
+    /// The offset of target `t` at `x` (m).
+    fn offset(&self, x: &[f64], t: usize) -> Vector3<f64> {
+        let nominal = self.set.targets()[t].offset;
+        match self.frames[t].2 {
+            Some(o) => nominal + Vector3::new(x[o], x[o + 1], x[o + 2]),
+            None => nominal,
+        }
+    }
+
+    fn point(&self, x: &[f64], t: usize) -> Isometry3<f64> {
+        target_point(&self.model.tool(), self.frames[t].1, &self.offset(x, t))
+    }
+
+    fn kinematics_error(
+        &self,
+        k: usize,
+    ) -> impl FnOnce(flexcal_kinematics::KinematicsError) -> CalibError {
+        let pose_id = self.set.poses()[k].label(k);
+        move |source| CalibError::Kinematics {
+            pose: k,
+            pose_id,
+            source,
+        }
+    }
+
+    /// Predicted position of every observation in M (m), in row order.
+    fn predict(&self, x: &[f64]) -> Result<Vec<Vector3<f64>>, CalibError> {
+        let xi = &x[..self.model.n_params()];
+        let x_meas_base = self.x_meas_base(x);
+        let mut data = self.data.borrow_mut();
+        self.rows
+            .iter()
+            .map(|&(k, t)| {
+                let q = &self.set.poses()[k].q;
+                let x_base_target = forward_frame_pose(
+                    self.model,
+                    &mut data,
+                    q,
+                    xi,
+                    self.frames[t].0,
+                    &self.point(x, t),
+                )
+                .map_err(self.kinematics_error(k))?;
+                Ok((x_meas_base * x_base_target).translation.vector)
+            })
+            .collect()
+    }
+
+    fn measured(&self, row: usize) -> &crate::targets::TargetObservation {
+        let (k, t) = self.rows[row];
+        self.set.poses()[k].observations[t]
+            .as_ref()
+            .expect("rows hold observed targets only")
+    }
+
+    fn errors(&self, x: &[f64]) -> Result<Vec<PoseError>, CalibError> {
+        Ok(self
+            .predict(x)?
+            .iter()
+            .enumerate()
+            .map(|(row, p)| {
+                let position_vector = self.measured(row).position - p;
+                PoseError {
+                    position: position_vector.norm(),
+                    position_vector,
+                    orientation: None,
+                }
+            })
+            .collect())
+    }
+
+    fn per_target(&self, errors: &[PoseError]) -> Vec<TargetErrors> {
+        self.set
+            .targets()
+            .iter()
+            .enumerate()
+            .map(|(t, target)| {
+                let mine: Vec<PoseError> = self
+                    .rows
+                    .iter()
+                    .zip(errors)
+                    .filter(|((_, rt), _)| *rt == t)
+                    .map(|(_, e)| *e)
+                    .collect();
+                TargetErrors {
+                    target: target.name.clone(),
+                    frame: target.frame.clone(),
+                    statistics: error_statistics(&mine),
+                }
+            })
+            .collect()
+    }
+}
+
+impl Residuals for TargetErrorModel<'_> {
+    fn n_residuals(&self) -> usize {
+        3 * self.rows.len()
+    }
+    fn n_params(&self) -> usize {
+        self.names.len()
+    }
+    fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
+        for (row, p) in self.predict(x)?.iter().enumerate() {
+            let r = p - self.measured(row).position;
+            out[3 * row..3 * row + 3].copy_from_slice(r.as_slice());
+        }
+        Ok(())
+    }
+    fn parameter_name(&self, j: usize) -> String {
+        self.names[j].clone()
+    }
+}
+
+impl Jacobian for TargetErrorModel<'_> {
+    fn jacobian(&self, x: &[f64], mut out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+        let np = self.model.n_params();
+        let xi = &x[..np];
+        let fo = self.frame_offset();
+        let x_meas_base = self.x_meas_base(x);
+        let r_mb = x_meas_base.rotation.to_rotation_matrix().into_inner();
+        let jl_phi = left_jacobian(&Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]));
+        let mut data = self.data.borrow_mut();
+        let mut jac = self.jacobian.borrow_mut();
+        for j in 0..self.names.len() {
+            for i in 0..out.nrows() {
+                out[(i, j)] = 0.0;
+            }
+        }
+        for (row, &(k, t)) in self.rows.iter().enumerate() {
+            let q = &self.set.poses()[k].q;
+            let x_base_target = frame_param_jacobian_into(
+                self.model,
+                &mut data,
+                q,
+                xi,
+                self.frames[t].0,
+                &self.point(x, t),
+                &mut jac,
+            )
+            .map_err(self.kinematics_error(k))?;
+            let r0 = 3 * row;
+            // Robot parameters: the linear rows of the point's Jacobian, into M.
+            for j in 0..np {
+                let dp = r_mb * Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
+                for i in 0..3 {
+                    out[(r0 + i, j)] = dp[i];
+                }
+            }
+            // Measurement frame: translation, then the left rotation vector.
+            let d_rot = -skew(&(r_mb * x_base_target.translation.vector)) * jl_phi;
+            // Target offset: along the axes of the target's frame.
+            let d_offset = r_mb * x_base_target.rotation.to_rotation_matrix().into_inner();
+            for i in 0..3 {
+                for c in 0..3 {
+                    out[(r0 + i, fo + c)] = if i == c { 1.0 } else { 0.0 };
+                    out[(r0 + i, fo + 3 + c)] = d_rot[(i, c)];
+                    if let Some(o) = self.frames[t].2 {
+                        out[(r0 + i, o + c)] = d_offset[(i, c)];
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn problem_error(e: ProblemError) -> CalibError {
+    match e.downcast::<CalibError>() {
+        Ok(calib) => *calib,
+        Err(other) => CalibError::BadMeasurement {
+            source_name: String::new(),
+            line: 0,
+            what: other.to_string(),
+        },
+    }
+}
+
+/// Options of [`CalibrationOptions`] that the multi-target identification
+/// does not take (it fits positions with the geometric model).
+fn check_supported(options: &CalibrationOptions) -> Result<(), CalibError> {
+    let unsupported = |name: &'static str| CalibError::InvalidOption {
+        name,
+        reason: "not available with several targets (positions, geometric model only)".into(),
+    };
+    if options.use_orientation == Some(true) {
+        return Err(unsupported("use_orientation"));
+    }
+    if options.gravity.is_some() {
+        return Err(unsupported("gravity"));
+    }
+    if options.joint_terms.any() {
+        return Err(unsupported("joint_terms"));
+    }
+    if options.method != Method::LevenbergMarquardt {
+        return Err(unsupported("method"));
+    }
+    if options.target_value.is_some() || options.target == FrameTreatment::Fixed {
+        return Err(CalibError::InvalidOption {
+            name: "target",
+            reason: "with several targets each target's offset is fixed or identified in the targets description".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Identifies the robot parameters, the measurement frame (unless fixed)
+/// and the offsets of the identified targets from every target on every
+/// pose (see the module docs). The options are those of [`crate::calibrate`]:
+/// `fixed` and `deferred` take robot, `frame_*` and `target.<name>.*`
+/// names; orientation, the elasto-geometric model, joint terms and
+/// Gauss-Newton are refused with a named error (positions only, geometric
+/// model).
+///
+/// # Errors
+/// Mismatched coordinates, a target on an unknown frame, unknown names in
+/// `fixed`/`deferred`, an unsupported option, too few observations, a
+/// degenerate registration, a model failure at a pose, a solver failure,
+/// [`CalibError::RankDeficient`] when `require_full_rank` is set,
+/// [`CalibError::NothingToIdentify`].
+pub fn calibrate_targets(
+    model: &Model,
+    set: &TargetMeasurementSet,
+    options: &CalibrationOptions,
+) -> Result<TargetCalibration, CalibError> {
+    check_supported(options)?;
+    if set.n_actuated() != model.n_actuated() {
+        return Err(CalibError::ActuatedCountMismatch {
+            source_name: set.source.clone(),
+            robot: model.name().to_string(),
+            expected: model.n_actuated(),
+            found: set.n_actuated(),
+        });
+    }
+    for (name, v) in [
+        ("default_position_std", options.default_position_std),
+        (
+            "max_standard_error_length",
+            options.max_standard_error_length,
+        ),
+        ("max_standard_error_angle", options.max_standard_error_angle),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(CalibError::InvalidOption {
+                name,
+                reason: format!("must be finite and > 0, found {v}"),
+            });
+        }
+    }
+    if !(options.rank_tolerance > 0.0 && options.rank_tolerance < 1.0) {
+        return Err(CalibError::InvalidOption {
+            name: "rank_tolerance",
+            reason: format!("must be in (0, 1), found {}", options.rank_tolerance),
+        });
+    }
+    if options.max_iterations == 0 {
+        return Err(CalibError::InvalidOption {
+            name: "max_iterations",
+            reason: "must be >= 1".into(),
+        });
+    }
+    let frame_fixed = options.measurement_frame == FrameTreatment::Fixed;
+    // The measurement frame starts from the registration of the nominal
+    // predictions onto the measurements.
+    let identity = TargetErrorModel::new(model, set, Isometry3::identity())?;
+    let x_meas_base0 = match (frame_fixed, options.measurement_frame_value) {
+        (_, Some(x)) => x,
+        (true, None) => Isometry3::identity(),
+        (false, None) => {
+            let x0 = identity.initial_unknowns();
+            let predicted = identity.predict(&x0)?;
+            let measured: Vec<Vector3<f64>> = (0..identity.rows.len())
+                .map(|r| identity.measured(r).position)
+                .collect();
+            register_points(&measured, &predicted)?
+        }
+    };
+    let problem = TargetErrorModel::new(model, set, x_meas_base0)?;
+    let n = problem.names.len();
+    let names = problem.names.clone();
+    let kinds = problem.kinds();
+    let np = model.n_params();
+    let fo = problem.frame_offset();
+    let index_of = |name: &String| {
+        names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| CalibError::UnknownParameter {
+                name: name.clone(),
+                known: names.join(", "),
+            })
+    };
+    let mut fixed = vec![false; n];
+    for name in &options.fixed {
+        fixed[index_of(name)?] = true;
+    }
+    if frame_fixed {
+        fixed[fo..fo + 6].fill(true);
+    }
+    let mut priorities = vec![0i32; n];
+    priorities[fo..fo + 6].fill(2);
+    priorities[fo + 6..].fill(1);
+    for name in &options.deferred {
+        priorities[index_of(name)?] = -1;
+    }
+    let rows = problem.n_residuals();
+    let free_count = fixed.iter().filter(|f| !**f).count();
+    if free_count == 0 {
+        return Err(CalibError::NothingToIdentify);
+    }
+    if rows < free_count {
+        return Err(CalibError::TooFewPoses {
+            poses: set.len(),
+            rows,
+            unknowns: free_count,
+        });
+    }
+    // Row weights 1/sigma; absolute when every observation has its own.
+    let from_file = options.weighting == Weighting::FromFile;
+    let absolute =
+        from_file && (0..problem.rows.len()).all(|r| problem.measured(r).position_std.is_some());
+    let weights: Vec<f64> = (0..problem.rows.len())
+        .flat_map(|r| {
+            let s = match (from_file, problem.measured(r).position_std) {
+                (true, Some(s)) => s,
+                _ => Vector3::repeat(options.default_position_std),
+            };
+            [1.0 / s.x, 1.0 / s.y, 1.0 / s.z]
+        })
+        .collect();
+    let solve = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
+        let setup = ProblemSetup {
+            row_weights: Some(weights.clone()),
+            weights_are_absolute: absolute,
+            fixed: frozen.to_vec(),
+            column_scaling: ColumnScaling::ColumnNorm,
+        };
+        let mut solver = LevenbergMarquardt::params().max_iterations(options.max_iterations);
+        solver.options.max_evaluations = 20 * options.max_iterations;
+        solver.options.cost_tolerance = options.cost_tolerance;
+        let mut observer = |_: &IterationState| Control::Continue;
+        solver
+            .solve(&problem, x0, &setup, &mut observer)
+            .map_err(CalibError::optim("multi-target identification"))
+    };
+    // Frames (measurement frame and offsets) alone first, on the nominal robot.
+    let x_initial = problem.initial_unknowns();
+    let mut x_start = x_initial.clone();
+    let mut frames_only = vec![true; n];
+    frames_only[fo..n].copy_from_slice(&fixed[fo..n]);
+    if frames_only.iter().any(|f| !f) {
+        // Offsets that the nominal robot's own parameters would take over
+        // are still separable here: the robot is held at nominal.
+        x_start = solve(&x_start, &frames_only)?.x;
+    }
+    let x_nominal_robot = x_start.clone();
+    // Identifiability of every free unknown at the start point.
+    let weighted = {
+        let mut j = Mat::<f64>::zeros(rows, n);
+        problem
+            .jacobian(&x_start, j.as_mut())
+            .map_err(problem_error)?;
+        for c in 0..n {
+            for (i, w) in weights.iter().enumerate() {
+                j[(i, c)] *= w;
+            }
+        }
+        j
+    };
+    let kept: Vec<usize> = (0..n).filter(|&j| !fixed[j]).collect();
+    let sub = Mat::<f64>::from_fn(rows, kept.len(), |i, c| weighted[(i, kept[c])]);
+    let sub_names: Vec<String> = kept.iter().map(|&j| names[j].clone()).collect();
+    let identifiability = analyze_identifiability(
+        sub.as_ref(),
+        &sub_names,
+        &IdentifiabilityOptions {
+            rank_tolerance: options.rank_tolerance,
+            priorities: kept.iter().map(|&j| priorities[j]).collect(),
+            ..IdentifiabilityOptions::default()
+        },
+    )
+    .map_err(CalibError::optim("identifiability analysis"))?;
+    let mut exactly_dependent = vec![false; n];
+    let mut no_influence = vec![false; n];
+    for &j in &identifiability.non_identifiable {
+        exactly_dependent[kept[j]] = true;
+        no_influence[kept[j]] = identifiability.diagnoses[j] == Diagnosis::NoInfluence;
+    }
+    if options.require_full_rank && exactly_dependent.iter().any(|d| *d) {
+        return Err(CalibError::RankDeficient {
+            rank: identifiability.rank,
+            unknowns: free_count,
+            non_identifiable: (0..n)
+                .filter(|&j| exactly_dependent[j])
+                .map(|j| names[j].clone())
+                .collect(),
+        });
+    }
+    let limits: Vec<f64> = kinds
+        .iter()
+        .map(|k| match k {
+            UnknownKind::Angle => options.max_standard_error_angle,
+            _ => options.max_standard_error_length,
+        })
+        .collect();
+    let mut frozen: Vec<bool> = (0..n).map(|j| fixed[j] || exactly_dependent[j]).collect();
+    if frozen.iter().all(|f| *f) {
+        return Err(CalibError::NothingToIdentify);
+    }
+    let mut report = solve(&x_start, &frozen)?;
+    let mut poorly = vec![false; n];
+    // Unknowns identified beyond their standard-error limit go back to the
+    // start and the rest is solved again.
+    for _ in 0..3 {
+        let beyond: Vec<usize> = (0..n)
+            .filter(|&j| {
+                !frozen[j]
+                    && report.standard_errors[j].is_none_or(|se| !se.is_finite() || se > limits[j])
+            })
+            .collect();
+        if beyond.is_empty() {
+            break;
+        }
+        let mut x0 = report.x.clone();
+        for &j in &beyond {
+            frozen[j] = true;
+            poorly[j] = true;
+            x0[j] = x_start[j];
+        }
+        if frozen.iter().all(|f| *f) {
+            return Err(CalibError::NothingToIdentify);
+        }
+        report = solve(&x0, &frozen)?;
+    }
+    let x = report.x.clone();
+    let identified: Vec<usize> = (0..n).filter(|&j| !frozen[j]).collect();
+    let absorbed: Vec<usize> = (0..n)
+        .filter(|&j| frozen[j] && !fixed[j] && !no_influence[j])
+        .collect();
+    let combinations = combinations(&weighted, &names, &identified, &absorbed);
+    let unknowns: Vec<UnknownEstimate> = (0..n)
+        .map(|j| {
+            let status = if fixed[j] {
+                UnknownStatus::Fixed
+            } else if no_influence[j] {
+                UnknownStatus::NoInfluence
+            } else if exactly_dependent[j] {
+                UnknownStatus::NonIdentifiable
+            } else if poorly[j] {
+                UnknownStatus::PoorlyIdentifiable
+            } else {
+                UnknownStatus::Identified
+            };
+            UnknownEstimate {
+                name: names[j].clone(),
+                kind: kinds[j],
+                initial: x_initial[j],
+                value: x[j],
+                standard_error: if status == UnknownStatus::Identified {
+                    report.standard_errors[j]
+                } else {
+                    None
+                },
+                spread_ratio: None,
+                status,
+            }
+        })
+        .collect();
+    let targets: Vec<Target> = set
+        .targets()
+        .iter()
+        .enumerate()
+        .map(|(t, target)| Target {
+            offset: problem.offset(&x, t),
+            ..target.clone()
+        })
+        .collect();
+    let targets_nominal_robot: Vec<Target> = set
+        .targets()
+        .iter()
+        .enumerate()
+        .map(|(t, target)| Target {
+            offset: problem.offset(&x_nominal_robot, t),
+            ..target.clone()
+        })
+        .collect();
+    let errors_before = problem.errors(&x_nominal_robot)?;
+    let errors_after = problem.errors(&x)?;
+    Ok(TargetCalibration {
+        xi: x[..np].to_vec(),
+        nominal_xi: model.nominal_params().to_vec(),
+        x_meas_base: problem.x_meas_base(&x),
+        x_meas_base_initial: x_meas_base0,
+        x_meas_base_nominal_robot: problem.x_meas_base(&x_nominal_robot),
+        measurement_frame_fixed: frame_fixed,
+        targets,
+        targets_nominal_robot,
+        unknowns,
+        identifiability,
+        combination_lines: combinations
+            .iter()
+            .map(|c| c.to_text(1e-3))
+            .filter(|l| !l.is_empty())
+            .collect(),
+        combinations,
+        solve: report,
+        training_before: error_statistics(&errors_before),
+        training_after: error_statistics(&errors_after),
+        per_target_before: problem.per_target(&errors_before),
+        per_target_after: problem.per_target(&errors_after),
+        n_poses: set.len(),
+        n_observations: problem.rows.len(),
+    })
+}
+
+/// `K` with `J_N = J_B K` on the weighted Jacobian: what each identified
+/// unknown stands for.
+fn combinations(
+    weighted: &Mat<f64>,
+    names: &[String],
+    base: &[usize],
+    absorbed: &[usize],
+) -> Vec<Combination> {
+    let m = weighted.nrows();
+    if absorbed.is_empty() || base.is_empty() {
+        return base
+            .iter()
+            .map(|&b| Combination {
+                name: names[b].clone(),
+                terms: Vec::new(),
+            })
+            .collect();
+    }
+    let j_b = Mat::<f64>::from_fn(m, base.len(), |i, c| weighted[(i, base[c])]);
+    let j_n = Mat::<f64>::from_fn(m, absorbed.len(), |i, c| weighted[(i, absorbed[c])]);
+    let k = j_b.qr().solve_lstsq(&j_n);
+    base.iter()
+        .enumerate()
+        .map(|(row, &b)| {
+            let mut terms: Vec<(String, f64)> = absorbed
+                .iter()
+                .enumerate()
+                .map(|(col, &a)| (names[a].clone(), k[(row, col)]))
+                .filter(|(_, v)| v.is_finite() && *v != 0.0)
+                .collect();
+            terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+            Combination {
+                name: names[b].clone(),
+                terms,
+            }
+        })
+        .collect()
+}
+
+/// Validation of a multi-target calibration on another set of the same
+/// targets: per-target errors of the nominal robot (frames and offsets as
+/// fitted for it) and of the calibrated robot and offsets. With
+/// `refit_frame` the measurement frame is fitted again on the set (the
+/// instrument was moved between the series), for the nominal robot and for
+/// the calibrated one alike; otherwise the calibration's frame is used for
+/// both (each its own: the one fitted with the nominal robot for the
+/// "before").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetValidation {
+    /// Errors of all observations with the nominal robot and offsets (before).
+    pub before: ErrorStatistics,
+    /// Errors of all observations with the calibrated robot and offsets (after).
+    pub after: ErrorStatistics,
+    /// Per-target errors before.
+    pub per_target_before: Vec<TargetErrors>,
+    /// Per-target errors after.
+    pub per_target_after: Vec<TargetErrors>,
+    /// Whether the measurement frame was fitted again on this set.
+    pub frame_refitted: bool,
+}
+
+/// Evaluates `calibration` on `set` (same targets by name; see
+/// [`TargetValidation`]).
+///
+/// # Errors
+/// Targets that differ from the calibration's by name, mismatched
+/// coordinates, a model failure at a pose, a solver failure of the frame fit.
+pub fn validate_targets(
+    model: &Model,
+    calibration: &TargetCalibration,
+    set: &TargetMeasurementSet,
+    refit_frame: bool,
+) -> Result<TargetValidation, CalibError> {
+    if set.n_actuated() != model.n_actuated() {
+        return Err(CalibError::ActuatedCountMismatch {
+            source_name: set.source.clone(),
+            robot: model.name().to_string(),
+            expected: model.n_actuated(),
+            found: set.n_actuated(),
+        });
+    }
+    let fixed_offsets = |targets: &[Target]| -> Vec<Target> {
+        targets
+            .iter()
+            .map(|t| Target {
+                treatment: FrameTreatment::Fixed,
+                ..t.clone()
+            })
+            .collect()
+    };
+    let nominal = set.with_targets(fixed_offsets(&calibration.targets_nominal_robot))?;
+    let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
+    let evaluate = |set: &TargetMeasurementSet,
+                    xi: &[f64],
+                    x_meas_base: Isometry3<f64>|
+     -> Result<(ErrorStatistics, Vec<TargetErrors>), CalibError> {
+        let problem = TargetErrorModel::new(model, set, x_meas_base)?;
+        let mut x = xi.to_vec();
+        x.resize(problem.names.len(), 0.0);
+        if refit_frame {
+            let mut frozen = vec![true; x.len()];
+            frozen[model.n_params()..model.n_params() + 6].fill(false);
+            let setup = ProblemSetup {
+                row_weights: None,
+                weights_are_absolute: false,
+                fixed: frozen,
+                column_scaling: ColumnScaling::ColumnNorm,
+            };
+            let mut observer = |_: &IterationState| Control::Continue;
+            x = LevenbergMarquardt::params()
+                .max_iterations(100)
+                .solve(&problem, &x, &setup, &mut observer)
+                .map_err(CalibError::optim("validation frame fit"))?
+                .x;
+        }
+        let errors = problem.errors(&x)?;
+        Ok((error_statistics(&errors), problem.per_target(&errors)))
+    };
+    let (before, per_target_before) = evaluate(
+        &nominal,
+        &calibration.nominal_xi,
+        calibration.x_meas_base_nominal_robot,
+    )?;
+    let (after, per_target_after) =
+        evaluate(&calibrated, &calibration.xi, calibration.x_meas_base)?;
+    Ok(TargetValidation {
+        before,
+        after,
+        per_target_before,
+        per_target_after,
+        frame_refitted: refit_frame,
+    })
+}

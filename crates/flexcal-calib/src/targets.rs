@@ -1,0 +1,712 @@
+//! Several measured targets per pose, each on a named frame of the robot:
+//! laser-tracker reflectors on a tool, markers on the two hands of a
+//! two-armed robot, a probe on a link. The one-target
+//! [`MeasurementSet`] is the special case of one target on the TCP
+//! ([`TargetMeasurementSet::from_measurement_set`]).
+//!
+//! ## Files
+//! A targets description (TOML) names each target, the frame it is fixed
+//! to and its nominal offset in that frame, and whether the offset is
+//! identified:
+//!
+//! ```toml
+//! [[target]]
+//! name = "left"             # letters, digits, '-' and '_'
+//! frame = "LH"              # a frame of the robot, or "tcp" (end frame + tool)
+//! offset_mm = [30, 0, 40]   # nominal offset in that frame (mm)
+//! identify = true           # default true; false keeps the offset fixed
+//! ```
+//!
+//! The measurements are flexcal's CSV ([`MeasurementSet`]'s conventions:
+//! comma-separated, `#` comments, columns in any order) with `q1..qn`, an
+//! optional `pose_id`, and per target `<name>_x_mm, <name>_y_mm,
+//! <name>_z_mm` (position in the measurement frame), optionally
+//! `<name>_rx_deg..` (rotation vector), `<name>_sx_mm..` (standard
+//! deviations) and `<name>_srx_deg..`. A target not seen on a pose has empty
+//! cells on that row (all of its cells).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use flexcal_io::{CsvOptions, CsvTable, write_atomic};
+use nalgebra::{Isometry3, Translation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::identify::FrameTreatment;
+use crate::{CalibError, MeasurementSet};
+
+/// The frame name that stands for the TCP: the end frame followed by the
+/// robot's tool transform.
+pub const TCP_FRAME: &str = "tcp";
+
+/// A measured target fixed to a frame of the robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Target {
+    /// Name, used as the prefix of its CSV columns and in the names of its
+    /// unknowns (`target.<name>.x`).
+    pub name: String,
+    /// Frame it is fixed to: a frame name of the robot, or [`TCP_FRAME`].
+    pub frame: String,
+    /// Nominal offset of the target in that frame (m).
+    pub offset: Vector3<f64>,
+    /// Whether the offset is identified (default) or kept at its nominal value.
+    pub treatment: FrameTreatment,
+}
+
+impl Target {
+    /// A target on `frame` at `offset` (m), identified.
+    pub fn new(name: &str, frame: &str, offset: Vector3<f64>) -> Self {
+        Self {
+            name: name.to_string(),
+            frame: frame.to_string(),
+            offset,
+            treatment: FrameTreatment::Identify,
+        }
+    }
+}
+
+/// What the measurement system saw of one target on one pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetObservation {
+    /// Measured position `p_M_target` (m).
+    pub position: Vector3<f64>,
+    /// Measured orientation as a rotation vector of `R_M_target` (rad).
+    pub orientation: Option<Vector3<f64>>,
+    /// Standard deviation of each position axis (m).
+    pub position_std: Option<Vector3<f64>>,
+    /// Standard deviation of each orientation axis (rad).
+    pub orientation_std: Option<Vector3<f64>>,
+}
+
+impl TargetObservation {
+    /// A position-only observation.
+    pub fn new(position: Vector3<f64>) -> Self {
+        Self {
+            position,
+            orientation: None,
+            position_std: None,
+            orientation_std: None,
+        }
+    }
+}
+
+/// One pose: the actuated coordinates and the observation of each target
+/// (`None` where a target was not seen).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetPose {
+    /// Identifier from the file (`pose_id` column), if any.
+    pub pose_id: Option<String>,
+    /// Actuated coordinates q (rad, m), in the robot's order.
+    pub q: Vec<f64>,
+    /// One entry per target of the set, in its order.
+    pub observations: Vec<Option<TargetObservation>>,
+}
+
+impl TargetPose {
+    /// The pose identifier, or `#k` from its index.
+    pub fn label(&self, index: usize) -> String {
+        self.pose_id.clone().unwrap_or_else(|| format!("#{index}"))
+    }
+}
+
+/// A validated set of poses measured on several targets.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetMeasurementSet {
+    /// Where the measurements come from (file name), used in messages.
+    pub source: String,
+    targets: Vec<Target>,
+    poses: Vec<TargetPose>,
+}
+
+fn valid_target_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+}
+
+/// Checks names and offsets of a targets description.
+fn check_targets(source: &str, targets: &[Target]) -> Result<(), CalibError> {
+    let bad = |what: String| CalibError::BadMeasurement {
+        source_name: source.to_string(),
+        line: 0,
+        what,
+    };
+    if targets.is_empty() {
+        return Err(bad("no targets".into()));
+    }
+    for (i, t) in targets.iter().enumerate() {
+        if !valid_target_name(&t.name) {
+            return Err(bad(format!(
+                "target name `{}`: use letters, digits, '-' and '_' only",
+                t.name
+            )));
+        }
+        if targets[..i].iter().any(|o| o.name == t.name) {
+            return Err(bad(format!("target `{}` is declared twice", t.name)));
+        }
+        if t.frame.is_empty() {
+            return Err(bad(format!("target `{}`: empty frame name", t.name)));
+        }
+        if !t.offset.iter().all(|v| v.is_finite()) {
+            return Err(bad(format!("target `{}`: offset is not finite", t.name)));
+        }
+    }
+    Ok(())
+}
+
+impl TargetMeasurementSet {
+    /// Validates and wraps targets and poses.
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] naming the target or pose: no target,
+    /// a name that cannot prefix a column, a name twice, no pose, differing
+    /// numbers of coordinates, a pose with the wrong number of observations
+    /// or none at all, a target never observed, a non-finite value, a
+    /// standard deviation not `> 0`, orientation or standard deviations on
+    /// some observations of a target only.
+    pub fn new(
+        source: &str,
+        targets: Vec<Target>,
+        poses: Vec<TargetPose>,
+    ) -> Result<Self, CalibError> {
+        check_targets(source, &targets)?;
+        let bad = |k: usize, what: String| CalibError::BadMeasurement {
+            source_name: source.to_string(),
+            line: 0,
+            what: format!("pose {k}: {what}"),
+        };
+        let Some(first) = poses.first() else {
+            return Err(CalibError::BadMeasurement {
+                source_name: source.to_string(),
+                line: 0,
+                what: "no measurements".into(),
+            });
+        };
+        let n = first.q.len();
+        let mut pattern: Vec<Option<(bool, bool, bool)>> = vec![None; targets.len()];
+        for (k, pose) in poses.iter().enumerate() {
+            if pose.q.len() != n {
+                return Err(bad(
+                    k,
+                    format!(
+                        "{} actuated coordinates, the first pose has {n}",
+                        pose.q.len()
+                    ),
+                ));
+            }
+            if !pose.q.iter().all(|v| v.is_finite()) {
+                return Err(bad(k, "an actuated coordinate is NaN or infinite".into()));
+            }
+            if pose.observations.len() != targets.len() {
+                return Err(bad(
+                    k,
+                    format!(
+                        "{} observations for {} targets",
+                        pose.observations.len(),
+                        targets.len()
+                    ),
+                ));
+            }
+            if pose.observations.iter().all(Option::is_none) {
+                return Err(bad(k, "no target observed".into()));
+            }
+            for (t, o) in pose.observations.iter().enumerate() {
+                let Some(o) = o else { continue };
+                let name = &targets[t].name;
+                let finite = o.position.iter().all(|v| v.is_finite())
+                    && o.orientation
+                        .is_none_or(|r| r.iter().all(|v| v.is_finite()));
+                if !finite {
+                    return Err(bad(
+                        k,
+                        format!("target `{name}`: a value is NaN or infinite"),
+                    ));
+                }
+                for s in [o.position_std, o.orientation_std].into_iter().flatten() {
+                    if !s.iter().all(|v| v.is_finite() && *v > 0.0) {
+                        return Err(bad(
+                            k,
+                            format!(
+                                "target `{name}`: standard deviations must be finite and > 0, found {s:?}"
+                            ),
+                        ));
+                    }
+                }
+                let has = (
+                    o.orientation.is_some(),
+                    o.position_std.is_some(),
+                    o.orientation_std.is_some(),
+                );
+                match pattern[t] {
+                    None => pattern[t] = Some(has),
+                    Some(p) if p != has => {
+                        return Err(bad(
+                            k,
+                            format!(
+                                "target `{name}`: orientation and standard deviations must be given on all its observations or none"
+                            ),
+                        ));
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+        if let Some(t) = pattern.iter().position(Option::is_none) {
+            return Err(CalibError::BadMeasurement {
+                source_name: source.to_string(),
+                line: 0,
+                what: format!("target `{}` is observed on no pose", targets[t].name),
+            });
+        }
+        Ok(Self {
+            source: source.to_string(),
+            targets,
+            poses,
+        })
+    }
+
+    /// The one-target set as a set of one target named `name` on the TCP
+    /// ([`TCP_FRAME`]), its nominal offset the translation of the set's
+    /// nominal target (zero without one).
+    ///
+    /// # Errors
+    /// As [`TargetMeasurementSet::new`] (a bad name).
+    pub fn from_measurement_set(set: &MeasurementSet, name: &str) -> Result<Self, CalibError> {
+        let offset = set
+            .nominal_target
+            .map(|x| x.translation.vector)
+            .unwrap_or_else(Vector3::zeros);
+        let poses = set
+            .measurements()
+            .iter()
+            .map(|m| TargetPose {
+                pose_id: m.pose_id.clone(),
+                q: m.q.clone(),
+                observations: vec![Some(TargetObservation {
+                    position: m.position,
+                    orientation: m.orientation,
+                    position_std: m.position_std,
+                    orientation_std: m.orientation_std,
+                })],
+            })
+            .collect();
+        Self::new(
+            &set.source,
+            vec![Target::new(name, TCP_FRAME, offset)],
+            poses,
+        )
+    }
+
+    /// The targets, in the order of [`TargetPose::observations`].
+    pub fn targets(&self) -> &[Target] {
+        &self.targets
+    }
+    /// The poses.
+    pub fn poses(&self) -> &[TargetPose] {
+        &self.poses
+    }
+    /// Number of poses.
+    pub fn len(&self) -> usize {
+        self.poses.len()
+    }
+    /// Always false: a set holds at least one pose.
+    pub fn is_empty(&self) -> bool {
+        self.poses.is_empty()
+    }
+    /// Number of actuated coordinates per pose.
+    pub fn n_actuated(&self) -> usize {
+        self.poses[0].q.len()
+    }
+    /// Index of a target by name.
+    pub fn target_index(&self, name: &str) -> Option<usize> {
+        self.targets.iter().position(|t| t.name == name)
+    }
+    /// Number of observations (pose, target) in the set.
+    pub fn n_observations(&self) -> usize {
+        self.poses
+            .iter()
+            .map(|p| p.observations.iter().flatten().count())
+            .sum()
+    }
+    /// The same poses with other targets (same names and order of
+    /// observations): another frame or offset, or a fixed offset.
+    ///
+    /// # Errors
+    /// As [`TargetMeasurementSet::new`], and a target list that does not
+    /// match the set's names.
+    pub fn with_targets(&self, targets: Vec<Target>) -> Result<Self, CalibError> {
+        let same = targets.len() == self.targets.len()
+            && targets
+                .iter()
+                .zip(&self.targets)
+                .all(|(a, b)| a.name == b.name);
+        if !same {
+            return Err(CalibError::BadMeasurement {
+                source_name: self.source.clone(),
+                line: 0,
+                what: "the new targets must have the names of the set's, in its order".into(),
+            });
+        }
+        Self::new(&self.source, targets, self.poses.clone())
+    }
+
+    /// Reads flexcal's CSV with per-target columns (see the module docs),
+    /// the targets given by their description.
+    ///
+    /// # Errors
+    /// File and CSV errors with line and column, a target without its
+    /// position columns, position columns of a target the description does
+    /// not know, partly empty cells, and the checks of
+    /// [`TargetMeasurementSet::new`].
+    pub fn read_csv(path: &Path, targets: &[Target]) -> Result<Self, CalibError> {
+        let table = CsvTable::read(path, &CsvOptions::default())?;
+        Self::from_table(&table, targets)
+    }
+
+    /// Parses the CSV format from text; `source` names it in errors.
+    ///
+    /// # Errors
+    /// As [`TargetMeasurementSet::read_csv`].
+    pub fn from_csv_str(text: &str, source: &str, targets: &[Target]) -> Result<Self, CalibError> {
+        let table = CsvTable::from_str(text, source, &CsvOptions::default())?;
+        Self::from_table(&table, targets)
+    }
+
+    fn from_table(table: &CsvTable, targets: &[Target]) -> Result<Self, CalibError> {
+        let source = table.path().display().to_string();
+        check_targets(&source, targets)?;
+        table.require_rows()?;
+        let mut q_columns = Vec::new();
+        while let Some(c) = table.find_column(&format!("q{}", q_columns.len() + 1)) {
+            q_columns.push(c);
+        }
+        if q_columns.is_empty() {
+            table.column_index("q1")?;
+        }
+        for h in table.header() {
+            let Some(prefix) = h.strip_suffix("_x_mm") else {
+                continue;
+            };
+            if !targets.iter().any(|t| t.name == prefix) {
+                return Err(CalibError::BadMeasurement {
+                    source_name: source.clone(),
+                    line: 1,
+                    what: format!(
+                        "column `{h}`: no target `{prefix}` in the targets description (targets: {})",
+                        targets
+                            .iter()
+                            .map(|t| t.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                });
+            }
+        }
+        // Column groups of each target: position (required), orientation,
+        // position std, orientation std.
+        let mut groups = Vec::with_capacity(targets.len());
+        for t in targets {
+            let names = |suffixes: [&str; 3]| suffixes.map(|s| format!("{}_{s}", t.name));
+            let optional = |suffixes: [&str; 3]| -> Result<Option<[usize; 3]>, CalibError> {
+                let names = names(suffixes);
+                let found: Vec<Option<usize>> =
+                    names.iter().map(|n| table.find_column(n)).collect();
+                if found.iter().all(Option::is_none) {
+                    return Ok(None);
+                }
+                let mut out = [0; 3];
+                for (i, n) in names.iter().enumerate() {
+                    out[i] = table.column_index(n)?;
+                }
+                Ok(Some(out))
+            };
+            let position = {
+                let names = names(["x_mm", "y_mm", "z_mm"]);
+                [
+                    table.column_index(&names[0])?,
+                    table.column_index(&names[1])?,
+                    table.column_index(&names[2])?,
+                ]
+            };
+            groups.push((
+                position,
+                optional(["rx_deg", "ry_deg", "rz_deg"])?,
+                optional(["sx_mm", "sy_mm", "sz_mm"])?,
+                optional(["srx_deg", "sry_deg", "srz_deg"])?,
+            ));
+        }
+        let pose_id = table.find_column("pose_id");
+        let deg = 1f64.to_radians();
+        let mut poses = Vec::with_capacity(table.len());
+        for row in 0..table.len() {
+            let line = table.line_of(row);
+            let q = q_columns
+                .iter()
+                .map(|&c| table.f64_at(row, c))
+                .collect::<Result<Vec<_>, _>>()?;
+            let vec3 = |cols: &[usize; 3], scale: f64| -> Result<Vector3<f64>, CalibError> {
+                Ok(Vector3::new(
+                    table.f64_at(row, cols[0])? * scale,
+                    table.f64_at(row, cols[1])? * scale,
+                    table.f64_at(row, cols[2])? * scale,
+                ))
+            };
+            let mut observations = Vec::with_capacity(targets.len());
+            for (t, (position, orientation, position_std, orientation_std)) in
+                groups.iter().enumerate()
+            {
+                let all: Vec<usize> = std::iter::once(position)
+                    .chain(orientation)
+                    .chain(position_std)
+                    .chain(orientation_std)
+                    .flatten()
+                    .copied()
+                    .collect();
+                let empty = all
+                    .iter()
+                    .filter(|&&c| table.cell(row, c).is_empty())
+                    .count();
+                if empty == all.len() {
+                    observations.push(None);
+                    continue;
+                }
+                if empty > 0 {
+                    return Err(CalibError::BadMeasurement {
+                        source_name: source.clone(),
+                        line,
+                        what: format!(
+                            "target `{}`: some of its cells are empty (leave all of them empty when it is not seen)",
+                            targets[t].name
+                        ),
+                    });
+                }
+                let o = TargetObservation {
+                    position: vec3(position, 1e-3)?,
+                    orientation: orientation.as_ref().map(|c| vec3(c, deg)).transpose()?,
+                    position_std: position_std.as_ref().map(|c| vec3(c, 1e-3)).transpose()?,
+                    orientation_std: orientation_std.as_ref().map(|c| vec3(c, deg)).transpose()?,
+                };
+                for s in [o.position_std, o.orientation_std].into_iter().flatten() {
+                    if s.iter().any(|v| *v <= 0.0) {
+                        return Err(CalibError::BadMeasurement {
+                            source_name: source.clone(),
+                            line,
+                            what: format!(
+                                "target `{}`: standard deviations must be > 0",
+                                targets[t].name
+                            ),
+                        });
+                    }
+                }
+                observations.push(Some(o));
+            }
+            if observations.iter().all(Option::is_none) {
+                return Err(CalibError::BadMeasurement {
+                    source_name: source.clone(),
+                    line,
+                    what: "no target observed on this pose".into(),
+                });
+            }
+            poses.push(TargetPose {
+                pose_id: pose_id.map(|c| table.cell(row, c).to_string()),
+                q,
+                observations,
+            });
+        }
+        Self::new(&source, targets.to_vec(), poses)
+    }
+
+    /// The set in the CSV format (mm and deg, full precision; empty cells
+    /// where a target was not seen). The targets go to their own file
+    /// ([`targets_to_toml_string`]).
+    pub fn to_csv_string(&self) -> String {
+        let with_ids = self.poses.iter().any(|p| p.pose_id.is_some());
+        let mut header: Vec<String> = if with_ids {
+            vec!["pose_id".into()]
+        } else {
+            Vec::new()
+        };
+        header.extend((1..=self.n_actuated()).map(|i| format!("q{i}")));
+        // Which optional groups each target has (from any observation: they
+        // are all alike, see `new`).
+        let has: Vec<[bool; 3]> = (0..self.targets.len())
+            .map(|t| {
+                let o = self
+                    .poses
+                    .iter()
+                    .find_map(|p| p.observations[t].as_ref())
+                    .expect("every target is observed somewhere");
+                [
+                    o.orientation.is_some(),
+                    o.position_std.is_some(),
+                    o.orientation_std.is_some(),
+                ]
+            })
+            .collect();
+        let suffixes: [[&str; 3]; 4] = [
+            ["x_mm", "y_mm", "z_mm"],
+            ["rx_deg", "ry_deg", "rz_deg"],
+            ["sx_mm", "sy_mm", "sz_mm"],
+            ["srx_deg", "sry_deg", "srz_deg"],
+        ];
+        for (t, target) in self.targets.iter().enumerate() {
+            for (g, group) in suffixes.iter().enumerate() {
+                if g == 0 || has[t][g - 1] {
+                    header.extend(group.iter().map(|s| format!("{}_{s}", target.name)));
+                }
+            }
+        }
+        let mut text = header.join(",");
+        text.push('\n');
+        for (k, pose) in self.poses.iter().enumerate() {
+            let mut cells: Vec<String> = Vec::new();
+            if with_ids {
+                let id = pose
+                    .pose_id
+                    .clone()
+                    .unwrap_or_else(|| format!("pose-{}", k + 1));
+                cells.push(id.trim_start_matches('#').replace(',', ";"));
+            }
+            cells.extend(pose.q.iter().map(|v| v.to_string()));
+            for (t, o) in pose.observations.iter().enumerate() {
+                let values: [Option<Vector3<f64>>; 4] = match o {
+                    Some(o) => [
+                        Some(o.position * 1e3),
+                        o.orientation.map(|v| v.map(f64::to_degrees)),
+                        o.position_std.map(|v| v * 1e3),
+                        o.orientation_std.map(|v| v.map(f64::to_degrees)),
+                    ],
+                    None => [None; 4],
+                };
+                for (g, v) in values.iter().enumerate() {
+                    if g == 0 || has[t][g - 1] {
+                        match v {
+                            Some(v) => cells.extend(v.iter().map(|x| x.to_string())),
+                            None => cells.extend(std::iter::repeat_n(String::new(), 3)),
+                        }
+                    }
+                }
+            }
+            let _ = writeln!(text, "{}", cells.join(","));
+        }
+        text
+    }
+
+    /// Writes the set in the CSV format (atomically).
+    ///
+    /// # Errors
+    /// [`CalibError::Io`] naming the file.
+    pub fn write_csv(&self, path: &Path) -> Result<(), CalibError> {
+        write_atomic(path, self.to_csv_string())?;
+        Ok(())
+    }
+}
+
+/// The point frame `x_frame_target` of a target at `offset` (m) on its
+/// frame: the offset alone, or for [`TCP_FRAME`] the tool transform then
+/// the offset.
+pub(crate) fn target_point(
+    tool: &Isometry3<f64>,
+    on_tcp: bool,
+    offset: &Vector3<f64>,
+) -> Isometry3<f64> {
+    let shift = Isometry3::from_parts(Translation3::from(*offset), Default::default());
+    if on_tcp { tool * shift } else { shift }
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TargetsFile {
+    target: Vec<TargetFile>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TargetFile {
+    name: String,
+    frame: String,
+    offset_mm: [f64; 3],
+    #[serde(default = "identify_by_default")]
+    identify: bool,
+}
+
+fn identify_by_default() -> bool {
+    true
+}
+
+/// Parses a targets description (TOML, see the module docs); `source`
+/// names it in errors.
+///
+/// # Errors
+/// [`CalibError::BadMeasurement`] with the line of a TOML error, a bad or
+/// repeated name, a non-finite offset.
+pub fn targets_from_toml_str(text: &str, source: &str) -> Result<Vec<Target>, CalibError> {
+    let file: TargetsFile = toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+            .unwrap_or(0);
+        CalibError::BadMeasurement {
+            source_name: source.to_string(),
+            line,
+            what: e.message().to_string(),
+        }
+    })?;
+    let targets: Vec<Target> = file
+        .target
+        .into_iter()
+        .map(|t| Target {
+            name: t.name,
+            frame: t.frame,
+            offset: Vector3::from(t.offset_mm) * 1e-3,
+            treatment: if t.identify {
+                FrameTreatment::Identify
+            } else {
+                FrameTreatment::Fixed
+            },
+        })
+        .collect();
+    check_targets(source, &targets)?;
+    Ok(targets)
+}
+
+/// Reads a targets description file (TOML, see the module docs).
+///
+/// # Errors
+/// As [`targets_from_toml_str`], and the file's I/O error.
+pub fn read_targets(path: &Path) -> Result<Vec<Target>, CalibError> {
+    let text = flexcal_io::read_to_string(path)?;
+    targets_from_toml_str(&text, &path.display().to_string())
+}
+
+/// The targets description as TOML (mm).
+///
+/// # Errors
+/// [`CalibError::Serialise`].
+pub fn targets_to_toml_string(targets: &[Target]) -> Result<String, CalibError> {
+    let file = TargetsFile {
+        target: targets
+            .iter()
+            .map(|t| TargetFile {
+                name: t.name.clone(),
+                frame: t.frame.clone(),
+                offset_mm: (t.offset * 1e3).into(),
+                identify: t.treatment == FrameTreatment::Identify,
+            })
+            .collect(),
+    };
+    toml::to_string(&file).map_err(|e| CalibError::Serialise {
+        what: "targets description",
+        message: e.to_string(),
+    })
+}
+
+/// Writes a targets description file (atomically).
+///
+/// # Errors
+/// [`CalibError::Io`] naming the file, [`CalibError::Serialise`].
+pub fn write_targets(path: &Path, targets: &[Target]) -> Result<(), CalibError> {
+    write_atomic(path, targets_to_toml_string(targets)?)?;
+    Ok(())
+}

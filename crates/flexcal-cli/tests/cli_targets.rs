@@ -1,0 +1,197 @@
+//! `flexcal calibrate --targets` end to end: a two-armed tree robot with a
+//! marker on each hand, measured files written by the library from a known
+//! truth, calibrated by the binary; and bad input.
+
+use std::path::{Path, PathBuf};
+
+use flexcal::calib::{
+    Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets, rotation_from_vector,
+};
+use flexcal::kinematics::{Data, ParamKind, RobotDescription, forward_frame_pose};
+use flexcal::nalgebra::{Isometry3, Translation3, Vector3};
+
+mod common;
+use common::{flexcal, stderr, stdout};
+
+fn calib_data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../flexcal-calib/tests/data")
+        .join(name)
+}
+
+/// Noise-free measurements of `poses` quasi-random configurations (a
+/// Weyl sequence within the joint limits), starting at `first`, of the
+/// robot with every parameter off by up to 0.2 mm or 0.2 mrad.
+fn simulate(targets: &[Target], first: usize, poses: usize) -> TargetMeasurementSet {
+    let model = RobotDescription::from_toml_file(&calib_data("two_arms.toml"))
+        .unwrap()
+        .build()
+        .unwrap();
+    let xi: Vec<f64> = model
+        .nominal_params()
+        .iter()
+        .zip(model.params())
+        .enumerate()
+        .map(|(j, (v, p))| match p.kind {
+            ParamKind::Length => v + 2e-4 * (j as f64 + 1.0).sin(),
+            ParamKind::Angle => v + 2e-4 * (j as f64 + 1.0).cos(),
+        })
+        .collect();
+    let x_meas_base = Isometry3::from_parts(
+        Translation3::new(2.0, 0.5, -0.8),
+        rotation_from_vector(&Vector3::new(0.0, 0.1, 1.9)),
+    );
+    let offsets_error = Vector3::new(0.4e-3, -0.3e-3, 0.6e-3);
+    let mut data = Data::new(&model);
+    let poses = (first..first + poses)
+        .map(|k| {
+            let q: Vec<f64> = model
+                .actuated_limits()
+                .iter()
+                .enumerate()
+                .map(|(i, &(lo, hi))| {
+                    let u = ((k as f64 + 1.0) * (2.0f64 + i as f64).sqrt()).fract();
+                    lo + u * (hi - lo)
+                })
+                .collect();
+            let observations = targets
+                .iter()
+                .map(|t| {
+                    let point = Isometry3::from_parts(
+                        Translation3::from(t.offset + offsets_error),
+                        Default::default(),
+                    );
+                    let frame = model.frame_index(&t.frame).unwrap();
+                    let x = forward_frame_pose(&model, &mut data, &q, &xi, frame, &point).unwrap();
+                    Some(TargetObservation::new((x_meas_base * x).translation.vector))
+                })
+                .collect();
+            TargetPose {
+                pose_id: Some(format!("p{k}")),
+                q,
+                observations,
+            }
+        })
+        .collect();
+    TargetMeasurementSet::new("simulated", targets.to_vec(), poses).unwrap()
+}
+
+#[test]
+fn two_markers_calibrate_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let targets_file = calib_data("two_arms_targets.toml");
+    let targets = read_targets(&targets_file).unwrap();
+    let identification = d.join("markers.csv");
+    let validation = d.join("markers-validation.csv");
+    simulate(&targets, 0, 60)
+        .write_csv(&identification)
+        .unwrap();
+    simulate(&targets, 1000, 30).write_csv(&validation).unwrap();
+    let robot = calib_data("two_arms.toml").display().to_string();
+    let report = d.join("report.json");
+    let calibrated = d.join("calibrated.toml");
+    let args = [
+        "calibrate",
+        "--robot",
+        &robot,
+        "--data",
+        &identification.display().to_string(),
+        "--targets",
+        &targets_file.display().to_string(),
+        "--validate",
+        &validation.display().to_string(),
+        "--out",
+        &calibrated.display().to_string(),
+        "--report",
+        &report.display().to_string(),
+    ];
+    let out = flexcal(&args);
+    let text = stdout(&out);
+    assert!(out.status.success(), "{text}\n{}", stderr(&out));
+    println!("{text}");
+    assert!(
+        text.contains("60 poses, 120 observations of 2 targets"),
+        "{text}"
+    );
+    // What two markers cannot see is named, with what absorbs it.
+    assert!(text.contains("rLH (in target.left.z"), "{text}");
+    // Per-target figures: noise-free data are fitted to round-off.
+    let per_target = |section: &str, target: &str| -> f64 {
+        let start = text
+            .find(&format!("{section}: position error per target"))
+            .unwrap();
+        let line = text[start..]
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{target} on ")))
+            .unwrap();
+        // "... -> mean / max": the mean after.
+        let after = line.rsplit("-> ").next().unwrap();
+        after.split(" / ").next().unwrap().trim().parse().unwrap()
+    };
+    for target in ["left", "right"] {
+        assert!(per_target("identification", target) < 1e-4, "{text}");
+        assert!(per_target("validation", target) < 1e-3, "{text}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let after = &json["validation"]["per_target_after"];
+    assert_eq!(after.as_array().unwrap().len(), 2);
+    assert!(after[0]["statistics"]["position_max"].as_f64().unwrap() < 1e-6);
+    let description = RobotDescription::from_toml_file(&calibrated).unwrap();
+    assert!(description.notes.contains("of 2 targets"));
+    description.build().unwrap();
+}
+
+#[test]
+fn bad_multi_target_input_is_a_named_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let targets_file = calib_data("two_arms_targets.toml");
+    let targets = read_targets(&targets_file).unwrap();
+    let identification = d.join("markers.csv");
+    simulate(&targets, 0, 30)
+        .write_csv(&identification)
+        .unwrap();
+    let robot = calib_data("two_arms.toml").display().to_string();
+    let data = identification.display().to_string();
+    let run = |targets: &Path, extra: &[&str]| {
+        let targets = targets.display().to_string();
+        let mut args = vec![
+            "calibrate",
+            "--robot",
+            &robot,
+            "--data",
+            &data,
+            "--targets",
+            &targets,
+        ];
+        args.extend_from_slice(extra);
+        flexcal(&args)
+    };
+    // A target on a frame the robot lacks.
+    let wrong = d.join("wrong.toml");
+    std::fs::write(
+        &wrong,
+        std::fs::read_to_string(&targets_file)
+            .unwrap()
+            .replace("\"RH\"", "\"RX\""),
+    )
+    .unwrap();
+    let out = run(&wrong, &[]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("no frame `RX`"), "{err}");
+    // An option that has no meaning with several targets.
+    let out = run(&targets_file, &["--split-check"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("split_check"), "{err}");
+    // A malformed targets description names its line.
+    let broken = d.join("broken.toml");
+    std::fs::write(&broken, "[[target]]\nname = \"left\"\nframe = 3\n").unwrap();
+    let out = run(&broken, &[]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("broken.toml:3"), "{err}");
+}

@@ -1,0 +1,176 @@
+//! The calibration workflow with several measured targets per pose (markers
+//! on the hands of a two-armed robot, reflectors on a tool): read the
+//! targets description and the measurements, identify
+//! ([`calib::calibrate_targets`]), validate on a second set, in one call
+//! that returns typed, serialisable results.
+
+use serde::Serialize;
+
+use crate::calib::{
+    self, TargetCalibration, TargetErrors, TargetMeasurementSet, TargetValidation, UnknownStatus,
+};
+use crate::calibration::{CalibrationConfig, MeasurementFormat};
+use crate::{Error, Result};
+
+/// Every result of a multi-target calibration run.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetCalibrationRun {
+    /// The identification set.
+    pub data: TargetMeasurementSet,
+    /// The validation set.
+    pub validation_set: Option<TargetMeasurementSet>,
+    /// The identification.
+    pub calibration: TargetCalibration,
+    /// The validation (the measurement frame fitted again on the validation
+    /// set, as for one target: the instrument may have moved).
+    pub validation: Option<TargetValidation>,
+}
+
+/// Runs a multi-target calibration: `config.targets` names the targets
+/// description, `config.data` (and `config.validate`) the measurements in
+/// flexcal's CSV with per-target columns; `config.options` are the
+/// identification's options.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming a setting of `config` that has no
+/// meaning with several targets (another file format, pose exclusions, a
+/// target start, the split-half, cross-series and residual-model checks,
+/// model selection, an accuracy map), and the errors of reading,
+/// identification and validation, each naming its step.
+pub fn run_target_calibration(
+    robot: &crate::kinematics::Model,
+    config: &CalibrationConfig,
+) -> Result<TargetCalibrationRun> {
+    let invalid = |parameter: &str| Error::InvalidParameter {
+        parameter: parameter.to_string(),
+        message: "not available with several targets per pose (--targets)".into(),
+    };
+    let Some(targets_path) = &config.targets else {
+        return Err(Error::InvalidParameter {
+            parameter: "targets".into(),
+            message: "a multi-target calibration needs a targets description".into(),
+        });
+    };
+    let unsupported = [
+        ("format", config.format != MeasurementFormat::Own),
+        ("exclude", !config.exclude.is_empty()),
+        ("exclude_validation", !config.exclude_validation.is_empty()),
+        ("target_mm", config.target_mm.is_some()),
+        ("refit_target", config.refit_target),
+        ("split_check", config.split_check),
+        ("cross_check", config.cross_check),
+        ("residual_inputs", !config.residual_inputs.is_empty()),
+        (
+            "selection",
+            config
+                .selection
+                .is_some_and(|m| m != calib::SelectionMethod::None),
+        ),
+        ("accuracy_grid", config.accuracy_grid.is_some()),
+    ];
+    if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
+        return Err(invalid(name));
+    }
+    let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
+    let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
+    let data = TargetMeasurementSet::read_csv(&config.data, &targets)
+        .map_err(step("identification measurements"))?;
+    let validation_set = config
+        .validate
+        .as_deref()
+        .map(|p| TargetMeasurementSet::read_csv(p, &targets))
+        .transpose()
+        .map_err(step("validation measurements"))?;
+    let calibration =
+        calib::calibrate_targets(robot, &data, &config.options).map_err(step("identification"))?;
+    let validation = validation_set
+        .as_ref()
+        .map(|set| calib::validate_targets(robot, &calibration, set, true))
+        .transpose()
+        .map_err(step("validation"))?;
+    Ok(TargetCalibrationRun {
+        data,
+        validation_set,
+        calibration,
+        validation,
+    })
+}
+
+impl TargetCalibrationRun {
+    /// The run as text for a terminal: the identification (rank, what the
+    /// targets cannot see, identified unknowns with their standard errors)
+    /// and per-target errors before and after (mm).
+    pub fn lines(&self) -> Vec<String> {
+        let c = &self.calibration;
+        let mut lines = vec![format!(
+            "{} poses, {} observations of {} targets: {} of {} unknowns identified ({:?} after {} iterations)",
+            c.n_poses,
+            c.n_observations,
+            c.targets.len(),
+            c.rank(),
+            c.unknowns.len(),
+            c.solve.termination,
+            c.solve.iterations
+        )];
+        lines.extend(c.identifiability_notes());
+        lines.extend(c.combination_lines.iter().cloned());
+        lines.push("identified (value, standard error):".into());
+        for u in c
+            .unknowns
+            .iter()
+            .filter(|u| u.status == UnknownStatus::Identified)
+        {
+            let (unit, scale) = u.kind.display_unit();
+            lines.push(format!(
+                "  {:<16} {:>12.5} {unit} +- {:.5}",
+                u.name,
+                (u.value - u.initial) * scale,
+                u.standard_error.unwrap_or(f64::NAN) * scale
+            ));
+        }
+        let table = |title: &str, before: &[TargetErrors], after: &[TargetErrors]| {
+            let mut out = vec![format!(
+                "{title}: position error per target, mean / max (mm), before -> after"
+            )];
+            for (b, a) in before.iter().zip(after) {
+                out.push(format!(
+                    "  {} on {} ({} poses): {:.4} / {:.4} -> {:.4} / {:.4}",
+                    a.target,
+                    a.frame,
+                    a.statistics.n_poses,
+                    b.statistics.position_mean * 1e3,
+                    b.statistics.position_max * 1e3,
+                    a.statistics.position_mean * 1e3,
+                    a.statistics.position_max * 1e3
+                ));
+            }
+            out
+        };
+        lines.extend(table(
+            "identification",
+            &c.per_target_before,
+            &c.per_target_after,
+        ));
+        if let Some(v) = &self.validation {
+            lines.extend(table(
+                "validation",
+                &v.per_target_before,
+                &v.per_target_after,
+            ));
+        }
+        lines
+    }
+
+    /// The run as JSON (SI units, as in the types).
+    ///
+    /// # Errors
+    /// [`Error::Calib`] when serialisation fails.
+    pub fn to_json_string(&self) -> Result<String> {
+        serde_json::to_string_pretty(self).map_err(|e| {
+            Error::Calib(calib::CalibError::Serialise {
+                what: "multi-target calibration",
+                message: e.to_string(),
+            })
+        })
+    }
+}
