@@ -644,13 +644,10 @@ fn loop_models(
         }
         let mut passive = Vec::new();
         for &f in path_a.iter().chain(path_b.iter()) {
-            if let JointSource::Passive(owner) = frames[f].source {
-                if owner != usize::MAX {
-                    return Err(invalid(format!(
-                        "passive joint `{}` belongs to two loops",
-                        frames[f].name
-                    )));
-                }
+            // A passive joint shared with an earlier loop (nested
+            // parallelograms) is that loop's unknown: loops close in order,
+            // so here it is already assembled and enters like an actuated joint.
+            if let JointSource::Passive(usize::MAX) = frames[f].source {
                 frames[f].source = JointSource::Passive(l);
                 passive.push(f);
                 passive_names.push(frames[f].name.clone());
