@@ -13,8 +13,8 @@ use flexcal::calib::GravityCompliance;
 use flexcal::kinematics::{Data, ImportOptions, PointLoad, actuated_forces_into};
 
 fn ur10_urdf() -> Option<PathBuf> {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/robots/urdf/ur10_robot.urdf");
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/robots/urdf/ur10_robot.urdf");
     if path.exists() {
         Some(path)
     } else {
@@ -40,7 +40,15 @@ fn gravity_torques(
         .collect();
     let mut data = Data::new(model);
     let mut tau = vec![0.0; model.n_actuated()];
-    actuated_forces_into(model, &mut data, q, model.nominal_params(), &loads, &mut tau).unwrap();
+    actuated_forces_into(
+        model,
+        &mut data,
+        q,
+        model.nominal_params(),
+        &loads,
+        &mut tau,
+    )
+    .unwrap();
     tau
 }
 
@@ -78,7 +86,10 @@ fn a_urdf_robots_inertials_are_its_default_mass_table() {
     let builtin = RobotSpec::parse("ur10").unwrap();
     let builtin_model = builtin.model().unwrap();
     let builtin_table = builtin.mass_table(&options, &builtin_model, None).unwrap();
-    assert_eq!(builtin_table, GravityCompliance::ur10_urdf(&builtin_model).unwrap());
+    assert_eq!(
+        builtin_table,
+        GravityCompliance::ur10_urdf(&builtin_model).unwrap()
+    );
     let mut worst = 0.0f64;
     for k in 0..20 {
         // Spread over the joint ranges without a random generator.
@@ -91,7 +102,9 @@ fn a_urdf_robots_inertials_are_its_default_mass_table() {
             worst = worst.max((from_urdf[i] - from_builtin[i]).abs());
         }
     }
-    println!("shoulder and elbow gravity torques, URDF masses vs built-in table: worst {worst:.2e} N.m");
+    println!(
+        "shoulder and elbow gravity torques, URDF masses vs built-in table: worst {worst:.2e} N.m"
+    );
     assert!(worst < 1e-9, "{worst:.3e} N.m");
 }
 

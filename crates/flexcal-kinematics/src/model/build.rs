@@ -309,13 +309,7 @@ fn default_parameters(desc: &RobotDescription) -> Vec<(String, usize, Quantity)>
             push(Quantity::R);
         }
         if f.slider_crank.is_some() {
-            for q in [
-                Quantity::ScrewOffset,
-                Quantity::Kappa,
-                Quantity::Lambda,
-                Quantity::L1,
-                Quantity::L3,
-            ] {
+            for q in Quantity::SLIDER_CRANK {
                 push(q);
             }
         }
@@ -331,13 +325,7 @@ fn parameter_vector(desc: &RobotDescription) -> Result<ParameterVector, Kinemati
             nameable.insert(q.param_name(&f.name), (i, q));
         }
         if f.slider_crank.is_some() {
-            for q in [
-                Quantity::ScrewOffset,
-                Quantity::Kappa,
-                Quantity::Lambda,
-                Quantity::L1,
-                Quantity::L3,
-            ] {
+            for q in Quantity::SLIDER_CRANK {
                 nameable.insert(q.param_name(&f.name), (i, q));
             }
         }
