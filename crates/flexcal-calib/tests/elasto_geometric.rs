@@ -74,18 +74,8 @@ fn elastic_columns_match_central_differences() {
     let model = ur10();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
     let (frame, target) = common::generic_frame_and_target();
-    let mut set = simulate(&model, &gravity, &truth(&model, 1), &frame, 5, 0.0, 2);
-    // Orientation rows too: measured orientations near the predicted ones.
-    let measurements: Vec<Measurement> = set
-        .measurements()
-        .iter()
-        .map(|m| {
-            let mut m = m.clone();
-            m.orientation = Some(Vector3::new(0.2, -1.0, 0.4));
-            m
-        })
-        .collect();
-    set = MeasurementSet::new("with orientation", measurements).unwrap();
+    let set = simulate(&model, &gravity, &truth(&model, 1), &frame, 5, 0.0, 2);
+    let set = common::with_orientation(&set);
     let problem = GeometricErrorModel::new(&model, &set, true, frame, target)
         .unwrap()
         .with_gravity(&gravity)

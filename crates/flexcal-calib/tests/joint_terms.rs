@@ -135,16 +135,7 @@ fn joint_term_columns_match_central_differences() {
         0.0,
         2,
     );
-    let measurements: Vec<Measurement> = set
-        .measurements()
-        .iter()
-        .map(|m| {
-            let mut m = m.clone();
-            m.orientation = Some(Vector3::new(0.2, -1.0, 0.4));
-            m
-        })
-        .collect();
-    let set = MeasurementSet::new("with orientation", measurements).unwrap();
+    let set = common::with_orientation(&set);
     let terms = JointTerms {
         law: Some(JointLaw::default()),
         cyclic: true,

@@ -378,6 +378,22 @@ impl ModelClassResiduals {
     }
 }
 
+impl std::fmt::Display for ModelClassResiduals {
+    /// The residuals in micrometres, one line per case.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "noise-free identification RMS: {:.2} um with every term, {:.4} um with geometry and frame only",
+            self.all_terms * 1e6,
+            self.own_class * 1e6
+        )?;
+        for (term, alone) in &self.term_alone {
+            write!(f, "\n  {term} alone: {:.2} um", alone * 1e6)?;
+        }
+        Ok(())
+    }
+}
+
 /// Fits a calibration (measurement frame identified, target fixed,
 /// completed by `configure` for the campaign's model, e.g. with a mass
 /// table) to the 27 noise-free identification poses of the geometric

@@ -2,9 +2,9 @@
 //! elasto-geometric model ([`RobotSpec::mass_table`]); a mass table file
 //! overrides them. Checked on the public UR10 URDF of
 //! `../shared/robots/urdf/` (read in place; the test says so and returns
-//! when the file is absent): its link masses, and the gravity torques they
-//! give against the built-in `ur10` with its hand-written table of the same
-//! URDF's masses.
+//! when the file is absent): its link masses, and the gravity torques of the
+//! arm links against the built-in `ur10` with its hand-written table of the
+//! same URDF's masses.
 
 use std::path::PathBuf;
 
@@ -58,7 +58,10 @@ fn a_urdf_robots_inertials_are_its_default_mass_table() {
         return;
     };
     let spec = RobotSpec::File(path);
-    let options = ImportOptions::default();
+    let options = ImportOptions {
+        tip: Some("tool0".into()),
+        ..ImportOptions::default()
+    };
     let model = spec.model_with(&options).unwrap();
     let table = spec.mass_table(&options, &model, None).unwrap();
     let masses: Vec<(&str, f64)> = table
@@ -80,16 +83,27 @@ fn a_urdf_robots_inertials_are_its_default_mass_table() {
     }
     assert!(!masses.iter().any(|(link, _)| *link == "base_link"));
 
-    // Gravity torques on the shoulder and elbow against the built-in ur10
-    // with its hand-written table of the same masses (centres moved along
-    // the joint axes, which changes no torque about joints 1-3).
+    // Gravity torques of the arm links (shoulder, upper arm, forearm) on
+    // joints 1-3 against the built-in ur10 with its hand-written table of
+    // the same URDF: there the centres sit on the links' lines, moved along
+    // the parallel joint axes 2 and 3, which changes no torque about joints
+    // 1-3. (Its wrist masses sit at the DH frame origins, d4 and d5 along
+    // the wrist axes from the URDF's centres: they are left out.)
     let builtin = RobotSpec::parse("ur10").unwrap();
     let builtin_model = builtin.model().unwrap();
-    let builtin_table = builtin.mass_table(&options, &builtin_model, None).unwrap();
+    let mut builtin_table = builtin.mass_table(&options, &builtin_model, None).unwrap();
     assert_eq!(
         builtin_table,
         GravityCompliance::ur10_urdf(&builtin_model).unwrap()
     );
+    builtin_table
+        .masses
+        .retain(|m| ["shoulder", "upper arm", "forearm"].contains(&m.name.as_str()));
+    let mut table = table;
+    table
+        .masses
+        .retain(|m| ["shoulder_link", "upper_arm_link", "forearm_link"].contains(&m.name.as_str()));
+    assert_eq!((table.masses.len(), builtin_table.masses.len()), (3, 3));
     let mut worst = 0.0f64;
     for k in 0..20 {
         // Spread over the joint ranges without a random generator.
@@ -103,7 +117,7 @@ fn a_urdf_robots_inertials_are_its_default_mass_table() {
         }
     }
     println!(
-        "shoulder and elbow gravity torques, URDF masses vs built-in table: worst {worst:.2e} N.m"
+        "arm links' gravity torques on joints 1-3, URDF masses vs built-in table: worst {worst:.2e} N.m"
     );
     assert!(worst < 1e-9, "{worst:.3e} N.m");
 }
@@ -114,7 +128,10 @@ fn a_mass_table_file_overrides_the_urdf_inertials() {
         return;
     };
     let spec = RobotSpec::File(path);
-    let options = ImportOptions::default();
+    let options = ImportOptions {
+        tip: Some("tool0".into()),
+        ..ImportOptions::default()
+    };
     let model = spec.model_with(&options).unwrap();
     let mut table = spec.mass_table(&options, &model, None).unwrap();
     table.masses.truncate(2);
@@ -136,4 +153,26 @@ fn a_robot_without_masses_asks_for_a_mass_table_file() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("ir663") && err.contains("mass table"), "{err}");
+}
+
+#[test]
+fn link_masses_on_unknown_frames_or_only_on_the_base_are_named_errors() {
+    let model = RobotSpec::parse("ur10").unwrap().model().unwrap();
+    let mass = |frame: &str| flexcal::kinematics::LinkMass {
+        link: format!("link_on_{frame}"),
+        frame: frame.into(),
+        mass_kg: 2.0,
+        center_m: [0.0, 0.0, 0.1],
+    };
+    let err = GravityCompliance::from_link_masses(&model, &[mass("2"), mass("9")])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("link_on_9") && err.contains("`9`"), "{err}");
+    let err = GravityCompliance::from_link_masses(&model, &[mass("0")])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no link mass on a moving link"), "{err}");
+    let table = GravityCompliance::from_link_masses(&model, &[mass("0"), mass("2")]).unwrap();
+    assert_eq!(table.masses.len(), 1);
+    assert_eq!(table.masses[0].name, "link_on_2");
 }

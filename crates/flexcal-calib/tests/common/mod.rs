@@ -173,3 +173,18 @@ impl GravitySimulation<'_> {
         MeasurementSet::new(label, measurements).unwrap()
     }
 }
+
+/// `set` with a measured orientation (a rotation vector, rad) near the
+/// predicted ones on every pose, so that orientation rows are checked too.
+pub fn with_orientation(set: &MeasurementSet) -> MeasurementSet {
+    let measurements: Vec<Measurement> = set
+        .measurements()
+        .iter()
+        .map(|m| {
+            let mut m = m.clone();
+            m.orientation = Some(Vector3::new(0.2, -1.0, 0.4));
+            m
+        })
+        .collect();
+    MeasurementSet::new("with orientation", measurements).unwrap()
+}

@@ -256,6 +256,18 @@ fn y_range(values: impl Iterator<Item = f64>, log_y: bool, include_zero: bool) -
     }
 }
 
+/// Starts a chart with numeric axes over `frame`.
+fn open_chart(title: &str, frame: &Frame, x_label: &str, y_label: &str) -> String {
+    let mut out = String::new();
+    open_svg(&mut out, title);
+    let x_ticks: Vec<(f64, String)> = nice_ticks(frame.x_lo, frame.x_hi, 8)
+        .into_iter()
+        .map(|t| (t, format_tick(t)))
+        .collect();
+    axes(&mut out, frame, x_label, y_label, &x_ticks);
+    out
+}
+
 /// Ends a chart of `n_series` series: the legend when there are several.
 fn close_chart(mut out: String, labels: &[(String, &str, bool)], n_series: usize) -> String {
     if n_series > 1 {
@@ -288,13 +300,7 @@ pub fn line_chart(
         y_hi,
         log_y,
     };
-    let mut out = String::new();
-    open_svg(&mut out, title);
-    let x_ticks: Vec<(f64, String)> = nice_ticks(x_lo, x_hi, 8)
-        .into_iter()
-        .map(|t| (t, format_tick(t)))
-        .collect();
-    axes(&mut out, &frame, x_label, y_label, &x_ticks);
+    let mut out = open_chart(title, &frame, x_label, y_label);
     let mut labels = Vec::new();
     for (i, s) in series.iter().enumerate() {
         let colour = PALETTE[i % PALETTE.len()];
@@ -452,13 +458,7 @@ pub fn heat_map(
         );
         format!("rgb({:.0},{:.0},{:.0})", r, g, b)
     };
-    let mut out = String::new();
-    open_svg(&mut out, title);
-    let x_ticks: Vec<(f64, String)> = nice_ticks(x_lo, x_hi, 8)
-        .into_iter()
-        .map(|t| (t, format_tick(t)))
-        .collect();
-    axes(&mut out, &frame, x_label, y_label, &x_ticks);
+    let mut out = open_chart(title, &frame, x_label, y_label);
     let half = |v: &[f64], i: usize| -> (f64, f64) {
         let left = if i > 0 {
             (v[i] - v[i - 1]) / 2.0
