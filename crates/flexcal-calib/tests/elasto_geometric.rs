@@ -3,8 +3,8 @@
 //! compliances on a simulated UR10, the mass-table file.
 
 use flexcal_calib::{
-    CalibError, CalibrationOptions, GeometricErrorModel, GravityCompliance, Measurement,
-    MeasurementSet, UnknownKind, UnknownStatus, Weighting, calibrate, rotation_from_vector,
+    CalibError, CalibrationOptions, GeometricErrorModel, GravityCompliance, MeasurementSet,
+    UnknownKind, UnknownStatus, Weighting, calibrate, rotation_from_vector,
 };
 use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Translation3, Vector3};

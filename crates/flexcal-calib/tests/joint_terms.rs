@@ -6,7 +6,7 @@
 
 use flexcal_calib::{
     CalibrationOptions, FrameTreatment, GeometricErrorModel, GravityCompliance, JointLaw,
-    JointTerms, Measurement, MeasurementSet, UnknownKind, UnknownStatus, Weighting, calibrate,
+    JointTerms, MeasurementSet, UnknownKind, UnknownStatus, Weighting, calibrate,
     rotation_from_vector,
 };
 use flexcal_kinematics::{Model, RobotDescription};
