@@ -22,6 +22,14 @@
 //! In `Theta` of a revolute joint (`R` of a prismatic one) the one symbol
 //! without a value is the joint variable, which must appear with
 //! coefficient 1 (`th2`, `th2 - Pi/2`); it names the actuated coordinate.
+//!
+//! The end frame is the one link frame that carries no other frame; a tree
+//! with several (a hand's fingertips) needs `tip`, and every other leaf's
+//! pose is read from [`crate::Data::frame_pose`]. A loop that is a planar
+//! four-bar (a parallelogram) is closed in closed form on the assembly
+//! branch of the `[home]` configuration when it gives every actuated and
+//! passive joint; other loops follow Newton's method from the home values,
+//! and the import's notes say which.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
