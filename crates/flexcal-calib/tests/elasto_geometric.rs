@@ -62,7 +62,7 @@ fn simulate(
 
 fn truth(model: &Model, seed: u64) -> Truth {
     Truth {
-        xi: common::perturbed_geometry(model, seed),
+        xi: common::perturbed_geometry(model, &mut ChaCha8Rng::seed_from_u64(seed), 5e-4, 1e-3),
         compliance: vec![0.0, 14e-6, 9e-6, 20e-6, 15e-6, 10e-6],
         payload_mass: 1.4,
         payload_center: Vector3::new(0.01, -0.02, 0.12),

@@ -10,25 +10,28 @@ use std::path::PathBuf;
 
 use flexcal::RobotSpec;
 use flexcal::calib::GravityCompliance;
-use flexcal::kinematics::{Data, ImportOptions, PointLoad, actuated_forces_into};
+use flexcal::kinematics::{Data, ImportOptions, Model, PointLoad, actuated_forces_into};
 
-fn ur10_urdf() -> Option<PathBuf> {
+/// The UR10 URDF (tip `tool0`), its reader options and its model, or
+/// `None` (with a message) when the file is absent.
+fn ur10_urdf() -> Option<(RobotSpec, ImportOptions, Model)> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/robots/urdf/ur10_robot.urdf");
-    if path.exists() {
-        Some(path)
-    } else {
+    if !path.exists() {
         eprintln!("UR10 URDF absent ({}): test skipped", path.display());
-        None
+        return None;
     }
+    let spec = RobotSpec::File(path);
+    let options = ImportOptions {
+        tip: Some("tool0".into()),
+        ..ImportOptions::default()
+    };
+    let model = spec.model_with(&options).unwrap();
+    Some((spec, options, model))
 }
 
 /// Gravity torques (N.m) of a mass table's links at `q`.
-fn gravity_torques(
-    model: &flexcal::kinematics::Model,
-    table: &GravityCompliance,
-    q: &[f64],
-) -> Vec<f64> {
+fn gravity_torques(model: &Model, table: &GravityCompliance, q: &[f64]) -> Vec<f64> {
     let loads: Vec<PointLoad> = table
         .masses
         .iter()
@@ -54,15 +57,9 @@ fn gravity_torques(
 
 #[test]
 fn a_urdf_robots_inertials_are_its_default_mass_table() {
-    let Some(path) = ur10_urdf() else {
+    let Some((spec, options, model)) = ur10_urdf() else {
         return;
     };
-    let spec = RobotSpec::File(path);
-    let options = ImportOptions {
-        tip: Some("tool0".into()),
-        ..ImportOptions::default()
-    };
-    let model = spec.model_with(&options).unwrap();
     let table = spec.mass_table(&options, &model, None).unwrap();
     let masses: Vec<(&str, f64)> = table
         .masses
@@ -124,15 +121,9 @@ fn a_urdf_robots_inertials_are_its_default_mass_table() {
 
 #[test]
 fn a_mass_table_file_overrides_the_urdf_inertials() {
-    let Some(path) = ur10_urdf() else {
+    let Some((spec, options, model)) = ur10_urdf() else {
         return;
     };
-    let spec = RobotSpec::File(path);
-    let options = ImportOptions {
-        tip: Some("tool0".into()),
-        ..ImportOptions::default()
-    };
-    let model = spec.model_with(&options).unwrap();
     let mut table = spec.mass_table(&options, &model, None).unwrap();
     table.masses.truncate(2);
     table.payload_mass = 2.5;

@@ -79,17 +79,21 @@ pub fn generic_frame_and_target() -> (Isometry3<f64>, Isometry3<f64>) {
 }
 
 /// A true geometry: the nominal parameters of `model` moved by up to
-/// +-0.5 mm (lengths) and +-1 mrad (angles), drawn from `seed`.
-pub fn perturbed_geometry(model: &Model, seed: u64) -> Vec<f64> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+/// +-`length` (m) and +-`angle` (rad), drawn from `rng`.
+pub fn perturbed_geometry(
+    model: &Model,
+    rng: &mut ChaCha8Rng,
+    length: f64,
+    angle: f64,
+) -> Vec<f64> {
     model
         .nominal_params()
         .iter()
         .zip(model.params())
         .map(|(v, p)| {
             v + match p.kind {
-                ParamKind::Length => rng.random_range(-5e-4..5e-4),
-                ParamKind::Angle => rng.random_range(-1e-3..1e-3),
+                ParamKind::Length => rng.random_range(-length..length),
+                ParamKind::Angle => rng.random_range(-angle..angle),
             }
         })
         .collect()
