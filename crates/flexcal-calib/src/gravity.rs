@@ -21,7 +21,9 @@
 //! nominal geometry (a geometric error of a millimetre changes them by about
 //! 0.1 %, far below what gravity deflection can resolve).
 
-use flexcal_kinematics::{Data, Model, PointLoad, actuated_forces_into, joint_jacobian_into};
+use flexcal_kinematics::{
+    Data, LinkMass, Model, PointLoad, actuated_forces_into, joint_jacobian_into,
+};
 use nalgebra::{Matrix6xX, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -101,20 +103,68 @@ impl GravityCompliance {
         };
         // Nominal DH: a2 = -0.612 m, a3 = -0.5723 m along the x axes of
         // frames 2 and 3 (frame 4 sits d4 = 0.1639 m off the forearm's line).
-        Ok(Self {
+        Ok(Self::with_probe_payload(vec![
+            mass("shoulder", "1", 7.778, [0.0, 0.0, 0.0]),
+            mass("upper arm", "2", 12.93, [-0.306, 0.0, 0.0]),
+            mass("forearm", "3", 3.87, [-0.28615, 0.0, 0.0]),
+            mass("wrist 1", "4", 1.96, [0.0, 0.0, 0.0]),
+            mass("wrist 2", "5", 1.96, [0.0, 0.0, 0.0]),
+            mass("wrist 3", "6", 0.202, [0.0, 0.0, 0.0]),
+        ]))
+    }
+
+    /// The mass table of an imported robot: the link masses its file holds
+    /// (a URDF's `<inertial>` elements, [`LinkMass`]), under standard
+    /// gravity along -z0, with the payload start of
+    /// [`GravityCompliance::ur10_urdf`] (1 kg, 0.1 m along the flange's z).
+    /// Links fixed to the base frame R0 (`frame = "0"`) load no joint and
+    /// are left out.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] when no link moves with a joint, or a
+    /// link's frame is not a frame of `model`.
+    pub fn from_link_masses(model: &Model, links: &[LinkMass]) -> Result<Self, CalibError> {
+        let invalid = |reason: String| CalibError::InvalidOption {
+            name: "gravity",
+            reason,
+        };
+        let mut masses = Vec::with_capacity(links.len());
+        for link in links.iter().filter(|l| l.frame != "0") {
+            if model.frame_index(&link.frame).is_none() {
+                return Err(invalid(format!(
+                    "link `{}` is fixed to frame `{}`, which robot `{}` does not have",
+                    link.link,
+                    link.frame,
+                    model.name()
+                )));
+            }
+            masses.push(PointMass {
+                name: link.link.clone(),
+                frame: link.frame.clone(),
+                mass: link.mass_kg,
+                center: Vector3::from(link.center_m),
+            });
+        }
+        if masses.is_empty() {
+            return Err(invalid(format!(
+                "robot `{}`: no link mass on a moving link (give a mass table file)",
+                model.name()
+            )));
+        }
+        Ok(Self::with_probe_payload(masses))
+    }
+
+    /// `masses` under standard gravity along -z0, with a measuring probe's
+    /// payload start (1 kg, 0.1 m along the flange's z axis) and a starting
+    /// compliance of 10 urad/N.m.
+    fn with_probe_payload(masses: Vec<PointMass>) -> Self {
+        Self {
             gravity: Vector3::new(0.0, 0.0, -STANDARD_GRAVITY),
-            masses: vec![
-                mass("shoulder", "1", 7.778, [0.0, 0.0, 0.0]),
-                mass("upper arm", "2", 12.93, [-0.306, 0.0, 0.0]),
-                mass("forearm", "3", 3.87, [-0.28615, 0.0, 0.0]),
-                mass("wrist 1", "4", 1.96, [0.0, 0.0, 0.0]),
-                mass("wrist 2", "5", 1.96, [0.0, 0.0, 0.0]),
-                mass("wrist 3", "6", 0.202, [0.0, 0.0, 0.0]),
-            ],
+            masses,
             payload_mass: 1.0,
             payload_center: Vector3::new(0.0, 0.0, 0.1),
             initial_compliance: 10e-6,
-        })
+        }
     }
 
     /// Names of the elastic unknowns of `model`: `compliance_<joint>` per

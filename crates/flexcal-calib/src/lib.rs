@@ -253,7 +253,9 @@ pub use identify_targets::{
     validate_targets,
 };
 pub use joint_law::{JointLaw, JointTerms};
-pub use measurement::{Measurement, MeasurementSet, read_configurations, read_transform_mm};
+pub use measurement::{
+    IPA_JOINT_COLUMNS, Measurement, MeasurementSet, read_configurations, read_transform_mm,
+};
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{CalibrationReportJson, FrameJson, ResidualModelJson, read_measurement_frame};
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};

@@ -69,6 +69,17 @@ pub struct MeasurementSet {
     pub nominal_target: Option<Isometry3<f64>>,
 }
 
+/// The joint columns of an IPA laser-tracker export
+/// ([`MeasurementSet::read_ipa`]), in the UR10's joint order (rad).
+pub const IPA_JOINT_COLUMNS: [&str; 6] = [
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "elbow_joint",
+    "wrist_1_joint",
+    "wrist_2_joint",
+    "wrist_3_joint",
+];
+
 impl MeasurementSet {
     /// Validates and wraps measurements.
     ///
@@ -404,15 +415,7 @@ impl MeasurementSet {
     pub fn read_ipa(path: &Path) -> Result<Self, CalibError> {
         let table = CsvTable::read(path, &CsvOptions::semicolon_decimal_comma())?;
         table.require_rows()?;
-        let joints = [
-            "shoulder_pan_joint",
-            "shoulder_lift_joint",
-            "elbow_joint",
-            "wrist_1_joint",
-            "wrist_2_joint",
-            "wrist_3_joint",
-        ];
-        let q_columns = joints
+        let q_columns = IPA_JOINT_COLUMNS
             .iter()
             .map(|n| table.column_index(n))
             .collect::<Result<Vec<_>, _>>()?;

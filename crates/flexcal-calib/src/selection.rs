@@ -187,6 +187,19 @@ pub struct CandidateScore {
 }
 
 impl CandidateScore {
+    /// A candidate of `groups` not scored yet.
+    fn unscored(groups: Vec<TermGroup>) -> Self {
+        Self {
+            groups,
+            cv_mean_error_mm: None,
+            cv_standard_error_mm: None,
+            cv_fold_errors_mm: Vec::new(),
+            bic: None,
+            identified: 0.0,
+            failure: None,
+        }
+    }
+
     /// `offsets + tilts + ...`, or `base` for none.
     pub fn label(&self) -> String {
         if self.groups.is_empty() {
@@ -255,15 +268,7 @@ impl SelectionReport {
             ));
         }
         lines.extend(self.reasons.iter().map(|r| format!("  {r}")));
-        let chosen = CandidateScore {
-            groups: self.chosen.clone(),
-            cv_mean_error_mm: None,
-            cv_standard_error_mm: None,
-            cv_fold_errors_mm: Vec::new(),
-            bic: None,
-            identified: 0.0,
-            failure: None,
-        };
+        let chosen = CandidateScore::unscored(self.chosen.clone());
         lines.push(format!("  chosen: {}", chosen.label()));
         lines
     }
@@ -619,15 +624,7 @@ pub fn select_model(
         }
         let key = sorted.clone();
         let options = candidate_options(model, base, &sorted);
-        let mut candidate = CandidateScore {
-            groups: sorted,
-            cv_mean_error_mm: None,
-            cv_standard_error_mm: None,
-            cv_fold_errors_mm: Vec::new(),
-            bic: None,
-            identified: 0.0,
-            failure: None,
-        };
+        let mut candidate = CandidateScore::unscored(sorted);
         let result = if cv {
             cross_validate(model, &folds, &options).map(|(per_pose, fold_means, rank)| {
                 let k = fold_means.len() as f64;

@@ -3,16 +3,13 @@
 //! compliances on a simulated UR10, the mass-table file.
 
 use flexcal_calib::{
-    CalibError, CalibrationOptions, GeometricErrorModel, GravityCompliance, Measurement,
-    MeasurementSet, UnknownKind, UnknownStatus, Weighting, calibrate, rotation_from_vector,
+    CalibError, CalibrationOptions, GeometricErrorModel, GravityCompliance, MeasurementSet,
+    UnknownKind, UnknownStatus, Weighting, calibrate, rotation_from_vector,
 };
-use flexcal_kinematics::{
-    Data, Model, PointLoad, RobotDescription, actuated_forces_into, forward_pose,
-};
+use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 
 mod common;
 
@@ -29,10 +26,8 @@ struct Truth {
     payload_center: Vector3<f64>,
 }
 
-/// Measurements of `truth` deflected by gravity, computed independently of
-/// the calibration code: generalised forces of the link weights and of the
-/// payload (a point load on the flange) by virtual work, then the forward
-/// model at `q + C tau`. Gaussian noise `noise` (m) per axis.
+/// Measurements of `truth` deflected by gravity (linear joint springs:
+/// `q + C tau`), Gaussian noise `noise` (m) per axis.
 fn simulate(
     model: &Model,
     gravity: &GravityCompliance,
@@ -42,72 +37,32 @@ fn simulate(
     noise: f64,
     seed: u64,
 ) -> MeasurementSet {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let normal = Normal::new(0.0, noise.max(1e-300)).unwrap();
-    let mut data = Data::new(model);
-    let mut loads: Vec<PointLoad> = gravity
-        .masses
-        .iter()
-        .map(|m| PointLoad {
-            frame: model.frame_index(&m.frame).unwrap(),
-            point: m.center,
-            force: gravity.gravity * m.mass,
-        })
-        .collect();
-    loads.push(PointLoad {
-        frame: model.end_frame(),
-        point: truth.payload_center,
-        force: gravity.gravity * truth.payload_mass,
-    });
-    let measurements = (0..n)
-        .map(|_| {
-            let q = common::ur10_configuration(&mut rng);
-            let mut tau = vec![0.0; 6];
-            actuated_forces_into(
-                model,
-                &mut data,
-                &q,
-                model.nominal_params(),
-                &loads,
-                &mut tau,
-            )
-            .unwrap();
-            let deflected: Vec<f64> = q
-                .iter()
-                .zip(&tau)
+    let simulation = common::GravitySimulation {
+        model,
+        gravity,
+        xi: &truth.xi,
+        payload: (truth.payload_mass, truth.payload_center),
+        frame: *frame,
+        noise,
+    };
+    simulation.measure(
+        n,
+        seed,
+        "simulated ur10 under gravity",
+        common::ur10_configuration,
+        |q, tau| {
+            q.iter()
+                .zip(tau)
                 .zip(&truth.compliance)
                 .map(|((q, t), c)| q + c * t)
-                .collect();
-            let x = frame * forward_pose(model, &mut data, &deflected, &truth.xi).unwrap();
-            let p = x.translation.vector
-                + Vector3::from_fn(|_, _| {
-                    if noise > 0.0 {
-                        normal.sample(&mut rng)
-                    } else {
-                        0.0
-                    }
-                });
-            Measurement::new(q, p)
-        })
-        .collect();
-    MeasurementSet::new("simulated ur10 under gravity", measurements).unwrap()
+                .collect()
+        },
+    )
 }
 
 fn truth(model: &Model, seed: u64) -> Truth {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let xi = model
-        .nominal_params()
-        .iter()
-        .zip(model.params())
-        .map(|(v, p)| {
-            v + match p.kind {
-                flexcal_kinematics::ParamKind::Length => rng.random_range(-5e-4..5e-4),
-                flexcal_kinematics::ParamKind::Angle => rng.random_range(-1e-3..1e-3),
-            }
-        })
-        .collect();
     Truth {
-        xi,
+        xi: common::perturbed_geometry(model, &mut ChaCha8Rng::seed_from_u64(seed), 5e-4, 1e-3),
         compliance: vec![0.0, 14e-6, 9e-6, 20e-6, 15e-6, 10e-6],
         payload_mass: 1.4,
         payload_center: Vector3::new(0.01, -0.02, 0.12),
@@ -119,18 +74,8 @@ fn elastic_columns_match_central_differences() {
     let model = ur10();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
     let (frame, target) = common::generic_frame_and_target();
-    let mut set = simulate(&model, &gravity, &truth(&model, 1), &frame, 5, 0.0, 2);
-    // Orientation rows too: measured orientations near the predicted ones.
-    let measurements: Vec<Measurement> = set
-        .measurements()
-        .iter()
-        .map(|m| {
-            let mut m = m.clone();
-            m.orientation = Some(Vector3::new(0.2, -1.0, 0.4));
-            m
-        })
-        .collect();
-    set = MeasurementSet::new("with orientation", measurements).unwrap();
+    let set = simulate(&model, &gravity, &truth(&model, 1), &frame, 5, 0.0, 2);
+    let set = common::with_orientation(&set);
     let problem = GeometricErrorModel::new(&model, &set, true, frame, target)
         .unwrap()
         .with_gravity(&gravity)

@@ -44,20 +44,6 @@ fn simulate(
     MeasurementSet::new("simulated", measurements).unwrap()
 }
 
-fn perturbed(model: &Model, rng: &mut ChaCha8Rng, length: f64, angle: f64) -> Vec<f64> {
-    model
-        .nominal_params()
-        .iter()
-        .zip(model.params())
-        .map(|(v, p)| {
-            v + match p.kind {
-                flexcal_kinematics::ParamKind::Length => rng.random_range(-length..length),
-                flexcal_kinematics::ParamKind::Angle => rng.random_range(-angle..angle),
-            }
-        })
-        .collect()
-}
-
 #[test]
 fn jacobian_matches_central_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -106,7 +92,7 @@ fn jacobian_matches_central_differences() {
 fn identifies_a_serial_robot_with_unknown_frames_exactly() {
     let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(21);
-    let truth = perturbed(&model, &mut rng, 1e-3, 2e-3);
+    let truth = common::perturbed_geometry(&model, &mut rng, 1e-3, 2e-3);
     let frame = Isometry3::from_parts(
         Translation3::new(0.4, -3.2, 0.1),
         rotation_from_vector(&Vector3::new(0.0, 0.1, 1.5)),
@@ -169,7 +155,7 @@ fn fixed_parameters_keep_their_values_and_orientation_is_used() {
         .build()
         .unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(8);
-    let truth = perturbed(&model, &mut rng, 5e-4, 1e-3);
+    let truth = common::perturbed_geometry(&model, &mut rng, 5e-4, 1e-3);
     let set = simulate(
         &model,
         &truth,
@@ -325,7 +311,7 @@ fn pose_selection_beats_an_arbitrary_subset() {
 fn target_orientation_starts_where_the_data_put_it() {
     let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(31);
-    let truth = perturbed(&model, &mut rng, 0.5e-3, 1e-3);
+    let truth = common::perturbed_geometry(&model, &mut rng, 0.5e-3, 1e-3);
     let (frame, _) = common::generic_frame_and_target();
     let quarter = |sign: f64| {
         Isometry3::from_parts(

@@ -6,16 +6,13 @@
 
 use flexcal_calib::{
     CalibrationOptions, FrameTreatment, GeometricErrorModel, GravityCompliance, JointLaw,
-    JointTerms, Measurement, MeasurementSet, UnknownKind, UnknownStatus, Weighting, calibrate,
+    JointTerms, MeasurementSet, UnknownKind, UnknownStatus, Weighting, calibrate,
     rotation_from_vector,
 };
-use flexcal_kinematics::{
-    Data, Model, PointLoad, RobotDescription, actuated_forces_into, forward_pose,
-};
+use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use std::f64::consts::PI;
 
 mod common;
@@ -72,6 +69,9 @@ fn spring_deflection(tau: f64, c: f64, eta: f64) -> f64 {
     e
 }
 
+/// Measurements of a UR10 whose joints follow `joints` under gravity (the
+/// spring equilibrium by Newton's method), with the payload of `gravity`;
+/// Gaussian noise `noise` (m) per axis.
 #[allow(clippy::too_many_arguments)]
 fn simulate(
     model: &Model,
@@ -83,42 +83,29 @@ fn simulate(
     noise: f64,
     seed: u64,
 ) -> MeasurementSet {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let normal = Normal::new(0.0, noise.max(1e-300)).unwrap();
-    let mut data = Data::new(model);
-    let mut loads: Vec<PointLoad> = gravity
-        .masses
-        .iter()
-        .map(|m| PointLoad {
-            frame: model.frame_index(&m.frame).unwrap(),
-            point: m.center,
-            force: gravity.gravity * m.mass,
-        })
-        .collect();
-    loads.push(PointLoad {
-        frame: model.end_frame(),
-        point: gravity.payload_center,
-        force: gravity.gravity * gravity.payload_mass,
-    });
+    let simulation = common::GravitySimulation {
+        model,
+        gravity,
+        xi,
+        payload: (gravity.payload_mass, gravity.payload_center),
+        frame: *frame,
+        noise,
+    };
     let lost_motion_torque = JointLaw::default().lost_motion_torque;
-    let measurements = (0..n)
-        .map(|_| {
+    simulation.measure(
+        n,
+        seed,
+        "simulated ur10, non-linear joints",
+        |rng| {
             // Joints 1 and 4 over a full turn: cyclic errors are identified
             // only over their period.
-            let mut q = common::ur10_configuration(&mut rng);
+            let mut q = common::ur10_configuration(rng);
             q[0] = rng.random_range(-PI..PI);
             q[3] = rng.random_range(-PI..PI);
-            let mut tau = vec![0.0; 6];
-            actuated_forces_into(
-                model,
-                &mut data,
-                &q,
-                model.nominal_params(),
-                &loads,
-                &mut tau,
-            )
-            .unwrap();
-            let deflected: Vec<f64> = (0..6)
+            q
+        },
+        |q, tau| {
+            (0..6)
                 .map(|i| {
                     let [a1, b1, a2, b2] = joints.cyclic[i];
                     q[i] + spring_deflection(tau[i], joints.compliance[i], joints.hardening[i])
@@ -128,20 +115,9 @@ fn simulate(
                         + a2 * (2.0 * q[i]).sin()
                         + b2 * (2.0 * q[i]).cos()
                 })
-                .collect();
-            let x = frame * forward_pose(model, &mut data, &deflected, xi).unwrap();
-            let p = x.translation.vector
-                + Vector3::from_fn(|_, _| {
-                    if noise > 0.0 {
-                        normal.sample(&mut rng)
-                    } else {
-                        0.0
-                    }
-                });
-            Measurement::new(q, p)
-        })
-        .collect();
-    MeasurementSet::new("simulated ur10, non-linear joints", measurements).unwrap()
+                .collect()
+        },
+    )
 }
 
 #[test]
@@ -159,16 +135,7 @@ fn joint_term_columns_match_central_differences() {
         0.0,
         2,
     );
-    let measurements: Vec<Measurement> = set
-        .measurements()
-        .iter()
-        .map(|m| {
-            let mut m = m.clone();
-            m.orientation = Some(Vector3::new(0.2, -1.0, 0.4));
-            m
-        })
-        .collect();
-    let set = MeasurementSet::new("with orientation", measurements).unwrap();
+    let set = common::with_orientation(&set);
     let terms = JointTerms {
         law: Some(JointLaw::default()),
         cyclic: true,
@@ -255,18 +222,7 @@ fn the_law_needs_gravity_and_bad_widths_are_named() {
 fn identifies_a_hardening_joint_lost_motion_and_cyclic_errors() {
     let model = ur10();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(17);
-    let xi: Vec<f64> = model
-        .nominal_params()
-        .iter()
-        .zip(model.params())
-        .map(|(v, p)| {
-            v + match p.kind {
-                flexcal_kinematics::ParamKind::Length => rng.random_range(-5e-4..5e-4),
-                flexcal_kinematics::ParamKind::Angle => rng.random_range(-1e-3..1e-3),
-            }
-        })
-        .collect();
+    let xi = common::perturbed_geometry(&model, &mut ChaCha8Rng::seed_from_u64(17), 5e-4, 1e-3);
     let frame = Isometry3::from_parts(
         Translation3::new(0.4, -3.2, 0.1),
         rotation_from_vector(&Vector3::new(0.0, 0.05, 1.5)),
@@ -385,18 +341,7 @@ fn selection_keeps_the_law_of_a_hardening_joint_and_rejects_absent_terms() {
     use flexcal_calib::{SelectionMethod, SelectionOptions, TermGroup, select_model};
     let model = ur10();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(31);
-    let xi: Vec<f64> = model
-        .nominal_params()
-        .iter()
-        .zip(model.params())
-        .map(|(v, p)| {
-            v + match p.kind {
-                flexcal_kinematics::ParamKind::Length => rng.random_range(-5e-4..5e-4),
-                flexcal_kinematics::ParamKind::Angle => rng.random_range(-1e-3..1e-3),
-            }
-        })
-        .collect();
+    let xi = common::perturbed_geometry(&model, &mut ChaCha8Rng::seed_from_u64(31), 5e-4, 1e-3);
     let truth = Joints {
         cyclic: [[0.0; 4]; 6],
         ..joints()

@@ -2,11 +2,31 @@
 //! IPA laser-tracker CSV and the mass table, 10 000 mutants of a real file each (flexcal_io::fuzz):
 //! every mutant gives a valid result or a named error, never a panic.
 
-use flexcal_calib::{GravityCompliance, MeasurementSet};
+use flexcal_calib::{GravityCompliance, IPA_JOINT_COLUMNS, MeasurementSet};
 use flexcal_io::fuzz::TextMutator;
 use flexcal_kinematics::RobotDescription;
 
 const CASES: usize = 10_000;
+
+/// Pose `k` of the source files: UR10 joint values (rad), then a measured
+/// position (mm) and orientation (deg).
+fn pose_values(k: usize) -> [f64; 12] {
+    let t = k as f64 * 0.1;
+    [
+        0.1 + t,
+        -1.2 + t,
+        1.0 - t,
+        -0.5,
+        1.3,
+        0.2 * t,
+        800.0 + 10.0 * t,
+        -150.0 + t,
+        420.5,
+        179.0,
+        -2.0 * t,
+        45.0,
+    ]
+}
 
 /// A measurement file as flexcal writes it: UR10 configurations with
 /// positions, orientations, standard deviations and temperatures.
@@ -15,22 +35,11 @@ fn measurement_csv() -> String {
         "pose_id,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,sx_mm,sy_mm,sz_mm,temperature_c\n",
     );
     for k in 0..12 {
-        let t = k as f64 * 0.1;
+        let values: Vec<String> = pose_values(k).iter().map(f64::to_string).collect();
         text.push_str(&format!(
-            "p{k},{},{},{},{},{},{},{},{},{},{},{},{},0.01,0.01,0.02,{}\n",
-            0.1 + t,
-            -1.2 + t,
-            1.0 - t,
-            -0.5,
-            1.3,
-            0.2 * t,
-            800.0 + 10.0 * t,
-            -150.0 + t,
-            420.5,
-            179.0,
-            -2.0 * t,
-            45.0,
-            21.5 + t
+            "p{k},{},0.01,0.01,0.02,{}\n",
+            values.join(","),
+            21.5 + k as f64 * 0.1
         ));
     }
     text
@@ -78,43 +87,15 @@ fn mass_table_reader_survives_mutated_files() {
 /// decimal commas, the joint and measurement columns
 /// ([`MeasurementSet::read_ipa`]).
 fn ipa_csv() -> String {
-    let joints = [
-        "shoulder_pan_joint",
-        "shoulder_lift_joint",
-        "elbow_joint",
-        "wrist_1_joint",
-        "wrist_2_joint",
-        "wrist_3_joint",
-    ];
     let measured = ["x", "y", "z", "rx", "ry", "rz"];
-    let mut header: Vec<String> = joints.iter().map(|j| j.to_string()).collect();
+    let mut header: Vec<String> = IPA_JOINT_COLUMNS.iter().map(|j| j.to_string()).collect();
     header.extend(measured.iter().map(|a| format!("measurement_{a}")));
     header.extend(measured.iter().map(|a| format!("measurement_std_{a}")));
     header.push("measurement_temperature".into());
     let mut text = header.join(";") + "\r\n";
     for k in 0..12 {
-        let t = k as f64 * 0.1;
-        let values = [
-            0.1 + t,
-            -1.2 + t,
-            1.0 - t,
-            -0.5,
-            1.3,
-            0.2 * t,
-            800.0 + 10.0 * t,
-            -150.0 + t,
-            420.5,
-            179.0,
-            -2.0 * t,
-            45.0,
-            0.01,
-            0.01,
-            0.02,
-            0.001,
-            0.001,
-            0.001,
-            21.5 + t,
-        ];
+        let mut values = pose_values(k).to_vec();
+        values.extend([0.01, 0.01, 0.02, 0.001, 0.001, 0.001, 21.5 + k as f64 * 0.1]);
         let row: Vec<String> = values
             .iter()
             .map(|v| format!("{v}").replace('.', ","))

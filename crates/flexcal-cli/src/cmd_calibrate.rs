@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flexcal::calib::{CalibrationOptions, FrameTreatment, GravityCompliance, Method, Weighting};
+use flexcal::calib::{CalibrationOptions, FrameTreatment, Method, Weighting};
 use flexcal::calibration::{
     CalibrationConfig, CalibrationOutputs, MeasurementFormat, run_calibration,
 };
@@ -26,7 +26,8 @@ pub enum ModelKind {
     /// Geometric parameters (+ measurement frame and target offset).
     Geometric,
     /// Geometric parameters plus joint compliances under gravity and the
-    /// payload's mass and centre (mass table: built-in for ur10, or --masses).
+    /// payload's mass and centre (mass table: --masses, a URDF's inertials,
+    /// or built-in for ur10).
     ElastoGeometric,
 }
 
@@ -77,7 +78,8 @@ pub struct CalibrateArgs {
     #[arg(long, value_enum, default_value = "geometric")]
     pub model: ModelKind,
     /// Mass table of the elasto-geometric model (TOML, see the README);
-    /// default: the robot's built-in table (ur10).
+    /// default: a URDF robot's `<inertial>` masses, else the robot's
+    /// built-in table (ur10).
     #[arg(long)]
     pub masses: Option<PathBuf>,
     /// Solver.
@@ -275,10 +277,11 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
         options.max_standard_error_angle = v.to_radians();
     }
     if args.model == ModelKind::ElastoGeometric {
-        options.gravity = Some(match &args.masses {
-            Some(path) => GravityCompliance::from_toml_file(path)?,
-            None => GravityCompliance::builtin(model).context("--model elasto-geometric")?,
-        });
+        options.gravity = Some(
+            flexcal::RobotSpec::parse(&args.robot)?
+                .mass_table(&args.robot_file.options(), model, args.masses.as_deref())
+                .context("--model elasto-geometric")?,
+        );
     } else if args.masses.is_some() {
         crate::usage_bail!("--masses is for --model elasto-geometric");
     }

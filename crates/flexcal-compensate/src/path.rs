@@ -242,6 +242,22 @@ pub fn krl_program(
     Ok(out)
 }
 
+/// A test path: `count` points 50 mm apart along -x of the part frame
+/// from `x0` (m), 25 mm below it, the tool pointing down (file lines 2..).
+#[cfg(test)]
+pub(crate) fn tool_down_line(x0: f64, count: usize) -> Vec<PathPoint> {
+    let down = UnitQuaternion::from_axis_angle(&nalgebra::Vector3::x_axis(), std::f64::consts::PI);
+    (0..count)
+        .map(|i| PathPoint {
+            line: i + 2,
+            x_part_tcp: Isometry3::from_parts(
+                Translation3::new(x0 - 0.05 * i as f64, 0.0, -0.025),
+                down,
+            ),
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -269,15 +285,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("path.csv");
         let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
-        let points: Vec<PathPoint> = (0..5)
-            .map(|i| PathPoint {
-                line: i + 2,
-                x_part_tcp: Isometry3::from_parts(
-                    Translation3::new(0.585 - 0.05 * i as f64, 0.0, -0.025),
-                    down,
-                ),
-            })
-            .collect();
+        let points = tool_down_line(0.585, 5);
         flexcal_io::write_atomic(&file, target_path_to_csv(&points)).unwrap();
         let back = read_target_path(&file, UnitQuaternion::identity()).unwrap();
         for (p, q) in points.iter().zip(&back) {

@@ -313,6 +313,30 @@ pub struct StiffnessReport {
     pub noise_floor_rms_mm: f64,
 }
 
+/// A report as pretty-printed JSON (an `error` object if it cannot be).
+fn report_json(report: &impl Serialize) -> String {
+    serde_json::to_string_pretty(report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+}
+
+/// Writes a report as pretty JSON, atomically.
+fn write_report(report: &impl Serialize, path: &Path) -> Result<(), WorkflowError> {
+    flexcal_io::write_atomic(path, report_json(report)).map_err(ElasticError::from)?;
+    Ok(())
+}
+
+/// Reads a report (`what` names its kind in the error) written by
+/// [`write_report`].
+fn read_report<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    what: &str,
+) -> Result<T, WorkflowError> {
+    let text = flexcal_io::read_to_string(path).map_err(ElasticError::from)?;
+    serde_json::from_str(&text).map_err(|e| WorkflowError::Report {
+        path: path.to_path_buf(),
+        message: format!("not a {what}: {e}"),
+    })
+}
+
 fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
@@ -372,23 +396,17 @@ impl StiffnessReport {
 
     /// The report as pretty-printed JSON.
     pub fn to_json_string(&self) -> String {
-        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+        report_json(self)
     }
 
     /// Writes the report (JSON, atomically).
     pub fn write(&self, path: impl AsRef<Path>) -> Result<(), WorkflowError> {
-        flexcal_io::write_atomic(path, self.to_json_string()).map_err(ElasticError::from)?;
-        Ok(())
+        write_report(self, path.as_ref())
     }
 
     /// Reads a report written by [`StiffnessReport::write`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self, WorkflowError> {
-        let path = path.as_ref();
-        let text = flexcal_io::read_to_string(path).map_err(ElasticError::from)?;
-        serde_json::from_str(&text).map_err(|e| WorkflowError::Report {
-            path: path.to_path_buf(),
-            message: format!("not a stiffness report: {e}"),
-        })
+        read_report(path.as_ref(), "stiffness report")
     }
 
     /// The identified Gamma, checked by name against `model`'s parameters
@@ -659,19 +677,11 @@ impl ComplianceReport {
 
     /// Writes the report (pretty JSON, atomically).
     pub fn write(&self, path: impl AsRef<Path>) -> Result<(), WorkflowError> {
-        let text = serde_json::to_string_pretty(self)
-            .unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
-        flexcal_io::write_atomic(path, text).map_err(ElasticError::from)?;
-        Ok(())
+        write_report(self, path.as_ref())
     }
 
     /// Reads a report written by [`ComplianceReport::write`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self, WorkflowError> {
-        let path = path.as_ref();
-        let text = flexcal_io::read_to_string(path).map_err(ElasticError::from)?;
-        serde_json::from_str(&text).map_err(|e| WorkflowError::Report {
-            path: path.to_path_buf(),
-            message: format!("not a compliance report: {e}"),
-        })
+        read_report(path.as_ref(), "compliance report")
     }
 }

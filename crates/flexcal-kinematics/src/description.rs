@@ -243,6 +243,10 @@ pub enum LoopSolver {
 }
 
 /// A closed loop: cut at a joint, the two frames `cut` must coincide.
+///
+/// Loops close in the order listed; a passive joint on several loops (nested
+/// parallelograms) is an unknown of the first of them, and later loops take
+/// its assembled value as given.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoopDescription {

@@ -22,6 +22,14 @@
 //! In `Theta` of a revolute joint (`R` of a prismatic one) the one symbol
 //! without a value is the joint variable, which must appear with
 //! coefficient 1 (`th2`, `th2 - Pi/2`); it names the actuated coordinate.
+//!
+//! The end frame is the one link frame that carries no other frame; a tree
+//! with several (a hand's fingertips) needs `tip`, and every other leaf's
+//! pose is read from [`crate::Data::frame_pose`]. A loop that is a planar
+//! four-bar (a parallelogram) is closed in closed form on the assembly
+//! branch of the `[home]` configuration when it gives every actuated and
+//! passive joint; other loops follow Newton's method from the home values,
+//! and the import's notes say which.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -585,7 +593,7 @@ fn par_from_str(
             branch: 1,
         })
         .collect();
-    // The end frame: the tip option, or the one link frame that carries no other link.
+    // The end frame: the tip option, or the one link frame that carries no other frame.
     let end_frame = match &options.tip {
         Some(t) => {
             if t.parse::<usize>().map_or(true, |k| k == 0 || k > nf) {
@@ -598,8 +606,10 @@ fn par_from_str(
             t.clone()
         }
         None => {
+            // A link that carries a cut joint or a loop's closing frame is
+            // inside a loop, not at an end.
             let leaves: Vec<String> = (1..=nl)
-                .filter(|k| !frames[..nl].iter().any(|f| f.antecedent == k.to_string()))
+                .filter(|k| !frames.iter().any(|f| f.antecedent == k.to_string()))
                 .map(|k| k.to_string())
                 .collect();
             if leaves.len() != 1 {
@@ -624,11 +634,79 @@ fn par_from_str(
         frames,
         loops,
     };
+    let mut description = description;
+    four_bar_branches(&mut description, &frames_values, values, &mut notes);
     Ok(ImportedRobot {
         description,
         masses: Vec::new(),
         notes,
     })
+}
+
+/// Gives each loop that is a planar four-bar (three passive revolute
+/// joints, see [`LoopSolver::FourBar`]) the closed form on the assembly
+/// branch of the home configuration, so that every configuration is
+/// assembled on that branch: Newton's method from the home configuration
+/// alone can land on the other assembly (a parallelogram's crossed one)
+/// after a move of a few tenths of a radian. Loops are taken in order (a
+/// later loop may rest on an earlier one's joints); a loop that is no
+/// four-bar, or a home configuration that is incomplete or that neither
+/// branch reproduces, keeps Newton's method from the home values.
+fn four_bar_branches(
+    description: &mut RobotDescription,
+    frames_values: &[FrameValues],
+    values: &Values,
+    notes: &mut Vec<String>,
+) {
+    let home_of_frame = |frame: &str| -> Option<f64> {
+        let k = frame.parse::<usize>().ok()?;
+        let variable = frames_values.get(k.checked_sub(1)?)?.variable.as_ref()?;
+        values.home.get(variable).copied()
+    };
+    for i in 0..description.loops.len() {
+        for branch in [1, -1] {
+            let mut trial = description.clone();
+            trial.loops[i].solver = LoopSolver::FourBar;
+            trial.loops[i].branch = branch;
+            let Ok(model) = trial.build() else {
+                break;
+            };
+            let home_q: Option<Vec<f64>> = model
+                .actuated_names()
+                .iter()
+                .map(|n| values.home.get(n).copied())
+                .collect();
+            let Some(home_q) = home_q else {
+                break;
+            };
+            let mut data = crate::Data::new(&model);
+            if crate::forward_frames(&model, &mut data, &home_q, model.nominal_params()).is_err() {
+                continue;
+            }
+            let at_home =
+                model
+                    .passive_names()
+                    .iter()
+                    .zip(data.passive_values())
+                    .all(|(frame, v)| match home_of_frame(frame) {
+                        // Revolute values that differ by whole turns are one configuration.
+                        Some(h) => {
+                            let d =
+                                (v - h + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU);
+                            (d - std::f64::consts::PI).abs() < 1e-6
+                        }
+                        None => true,
+                    });
+            if at_home {
+                *description = trial;
+                notes.push(format!(
+                    "loop{} is a planar four-bar: closed form on branch {branch}, the home configuration's",
+                    i + 1
+                ));
+                break;
+            }
+        }
+    }
 }
 
 #[cfg(test)]

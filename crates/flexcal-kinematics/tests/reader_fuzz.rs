@@ -34,11 +34,43 @@ fn exercise(description: &RobotDescription) {
     }
 }
 
+/// The mutants read by one reader: valid robots (each built and evaluated,
+/// [`exercise`]) and errors, each of which must say what was wrong (and
+/// start with `error_prefix`, the file's name, where the reader names it).
+#[derive(Default)]
+struct Outcomes {
+    valid: usize,
+    errors: usize,
+}
+
+impl Outcomes {
+    fn count(
+        &mut self,
+        result: Result<&RobotDescription, impl std::fmt::Display>,
+        error_prefix: &str,
+    ) {
+        match result {
+            Ok(description) => {
+                self.valid += 1;
+                exercise(description);
+            }
+            Err(e) => {
+                self.errors += 1;
+                let message = e.to_string();
+                assert!(
+                    !message.is_empty() && message.starts_with(error_prefix),
+                    "{message}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn urdf_reader_survives_mutated_files() {
     let sources = [data("urdf/edge_cases.urdf"), data("urdf/irb6640_like.urdf")];
     let mut mutator = TextMutator::new(16);
-    let (mut valid, mut errors) = (0, 0);
+    let mut outcomes = Outcomes::default();
     for case in 0..CASES {
         let text = mutator.mutate(&sources[case % sources.len()]);
         match UrdfRobot::parse(&text, "fuzz.urdf") {
@@ -47,23 +79,13 @@ fn urdf_reader_survives_mutated_files() {
                     tip: Some("tip".into()).filter(|_| case % 3 != 0),
                     ..ImportOptions::default()
                 };
-                match ImportedRobot::from_urdf(&robot, &options) {
-                    Ok(imported) => {
-                        valid += 1;
-                        exercise(&imported.description);
-                    }
-                    Err(e) => {
-                        errors += 1;
-                        assert!(!e.to_string().is_empty());
-                    }
-                }
+                let imported = ImportedRobot::from_urdf(&robot, &options);
+                outcomes.count(imported.as_ref().map(|i| &i.description), "");
             }
-            Err(e) => {
-                errors += 1;
-                assert!(e.to_string().starts_with("fuzz.urdf:"), "{e}");
-            }
+            Err(e) => outcomes.count(Err(e), "fuzz.urdf:"),
         }
     }
+    let Outcomes { valid, errors } = outcomes;
     println!("URDF: {valid} valid, {errors} named errors of {CASES}");
     assert_eq!(valid + errors, CASES);
 }
@@ -75,20 +97,13 @@ fn toml_reader_survives_mutated_files() {
         RobotDescription::builtin("ur10").unwrap().to_toml_string(),
     ];
     let mut mutator = TextMutator::new(17);
-    let (mut valid, mut errors) = (0, 0);
+    let mut outcomes = Outcomes::default();
     for case in 0..CASES {
         let text = mutator.mutate(&sources[case % sources.len()]);
-        match RobotDescription::from_toml_str(&text, "fuzz.toml") {
-            Ok(description) => {
-                valid += 1;
-                exercise(&description);
-            }
-            Err(e) => {
-                errors += 1;
-                assert!(e.to_string().starts_with("fuzz.toml:"), "{e}");
-            }
-        }
+        let description = RobotDescription::from_toml_str(&text, "fuzz.toml");
+        outcomes.count(description.as_ref(), "fuzz.toml:");
     }
+    let Outcomes { valid, errors } = outcomes;
     println!("TOML: {valid} valid, {errors} named errors of {CASES}");
 }
 
@@ -109,7 +124,7 @@ fn par_reader_survives_mutated_files() {
         data("symoro/fourbar.par"),
     ];
     let mut mutator = TextMutator::new(18);
-    let (mut valid, mut errors) = (0, 0);
+    let mut outcomes = Outcomes::default();
     for case in 0..CASES {
         let text = mutator.mutate(&sources[case % sources.len()]);
         let options = ImportOptions {
@@ -117,16 +132,9 @@ fn par_reader_survives_mutated_files() {
             tip: Some("2".into()).filter(|_| case % 3 == 2),
             ..ImportOptions::default()
         };
-        match ImportedRobot::from_par_str(&text, "fuzz.par", &options) {
-            Ok(imported) => {
-                valid += 1;
-                exercise(&imported.description);
-            }
-            Err(e) => {
-                errors += 1;
-                assert!(!e.to_string().is_empty());
-            }
-        }
+        let imported = ImportedRobot::from_par_str(&text, "fuzz.par", &options);
+        outcomes.count(imported.as_ref().map(|i| &i.description), "");
     }
+    let Outcomes { valid, errors } = outcomes;
     println!(".par: {valid} valid, {errors} named errors of {CASES}");
 }

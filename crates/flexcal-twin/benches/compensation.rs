@@ -13,7 +13,6 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::Vector3;
 
 use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, Load, PATH_POINTS};
 
@@ -29,14 +28,9 @@ fn bench(c: &mut Criterion) {
             format!("one path point from scratch, {}, 920 N", elastic.label()),
             |b| {
                 b.iter(|| {
-                    egm.compensate_pose(
-                        &mut data,
-                        black_box(&fixture.middle_target),
-                        &fixture.middle_seed,
-                        &Vector3::zeros(),
-                        &fixture.options,
-                    )
-                    .expect("reachable point")
+                    fixture
+                        .compensate_middle_point(&egm, &mut data)
+                        .expect("reachable point")
                 })
             },
         );

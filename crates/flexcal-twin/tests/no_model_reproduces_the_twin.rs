@@ -7,7 +7,6 @@
 //! covered with the demo study in the `flexcal` crate, where the IR-663's
 //! mass table lives.
 
-use flexcal_calib::{CalibrationOptions, FrameTreatment, calibrate};
 use flexcal_elastic::campaign::{DeflectionMeasurement, read_campaign_dir};
 use flexcal_elastic::description::ElasticDescription;
 use flexcal_elastic::fuzzy_compliance::{
@@ -19,7 +18,7 @@ use flexcal_elastic::identify::{
 use flexcal_elastic::metrics::per_load_metrics;
 use flexcal_elastic::model::ElasticModel;
 use flexcal_twin::elastic::{ElasticCampaignOptions, write_elastic_campaign};
-use flexcal_twin::geometric::{GeometricCampaignOptions, geometric_campaign};
+use flexcal_twin::geometric::model_class_residuals;
 use flexcal_twin::truth::TruthSwitches;
 
 /// Residuals this far above zero are the twin's, not the solvers'.
@@ -32,55 +31,21 @@ fn noise_free() -> TruthSwitches {
     }
 }
 
-/// RMS position residual (m) of the geometric calibration on its own
-/// identification poses.
-fn geometric_residual(switches: TruthSwitches) -> f64 {
-    let campaign = geometric_campaign(&GeometricCampaignOptions {
-        seed: 2,
-        switches,
-        ..GeometricCampaignOptions::default()
-    })
-    .unwrap();
-    let model = &campaign.model;
-    let mut options = CalibrationOptions::for_model(model);
-    options.measurement_frame = FrameTreatment::Identify;
-    options.target = FrameTreatment::Fixed;
-    let calibration = calibrate(model, &campaign.identification, &options).unwrap();
-    let fit = calibration
-        .validate(model, &campaign.identification, false)
-        .unwrap();
-    fit.after.position_rms
-}
-
 #[test]
 fn the_geometric_model_cannot_reproduce_the_twin() {
-    let all = geometric_residual(noise_free());
-    // Its own class: geometric errors and the camera frame only.
-    let geometric_only = TruthSwitches {
-        gravity: false,
-        drive_nonlinearity: false,
-        transmission_errors: false,
-        ..noise_free()
-    };
-    let own_class = geometric_residual(geometric_only);
-    println!(
-        "geometric calibration, noise-free identification RMS: {:.2} um with every term, {:.4} um with geometry and frame only",
-        all * 1e6,
-        own_class * 1e6
+    let residuals = model_class_residuals(&|_, _| {}).unwrap();
+    println!("geometric calibration, {residuals}");
+    assert!(
+        residuals.own_class < 0.05e-6,
+        "the model fits its own class: {}",
+        residuals.own_class
     );
     assert!(
-        own_class < 0.05e-6,
-        "the model fits its own class: {own_class}"
+        residuals.all_terms > WELL_ABOVE_ZERO_M,
+        "{}",
+        residuals.all_terms
     );
-    assert!(all > WELL_ABOVE_ZERO_M, "{all}");
-    let mut causes = Vec::new();
-    for term in ["gravity", "drive_nonlinearity", "transmission_errors"] {
-        let alone = geometric_residual(geometric_only.with(term, true).unwrap());
-        println!("  {term} alone: {:.2} um", alone * 1e6);
-        if alone > WELL_ABOVE_ZERO_M {
-            causes.push(term);
-        }
-    }
+    let causes = residuals.causes(WELL_ABOVE_ZERO_M);
     println!("terms the geometric model cannot absorb: {causes:?}");
     assert!(causes.contains(&"transmission_errors"), "{causes:?}");
     assert!(causes.contains(&"gravity"), "{causes:?}");

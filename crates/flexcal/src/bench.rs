@@ -381,16 +381,7 @@ fn compensation(budget: Duration, timings: &mut Vec<Timing>) -> Result<(), Bench
             budget,
             1,
             || {
-                black_box(
-                    egm.compensate_pose(
-                        &mut data,
-                        black_box(&fixture.middle_target),
-                        &fixture.middle_seed,
-                        &Vector3::zeros(),
-                        &fixture.options,
-                    )
-                    .ok(),
-                );
+                black_box(fixture.compensate_middle_point(&egm, &mut data).ok());
             },
         ));
         for load in Load::ALL {

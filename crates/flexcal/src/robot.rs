@@ -13,6 +13,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use flexcal_calib::GravityCompliance;
 use flexcal_kinematics::{
     ExportFormat, ImportOptions, ImportedRobot, Model, RobotDescription, builtin_robot_names,
 };
@@ -124,6 +125,28 @@ impl RobotSpec {
             }),
             Self::File(path) => RobotFileFormat::from_path(path)?.read(path, options),
         }
+    }
+
+    /// The link masses of the elasto-geometric model of this robot (built
+    /// as `model`): the mass table file `file` when given, else the masses
+    /// the robot's file holds (a URDF's `<inertial>` elements,
+    /// [`GravityCompliance::from_link_masses`]), else the built-in table of
+    /// a built-in robot ([`GravityCompliance::builtin`]).
+    pub fn mass_table(
+        &self,
+        options: &ImportOptions,
+        model: &Model,
+        file: Option<&Path>,
+    ) -> Result<GravityCompliance, Error> {
+        if let Some(path) = file {
+            return Ok(GravityCompliance::from_toml_file(path)?);
+        }
+        let imported = self.import(options)?;
+        Ok(if imported.masses.is_empty() {
+            GravityCompliance::builtin(model)?
+        } else {
+            GravityCompliance::from_link_masses(model, &imported.masses)?
+        })
     }
 
     /// Reads and builds the robot's model (validated once, then frozen).

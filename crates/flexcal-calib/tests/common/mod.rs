@@ -3,12 +3,15 @@
 #![allow(dead_code)]
 
 use faer::Mat;
-use flexcal_calib::GeometricErrorModel;
-use flexcal_calib::rotation_from_vector;
+use flexcal_calib::{
+    GeometricErrorModel, GravityCompliance, Measurement, MeasurementSet, rotation_from_vector,
+};
+use flexcal_kinematics::{Data, Model, ParamKind, PointLoad, actuated_forces_into, forward_pose};
 use flexcal_optim::{Jacobian, Residuals};
 use nalgebra::{Isometry3, Translation3, Vector3};
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
 
 /// Asserts that the analytic Jacobian of `problem` at `x` matches central
 /// differences with step `step(j)` per unknown: entry by entry within
@@ -73,4 +76,119 @@ pub fn generic_frame_and_target() -> (Isometry3<f64>, Isometry3<f64>) {
             rotation_from_vector(&Vector3::new(0.3, 0.1, -1.2)),
         ),
     )
+}
+
+/// A true geometry: the nominal parameters of `model` moved by up to
+/// +-`length` (m) and +-`angle` (rad), drawn from `rng`.
+pub fn perturbed_geometry(
+    model: &Model,
+    rng: &mut ChaCha8Rng,
+    length: f64,
+    angle: f64,
+) -> Vec<f64> {
+    model
+        .nominal_params()
+        .iter()
+        .zip(model.params())
+        .map(|(v, p)| {
+            v + match p.kind {
+                ParamKind::Length => rng.random_range(-length..length),
+                ParamKind::Angle => rng.random_range(-angle..angle),
+            }
+        })
+        .collect()
+}
+
+/// A robot whose joints deflect under gravity, measured by a tracker in
+/// `frame`, simulated independently of the calibration code: generalised
+/// forces of the link weights of `gravity` and of a payload (a point load
+/// on the flange) by virtual work, then the forward model of the true
+/// geometry `xi` at the deflected joints.
+pub struct GravitySimulation<'a> {
+    pub model: &'a Model,
+    pub gravity: &'a GravityCompliance,
+    /// True geometric parameters.
+    pub xi: &'a [f64],
+    /// True payload mass (kg) and centre in the flange frame (m).
+    pub payload: (f64, Vector3<f64>),
+    /// Pose of the robot base in the tracker frame.
+    pub frame: Isometry3<f64>,
+    /// Gaussian noise per axis (m).
+    pub noise: f64,
+}
+
+impl GravitySimulation<'_> {
+    /// `n` measured positions from `seed`: configurations from `draw`, each
+    /// deflected to `deflect(q, tau)` under the generalised gravity forces
+    /// `tau` (N.m).
+    pub fn measure(
+        &self,
+        n: usize,
+        seed: u64,
+        label: &str,
+        draw: impl Fn(&mut ChaCha8Rng) -> Vec<f64>,
+        deflect: impl Fn(&[f64], &[f64]) -> Vec<f64>,
+    ) -> MeasurementSet {
+        let model = self.model;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let normal = Normal::new(0.0, self.noise.max(1e-300)).unwrap();
+        let mut data = Data::new(model);
+        let mut loads: Vec<PointLoad> = self
+            .gravity
+            .masses
+            .iter()
+            .map(|m| PointLoad {
+                frame: model.frame_index(&m.frame).unwrap(),
+                point: m.center,
+                force: self.gravity.gravity * m.mass,
+            })
+            .collect();
+        loads.push(PointLoad {
+            frame: model.end_frame(),
+            point: self.payload.1,
+            force: self.gravity.gravity * self.payload.0,
+        });
+        let measurements = (0..n)
+            .map(|_| {
+                let q = draw(&mut rng);
+                let mut tau = vec![0.0; model.n_actuated()];
+                actuated_forces_into(
+                    model,
+                    &mut data,
+                    &q,
+                    model.nominal_params(),
+                    &loads,
+                    &mut tau,
+                )
+                .unwrap();
+                let deflected = deflect(&q, &tau);
+                let x = self.frame * forward_pose(model, &mut data, &deflected, self.xi).unwrap();
+                let p = x.translation.vector
+                    + Vector3::from_fn(|_, _| {
+                        if self.noise > 0.0 {
+                            normal.sample(&mut rng)
+                        } else {
+                            0.0
+                        }
+                    });
+                Measurement::new(q, p)
+            })
+            .collect();
+        MeasurementSet::new(label, measurements).unwrap()
+    }
+}
+
+/// `set` with a measured orientation (a rotation vector, rad) near the
+/// predicted ones on every pose, so that orientation rows are checked too.
+pub fn with_orientation(set: &MeasurementSet) -> MeasurementSet {
+    let measurements: Vec<Measurement> = set
+        .measurements()
+        .iter()
+        .map(|m| {
+            let mut m = m.clone();
+            m.orientation = Some(Vector3::new(0.2, -1.0, 0.4));
+            m
+        })
+        .collect();
+    MeasurementSet::new("with orientation", measurements).unwrap()
 }

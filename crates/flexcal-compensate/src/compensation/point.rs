@@ -95,6 +95,19 @@ pub(crate) struct Correction {
 }
 
 impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
+    /// The pose reached at the command `q`, its deflection solved from the
+    /// one `previous` reached at a nearby command.
+    fn reached_from(
+        &self,
+        data: &mut CompensationData<E::Workspace>,
+        q: &[f64],
+        previous: &ActualPose,
+        motion_base: &Vector3<f64>,
+        options: &CompensationOptions,
+    ) -> Result<ActualPose, CompensationError> {
+        self.actual_pose_from_guess(data, q, motion_base, options, Some(&previous.deflection))
+    }
+
     /// Fixed-point correction of the command `q` (whose reached pose is
     /// `actual`) until it reaches `target_base`: `q <- q - J^-1 (S(q) (-)
     /// target)`, the Jacobian reused while it contracts the error well.
@@ -128,13 +141,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
                 refreshed_here = false;
             }
             data.jacobian.correct(q, &error, Some(limits))?;
-            *actual = self.actual_pose_from_guess(
-                data,
-                q,
-                motion_base,
-                options,
-                Some(&actual.deflection),
-            )?;
+            *actual = self.reached_from(data, q, actual, motion_base, options)?;
             error = pose_difference(&actual.x_base_tcp, target_base);
             iterations += 1;
             // Stalled or growing even with a fresh Jacobian: hand over to Newton.
@@ -168,21 +175,9 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
                 let h = 1e-6 * (1.0 + q[j].abs());
                 perturbed.copy_from_slice(q);
                 perturbed[j] += h;
-                let sp = self.actual_pose_from_guess(
-                    data,
-                    &perturbed,
-                    motion_base,
-                    options,
-                    Some(&actual.deflection),
-                )?;
+                let sp = self.reached_from(data, &perturbed, actual, motion_base, options)?;
                 perturbed[j] -= 2.0 * h;
-                let sm = self.actual_pose_from_guess(
-                    data,
-                    &perturbed,
-                    motion_base,
-                    options,
-                    Some(&actual.deflection),
-                )?;
+                let sm = self.reached_from(data, &perturbed, actual, motion_base, options)?;
                 let col = pose_difference(&sp.x_base_tcp, &sm.x_base_tcp) / (2.0 * h);
                 full.set_column(j, &col);
             }
@@ -190,13 +185,7 @@ impl<E: ?Sized + TcpDeflection> ElastoGeometricModel<'_, E> {
             for ((v, s), &(lo, hi)) in q.iter_mut().zip(step.iter()).zip(limits) {
                 *v = (*v - s).clamp(lo, hi);
             }
-            *actual = self.actual_pose_from_guess(
-                data,
-                q,
-                motion_base,
-                options,
-                Some(&actual.deflection),
-            )?;
+            *actual = self.reached_from(data, q, actual, motion_base, options)?;
             error = pose_difference(&actual.x_base_tcp, target_base);
             iterations += 1;
         }

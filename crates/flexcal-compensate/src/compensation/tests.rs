@@ -114,16 +114,7 @@ fn forming_beam_and_robot_are_solved_together() {
         },
     );
     let mut data = egm.data().unwrap();
-    let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
-    let path: Vec<PathPoint> = (0..5)
-        .map(|i| PathPoint {
-            line: i + 2,
-            x_part_tcp: Isometry3::from_parts(
-                Translation3::new(0.58 - 0.05 * i as f64, 0.0, -0.025),
-                down,
-            ),
-        })
-        .collect();
+    let path = crate::path::tool_down_line(0.58, 5);
     let outcomes = egm.compensate_path(&mut data, &path, &SEED, &Default::default());
     let mut previous_error = 0.0;
     for o in &outcomes {

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use super::components::{Axis, ComplianceComponent, FIT_SCALE, InputSpec};
 use super::error::{FuzzyComplianceError, Result};
-use super::model::{FuzzyCompliance, check_unique};
+use super::model::{FuzzyCompliance, check_inputs_and_components};
 use super::samples::ComplianceSample;
 
 /// Settings of [`identify_compliance`].
@@ -129,14 +129,7 @@ pub fn identify_compliance(
             reason: "must be in (0, 1)",
         });
     }
-    if inputs.is_empty() {
-        return Err(FuzzyComplianceError::NoInputs);
-    }
-    if components.is_empty() {
-        return Err(FuzzyComplianceError::NoComponents);
-    }
-    check_unique(inputs.iter().map(|i| i.name.clone()))?;
-    check_unique(components.iter().map(|c| c.name()))?;
+    check_inputs_and_components(inputs, components)?;
     if let Some(c) = components.iter().find(|c| !c.displacement.is_linear()) {
         return Err(FuzzyComplianceError::RotationNotMeasured {
             component: c.name(),

@@ -35,14 +35,7 @@ impl FuzzyCompliance {
         components: Vec<ComplianceComponent>,
         models: Vec<FuzzyModel>,
     ) -> Result<Self> {
-        if inputs.is_empty() {
-            return Err(FuzzyComplianceError::NoInputs);
-        }
-        if components.is_empty() {
-            return Err(FuzzyComplianceError::NoComponents);
-        }
-        check_unique(inputs.iter().map(|i| i.name.clone()))?;
-        check_unique(components.iter().map(|c| c.name()))?;
+        check_inputs_and_components(&inputs, &components)?;
         if models.len() != components.len() {
             return Err(FuzzyComplianceError::Inconsistent {
                 message: format!(
@@ -211,6 +204,21 @@ impl FuzzyCompliance {
             })
             .collect()
     }
+}
+
+/// At least one input and one component, each named once.
+pub(crate) fn check_inputs_and_components(
+    inputs: &[InputSpec],
+    components: &[ComplianceComponent],
+) -> Result<()> {
+    if inputs.is_empty() {
+        return Err(FuzzyComplianceError::NoInputs);
+    }
+    if components.is_empty() {
+        return Err(FuzzyComplianceError::NoComponents);
+    }
+    check_unique(inputs.iter().map(|i| i.name.clone()))?;
+    check_unique(components.iter().map(|c| c.name()))
 }
 
 pub(crate) fn check_unique(names: impl Iterator<Item = String>) -> Result<()> {

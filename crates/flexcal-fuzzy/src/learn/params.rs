@@ -50,6 +50,27 @@ fn rmse(residuals: impl IntoIterator<Item = f64>) -> f64 {
     ErrorStats::from_residuals(residuals).rmse
 }
 
+/// The checks both fits make before their structure search: the test set
+/// has the training set's inputs and is not empty; then the initial
+/// structure over the training inputs' `domains`.
+fn initial_structure(
+    train_inputs: &[String],
+    test_inputs: &[String],
+    test_is_empty: bool,
+    domains: impl FnOnce() -> Result<Vec<(f64, f64)>, FuzzyError>,
+) -> Result<FuzzyStructure, FuzzyError> {
+    if train_inputs != test_inputs {
+        return Err(FuzzyError::InputNames {
+            expected: train_inputs.to_vec(),
+            found: test_inputs.to_vec(),
+        });
+    }
+    if test_is_empty {
+        return Err(FuzzyError::EmptySet { set: "test set" });
+    }
+    FuzzyStructure::initial(train_inputs.to_vec(), &domains()?)
+}
+
 impl FuzzyParams {
     /// Checks every setting.
     pub fn validate(&self) -> Result<(), FuzzyError> {
@@ -67,17 +88,12 @@ impl FuzzyParams {
         progress: &mut dyn FnMut(&SearchProgress),
     ) -> Result<FuzzyFit, FuzzyError> {
         self.validate()?;
-        if train.input_names() != test.input_names() {
-            return Err(FuzzyError::InputNames {
-                expected: train.input_names().to_vec(),
-                found: test.input_names().to_vec(),
-            });
-        }
-        if test.is_empty() {
-            return Err(FuzzyError::EmptySet { set: "test set" });
-        }
-        let domains = train.input_domains("training set")?;
-        let initial = FuzzyStructure::initial(train.input_names().to_vec(), &domains)?;
+        let initial = initial_structure(
+            train.input_names(),
+            test.input_names(),
+            test.is_empty(),
+            || train.input_domains("training set"),
+        )?;
         if train.len() < initial.rule_count() {
             return Err(FuzzyError::TooFewSamples {
                 set: "training set",
@@ -145,17 +161,12 @@ impl FuzzyParams {
                 what: "coefficient columns (models)",
             });
         }
-        if train.input_names() != test.input_names() {
-            return Err(FuzzyError::InputNames {
-                expected: train.input_names().to_vec(),
-                found: test.input_names().to_vec(),
-            });
-        }
-        if test.is_empty() {
-            return Err(FuzzyError::EmptySet { set: "test set" });
-        }
-        let domains = train.input_domains("training set")?;
-        let initial = FuzzyStructure::initial(train.input_names().to_vec(), &domains)?;
+        let initial = initial_structure(
+            train.input_names(),
+            test.input_names(),
+            test.is_empty(),
+            || train.input_domains("training set"),
+        )?;
         let total_rules = initial.rule_count() * output_names.len();
         if train.len() < total_rules {
             return Err(FuzzyError::TooFewSamples {

@@ -309,13 +309,7 @@ fn default_parameters(desc: &RobotDescription) -> Vec<(String, usize, Quantity)>
             push(Quantity::R);
         }
         if f.slider_crank.is_some() {
-            for q in [
-                Quantity::ScrewOffset,
-                Quantity::Kappa,
-                Quantity::Lambda,
-                Quantity::L1,
-                Quantity::L3,
-            ] {
+            for q in Quantity::SLIDER_CRANK {
                 push(q);
             }
         }
@@ -331,13 +325,7 @@ fn parameter_vector(desc: &RobotDescription) -> Result<ParameterVector, Kinemati
             nameable.insert(q.param_name(&f.name), (i, q));
         }
         if f.slider_crank.is_some() {
-            for q in [
-                Quantity::ScrewOffset,
-                Quantity::Kappa,
-                Quantity::Lambda,
-                Quantity::L1,
-                Quantity::L3,
-            ] {
+            for q in Quantity::SLIDER_CRANK {
                 nameable.insert(q.param_name(&f.name), (i, q));
             }
         }
@@ -644,13 +632,10 @@ fn loop_models(
         }
         let mut passive = Vec::new();
         for &f in path_a.iter().chain(path_b.iter()) {
-            if let JointSource::Passive(owner) = frames[f].source {
-                if owner != usize::MAX {
-                    return Err(invalid(format!(
-                        "passive joint `{}` belongs to two loops",
-                        frames[f].name
-                    )));
-                }
+            // A passive joint shared with an earlier loop (nested
+            // parallelograms) is that loop's unknown: loops close in order,
+            // so here it is already assembled and enters like an actuated joint.
+            if let JointSource::Passive(usize::MAX) = frames[f].source {
                 frames[f].source = JointSource::Passive(l);
                 passive.push(f);
                 passive_names.push(frames[f].name.clone());

@@ -50,6 +50,16 @@ impl Quantity {
         Quantity::R,
     ];
 
+    /// The parameters of a slider-crank actuator, on the frame of the joint
+    /// it drives.
+    pub const SLIDER_CRANK: [Quantity; 5] = [
+        Quantity::ScrewOffset,
+        Quantity::Kappa,
+        Quantity::Lambda,
+        Quantity::L1,
+        Quantity::L3,
+    ];
+
     /// Whether the quantity is a length or an angle.
     pub fn kind(self) -> ParamKind {
         match self {

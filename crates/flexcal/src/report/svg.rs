@@ -254,6 +254,38 @@ pub enum YScale {
     Log,
 }
 
+/// The padded range of the values of a y axis, whole decades apart on a
+/// log axis (`values` are then positive).
+fn y_range(values: impl Iterator<Item = f64>, log_y: bool, include_zero: bool) -> (f64, f64) {
+    if log_y {
+        let (lo, hi) = padded_range(values.map(f64::log10), false);
+        (10f64.powf(lo), 10f64.powf(hi))
+    } else {
+        padded_range(values, include_zero)
+    }
+}
+
+/// Starts a chart with numeric axes over `frame`.
+fn open_chart(title: &str, frame: &Frame, x_label: &str, y_label: &str) -> String {
+    let mut out = String::new();
+    open_svg(&mut out, title);
+    let x_ticks: Vec<(f64, String)> = nice_ticks(frame.x_lo, frame.x_hi, 8)
+        .into_iter()
+        .map(|t| (t, format_tick(t)))
+        .collect();
+    axes(&mut out, frame, x_label, y_label, &x_ticks);
+    out
+}
+
+/// Ends a chart of `n_series` series: the legend when there are several.
+fn close_chart(mut out: String, labels: &[(String, &str, bool)], n_series: usize) -> String {
+    if n_series > 1 {
+        legend(&mut out, labels);
+    }
+    out.push_str("</svg>");
+    out
+}
+
 /// A line chart of several series. On a log scale, non-positive values are skipped.
 pub fn line_chart(
     title: &str,
@@ -270,12 +302,7 @@ pub fn line_chart(
             .flat_map(|s| s.points.iter().copied().filter(usable))
     };
     let (x_lo, x_hi) = padded_range(all().map(|p| p.0), false);
-    let (y_lo, y_hi) = if log_y {
-        let (lo, hi) = padded_range(all().map(|p| p.1.log10()), false);
-        (10f64.powf(lo), 10f64.powf(hi))
-    } else {
-        padded_range(all().map(|p| p.1), false)
-    };
+    let (y_lo, y_hi) = y_range(all().map(|p| p.1), log_y, false);
     let frame = Frame {
         x_lo,
         x_hi,
@@ -283,13 +310,7 @@ pub fn line_chart(
         y_hi,
         log_y,
     };
-    let mut out = String::new();
-    open_svg(&mut out, title);
-    let x_ticks: Vec<(f64, String)> = nice_ticks(x_lo, x_hi, 8)
-        .into_iter()
-        .map(|t| (t, format_tick(t)))
-        .collect();
-    axes(&mut out, &frame, x_label, y_label, &x_ticks);
+    let mut out = open_chart(title, &frame, x_label, y_label);
     let mut labels = Vec::new();
     for (i, s) in series.iter().enumerate() {
         let colour = PALETTE[i % PALETTE.len()];
@@ -323,11 +344,7 @@ pub fn line_chart(
         }
         labels.push((s.label.clone(), colour, s.dashed));
     }
-    if series.len() > 1 {
-        legend(&mut out, &labels);
-    }
-    out.push_str("</svg>");
-    out
+    close_chart(out, &labels, series.len())
 }
 
 /// A grouped bar chart: one group per category, one bar per series in each
@@ -346,12 +363,7 @@ pub fn bar_chart(
         .flatten()
         .copied()
         .filter(|v| v.is_finite() && (!log_y || *v > 0.0));
-    let (y_lo, y_hi) = if log_y {
-        let (lo, hi) = padded_range(finite.map(f64::log10), false);
-        (10f64.powf(lo), 10f64.powf(hi))
-    } else {
-        padded_range(finite, true)
-    };
+    let (y_lo, y_hi) = y_range(finite, log_y, true);
     let n_cat = categories.len().max(1);
     let frame = Frame {
         x_lo: 0.0,
@@ -413,11 +425,7 @@ pub fn bar_chart(
             false,
         ));
     }
-    if values.len() > 1 {
-        legend(&mut out, &labels);
-    }
-    out.push_str("</svg>");
-    out
+    close_chart(out, &labels, values.len())
 }
 
 /// A heat map of a scalar over a regular grid: `values[row][col]` at
@@ -461,13 +469,7 @@ pub fn heat_map(
         );
         format!("rgb({:.0},{:.0},{:.0})", r, g, b)
     };
-    let mut out = String::new();
-    open_svg(&mut out, title);
-    let x_ticks: Vec<(f64, String)> = nice_ticks(x_lo, x_hi, 8)
-        .into_iter()
-        .map(|t| (t, format_tick(t)))
-        .collect();
-    axes(&mut out, &frame, x_label, y_label, &x_ticks);
+    let mut out = open_chart(title, &frame, x_label, y_label);
     let half = |v: &[f64], i: usize| -> (f64, f64) {
         let left = if i > 0 {
             (v[i] - v[i - 1]) / 2.0
