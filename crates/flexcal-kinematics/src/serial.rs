@@ -1,0 +1,322 @@
+//! Forward model of a serial chain, precomputed for one parameter vector:
+//! the fast path for evaluating many configurations at fixed xi.
+//!
+//! [`forward_pose`](crate::forward_pose) handles every robot flexcal
+//! describes (trees, closed loops, couplings, slider cranks) and keeps every
+//! frame's pose in a [`Data`](crate::Data) for the Jacobians that follow.
+//! When only the TCP pose of a serial chain is wanted, at many
+//! configurations and one xi, most of that work is constant: a
+//! [`SerialChain`] multiplies out, once, everything of the frame transforms
+//! (41) that does not depend on q (fixed frames and the tool transform
+//! included), so that each call evaluates only the joints' `Rz(theta)
+//! Tz(r)` and one 3 x 4 product per joint. It does not allocate, keeps no
+//! state between calls and is shared by threads as is.
+//!
+//! ```
+//! use flexcal_kinematics::{Data, RobotDescription, SerialChain, forward_pose};
+//!
+//! let model = RobotDescription::builtin("ur10")?.build()?;
+//! let xi = model.nominal_params();
+//! let chain = SerialChain::new(&model, xi)?;
+//! let q = [0.1, -1.2, 1.0, -0.5, 1.3, 0.2];
+//! let x_base_tcp = chain.matrix(&q)?; // homogeneous 4 x 4, m
+//! let reference = forward_pose(&model, &mut Data::new(&model), &q, xi)?.to_homogeneous();
+//! assert!((x_base_tcp - reference).abs().max() < 1e-12);
+//! # Ok::<(), flexcal_kinematics::KinematicsError>(())
+//! ```
+//!
+//! Limitations: robots with closed loops, and robots whose TCP path holds a
+//! coupled or slider-crank joint, are refused
+//! ([`KinematicsError::NotSerial`]); use [`forward_pose`](crate::forward_pose)
+//! for them. The chain is built for one xi: a new xi needs a new chain
+//! (building one costs about as much as a few forward calls).
+
+use nalgebra::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+use crate::KinematicsError;
+use crate::description::JointType;
+use crate::error::check_vector;
+use crate::model::{JointSource, Model};
+use crate::pose::Pose;
+
+/// A rigid transform as three rotation columns and a translation, with the
+/// products written out (3 x 3 and 3 x 4 sizes do not gain from a generic
+/// product).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Rigid {
+    /// Columns of the rotation: `columns[c][row]`.
+    columns: [[f64; 3]; 3],
+    /// Translation (m).
+    p: [f64; 3],
+}
+
+impl Rigid {
+    const IDENTITY: Rigid = Rigid {
+        columns: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        p: [0.0; 3],
+    };
+
+    fn from_pose(pose: &Pose) -> Rigid {
+        let m = &pose.r.data.0;
+        Rigid {
+            columns: *m,
+            p: [pose.p.x, pose.p.y, pose.p.z],
+        }
+    }
+
+    /// `self.rotation * v`.
+    #[inline(always)]
+    fn rotate(&self, v: &[f64; 3]) -> [f64; 3] {
+        let a = &self.columns;
+        [
+            a[0][0] * v[0] + a[1][0] * v[1] + a[2][0] * v[2],
+            a[0][1] * v[0] + a[1][1] * v[1] + a[2][1] * v[2],
+            a[0][2] * v[0] + a[1][2] * v[1] + a[2][2] * v[2],
+        ]
+    }
+
+    /// `self * other`.
+    #[inline(always)]
+    fn then(&self, other: &Rigid) -> Rigid {
+        let t = self.rotate(&other.p);
+        Rigid {
+            columns: [
+                self.rotate(&other.columns[0]),
+                self.rotate(&other.columns[1]),
+                self.rotate(&other.columns[2]),
+            ],
+            p: [self.p[0] + t[0], self.p[1] + t[1], self.p[2] + t[2]],
+        }
+    }
+
+    /// `self * Rz(theta) Tz(r)` with `(sin, cos)` of theta: only the first
+    /// two columns mix, and the translation moves along the third.
+    #[inline(always)]
+    fn then_joint(&self, sin: f64, cos: f64, r: f64) -> Rigid {
+        let [c0, c1, c2] = &self.columns;
+        Rigid {
+            columns: [
+                [
+                    cos * c0[0] + sin * c1[0],
+                    cos * c0[1] + sin * c1[1],
+                    cos * c0[2] + sin * c1[2],
+                ],
+                [
+                    cos * c1[0] - sin * c0[0],
+                    cos * c1[1] - sin * c0[1],
+                    cos * c1[2] - sin * c0[2],
+                ],
+                *c2,
+            ],
+            p: [
+                self.p[0] + r * c2[0],
+                self.p[1] + r * c2[1],
+                self.p[2] + r * c2[2],
+            ],
+        }
+    }
+}
+
+/// How a joint of the chain moves with its actuated coordinate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Motion {
+    /// `Rz(theta + q) Tz(r)`: theta, r constant (rad, m).
+    Revolute { theta: f64, r: f64 },
+    /// `Rz(theta) Tz(r + q)`: sin and cos of the constant theta, r (m).
+    Prismatic { sin: f64, cos: f64, r: f64 },
+}
+
+/// One actuated joint: the constant transform from the previous joint's
+/// frame (or R0) to this joint's `Rz Tz`, and the motion itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Joint {
+    before: Rigid,
+    q_index: usize,
+    motion: Motion,
+}
+
+/// The forward model `x_base_tcp(q)` of a serial chain at one parameter
+/// vector xi, with every constant part of the frame transforms (41)
+/// multiplied out (see the [module docs](self)). Immutable; `Send + Sync`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SerialChain {
+    n_actuated: usize,
+    joints: Vec<Joint>,
+    /// Last joint's frame (or R0) to the TCP; `None` when it is the identity.
+    tail: Option<Rigid>,
+}
+
+impl SerialChain {
+    /// The chain of `model` from R0 to its TCP at parameters `xi` (m, rad;
+    /// length [`Model::n_params`]). Refuses, by name, a robot with closed
+    /// loops or with a coupled or slider-crank joint on the TCP path
+    /// ([`KinematicsError::NotSerial`]), and a wrong-length or non-finite xi.
+    pub fn new(model: &Model, xi: &[f64]) -> Result<Self, KinematicsError> {
+        check_vector("xi", xi, model.n_params())?;
+        if let Some(l) = model.loops.first() {
+            return Err(KinematicsError::NotSerial {
+                robot: model.name.clone(),
+                reason: format!("it has the closed loop `{}`", l.name),
+            });
+        }
+        let mut joints = Vec::new();
+        // Constant transform accumulated since the last actuated joint.
+        let mut pending = Rigid::IDENTITY;
+        for &f in &model.tcp_path {
+            let frame = &model.frames[f];
+            let part = frame.constant_part(xi);
+            pending = pending.then(&Rigid::from_pose(&part.pre));
+            match (frame.source, frame.joint) {
+                (JointSource::Fixed, _) | (_, JointType::Fixed) => {
+                    let (sin, cos) = part.theta.sin_cos();
+                    pending = pending.then_joint(sin, cos, part.r);
+                }
+                (JointSource::Actuated(q_index), joint) => {
+                    let motion = if joint == JointType::Prismatic {
+                        let (sin, cos) = part.theta.sin_cos();
+                        Motion::Prismatic {
+                            sin,
+                            cos,
+                            r: part.r,
+                        }
+                    } else {
+                        Motion::Revolute {
+                            theta: part.theta,
+                            r: part.r,
+                        }
+                    };
+                    joints.push(Joint {
+                        before: pending,
+                        q_index,
+                        motion,
+                    });
+                    pending = Rigid::IDENTITY;
+                }
+                _ => {
+                    return Err(KinematicsError::NotSerial {
+                        robot: model.name.clone(),
+                        reason: format!(
+                            "the joint of frame `{}` on the path to the TCP is not driven directly by an actuated coordinate",
+                            frame.name
+                        ),
+                    });
+                }
+            }
+        }
+        pending = pending.then(&Rigid::from_pose(&model.tool_pose));
+        let tail = (pending != Rigid::IDENTITY).then_some(pending);
+        Ok(SerialChain {
+            n_actuated: model.n_actuated(),
+            joints,
+            tail,
+        })
+    }
+
+    /// Number of actuated coordinates: the length of q.
+    pub fn n_actuated(&self) -> usize {
+        self.n_actuated
+    }
+
+    /// `x_base_tcp` at `q`, unchecked.
+    #[inline]
+    fn evaluate(&self, q: &[f64]) -> Rigid {
+        let mut x = Rigid::IDENTITY;
+        for (k, joint) in self.joints.iter().enumerate() {
+            // The first joint starts from its constant part: no product.
+            let before = if k == 0 {
+                joint.before
+            } else {
+                x.then(&joint.before)
+            };
+            let value = q[joint.q_index];
+            x = match joint.motion {
+                Motion::Revolute { theta, r } => {
+                    let (sin, cos) = (theta + value).sin_cos();
+                    before.then_joint(sin, cos, r)
+                }
+                Motion::Prismatic { sin, cos, r } => before.then_joint(sin, cos, r + value),
+            };
+        }
+        match &self.tail {
+            Some(tail) if self.joints.is_empty() => *tail,
+            Some(tail) => x.then(tail),
+            None => x,
+        }
+    }
+
+    fn checked(&self, q: &[f64]) -> Result<Rigid, KinematicsError> {
+        check_vector("q", q, self.n_actuated)?;
+        Ok(self.evaluate(q))
+    }
+
+    /// `x_base_tcp` at `q` (rad, m; length [`SerialChain::n_actuated`]) as a
+    /// homogeneous 4 x 4 matrix (translation in m): the same transform as
+    /// [`forward_pose`](crate::forward_pose) at this chain's xi, to rounding.
+    pub fn matrix(&self, q: &[f64]) -> Result<Matrix4<f64>, KinematicsError> {
+        let x = self.checked(q)?;
+        let [c0, c1, c2] = x.columns;
+        let p = x.p;
+        Ok(Matrix4::new(
+            c0[0], c1[0], c2[0], p[0], //
+            c0[1], c1[1], c2[1], p[1], //
+            c0[2], c1[2], c2[2], p[2], //
+            0.0, 0.0, 0.0, 1.0,
+        ))
+    }
+
+    /// `x_base_tcp` at `q` as a rotation and translation (m): the result of
+    /// [`forward_pose`](crate::forward_pose) at this chain's xi, to rounding.
+    pub fn pose(&self, q: &[f64]) -> Result<Isometry3<f64>, KinematicsError> {
+        let x = self.checked(q)?;
+        let [c0, c1, c2] = x.columns;
+        let r = Matrix3::from_columns(&[Vector3::from(c0), Vector3::from(c1), Vector3::from(c2)]);
+        let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+        Ok(Isometry3::from_parts(
+            Translation3::from(Vector3::from(x.p)),
+            rotation,
+        ))
+    }
+
+    /// `x_base_tcp` of every row of `q` (row-major, n rows of
+    /// [`SerialChain::n_actuated`] values, rad and m) written into `out` as n
+    /// row-major homogeneous 4 x 4 matrices (16 values per row, m). Lengths
+    /// are checked, and every value of `q` must be finite (the first that is
+    /// not is named by its row and column).
+    pub fn matrices_into(&self, q: &[f64], out: &mut [f64]) -> Result<(), KinematicsError> {
+        let n = out.len() / 16;
+        if out.len() != 16 * n {
+            return Err(KinematicsError::WrongLength {
+                what: "output (16 values per configuration)".into(),
+                expected: 16 * (n + 1),
+                found: out.len(),
+            });
+        }
+        if q.len() != n * self.n_actuated {
+            return Err(KinematicsError::WrongLength {
+                what: format!(
+                    "q ({n} rows of {} values, one per output matrix)",
+                    self.n_actuated
+                ),
+                expected: n * self.n_actuated,
+                found: q.len(),
+            });
+        }
+        for (row, values) in out.chunks_exact_mut(16).enumerate() {
+            let q_row = &q[row * self.n_actuated..(row + 1) * self.n_actuated];
+            if let Some(c) = q_row.iter().position(|v| !v.is_finite()) {
+                return Err(KinematicsError::NotFinite {
+                    what: format!("q[{row}, {c}]"),
+                });
+            }
+            let x = self.evaluate(q_row);
+            let [c0, c1, c2] = x.columns;
+            values.copy_from_slice(&[
+                c0[0], c1[0], c2[0], x.p[0], //
+                c0[1], c1[1], c2[1], x.p[1], //
+                c0[2], c1[2], c2[2], x.p[2], //
+                0.0, 0.0, 0.0, 1.0,
+            ]);
+        }
+        Ok(())
+    }
+}
