@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use flexcal::kinematics::{
     Data, InverseOptions, InverseTarget, KinematicsError as KinError, Model, ParamKind,
-    RobotDescription, builtin_robot_names, forward_pose, inverse_pose, joint_jacobian_into,
-    param_jacobian_into,
+    RobotDescription, SerialChain, builtin_robot_names, forward_pose, inverse_pose,
+    joint_jacobian_into, param_jacobian_into,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
 use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
@@ -157,15 +157,6 @@ where
         per_row(model, &mut data, q.row(row), values).map_err(|e| Failure::KinematicsAt(row, e))?;
     }
     Ok(())
-}
-
-fn write_matrix(x: &Isometry3<f64>, out: &mut [f64]) {
-    let m = x.to_homogeneous();
-    for r in 0..4 {
-        for c in 0..4 {
-            out[4 * r + c] = m[(r, c)];
-        }
-    }
 }
 
 fn write_pose(x: &Isometry3<f64>, out: &mut [f64]) {
@@ -395,21 +386,33 @@ impl Robot {
     ) -> PyResult<Py<PyAny>> {
         let q = self.configurations(&q)?;
         let xi = self.xi(xi)?;
+        // A serial chain takes the precomputed path; other robots (closed
+        // loops, couplings on the TCP path) the general forward model.
+        let chain = SerialChain::new(&self.model, &xi).ok();
+        let pose_at = |m: &Model, d: &mut Data, q: &[f64]| match &chain {
+            Some(chain) => chain.pose(q),
+            None => forward_pose(m, d, q, &xi),
+        };
         match output {
             "matrix" => {
                 let out = batched(py, &self.model, &q, 16, threads, |m, d, q, out| {
-                    write_matrix(&forward_pose(m, d, q, &xi)?, out);
+                    let x = match &chain {
+                        Some(chain) => chain.matrix(q)?,
+                        None => forward_pose(m, d, q, &xi)?.to_homogeneous(),
+                    };
+                    // nalgebra stores column-major; NumPy wants rows.
+                    out.copy_from_slice(x.transpose().as_slice());
                     Ok(())
                 })?;
                 Ok(to_numpy(py, out, &shape(&q, &[4, 4])).into_any().unbind())
             }
             "pose" => {
                 let out = batched(py, &self.model, &q, 7, threads, |m, d, q, out| {
-                    write_pose(&forward_pose(m, d, q, &xi)?, out);
+                    write_pose(&pose_at(m, d, q)?, out);
                     Ok(())
                 })?;
-                let positions = out.chunks(7).flat_map(|r| r[..3].to_vec()).collect();
-                let quaternions = out.chunks(7).flat_map(|r| r[3..].to_vec()).collect();
+                let positions = out.chunks(7).flat_map(|r| r[..3].iter().copied()).collect();
+                let quaternions = out.chunks(7).flat_map(|r| r[3..].iter().copied()).collect();
                 let p = to_numpy(py, positions, &shape(&q, &[3]));
                 let r = to_numpy(py, quaternions, &shape(&q, &[4]));
                 Ok((p, r).into_pyobject(py)?.into_any().unbind())
