@@ -74,6 +74,29 @@ impl Robot {
     fn configurations(&self, q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<Rows> {
         rows("q", q, self.model.n_actuated())
     }
+
+    /// A 6 x `columns` Jacobian per configuration of `q` at `xi` (nominal
+    /// when None), `per_row` writing one row-major into its output slice;
+    /// shape (6, columns) or (n, 6, columns).
+    fn jacobians<'py, F>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+        threads: Option<usize>,
+        columns: usize,
+        per_row: F,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>>
+    where
+        F: Fn(&Model, &mut Data, &[f64], &[f64], &mut [f64]) -> Result<(), KinError> + Sync,
+    {
+        let q = self.configurations(&q)?;
+        let xi = self.xi(xi)?;
+        let out = batched(py, &self.model, &q, 6 * columns, threads, |m, d, q, out| {
+            per_row(m, d, q, &xi, out)
+        })?;
+        Ok(to_numpy(py, out, &shape(&q, &[6, columns])))
+    }
 }
 
 /// Evaluates `per_row` on every row of `q`, writing `width` values per row,
@@ -434,16 +457,13 @@ impl Robot {
         xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let q = self.configurations(&q)?;
-        let xi = self.xi(xi)?;
         let na = self.model.n_actuated();
-        let out = batched(py, &self.model, &q, 6 * na, threads, |m, d, q, out| {
+        self.jacobians(py, q, xi, threads, na, |m, d, q, xi, out| {
             let mut jac = Matrix6xX::zeros(na);
-            joint_jacobian_into(m, d, q, &xi, &mut jac)?;
+            joint_jacobian_into(m, d, q, xi, &mut jac)?;
             write_row_major(jac.as_slice(), 6, na, out);
             Ok(())
-        })?;
-        Ok(to_numpy(py, out, &shape(&q, &[6, na])))
+        })
     }
 
     /// Parameter Jacobian d[p_tcp; phi]/dxi (equations (49)-(52) of Marie,
@@ -458,16 +478,13 @@ impl Robot {
         xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let q = self.configurations(&q)?;
-        let xi = self.xi(xi)?;
         let np = self.model.n_params();
-        let out = batched(py, &self.model, &q, 6 * np, threads, |m, d, q, out| {
+        self.jacobians(py, q, xi, threads, np, |m, d, q, xi, out| {
             let mut jac = DMatrix::zeros(6, np);
-            param_jacobian_into(m, d, q, &xi, &mut jac)?;
+            param_jacobian_into(m, d, q, xi, &mut jac)?;
             write_row_major(jac.as_slice(), 6, np, out);
             Ok(())
-        })?;
-        Ok(to_numpy(py, out, &shape(&q, &[6, np])))
+        })
     }
 
     /// Inverse model: the actuated coordinates (dof,) that bring the TCP to
