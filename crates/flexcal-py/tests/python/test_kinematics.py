@@ -118,3 +118,11 @@ def test_toml_round_trip(ur10, tmp_path):
     np.testing.assert_allclose(again.nominal, ur10.nominal, atol=1e-12)
     q = configurations(ur10, 10, seed=4)
     np.testing.assert_allclose(again.fk(q), ur10.fk(q), atol=1e-12)
+
+
+def test_fk_reads_non_contiguous_arrays(ur10):
+    q = configurations(ur10, 50, seed=5)
+    expected = ur10.fk(q)
+    np.testing.assert_array_equal(ur10.fk(np.asfortranarray(q)), expected)
+    np.testing.assert_array_equal(ur10.fk(q[::2]), expected[::2])
+    np.testing.assert_array_equal(ur10.fk(q.T.copy().T), expected)
