@@ -119,7 +119,10 @@ fn sin_cos(x: f64) -> (f64, f64) {
     if x.is_nan() || x.abs() >= 1e5 {
         return x.sin_cos();
     }
-    let n = (x * std::f64::consts::FRAC_2_PI).round();
+    // Nearest integer to x 2/pi by adding and removing 1.5 * 2^52 (exact
+    // for |x 2/pi| < 2^51): `round` is a library call on baseline x86-64.
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let n = (x * std::f64::consts::FRAC_2_PI + SHIFT) - SHIFT;
     let r = (x - n * PIO2_HI) - n * PIO2_LO;
     let z = r * r;
     let sin_r = r + r * z * (S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5])))));
@@ -156,6 +159,21 @@ struct Joint {
     before: Rigid,
     q_index: usize,
     motion: Motion,
+}
+
+impl Joint {
+    /// Previous joint's frame (or R0) to this joint's frame at `q`.
+    #[inline(always)]
+    fn local(&self, q: &[f64]) -> Rigid {
+        let value = q[self.q_index];
+        match self.motion {
+            Motion::Revolute { theta, r } => {
+                let (sin, cos) = sin_cos(theta + value);
+                self.before.then_joint(sin, cos, r)
+            }
+            Motion::Prismatic { sin, cos, r } => self.before.then_joint(sin, cos, r + value),
+        }
+    }
 }
 
 /// The forward model `x_base_tcp(q)` of a serial chain at one parameter
@@ -275,28 +293,15 @@ impl SerialChain {
     /// `x_base_tcp` at `q`, unchecked.
     #[inline]
     fn evaluate(&self, q: &[f64]) -> Rigid {
-        let mut x = Rigid::IDENTITY;
-        for (k, joint) in self.joints.iter().enumerate() {
-            // The first joint starts from its constant part: no product.
-            let before = if k == 0 {
-                joint.before
-            } else {
-                x.then(&joint.before)
-            };
-            let value = q[joint.q_index];
-            x = match joint.motion {
-                Motion::Revolute { theta, r } => {
-                    let (sin, cos) = sin_cos(theta + value);
-                    before.then_joint(sin, cos, r)
-                }
-                Motion::Prismatic { sin, cos, r } => before.then_joint(sin, cos, r + value),
-            };
+        let mut joints = self.joints.iter();
+        // The first joint's transform is the start: no product.
+        let mut x = joints
+            .next()
+            .map_or(Rigid::IDENTITY, |joint| joint.local(q));
+        for joint in joints {
+            x = x.then(&joint.local(q));
         }
-        match &self.tail {
-            Some(tail) if self.joints.is_empty() => *tail,
-            Some(tail) => x.then(tail),
-            None => x,
-        }
+        self.tail.map_or(x, |tail| x.then(&tail))
     }
 
     fn checked(&self, q: &[f64]) -> Result<Rigid, KinematicsError> {
