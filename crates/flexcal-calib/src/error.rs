@@ -122,6 +122,10 @@ pub enum CalibError {
         /// What is wrong.
         reason: String,
     },
+    /// The identification was cancelled through
+    /// [`crate::CalibrationOptions::cancel`] before it finished.
+    #[error("identification cancelled on request")]
+    Cancelled,
     /// A report could not be serialised.
     #[error("cannot serialise {what}: {message}")]
     Serialise {

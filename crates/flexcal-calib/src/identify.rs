@@ -5,9 +5,9 @@ use faer::Mat;
 use faer::prelude::SolveLstsq;
 use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{
-    ColumnScaling, Control, GaussNewton, IdentifiabilityOptions, IdentifiabilityReport,
-    IterationState, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport,
-    analyze_identifiability,
+    CancelToken, ColumnScaling, Control, GaussNewton, IdentifiabilityOptions,
+    IdentifiabilityReport, IterationState, LevenbergMarquardt, ProblemSetup, Residuals,
+    SolveReport, Termination, analyze_identifiability,
 };
 use nalgebra::Isometry3;
 
@@ -137,6 +137,11 @@ pub struct CalibrationOptions {
     /// cost of m residuals being uncertain by about sqrt(2/m) relative;
     /// `>= 0`).
     pub cost_tolerance: f64,
+    /// Cancellation: once this token is cancelled (from any thread), the
+    /// identification stops at the start of the solver's next iteration
+    /// and returns [`CalibError::Cancelled`] (default `None`: runs to the
+    /// end). Model selection passes it to every fit it runs.
+    pub cancel: Option<CancelToken>,
 }
 
 impl Default for CalibrationOptions {
@@ -166,6 +171,7 @@ impl Default for CalibrationOptions {
             require_full_rank: false,
             max_iterations: 100,
             cost_tolerance: 1e-6,
+            cancel: None,
         }
     }
 }
@@ -591,6 +597,15 @@ pub fn calibrate(
     options: &CalibrationOptions,
 ) -> Result<Calibration, CalibError> {
     options.check()?;
+    let cancelled = || {
+        options
+            .cancel
+            .as_ref()
+            .is_some_and(CancelToken::is_cancelled)
+    };
+    if cancelled() {
+        return Err(CalibError::Cancelled);
+    }
     let use_orientation = options.use_orientation.unwrap_or(set.has_orientation());
     let x_tcp_target0 = options
         .target_value
@@ -756,6 +771,10 @@ pub fn calibrate(
     };
     let residual_history = std::cell::RefCell::new(Vec::<ResidualNorms>::new());
     let solve = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
+        // Between two solves (the rounds of the noise-aware rank).
+        if cancelled() {
+            return Err(CalibError::Cancelled);
+        }
         // Frames-only fits skip the robot's parameter Jacobian.
         problem.set_robot_columns(frozen[..model.n_params()].iter().any(|f| !f));
         let setup = ProblemSetup {
@@ -782,17 +801,22 @@ pub fn calibrate(
                     LevenbergMarquardt::params().max_iterations(options.max_iterations);
                 solver.options.max_evaluations = 20 * options.max_iterations;
                 solver.options.cost_tolerance = options.cost_tolerance;
+                solver.options.cancel = options.cancel.clone();
                 solver.solve(&problem, x0, &setup, &mut observer)
             }
             Method::GaussNewton => {
                 let mut solver = GaussNewton::params().max_iterations(options.max_iterations);
                 solver.options.max_evaluations = 20 * options.max_iterations;
                 solver.options.cost_tolerance = options.cost_tolerance;
+                solver.options.cancel = options.cancel.clone();
                 solver.solve(&problem, x0, &setup, &mut observer)
             }
         };
         problem.set_robot_columns(true);
         let report = result.map_err(CalibError::optim("identification"))?;
+        if report.termination == Termination::Cancelled {
+            return Err(CalibError::Cancelled);
+        }
         let mut history = residual_history.borrow_mut();
         let before = history.len();
         let start_cost = report.cost_history.first().copied().unwrap_or(f64::NAN);

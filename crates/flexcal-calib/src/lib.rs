@@ -241,6 +241,8 @@ pub use error::CalibError;
 pub use error_model::{
     FRAME_PARAMETER_NAMES, GeometricErrorModel, TARGET_PARAMETER_NAMES, UnknownKind,
 };
+/// The cancellation token of [`CalibrationOptions::cancel`].
+pub use flexcal_optim::CancelToken;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{GravityCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
 pub use identify::{

@@ -740,7 +740,13 @@ pub fn calibrate_selected(
     if selection.method == SelectionMethod::None {
         return Ok((calibrate(model, set, options)?, None, options.clone()));
     }
-    let (report, chosen) = select_model(model, set, options, selection)?;
+    let (report, chosen) = select_model(model, set, options, selection).map_err(|e| {
+        // A fit cancelled during the search fails its candidate: say why.
+        match &options.cancel {
+            Some(token) if token.is_cancelled() => CalibError::Cancelled,
+            _ => e,
+        }
+    })?;
     Ok((calibrate(model, set, &chosen)?, Some(report), chosen))
 }
 

@@ -1,7 +1,7 @@
 //! Forward model and parameter Jacobian per configuration.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flexcal_kinematics::{Data, RobotDescription, forward_pose, param_jacobian_into};
+use flexcal_kinematics::{Data, RobotDescription, SerialChain, forward_pose, param_jacobian_into};
 use nalgebra::DMatrix;
 use std::hint::black_box;
 
@@ -23,7 +23,32 @@ fn bench_robot(c: &mut Criterion, name: &str, q: &[f64]) {
     });
 }
 
+/// The precomputed serial chain against `forward_pose` on the same robot:
+/// one configuration, and a batch of 1 000 into a caller's buffer.
+fn bench_serial_chain(c: &mut Criterion, name: &str, q: &[f64]) {
+    let model = RobotDescription::builtin(name)
+        .and_then(|d| d.build())
+        .expect("built-in robot");
+    let chain = SerialChain::new(&model, model.nominal_params()).expect("serial chain");
+    c.bench_function(&format!("{name}/serial_chain_matrix"), |b| {
+        b.iter(|| chain.matrix(black_box(q)).expect("fk"))
+    });
+    let rows = 1_000;
+    let batch: Vec<f64> = (0..rows)
+        .flat_map(|k| q.iter().map(move |v| v + 1e-3 * k as f64))
+        .collect();
+    let mut out = vec![0.0; 16 * rows];
+    c.bench_function(&format!("{name}/serial_chain_matrices_into_x1000"), |b| {
+        b.iter(|| {
+            chain
+                .matrices_into(black_box(&batch), &mut out)
+                .expect("fk")
+        })
+    });
+}
+
 fn kinematics(c: &mut Criterion) {
+    bench_serial_chain(c, "ur10", &[0.1, -1.2, 1.0, -0.5, 1.3, 0.2]);
     bench_robot(c, "ur10", &[0.1, -1.2, 1.0, -0.5, 1.3, 0.2]);
     bench_robot(c, "ir663", &[0.1, 0.9, 0.9, 0.2, 0.5, 0.3]);
 }

@@ -182,6 +182,17 @@ pub enum KinematicsError {
         /// Rank needed.
         needed: usize,
     },
+    /// A serial-chain evaluator ([`crate::SerialChain`]) was asked for a
+    /// robot that is not a serial chain from R0 to its TCP.
+    #[error(
+        "robot `{robot}` is not a serial chain: {reason} (the general forward model handles it)"
+    )]
+    NotSerial {
+        /// The robot's name.
+        robot: String,
+        /// What makes it not serial, naming the loop or frame.
+        reason: String,
+    },
 }
 
 /// Checks the length of a slice argument and that every entry is finite.

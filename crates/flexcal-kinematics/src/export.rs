@@ -310,19 +310,12 @@ fn rotation_z(a: f64) -> Isometry3<f64> {
 
 /// The constant transform of frame `i` with its theta and r folded in.
 fn joint_origin(model: &Model, i: usize, xi: &[f64]) -> Isometry3<f64> {
-    let [gamma, b, alpha, d, beta, theta, r] = quantities(model, i, xi);
-    let (sg, cg) = gamma.sin_cos();
-    let (sa, ca) = alpha.sin_cos();
-    let (sb, cb) = beta.sin_cos();
-    let rz = Matrix3::new(cg, -sg, 0.0, sg, cg, 0.0, 0.0, 0.0, 1.0);
-    let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, -sa, 0.0, sa, ca);
-    let ry = Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
-    let position = Vector3::new(0.0, 0.0, b) + rz * Vector3::new(d, 0.0, 0.0);
+    let part = model.frames[i].constant_part(xi);
     let pre = Isometry3::from_parts(
-        Translation3::from(position),
-        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rz * rx * ry)),
+        Translation3::from(part.pre.p),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(part.pre.r)),
     );
-    pre * rotation_z(theta) * Translation3::new(0.0, 0.0, r)
+    pre * rotation_z(part.theta) * Translation3::new(0.0, 0.0, part.r)
 }
 
 fn xml_escape(s: &str) -> String {

@@ -141,26 +141,13 @@ impl Data {
             return;
         }
         for (i, f) in model.frames.iter().enumerate() {
-            let [gamma, b, alpha, d, beta, theta, r] =
-                [0, 1, 2, 3, 4, 5, 6].map(|k| f.quantity[k].eval(xi));
-            let (sg, cg) = gamma.sin_cos();
-            let (sa, ca) = alpha.sin_cos();
-            let (sb, cb) = beta.sin_cos();
-            // Rz(gamma) Rx(alpha) Ry(beta), then the translation of
-            // Rz(gamma) Tz(b) Rx(alpha) Tx(d).
-            let rz = Matrix3::new(cg, -sg, 0.0, sg, cg, 0.0, 0.0, 0.0, 1.0);
-            let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, -sa, 0.0, sa, ca);
-            let ry = Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
-            let x1 = Vector3::new(cg, sg, 0.0);
-            self.pre[i] = Pose {
-                r: rz * rx * ry,
-                p: Vector3::new(0.0, 0.0, b) + d * x1,
-            };
-            self.x1[i] = x1;
-            self.y2[i] = rz * Vector3::new(0.0, ca, sa);
-            self.b_value[i] = b;
-            self.theta_const[i] = theta;
-            self.r_const[i] = r;
+            let part = f.constant_part(xi);
+            self.pre[i] = part.pre;
+            self.x1[i] = part.x1;
+            self.y2[i] = part.y2;
+            self.b_value[i] = part.b;
+            self.theta_const[i] = part.theta;
+            self.r_const[i] = part.r;
         }
         for (c, crank) in model.cranks.iter().enumerate() {
             self.crank_values[c] = [

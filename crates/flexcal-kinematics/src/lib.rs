@@ -123,7 +123,9 @@
 //! [`Data`] caches the constant part of every frame transform keyed on xi,
 //! so repeated calls with the same xi only evaluate the joint rotations; no
 //! call allocates on a serial chain. Closed loops use small dynamic matrices
-//! (their Newton steps and implicit derivatives allocate). Figures:
+//! (their Newton steps and implicit derivatives allocate). For many
+//! configurations of a serial chain at one xi, [`SerialChain`] multiplies
+//! out the constant parts once and evaluates only the joints. Figures:
 //! `cargo bench -p flexcal-kinematics`.
 //!
 //! ## Limitations
@@ -153,6 +155,7 @@ mod inverse;
 mod model;
 mod pose;
 mod sensitivity;
+mod serial;
 mod symoro;
 pub mod urdf;
 
@@ -174,3 +177,4 @@ pub use model::{ActuatedKind, Model, ParamInfo, ParamKind, Quantity};
 pub use sensitivity::{
     SensitivityTable, actuated_from_joint_angles, joint_angles_from_actuated, sensitivity_indices,
 };
+pub use serial::SerialChain;

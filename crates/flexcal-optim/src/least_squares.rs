@@ -3,6 +3,7 @@
 use faer::Mat;
 use nalgebra::DMatrix;
 
+use crate::cancel::CancelToken;
 use crate::error::{OptimError, Result, check_len, invalid};
 use crate::problem::{ColumnScaling, Jacobian, ProblemSetup};
 use crate::qr::{PivotedQr, back_substitute, damped_solve};
@@ -38,6 +39,10 @@ pub struct SolverOptions {
     /// Stop with [`Termination::RankDeficient`] at the first rank-deficient Jacobian
     /// instead of keeping the columns beyond the rank fixed; default `false`.
     pub fail_on_rank_deficiency: bool,
+    /// Stop with [`Termination::Cancelled`] at the start of the first
+    /// iteration after this token is cancelled (default `None`: never).
+    #[serde(skip)]
+    pub cancel: Option<CancelToken>,
 }
 
 impl Default for SolverOptions {
@@ -50,6 +55,7 @@ impl Default for SolverOptions {
             cost_tolerance: 1e-12,
             rank_tolerance: DEFAULT_RANK_TOLERANCE,
             fail_on_rank_deficiency: false,
+            cancel: None,
         }
     }
 }
@@ -107,6 +113,9 @@ pub enum Termination {
     },
     /// The observer asked to stop.
     StoppedByObserver,
+    /// The [`SolverOptions::cancel`] token was cancelled: the parameters
+    /// are those of the last accepted step.
+    Cancelled,
 }
 
 impl Termination {
@@ -558,6 +567,9 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
         let mut rank = 0;
         let mut linearised = false;
         let termination = loop {
+            if opts.cancel.as_ref().is_some_and(CancelToken::is_cancelled) {
+                break Termination::Cancelled;
+            }
             if cost == 0.0 {
                 break Termination::ZeroResidual;
             }

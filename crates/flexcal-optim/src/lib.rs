@@ -125,6 +125,7 @@
 //! - Everything runs on one thread; evaluation of the objective in
 //!   [`DifferentialEvolution`] is sequential.
 
+mod cancel;
 pub mod differential_evolution;
 pub mod error;
 pub mod identifiability;
@@ -134,6 +135,7 @@ pub mod problem;
 mod qr;
 pub mod solis_wets;
 
+pub use cancel::CancelToken;
 pub use differential_evolution::*;
 pub use error::{OptimError, ProblemError};
 pub use identifiability::*;

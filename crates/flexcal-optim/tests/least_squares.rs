@@ -351,6 +351,94 @@ fn observer_sees_every_iteration_and_can_stop() {
     assert_eq!(seen, [1, 2]);
 }
 
+/// The arm problem, cancelling a token at its `after`-th Jacobian
+/// evaluation (the start of iteration `after`), as a user would from
+/// another thread during that iteration.
+struct CancelledDuringIteration {
+    arm: PlanarArm,
+    token: CancelToken,
+    after: usize,
+    jacobians: std::cell::Cell<usize>,
+}
+
+impl Residuals for CancelledDuringIteration {
+    fn n_residuals(&self) -> usize {
+        self.arm.n_residuals()
+    }
+    fn n_params(&self) -> usize {
+        self.arm.n_params()
+    }
+    fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
+        self.arm.residuals(x, out)
+    }
+}
+
+impl Jacobian for CancelledDuringIteration {
+    fn jacobian(&self, x: &[f64], out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+        self.jacobians.set(self.jacobians.get() + 1);
+        if self.jacobians.get() == self.after {
+            self.token.cancel();
+        }
+        self.arm.jacobian(x, out)
+    }
+}
+
+#[test]
+fn a_cancelled_token_ends_the_solve_within_the_iteration_under_way() {
+    for gauss_newton in [false, true] {
+        let token = CancelToken::new();
+        let problem = CancelledDuringIteration {
+            arm: arm(false, 20),
+            token: token.clone(),
+            after: 2,
+            jacobians: Default::default(),
+        };
+        let solve = |options: SolverOptions| {
+            if gauss_newton {
+                GaussNewton {
+                    options,
+                    ..GaussNewton::params()
+                }
+                .solve(&problem, &ARM_NOMINAL, &ProblemSetup::default(), &mut ())
+            } else {
+                LevenbergMarquardt {
+                    options,
+                    ..LevenbergMarquardt::params()
+                }
+                .solve(&problem, &ARM_NOMINAL, &ProblemSetup::default(), &mut ())
+            }
+        };
+        let cancelled = solve(SolverOptions {
+            cancel: Some(token.clone()),
+            ..SolverOptions::default()
+        })
+        .unwrap();
+        assert_eq!(cancelled.termination, Termination::Cancelled);
+        // Iteration 2 was under way when the token was cancelled: it ends,
+        // and no third one starts.
+        assert_eq!(cancelled.iterations, 2);
+        // Its parameters are those of two full iterations.
+        let two = solve(SolverOptions {
+            max_iterations: 2,
+            ..SolverOptions::default()
+        })
+        .unwrap();
+        assert_eq!(two.termination, Termination::MaxIterations);
+        assert_eq!(cancelled.x, two.x);
+        // A token cancelled before the start stops before the first step.
+        let before = solve(SolverOptions {
+            cancel: Some(token),
+            ..SolverOptions::default()
+        })
+        .unwrap();
+        assert_eq!(
+            (before.termination, before.iterations),
+            (Termination::Cancelled, 0)
+        );
+        assert_eq!(before.x, ARM_NOMINAL.to_vec());
+    }
+}
+
 #[test]
 fn iteration_and_evaluation_limits_are_reported() {
     let problem = arm(false, 20);

@@ -65,6 +65,16 @@ pub fn check_finite(name: &str, data: &[f64], shape: &[usize]) -> PyResult<()> {
     Ok(())
 }
 
+/// The values of `view` row-major: one copy of the memory when the array is
+/// C-contiguous (element-wise iteration over a dynamic-dimension view costs
+/// several times more), element by element otherwise.
+fn row_major(view: &numpy::ndarray::ArrayViewD<'_, f64>) -> Vec<f64> {
+    match view.as_slice() {
+        Some(values) => values.to_vec(),
+        None => view.iter().copied().collect(),
+    }
+}
+
 /// Reads `array` as rows of `width` values: shape `(width,)` or `(n, width)`,
 /// every value finite. `unit` is said in messages (`rad or m`).
 pub fn rows(
@@ -84,7 +94,7 @@ pub fn rows(
             )));
         }
     };
-    let data: Vec<f64> = view.iter().copied().collect();
+    let data = row_major(&view);
     check_finite(name, &data, &shape)?;
     Ok(Rows {
         data,
@@ -123,7 +133,7 @@ pub fn exact(
             shape_text(&actual)
         )));
     }
-    let data: Vec<f64> = view.iter().copied().collect();
+    let data = row_major(&view);
     check_finite(name, &data, &actual)?;
     Ok((data, actual))
 }

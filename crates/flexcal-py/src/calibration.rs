@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::calib::{
-    Calibration, CalibrationOptions, CalibrationReportJson, ErrorStatistics as Stats,
-    FrameTreatment, GravityCompliance, Method, UnknownStatus, ValidationReport, Weighting,
-    calibrate as run_calibration,
+    Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, ErrorStatistics as Stats,
+    FrameTreatment, GravityCompliance, Method, SelectionMethod, SelectionOptions, SelectionReport,
+    UnknownStatus, ValidationReport, Weighting, calibrate_selected,
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -17,7 +17,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{exact, to_numpy};
 use crate::errors::{Failure, InputError, calib_error};
-use crate::interrupt::run_interruptible;
+use crate::interrupt::{run_cancellable, run_interruptible};
 use crate::measurement::{MeasurementSet, Origin};
 use crate::robot::Robot;
 
@@ -202,6 +202,118 @@ impl ValidationResult {
     }
 }
 
+/// One candidate model scored by the model selection (SI units).
+#[pyclass(frozen, module = "flexcal", name = "SelectionCandidate", get_all)]
+#[derive(Debug, Clone)]
+pub struct SelectionCandidate {
+    /// The optional groups of unknowns it identifies (`offsets`, `tilts`,
+    /// `compliances`, `joint law`, `cyclic`).
+    pub groups: Vec<&'static str>,
+    /// `offsets + tilts`, or `base` without optional groups.
+    pub label: String,
+    /// Cross-validated mean position error over the held-out poses (m).
+    pub cv_mean_error: Option<f64>,
+    /// Its standard error, from the spread of the per-fold means (m).
+    pub cv_standard_error: Option<f64>,
+    /// Mean held-out position error of each fold (m).
+    pub cv_fold_errors: Vec<f64>,
+    /// BIC of the full fit (dimensionless), when scored by BIC.
+    pub bic: Option<f64>,
+    /// Identified unknowns of the full fit (BIC) or their mean over the
+    /// folds (cross-validation).
+    pub identified: f64,
+    /// Why it could not be scored, if it could not.
+    pub failure: Option<String>,
+}
+
+#[pymethods]
+impl SelectionCandidate {
+    fn __repr__(&self) -> String {
+        format!(
+            "SelectionCandidate(label={:?}, cv_mean_error={:?}, bic={:?}, identified={})",
+            self.label, self.cv_mean_error, self.bic, self.identified
+        )
+    }
+}
+
+/// What the model selection of `calibrate(..., select=...)` scored and
+/// chose: the report `flexcal calibrate --select` prints.
+#[pyclass(frozen, module = "flexcal", name = "SelectionResult")]
+#[derive(Debug, Clone)]
+pub struct SelectionResult {
+    report: Arc<SelectionReport>,
+}
+
+#[pymethods]
+impl SelectionResult {
+    /// `"cv"` or `"bic"`.
+    #[getter]
+    fn method(&self) -> &'static str {
+        match self.report.method {
+            SelectionMethod::CrossValidation => "cv",
+            SelectionMethod::Bic => "bic",
+            _ => "none",
+        }
+    }
+
+    /// Number of folds (cross-validation).
+    #[getter]
+    fn folds(&self) -> usize {
+        self.report.folds
+    }
+
+    /// Poses in each fold (cross-validation).
+    #[getter]
+    fn fold_sizes(&self) -> Vec<usize> {
+        self.report.fold_sizes.clone()
+    }
+
+    /// Every candidate scored, in the order of the search.
+    #[getter]
+    fn candidates(&self) -> Vec<SelectionCandidate> {
+        self.report
+            .candidates
+            .iter()
+            .map(|c| SelectionCandidate {
+                groups: c.groups.iter().map(|g| g.label()).collect(),
+                label: c.label(),
+                cv_mean_error: c.cv_mean_error_mm.map(|e| e * 1e-3),
+                cv_standard_error: c.cv_standard_error_mm.map(|e| e * 1e-3),
+                cv_fold_errors: c.cv_fold_errors_mm.iter().map(|e| e * 1e-3).collect(),
+                bic: c.bic,
+                identified: c.identified,
+                failure: c.failure.clone(),
+            })
+            .collect()
+    }
+
+    /// The optional groups of the chosen model (empty: the base model).
+    #[getter]
+    fn chosen(&self) -> Vec<&'static str> {
+        self.report.chosen.iter().map(|g| g.label()).collect()
+    }
+
+    /// Why the chosen model won, one sentence per search step.
+    #[getter]
+    fn why(&self) -> Vec<String> {
+        self.report.reasons.clone()
+    }
+
+    /// The report as text, one line per candidate, then the reasons.
+    fn lines(&self) -> Vec<String> {
+        self.report.lines()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "SelectionResult(method={:?}, {} candidates, chosen={:?})",
+            self.method(),
+            self.report.candidates.len(),
+            self.chosen()
+        )
+    }
+}
+
 /// The result of `calibrate`: the identified unknowns and what the poses
 /// could identify, the fields of the JSON report in SI units, the
 /// calibrated robot, validation on another set and the JSON report itself.
@@ -211,6 +323,7 @@ pub struct CalibrationResult {
     calibration: Arc<Calibration>,
     nominal: Arc<Model>,
     calibrated: Robot,
+    selection: Option<Arc<SelectionReport>>,
 }
 
 #[pymethods]
@@ -219,6 +332,15 @@ impl CalibrationResult {
     #[getter]
     fn robot(&self) -> Robot {
         self.calibrated.clone()
+    }
+
+    /// The model selection that chose the identified groups of unknowns
+    /// (`select="cv"` or `"bic"`), or None without selection.
+    #[getter]
+    fn selection(&self) -> Option<SelectionResult> {
+        self.selection.as_ref().map(|report| SelectionResult {
+            report: Arc::clone(report),
+        })
     }
 
     /// `"geometric"` or `"elasto-geometric"`.
@@ -445,13 +567,13 @@ impl CalibrationResult {
     /// deg at this boundary), with the validation when given.
     #[pyo3(signature = (validation = None))]
     fn to_json(&self, validation: Option<&ValidationResult>) -> PyResult<String> {
-        CalibrationReportJson::new(
+        let mut report = CalibrationReportJson::new(
             self.nominal.name(),
             &self.calibration,
             validation.map(|v| v.report.as_ref()),
-        )
-        .to_json_string()
-        .map_err(|e| calib_error(&e))
+        );
+        report.selection = self.selection.as_deref().cloned();
+        report.to_json_string().map_err(|e| calib_error(&e))
     }
 
     fn __repr__(&self) -> String {
@@ -479,12 +601,17 @@ impl CalibrationResult {
 /// the IPA format); `fixed_frame`, `fixed_target`; `target` (3,) starting
 /// target position in the end frame (m); `max_se_length` (m, default 5e-3)
 /// and `max_se_angle` (rad, default 0.25 deg) for the noise-aware rank;
-/// `strict` fails on rank deficiency; `max_iterations`.
+/// `strict` fails on rank deficiency; `max_iterations`; `select` the model
+/// selection of `flexcal calibrate --select`: `"cv"` (cross-validation over
+/// the poses), `"bic"` or `"none"` (default: every group of unknowns the
+/// options allow, the identifiability analysis alone deciding; the command
+/// line's default is `"cv"` from 100 poses), its report in
+/// `result.selection`.
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
-/// (the identification then finishes in the background and is dropped).
+/// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = "none"))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -504,8 +631,22 @@ pub fn calibrate<'py>(
     strict: bool,
     masses: Option<PathBuf>,
     max_iterations: Option<usize>,
+    select: &str,
 ) -> PyResult<CalibrationResult> {
     let nominal = Arc::clone(&robot.model);
+    let selection = SelectionOptions {
+        method: match select {
+            "cv" => SelectionMethod::CrossValidation,
+            "bic" => SelectionMethod::Bic,
+            "none" => SelectionMethod::None,
+            other => {
+                return Err(InputError::new_err(format!(
+                    "select: expected \"cv\", \"bic\" or \"none\", got {other:?}"
+                )));
+            }
+        },
+        ..SelectionOptions::default()
+    };
     let mut options = CalibrationOptions::for_model(&nominal);
     options.method = match method {
         "lm" => Method::LevenbergMarquardt,
@@ -599,19 +740,22 @@ pub fn calibrate<'py>(
             )));
         }
     }
+    let cancel = CancelToken::new();
+    options.cancel = Some(cancel.clone());
     let set = Arc::clone(&data.set);
     let model = Arc::clone(&nominal);
-    let (calibration, calibrated) = run_interruptible(py, move || {
-        let calibration = run_calibration(&model, &set, &options)?;
+    let (calibration, selection, calibrated) = run_cancellable(py, Some(cancel), move || {
+        let (calibration, selection, _) = calibrate_selected(&model, &set, &options, &selection)?;
         let calibrated = calibration
             .description(&model)?
             .build()
             .map_err(Failure::Kinematics)?;
-        Ok((calibration, calibrated))
+        Ok((calibration, selection, calibrated))
     })?;
     Ok(CalibrationResult {
         calibration: Arc::new(calibration),
         nominal,
         calibrated: Robot::new(calibrated),
+        selection: selection.map(Arc::new),
     })
 }

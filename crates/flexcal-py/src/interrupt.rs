@@ -5,6 +5,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::mpsc::{RecvTimeoutError, channel};
 use std::time::Duration;
 
+use flexcal::calib::CancelToken;
 use pyo3::prelude::*;
 
 use crate::errors::{Failure, InternalError, panic_message};
@@ -15,11 +16,23 @@ const SIGNAL_POLL: Duration = Duration::from_millis(50);
 /// Runs `work` on a worker thread while the calling thread, GIL released,
 /// waits for it and checks for signals every 50 ms. On Ctrl-C the call
 /// raises `KeyboardInterrupt` at once; the worker cannot be stopped from
-/// outside (the library's solvers have no cancellation hook), so it runs to
-/// its end in the background and its result is dropped.
+/// outside, so it runs to its end in the background and its result is
+/// dropped. Work with a cancellation hook uses [`run_cancellable`].
 ///
 /// A panic in `work` becomes `flexcal.InternalError`.
 pub fn run_interruptible<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send + 'static,
+    F: FnOnce() -> Result<T, Failure> + Send + 'static,
+{
+    run_cancellable(py, None, work)
+}
+
+/// [`run_interruptible`] for work that watches `cancel`: on Ctrl-C the
+/// token is cancelled, so the worker stops at its next check (the
+/// identification: within one solver iteration) instead of running on in
+/// the background.
+pub fn run_cancellable<T, F>(py: Python<'_>, cancel: Option<CancelToken>, work: F) -> PyResult<T>
 where
     T: Send + 'static,
     F: FnOnce() -> Result<T, Failure> + Send + 'static,
@@ -42,7 +55,14 @@ where
         receiver = back;
         match received {
             Ok(result) => return result.map_err(PyErr::from),
-            Err(RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(interrupt) = py.check_signals() {
+                    if let Some(token) = &cancel {
+                        token.cancel();
+                    }
+                    return Err(interrupt);
+                }
+            }
             Err(RecvTimeoutError::Disconnected) => {
                 return Err(InternalError::new_err(
                     "the worker thread ended without a result",

@@ -16,10 +16,11 @@
 //! - Long calls release the GIL and return on Ctrl-C ([`interrupt`]).
 //!
 //! ## Limitations
-//! - An identification, validation, fuzzy fit or structure solve cannot be
-//!   stopped from outside (the library has no cancellation hook): on
-//!   Ctrl-C the call returns at once and the computation finishes in the
-//!   background. Batched forward models and Jacobians stop between batches.
+//! - On Ctrl-C every long call returns at once. An identification
+//!   (`calibrate`) then stops within one solver iteration (the library's
+//!   cancellation token); a validation, fuzzy fit or structure solve has no
+//!   such hook and finishes in the background. Batched forward models and
+//!   Jacobians stop between batches.
 
 mod arrays;
 mod calibration;
@@ -45,6 +46,8 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<calibration::ValidationResult>()?;
     m.add_class::<calibration::ErrorStatistics>()?;
     m.add_class::<calibration::UnknownEstimate>()?;
+    m.add_class::<calibration::SelectionResult>()?;
+    m.add_class::<calibration::SelectionCandidate>()?;
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;

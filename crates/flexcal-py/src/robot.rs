@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use flexcal::kinematics::{
     Data, InverseOptions, InverseTarget, KinematicsError as KinError, Model, ParamKind,
-    RobotDescription, builtin_robot_names, forward_pose, inverse_pose, joint_jacobian_into,
-    param_jacobian_into,
+    RobotDescription, SerialChain, builtin_robot_names, forward_pose, inverse_pose,
+    joint_jacobian_into, param_jacobian_into,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
 use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
@@ -73,6 +73,29 @@ impl Robot {
 
     fn configurations(&self, q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<Rows> {
         rows("q", q, self.model.n_actuated())
+    }
+
+    /// A 6 x `columns` Jacobian per configuration of `q` at `xi` (nominal
+    /// when None), `per_row` writing one row-major into its output slice;
+    /// shape (6, columns) or (n, 6, columns).
+    fn jacobians<'py, F>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+        threads: Option<usize>,
+        columns: usize,
+        per_row: F,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>>
+    where
+        F: Fn(&Model, &mut Data, &[f64], &[f64], &mut [f64]) -> Result<(), KinError> + Sync,
+    {
+        let q = self.configurations(&q)?;
+        let xi = self.xi(xi)?;
+        let out = batched(py, &self.model, &q, 6 * columns, threads, |m, d, q, out| {
+            per_row(m, d, q, &xi, out)
+        })?;
+        Ok(to_numpy(py, out, &shape(&q, &[6, columns])))
     }
 }
 
@@ -157,15 +180,6 @@ where
         per_row(model, &mut data, q.row(row), values).map_err(|e| Failure::KinematicsAt(row, e))?;
     }
     Ok(())
-}
-
-fn write_matrix(x: &Isometry3<f64>, out: &mut [f64]) {
-    let m = x.to_homogeneous();
-    for r in 0..4 {
-        for c in 0..4 {
-            out[4 * r + c] = m[(r, c)];
-        }
-    }
 }
 
 fn write_pose(x: &Isometry3<f64>, out: &mut [f64]) {
@@ -395,21 +409,33 @@ impl Robot {
     ) -> PyResult<Py<PyAny>> {
         let q = self.configurations(&q)?;
         let xi = self.xi(xi)?;
+        // A serial chain takes the precomputed path; other robots (closed
+        // loops, couplings on the TCP path) the general forward model.
+        let chain = SerialChain::new(&self.model, &xi).ok();
+        let pose_at = |m: &Model, d: &mut Data, q: &[f64]| match &chain {
+            Some(chain) => chain.pose(q),
+            None => forward_pose(m, d, q, &xi),
+        };
         match output {
             "matrix" => {
                 let out = batched(py, &self.model, &q, 16, threads, |m, d, q, out| {
-                    write_matrix(&forward_pose(m, d, q, &xi)?, out);
+                    let x = match &chain {
+                        Some(chain) => chain.matrix(q)?,
+                        None => forward_pose(m, d, q, &xi)?.to_homogeneous(),
+                    };
+                    // nalgebra stores column-major; NumPy wants rows.
+                    out.copy_from_slice(x.transpose().as_slice());
                     Ok(())
                 })?;
                 Ok(to_numpy(py, out, &shape(&q, &[4, 4])).into_any().unbind())
             }
             "pose" => {
                 let out = batched(py, &self.model, &q, 7, threads, |m, d, q, out| {
-                    write_pose(&forward_pose(m, d, q, &xi)?, out);
+                    write_pose(&pose_at(m, d, q)?, out);
                     Ok(())
                 })?;
-                let positions = out.chunks(7).flat_map(|r| r[..3].to_vec()).collect();
-                let quaternions = out.chunks(7).flat_map(|r| r[3..].to_vec()).collect();
+                let positions = out.chunks(7).flat_map(|r| r[..3].iter().copied()).collect();
+                let quaternions = out.chunks(7).flat_map(|r| r[3..].iter().copied()).collect();
                 let p = to_numpy(py, positions, &shape(&q, &[3]));
                 let r = to_numpy(py, quaternions, &shape(&q, &[4]));
                 Ok((p, r).into_pyobject(py)?.into_any().unbind())
@@ -431,16 +457,13 @@ impl Robot {
         xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let q = self.configurations(&q)?;
-        let xi = self.xi(xi)?;
         let na = self.model.n_actuated();
-        let out = batched(py, &self.model, &q, 6 * na, threads, |m, d, q, out| {
+        self.jacobians(py, q, xi, threads, na, |m, d, q, xi, out| {
             let mut jac = Matrix6xX::zeros(na);
-            joint_jacobian_into(m, d, q, &xi, &mut jac)?;
+            joint_jacobian_into(m, d, q, xi, &mut jac)?;
             write_row_major(jac.as_slice(), 6, na, out);
             Ok(())
-        })?;
-        Ok(to_numpy(py, out, &shape(&q, &[6, na])))
+        })
     }
 
     /// Parameter Jacobian d[p_tcp; phi]/dxi (equations (49)-(52) of Marie,
@@ -455,16 +478,13 @@ impl Robot {
         xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let q = self.configurations(&q)?;
-        let xi = self.xi(xi)?;
         let np = self.model.n_params();
-        let out = batched(py, &self.model, &q, 6 * np, threads, |m, d, q, out| {
+        self.jacobians(py, q, xi, threads, np, |m, d, q, xi, out| {
             let mut jac = DMatrix::zeros(6, np);
-            param_jacobian_into(m, d, q, &xi, &mut jac)?;
+            param_jacobian_into(m, d, q, xi, &mut jac)?;
             write_row_major(jac.as_slice(), 6, np, out);
             Ok(())
-        })?;
-        Ok(to_numpy(py, out, &shape(&q, &[6, np])))
+        })
     }
 
     /// Inverse model: the actuated coordinates (dof,) that bring the TCP to

@@ -1,6 +1,6 @@
 //! The validated, immutable robot model.
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix3, Vector3};
 
 use crate::KinematicsError;
 use crate::description::{JointType, LoopSolver, RobotDescription};
@@ -179,7 +179,51 @@ pub(crate) struct FrameModel {
     pub seed: f64,
 }
 
+/// The part of a frame transform (41) that does not depend on the joint
+/// variable, at one parameter vector xi.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ConstantPart {
+    /// `Rz(gamma) Tz(b) Rx(alpha) Tx(d) Ry(beta)`.
+    pub pre: Pose,
+    /// x axis after `Rz(gamma)`, in the antecedent frame.
+    pub x1: Vector3<f64>,
+    /// y axis after `Rz(gamma) Rx(alpha)`, in the antecedent frame.
+    pub y2: Vector3<f64>,
+    /// b (m).
+    pub b: f64,
+    /// theta: constant part (rad).
+    pub theta: f64,
+    /// r: constant part (m).
+    pub r: f64,
+}
+
 impl FrameModel {
+    /// The constant part of this frame's transform at `xi`.
+    pub fn constant_part(&self, xi: &[f64]) -> ConstantPart {
+        let [gamma, b, alpha, d, beta, theta, r] =
+            [0, 1, 2, 3, 4, 5, 6].map(|k| self.quantity[k].eval(xi));
+        let (sg, cg) = gamma.sin_cos();
+        let (sa, ca) = alpha.sin_cos();
+        let (sb, cb) = beta.sin_cos();
+        // Rz(gamma) Rx(alpha) Ry(beta), then the translation of
+        // Rz(gamma) Tz(b) Rx(alpha) Tx(d).
+        let rz = Matrix3::new(cg, -sg, 0.0, sg, cg, 0.0, 0.0, 0.0, 1.0);
+        let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, -sa, 0.0, sa, ca);
+        let ry = Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
+        let x1 = Vector3::new(cg, sg, 0.0);
+        ConstantPart {
+            pre: Pose {
+                r: rz * rx * ry,
+                p: Vector3::new(0.0, 0.0, b) + d * x1,
+            },
+            x1,
+            y2: rz * Vector3::new(0.0, ca, sa),
+            b,
+            theta,
+            r,
+        }
+    }
+
     /// Index in `quantity` of the joint variable's quantity.
     pub fn joint_quantity(&self) -> Option<usize> {
         match self.joint {

@@ -251,8 +251,50 @@ class ValidationResult:
     @property
     def extrapolated_coordinates(self) -> list[tuple[str, float]]: ...
 
+class SelectionCandidate:
+    """One candidate model scored by the model selection (SI units)."""
+
+    groups: list[str]
+    """Optional groups identified: offsets, tilts, compliances, joint law, cyclic."""
+    label: str
+    """`offsets + tilts`, or `base`."""
+    cv_mean_error: Optional[float]
+    """Cross-validated mean held-out position error, m."""
+    cv_standard_error: Optional[float]
+    """m."""
+    cv_fold_errors: list[float]
+    """Mean held-out position error of each fold, m."""
+    bic: Optional[float]
+    identified: float
+    """Identified unknowns (full fit, or mean over the folds)."""
+    failure: Optional[str]
+
+class SelectionResult:
+    """What `calibrate(..., select="cv"|"bic")` scored and chose."""
+
+    @property
+    def method(self) -> Literal["cv", "bic"]: ...
+    @property
+    def folds(self) -> int: ...
+    @property
+    def fold_sizes(self) -> list[int]: ...
+    @property
+    def candidates(self) -> list[SelectionCandidate]: ...
+    @property
+    def chosen(self) -> list[str]:
+        """Optional groups of the chosen model (empty: the base model)."""
+    @property
+    def why(self) -> list[str]:
+        """Why the chosen model won, one sentence per search step."""
+    def lines(self) -> list[str]:
+        """The report `flexcal calibrate --select` prints."""
+
 class CalibrationResult:
     """The result of `calibrate`: the JSON report's fields in SI units."""
+
+    @property
+    def selection(self) -> Optional[SelectionResult]:
+        """The model selection (select="cv" or "bic"), else None."""
 
     @property
     def robot(self) -> Robot:
@@ -334,8 +376,11 @@ def calibrate(
     strict: bool = False,
     masses: Optional[StrPath] = None,
     max_iterations: Optional[int] = None,
+    select: Literal["cv", "bic", "none"] = "none",
 ) -> CalibrationResult:
-    """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad."""
+    """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad.
+
+    select: model selection as `flexcal calibrate --select` (report in `.selection`)."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

@@ -132,3 +132,45 @@ def test_elasto_geometric_on_a_simulated_set_runs(ur10):
     assert any(u.name.startswith("compliance_") for u in result.parameters)
     # Gravity never loads joint 1 (vertical axis).
     assert "compliance_theta1" in result.non_identifiable
+
+
+@pytest.mark.parametrize("select", ["cv", "bic"])
+def test_model_selection_reports_what_it_chose(ur10, select):
+    truth, rng = simulated_ur10(ur10, seed=41)
+    q = configurations(ur10, 150, seed=42)
+    data = flexcal.MeasurementSet.from_arrays(q, measure(ur10, truth, q, rng))
+    result = flexcal.calibrate(ur10, data, select=select)
+    selection = result.selection
+    assert selection is not None and selection.method == select
+    assert len(selection.candidates) >= 2 and selection.why
+    labels = {c.label for c in selection.candidates}
+    assert (" + ".join(selection.chosen) or "base") in labels
+    for c in selection.candidates:
+        if c.failure is None:
+            scored = c.cv_mean_error if select == "cv" else c.bic
+            assert scored is not None and np.isfinite(scored), c
+    if select == "cv":
+        assert sum(selection.fold_sizes) == len(data)
+        # SI at this boundary: held-out errors of a few tenths of a mm at most.
+        assert all(0 < c.cv_mean_error < 5e-3 for c in selection.candidates if c.failure is None)
+    # The final identification is the chosen model: a group left out keeps
+    # its parameters at nominal (fixed), a group chosen identifies some.
+    status = {u.name: u.status for u in result.parameters}
+    for group, prefix in [("offsets", "theta"), ("tilts", "beta")]:
+        members = [status[n] for n in ur10.parameter_names if n.startswith(prefix)]
+        if group in selection.chosen:
+            assert any(s != "fixed" for s in members), (group, members)
+        else:
+            assert all(s == "fixed" for s in members), (group, members)
+    # The command line's text and the JSON report carry the same selection.
+    assert selection.lines()[-1].endswith(" + ".join(selection.chosen) or "base")
+    report = json.loads(result.to_json())
+    assert report["selection"]["reasons"] == selection.why
+
+
+def test_without_selection_there_is_no_report(ur10):
+    q = configurations(ur10, 40, seed=43)
+    data = flexcal.MeasurementSet.from_arrays(q, ur10.fk(q)[:, :3, 3])
+    assert flexcal.calibrate(ur10, data).selection is None
+    with pytest.raises(flexcal.InputError, match='select: expected "cv", "bic" or "none"'):
+        flexcal.calibrate(ur10, data, select="aic")

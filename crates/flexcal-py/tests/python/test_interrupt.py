@@ -6,6 +6,7 @@ and the test asserts that the call itself raised (it never returned), not
 how fast it did."""
 
 import _thread
+import pathlib
 import threading
 import time
 
@@ -40,13 +41,43 @@ def test_batched_fk_stops_between_batches(ur10):
     assert call_was_interrupted(full / 20, lambda: ur10.fk(q, threads=1))
 
 
-def test_calibrate_returns_at_once(ur10):
-    q = configurations(ur10, 1000, seed=32)
+def worker_threads():
+    """Ids of this process's threads named flexcal-worker (Linux: /proc).
+    Threads a worker starts inherit its name: a thread pool first used
+    inside a worker keeps it for the life of the process."""
+    tasks = pathlib.Path("/proc/self/task")
+    return {t.name for t in tasks.iterdir() if (t / "comm").read_text().strip() == "flexcal-worker"}
+
+
+def workers_end_within(seconds, known):
+    """Polls until no flexcal-worker thread other than `known` is left, or
+    `seconds` have passed; returns whether they all ended."""
+    start = time.perf_counter()
+    while worker_threads() - known and time.perf_counter() - start < seconds:
+        time.sleep(0.01)
+    return not worker_threads() - known
+
+
+def test_calibrate_returns_at_once_and_its_worker_stops(ur10):
+    if not pathlib.Path("/proc/self/task").is_dir():
+        pytest.skip("needs /proc to see the worker thread (Linux)")
+    q = configurations(ur10, 4000, seed=32)
     positions = ur10.fk(q)[:, :3, 3]
     data = flexcal.MeasurementSet.from_arrays(q, positions + 1e-4)
     start = time.perf_counter()
-    flexcal.calibrate(ur10, data, model="elasto-geometric")
+    result = flexcal.calibrate(ur10, data, model="elasto-geometric")
     full = time.perf_counter() - start
+    # Threads that outlive a finished call are pools, not workers.
+    time.sleep(0.2)
+    pools = worker_threads()
     assert call_was_interrupted(
         full / 20, lambda: flexcal.calibrate(ur10, data, model="elasto-geometric")
+    )
+    # The identification was cancelled with the call: its worker ends within
+    # a solver iteration, long before the uninterrupted run would have (it
+    # had about 95 % of it left, spread over many iterations).
+    assert len(result.cost_history) > 5
+    assert workers_end_within(0.75 * full, pools), (
+        f"worker still running {0.75 * full:.2f} s after Ctrl-C "
+        f"(the whole identification takes {full:.2f} s)"
     )

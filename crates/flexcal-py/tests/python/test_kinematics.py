@@ -22,22 +22,23 @@ def test_builtin_robots_and_parameters(ur10):
     assert [p.index for p in parameters] == list(range(24))
 
 
-def test_fk_matches_rust(ur10, rust_reference):
+def check_against_rust(rust_reference, key, evaluate, shape):
+    """`evaluate` on the reference configurations, batched and one at a
+    time, equals the Rust library's values under `key` to 1e-12."""
     q = np.array(rust_reference["q"])
-    expected = np.array(rust_reference["fk"])
-    got = ur10.fk(q)
-    assert got.shape == (len(q), 4, 4)
+    expected = np.array(rust_reference[key])
+    got = evaluate(q)
+    assert got.shape == (len(q), *shape)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
-    # One configuration at a time gives the same as the batch.
-    np.testing.assert_allclose(ur10.fk(q[3]), expected[3], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(evaluate(q[3]), expected[3], rtol=0, atol=1e-12)
+
+
+def test_fk_matches_rust(ur10, rust_reference):
+    check_against_rust(rust_reference, "fk", ur10.fk, (4, 4))
 
 
 def test_parameter_jacobian_matches_rust(ur10, rust_reference):
-    q = np.array(rust_reference["q"])
-    expected = np.array(rust_reference["parameter_jacobian"])
-    got = ur10.parameter_jacobian(q)
-    assert got.shape == (len(q), 6, 24)
-    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    check_against_rust(rust_reference, "parameter_jacobian", ur10.parameter_jacobian, (6, 24))
 
 
 def test_batched_fk_is_threads_independent(ur10):
@@ -117,3 +118,11 @@ def test_toml_round_trip(ur10, tmp_path):
     np.testing.assert_allclose(again.nominal, ur10.nominal, atol=1e-12)
     q = configurations(ur10, 10, seed=4)
     np.testing.assert_allclose(again.fk(q), ur10.fk(q), atol=1e-12)
+
+
+def test_fk_reads_non_contiguous_arrays(ur10):
+    q = configurations(ur10, 50, seed=5)
+    expected = ur10.fk(q)
+    np.testing.assert_array_equal(ur10.fk(np.asfortranarray(q)), expected)
+    np.testing.assert_array_equal(ur10.fk(q[::2]), expected[::2])
+    np.testing.assert_array_equal(ur10.fk(q.T.copy().T), expected)
