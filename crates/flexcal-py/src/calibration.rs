@@ -7,7 +7,7 @@ use std::sync::Arc;
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, ErrorStatistics as Stats,
     FrameTreatment, GravityCompliance, Method, SelectionMethod, SelectionOptions, SelectionReport,
-    UnknownStatus, ValidationReport, Weighting, calibrate_selected,
+    UnknownStatus, ValidationReport, Weighting, calibrate_selected, default_method,
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -603,15 +603,15 @@ impl CalibrationResult {
 /// and `max_se_angle` (rad, default 0.25 deg) for the noise-aware rank;
 /// `strict` fails on rank deficiency; `max_iterations`; `select` the model
 /// selection of `flexcal calibrate --select`: `"cv"` (cross-validation over
-/// the poses), `"bic"` or `"none"` (default: every group of unknowns the
-/// options allow, the identifiability analysis alone deciding; the command
-/// line's default is `"cv"` from 100 poses), its report in
+/// the poses), `"bic"` or `"none"` (every group of unknowns the options
+/// allow, the identifiability analysis alone deciding); by default, as on the
+/// command line, `"cv"` from 100 poses and `"none"` below; its report in
 /// `result.selection`.
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = "none"))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -631,15 +631,16 @@ pub fn calibrate<'py>(
     strict: bool,
     masses: Option<PathBuf>,
     max_iterations: Option<usize>,
-    select: &str,
+    select: Option<&str>,
 ) -> PyResult<CalibrationResult> {
     let nominal = Arc::clone(&robot.model);
     let selection = SelectionOptions {
         method: match select {
-            "cv" => SelectionMethod::CrossValidation,
-            "bic" => SelectionMethod::Bic,
-            "none" => SelectionMethod::None,
-            other => {
+            None => default_method(&data.set),
+            Some("cv") => SelectionMethod::CrossValidation,
+            Some("bic") => SelectionMethod::Bic,
+            Some("none") => SelectionMethod::None,
+            Some(other) => {
                 return Err(InputError::new_err(format!(
                     "select: expected \"cv\", \"bic\" or \"none\", got {other:?}"
                 )));

@@ -14,7 +14,8 @@ use std::process::{Command, Output};
 use std::time::Instant;
 
 use flexcal::calib::{
-    CalibrationOptions, CalibrationReportJson, MeasurementSet, Weighting, calibrate,
+    CalibrationOptions, CalibrationReportJson, MeasurementSet, SelectionOptions, Weighting,
+    calibrate_selected, default_method,
 };
 use flexcal::kinematics::{Data, RobotDescription, forward_pose, param_jacobian};
 
@@ -51,7 +52,8 @@ fn show(output: &Output) -> String {
 /// Reference values from the Rust library: UR10 forward poses and
 /// parameter Jacobians at fixed configurations, and, with the IPA data,
 /// the report of the B -> C calibration with the options `flexcal calibrate
-/// --robot ur10 --format ipa` uses (positions only, uniform weights).
+/// --robot ur10 --format ipa` uses (positions only, uniform weights, the
+/// default model selection).
 fn write_reference(path: &Path) {
     let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
     let xi = model.nominal_params().to_vec();
@@ -94,9 +96,17 @@ fn write_reference(path: &Path) {
         let mut options = CalibrationOptions::for_model(&model);
         options.use_orientation = Some(false);
         options.weighting = Weighting::Uniform;
-        let calibration = calibrate(&model, &train, &options).unwrap();
+        // The command line's default model selection (cross-validation
+        // from 100 poses).
+        let selection = SelectionOptions {
+            method: default_method(&train),
+            ..SelectionOptions::default()
+        };
+        let (calibration, selected, _) =
+            calibrate_selected(&model, &train, &options, &selection).unwrap();
         let validation = calibration.validate(&model, &test, false).unwrap();
-        let report = CalibrationReportJson::new(model.name(), &calibration, Some(&validation));
+        let mut report = CalibrationReportJson::new(model.name(), &calibration, Some(&validation));
+        report.selection = selected;
         reference["ipa_b_to_c"] = serde_json::from_str(&report.to_json_string().unwrap()).unwrap();
     } else {
         println!(

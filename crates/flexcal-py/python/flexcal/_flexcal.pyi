@@ -376,11 +376,12 @@ def calibrate(
     strict: bool = False,
     masses: Optional[StrPath] = None,
     max_iterations: Optional[int] = None,
-    select: Literal["cv", "bic", "none"] = "none",
+    select: Literal["cv", "bic", "none"] | None = None,
 ) -> CalibrationResult:
     """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad.
 
-    select: model selection as `flexcal calibrate --select` (report in `.selection`)."""
+    select: model selection as `flexcal calibrate --select` (report in `.selection`);
+    default as on the command line: "cv" from 100 poses, else "none"."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

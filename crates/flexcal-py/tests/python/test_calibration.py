@@ -39,7 +39,7 @@ def test_calibrate_recovers_the_truth(ur10):
     data = flexcal.MeasurementSet.from_arrays(
         q, positions, std=np.full((len(q), 3), NOISE), source="simulated ur10"
     )
-    result = flexcal.calibrate(ur10, data, fixed_frame=True, fixed_target=True)
+    result = flexcal.calibrate(ur10, data, fixed_frame=True, fixed_target=True, select="none")
     assert result.converged, result.termination
     # Residual at the noise level: RMS of a 3-D error of 20 um per axis.
     assert result.after.position_rms < 1.5 * np.sqrt(3) * NOISE
@@ -78,7 +78,7 @@ def test_validation_on_another_set(ur10):
     train = flexcal.MeasurementSet.from_arrays(q, measure(ur10, truth, q, rng))
     q2 = configurations(ur10, 60, seed=13)
     test = flexcal.MeasurementSet.from_arrays(q2, measure(ur10, truth, q2, rng))
-    result = flexcal.calibrate(ur10, train)
+    result = flexcal.calibrate(ur10, train, select="none")
     validation = result.validate(test)
     assert validation.after.position_mean < validation.before.position_mean / 5
     assert validation.position_errors.shape == (60,)
@@ -113,10 +113,13 @@ def test_ipa_b_to_c_gives_the_rust_figures(rust_reference):
     ur10 = flexcal.Robot.builtin("ur10")
     train = flexcal.MeasurementSet.read_csv(series_b, format="ipa")
     test = flexcal.MeasurementSet.read_csv(series_c, format="ipa")
+    # The defaults of `flexcal calibrate`: cross-validated model selection.
     result = flexcal.calibrate(ur10, train)
+    assert result.selection is not None and result.selection.method == "cv"
     validation = result.validate(test)
     python = json.loads(result.to_json(validation))
     compare_reports(python, rust_reference["ipa_b_to_c"])
+    assert python["selection"]["chosen"] == rust_reference["ipa_b_to_c"]["selection"]["chosen"]
     print(
         f"IPA B -> C from Python: validation mean {validation.after.position_mean * 1e3:.3f} mm, "
         f"max {validation.after.position_max * 1e3:.3f} mm"
