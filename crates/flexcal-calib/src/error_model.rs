@@ -15,7 +15,7 @@ use nalgebra::{
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
-use crate::gravity::{GravityCompliance, GravityTerms};
+use crate::gravity::{GravityCompliance, GravityTerms, LateralTerms};
 use crate::joint_law::{JointTerms, cyclic_basis, cyclic_error, cyclic_joints, joint_deflection};
 use crate::metrics::PoseError;
 use crate::{CalibError, MeasurementSet};
@@ -100,7 +100,11 @@ impl UnknownKind {
 /// With [`GeometricErrorModel::with_gravity`] the model is elasto-geometric:
 /// the robot is evaluated at `q_k + dq_k`, the joint-spring deflection under
 /// gravity of [`crate::gravity`], and the unknowns gain the compliances and
-/// the payload (`[xi; tau; t; c; m; m c]`).
+/// the payload (`[xi; tau; t; c; m; m c]`), and, with
+/// [`GravityCompliance::lateral`], the lateral compliances after them: the
+/// robot's pose is then moved by the rigid motion `G` of
+/// [`crate::gravity`]'s lateral rotations, `x_base_tcp' = G FK(q_k + dq_k,
+/// xi)`, with exact derivatives of that model.
 pub struct GeometricErrorModel<'a> {
     model: &'a Model,
     set: &'a MeasurementSet,
@@ -112,6 +116,7 @@ pub struct GeometricErrorModel<'a> {
     pose_jacobian: RefCell<DMatrix<f64>>,
     robot_columns: Cell<bool>,
     gravity: Option<(GravityTerms, Vec<f64>)>,
+    lateral: Option<LateralTerms>,
     joint_jacobian: RefCell<Matrix6xX<f64>>,
     deflection: RefCell<JointState>,
     joint_terms: JointTerms,
@@ -193,6 +198,7 @@ impl<'a> GeometricErrorModel<'a> {
             pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
             robot_columns: Cell::new(true),
             gravity: None,
+            lateral: None,
             joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
             deflection: RefCell::new(JointState::new(model.n_actuated())),
             joint_terms: JointTerms::default(),
@@ -201,7 +207,9 @@ impl<'a> GeometricErrorModel<'a> {
     }
 
     /// Makes the model elasto-geometric: joint compliances under gravity
-    /// ([`crate::gravity`]), their unknowns appended after the target's.
+    /// ([`crate::gravity`]), their unknowns appended after the target's
+    /// (the compliances, the payload, then the lateral compliances when
+    /// [`GravityCompliance::lateral`] is on).
     ///
     /// # Errors
     /// [`CalibError::InvalidOption`] for a mass on a missing frame or
@@ -214,9 +222,10 @@ impl<'a> GeometricErrorModel<'a> {
             });
         }
         let terms = GravityTerms::new(self.model, self.set, gravity)?;
-        self.names
-            .extend(GravityCompliance::unknown_names(self.model));
+        self.names.extend(gravity.elastic_unknown_names(self.model));
         self.gravity = Some((terms, gravity.initial_unknowns(self.model)));
+        let lateral = LateralTerms::new(self.model, self.set, gravity)?;
+        self.lateral = (lateral.len() > 0).then_some(lateral);
         Ok(self)
     }
 
@@ -257,7 +266,50 @@ impl<'a> GeometricErrorModel<'a> {
         let na = self.model.n_actuated();
         self.joint_terms
             .any()
-            .then(|| self.model.n_params() + 12 + if self.gravity.is_some() { na + 4 } else { 0 })
+            .then(|| self.model.n_params() + 12 + self.n_elastic_block(na))
+    }
+
+    /// Unknowns of the elastic block: compliances, payload and lateral
+    /// compliances (none when geometric).
+    fn n_elastic_block(&self, na: usize) -> usize {
+        match &self.gravity {
+            Some(_) => na + 4 + self.lateral.as_ref().map_or(0, LateralTerms::len),
+            None => 0,
+        }
+    }
+
+    /// Index of the first lateral compliance, when the model has them.
+    pub fn lateral_offset(&self) -> Option<usize> {
+        self.lateral
+            .as_ref()
+            .map(|_| self.model.n_params() + 12 + self.model.n_actuated() + 4)
+    }
+
+    /// The rigid motion `G = (rotation, translation)` of the lateral
+    /// rotations of pose `k` at unknowns `x` ([`crate::gravity`]), with
+    /// `phi = sum_j delta_j x_j` and each joint's rotation `delta_j` (rad)
+    /// and moment `Mx_j` (N.m) in `deltas`; `None` without lateral terms.
+    fn lateral_motion(
+        &self,
+        x: &[f64],
+        k: usize,
+        deltas: &mut Vec<(f64, f64)>,
+    ) -> Option<(UnitQuaternion<f64>, Vector3<f64>, Vector3<f64>)> {
+        let lateral = self.lateral.as_ref()?;
+        let lo = self.lateral_offset()?;
+        let po = self.model.n_params() + 12 + self.model.n_actuated();
+        let payload = &x[po..po + 4];
+        deltas.clear();
+        let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
+        for s in 0..lateral.len() {
+            let joint = lateral.joint(k, s);
+            let moment = joint.moment(payload);
+            let delta = x[lo + s] * moment;
+            phi += delta * joint.axis;
+            t -= delta * joint.axis.cross(&joint.origin);
+            deltas.push((delta, moment));
+        }
+        Some((rotation_from_vector(&phi), t, phi))
     }
 
     /// Index of the first elastic unknown (the compliances), when the model
@@ -364,6 +416,10 @@ impl<'a> GeometricErrorModel<'a> {
             ));
             kinds.push(UnknownKind::Mass);
             kinds.extend([UnknownKind::FirstMoment; 3]);
+            kinds.extend(std::iter::repeat_n(
+                UnknownKind::Compliance,
+                self.lateral.as_ref().map_or(0, LateralTerms::len),
+            ));
         }
         if self.joint_terms.law.is_some() {
             let na = self.model.n_actuated();
@@ -443,6 +499,10 @@ impl<'a> GeometricErrorModel<'a> {
                 pose_id: m.label(k),
                 source,
             })?;
+        let x_base_tcp = match self.lateral_motion(x, k, &mut Vec::new()) {
+            Some((rotation, translation, _)) => lateral_isometry(&rotation, &translation) * x_base_tcp,
+            None => x_base_tcp,
+        };
         Ok(x_meas_base * x_base_tcp * x_tcp_target)
     }
 
@@ -534,8 +594,11 @@ impl GeometricErrorModel<'_> {
                     0
                 }
         });
-        // TCP twists of the elastic unknowns, one column each.
+        // TCP twists of the elastic unknowns, one column each (before the
+        // lateral motion G, which the robot's columns share).
         let mut elastic = Matrix6xX::<f64>::zeros(n_elastic);
+        let lateral_column = self.lateral_offset().map(|o| o - eo);
+        let mut deltas = Vec::new();
         let first = poses.start;
         for k in poses {
             let m = &self.set.measurements()[k];
@@ -552,6 +615,7 @@ impl GeometricErrorModel<'_> {
             } else {
                 forward_pose(self.model, &mut data, q, xi).map_err(kinematics_error)?
             };
+            let motion = self.lateral_motion(x, k, &mut deltas);
             if robot_columns && n_elastic > 0 {
                 joint_jacobian_into(self.model, &mut data, q, xi, &mut jq)
                     .map_err(kinematics_error)?;
@@ -584,6 +648,32 @@ impl GeometricErrorModel<'_> {
                         }
                     }
                 }
+                if let (Some((g_rotation, _, phi)), Some(lateral), Some(lc)) =
+                    (&motion, &self.lateral, lateral_column)
+                {
+                    let r_g = g_rotation.to_rotation_matrix().into_inner();
+                    // d G(p) / d delta_j = (Jl(phi) x_j) x (R_G p) - x_j x o_j,
+                    // turning with Jl(phi) x_j; written before G (R_G^T) as
+                    // the other columns are.
+                    let jl = left_jacobian(phi);
+                    let p_tcp = r_g * x_base_tcp.translation.vector;
+                    let r_g_t = r_g.transpose();
+                    let payload_start = na;
+                    for (s, &(_, moment)) in deltas.iter().enumerate() {
+                        let joint = lateral.joint(k, s);
+                        let turn = jl * joint.axis;
+                        let v = r_g_t * (turn.cross(&p_tcp) - joint.axis.cross(&joint.origin));
+                        let w = r_g_t * turn;
+                        let unit = nalgebra::Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z);
+                        elastic.column_mut(lc + s).axpy(moment, &unit, 0.0);
+                        let compliance = x[eo + lc + s];
+                        for (p, dp) in joint.payload_derivatives.iter().enumerate() {
+                            elastic
+                                .column_mut(payload_start + p)
+                                .axpy(compliance * dp, &unit, 1.0);
+                        }
+                    }
+                }
                 if let Some(co) = cyclic_offset {
                     for (s, &i) in self.cyclic_joints.iter().enumerate() {
                         let basis = cyclic_basis(m.q[i]);
@@ -595,9 +685,25 @@ impl GeometricErrorModel<'_> {
                     }
                 }
             }
+            // Twists before G move the target by R_G times their motion.
+            let (x_base_tcp, r_mbg, offset_base) = match &motion {
+                Some((g_rotation, t_g, _)) => {
+                    let offset = x_base_tcp.rotation * x_tcp_target.translation.vector;
+                    (
+                        lateral_isometry(g_rotation, t_g) * x_base_tcp,
+                        r_mb * g_rotation.to_rotation_matrix().into_inner(),
+                        offset,
+                    )
+                }
+                None => (
+                    x_base_tcp,
+                    r_mb,
+                    x_base_tcp.rotation * x_tcp_target.translation.vector,
+                ),
+            };
             let r_bt = x_base_tcp.rotation.to_rotation_matrix().into_inner();
-            let offset_base = r_bt * x_tcp_target.translation.vector;
-            let target_base = x_base_tcp.translation.vector + offset_base;
+            let target_base =
+                x_base_tcp.translation.vector + r_bt * x_tcp_target.translation.vector;
             let r0 = (k - first) * rows;
             // Robot parameters and elastic unknowns: moving the TCP by
             // (v, w) moves the target by v + w x offset.
@@ -619,7 +725,7 @@ impl GeometricErrorModel<'_> {
             };
             for j in 0..np + n_elastic {
                 let (col, v, w) = twist(j);
-                let dp = r_mb * (v - lever * w);
+                let dp = r_mbg * (v - lever * w);
                 for i in 0..3 {
                     out[(r0 + i, col)] = dp[i];
                 }
@@ -641,7 +747,7 @@ impl GeometricErrorModel<'_> {
                 let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
                 let residual = vector_from_rotation(&(predicted.rotation * measured.inverse()));
                 let jinv = left_jacobian_inverse(&residual);
-                let map = jinv * r_mb;
+                let map = jinv * r_mbg;
                 for j in 0..np + n_elastic {
                     let (col, _, w) = twist(j);
                     let dr = map * w;
@@ -665,6 +771,11 @@ impl GeometricErrorModel<'_> {
         }
         Ok(())
     }
+}
+
+/// The rigid motion `p -> rotation p + translation` as an isometry.
+fn lateral_isometry(rotation: &UnitQuaternion<f64>, translation: &Vector3<f64>) -> Isometry3<f64> {
+    Isometry3::from_parts(Translation3::from(*translation), *rotation)
 }
 
 /// Target positions `p_base_target` of the poses of `set` predicted by the

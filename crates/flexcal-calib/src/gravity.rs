@@ -20,6 +20,42 @@
 //! `tau = tau_links + m a(q) + B(q) (m c)`; the torques are evaluated on the
 //! nominal geometry (a geometric error of a millimetre changes them by about
 //! 0.1 %, far below what gravity deflection can resolve).
+//!
+//! ## Lateral (transversal) joint compliances
+//! A joint's bearing and gear also tilt under the bending moment they
+//! carry: the structure outboard of joint j turns about axes other than
+//! the joint's own. With [`GravityCompliance::lateral`] set to
+//! [`LateralCompliance::AboutX`], every revolute joint j gets a lateral
+//! compliance `cx_j` (rad/N.m, unknown `lateral_compliance_<joint>_x`): the
+//! outboard structure turns by
+//!
+//! `delta_j = cx_j Mx_j`, `Mx_j = x_j . sum_k (p_k - o_j) x m_k g`
+//!
+//! about the x axis `x_j` of the joint's frame through its origin `o_j`
+//! (the common normal to this joint's axis and the next one, the direction
+//! of the next frame's `alpha`), where the sum runs over every weight the
+//! joint carries: the links fixed to its frame or to frames after it in
+//! the description's tree (both arms, for a torso that carries two) and the
+//! payload. Like the joint torques, `Mx_j = Mx_links + m ax + bx . (m c)`
+//! is linear in the payload, and the axes, origins and moments are
+//! evaluated on the nominal geometry at the commanded configuration.
+//!
+//! The small rotations are composed to first order, as one rigid motion
+//! applied to the robot evaluated at `q + dq`: `x_base_tcp' = G x_base_tcp`
+//! with `G = (Exp(phi), t)`, `phi = sum_j delta_j x_j`, `t = -sum_j
+//! delta_j x_j x o_j`. Each `delta_j` alone is the exact rotation of the
+//! outboard structure about its axis; several compose with an error of
+//! the order of the products `delta_i delta_j` (below 1e-7 rad for
+//! deflections of 0.3 mrad), and axes taken on the nominal geometry
+//! instead of the deflected one err by the product of a deflection and
+//! a geometric error (0.1 um for 0.1 mrad and 1 mm). The derivatives of
+//! this model are exact ([`crate::GeometricErrorModel`]).
+//!
+//! The rotation about the joint frame's y axis is not modelled: for
+//! perpendicular successive axes (`alpha = +-90 deg`) it is a rotation about
+//! the next joint's axis, through the next origin when the frames share it,
+//! and then the same motion, under the same moment, as that joint's own
+//! compliance (not identifiable apart from it).
 
 use flexcal_kinematics::{
     Data, LinkMass, Model, PointLoad, actuated_forces_into, joint_jacobian_into,
@@ -64,6 +100,60 @@ pub struct GravityCompliance {
     /// zero, so that the payload's influence (proportional to the
     /// compliances) is seen by the identifiability analysis.
     pub initial_compliance: f64,
+    /// Lateral joint compliances under the gravity moment (module docs;
+    /// default [`LateralCompliance::Off`]). Their unknowns start at zero
+    /// (rad/N.m).
+    pub lateral: LateralCompliance,
+}
+
+/// Which lateral (transversal) joint compliances the elasto-geometric
+/// model has (module docs, "Lateral joint compliances").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LateralCompliance {
+    /// None: joints deflect about their own axes only (default).
+    #[default]
+    Off,
+    /// Each revolute joint's outboard structure also turns about the x
+    /// axis of the joint's frame (rad/N.m, `lateral_compliance_<joint>_x`)
+    /// under the gravity moment about that axis.
+    AboutX,
+}
+
+impl std::str::FromStr for LateralCompliance {
+    type Err = String;
+    /// `off` or `x`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "off" => Ok(Self::Off),
+            "x" => Ok(Self::AboutX),
+            other => Err(format!("`{other}`: expected off or x")),
+        }
+    }
+}
+
+/// Names of the lateral compliances about x of `model`
+/// (`lateral_compliance_<joint>_x`, rad/N.m), one per [`lateral_joints`].
+pub fn lateral_compliance_names(model: &Model) -> Vec<String> {
+    lateral_joints(model)
+        .iter()
+        .map(|&i| format!("lateral_compliance_{}_x", model.actuated_names()[i]))
+        .collect()
+}
+
+/// The revolute actuated coordinates that get a lateral compliance (their
+/// indices in q): every revolute one with a frame.
+pub fn lateral_joints(model: &Model) -> Vec<usize> {
+    model
+        .actuated_kinds()
+        .iter()
+        .enumerate()
+        .filter(|(i, k)| {
+            matches!(k, flexcal_kinematics::ActuatedKind::Revolute)
+                && model.actuated_frame(*i).is_some()
+        })
+        .map(|(i, _)| i)
+        .collect()
 }
 
 /// Names of the payload unknowns appended after the compliances: its mass
@@ -164,11 +254,32 @@ impl GravityCompliance {
             payload_mass: 1.0,
             payload_center: Vector3::new(0.0, 0.0, 0.1),
             initial_compliance: 10e-6,
+            lateral: LateralCompliance::Off,
         }
     }
 
+    /// Names of the lateral compliances of `model` this loading adds
+    /// (`lateral_compliance_<joint>_x`, rad/N.m; none when
+    /// [`GravityCompliance::lateral`] is off), after the payload's.
+    pub fn lateral_unknown_names(&self, model: &Model) -> Vec<String> {
+        match self.lateral {
+            LateralCompliance::Off => Vec::new(),
+            LateralCompliance::AboutX => lateral_compliance_names(model),
+        }
+    }
+
+    /// Every elastic unknown of this loading, in order: the compliances
+    /// and payload of [`GravityCompliance::unknown_names`], then
+    /// [`GravityCompliance::lateral_unknown_names`].
+    pub fn elastic_unknown_names(&self, model: &Model) -> Vec<String> {
+        let mut names = Self::unknown_names(model);
+        names.extend(self.lateral_unknown_names(model));
+        names
+    }
+
     /// Names of the elastic unknowns of `model`: `compliance_<joint>` per
-    /// actuated coordinate, then [`PAYLOAD_PARAMETER_NAMES`].
+    /// actuated coordinate, then [`PAYLOAD_PARAMETER_NAMES`] (without the
+    /// lateral compliances: [`GravityCompliance::elastic_unknown_names`]).
     pub fn unknown_names(model: &Model) -> Vec<String> {
         let mut names: Vec<String> = model
             .actuated_names()
@@ -179,12 +290,14 @@ impl GravityCompliance {
         names
     }
 
-    /// Starting values of the elastic unknowns (compliances, payload mass,
-    /// first moment).
+    /// Starting values of the elastic unknowns, in the order of
+    /// [`GravityCompliance::elastic_unknown_names`] (compliances, payload
+    /// mass, first moment, lateral compliances at zero).
     pub fn initial_unknowns(&self, model: &Model) -> Vec<f64> {
         let mut x = vec![self.initial_compliance; model.n_actuated()];
         x.push(self.payload_mass);
         x.extend((self.payload_center * self.payload_mass).iter());
+        x.resize(x.len() + self.lateral_unknown_names(model).len(), 0.0);
         x
     }
 
@@ -310,6 +423,134 @@ impl GravityTerms {
     }
 }
 
+/// Values per lateral joint and pose in [`LateralTerms`]: axis (3), origin
+/// (3), `Mx_links`, `ax`, `bx` (3).
+const LATERAL_STRIDE: usize = 11;
+
+/// One lateral joint at one pose: what its rotation and its derivatives
+/// need (module docs, "Lateral joint compliances").
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LateralJoint {
+    /// The x axis of the joint's frame in R0 (unit).
+    pub axis: Vector3<f64>,
+    /// The origin of the joint's frame in R0 (m).
+    pub origin: Vector3<f64>,
+    /// `d Mx / d [m, mc_x, mc_y, mc_z]`: `[ax, bx]` (N.m/kg, N).
+    pub payload_derivatives: [f64; 4],
+    /// `Mx` of the links alone (N.m).
+    links: f64,
+}
+
+impl LateralJoint {
+    /// `Mx` for payload `[m, mc_x, mc_y, mc_z]` (N.m).
+    pub fn moment(&self, payload: &[f64]) -> f64 {
+        self.links
+            + self
+                .payload_derivatives
+                .iter()
+                .zip(payload)
+                .map(|(d, p)| d * p)
+                .sum::<f64>()
+    }
+}
+
+/// The lateral moments of every pose of a measurement set, evaluated once
+/// on the nominal geometry at the commanded configurations.
+#[derive(Debug, Clone)]
+pub(crate) struct LateralTerms {
+    /// Actuated index of each lateral joint ([`lateral_joints`]).
+    joints: Vec<usize>,
+    terms: Vec<f64>,
+}
+
+impl LateralTerms {
+    pub(crate) fn new(
+        model: &Model,
+        set: &MeasurementSet,
+        gravity: &GravityCompliance,
+    ) -> Result<Self, CalibError> {
+        let loads = gravity.check(model)?;
+        let joints = match gravity.lateral {
+            LateralCompliance::Off => Vec::new(),
+            LateralCompliance::AboutX => lateral_joints(model),
+        };
+        let frames: Vec<usize> = joints
+            .iter()
+            .filter_map(|&i| model.actuated_frame(i))
+            .collect();
+        // Whether frame `f` moves with frame `joint` (is it or comes after it).
+        let outboard = |f: usize, joint: usize| {
+            let mut current = Some(f);
+            while let Some(c) = current {
+                if c == joint {
+                    return true;
+                }
+                current = model.antecedent(c);
+            }
+            false
+        };
+        let stride = LATERAL_STRIDE * joints.len();
+        let mut terms = vec![0.0; set.len() * stride];
+        let mut data = Data::new(model);
+        let xi = model.nominal_params();
+        let g = gravity.gravity;
+        let end = model.end_frame();
+        for (k, m) in set.measurements().iter().enumerate() {
+            let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, &m.q, xi)
+                .map_err(|source| CalibError::Kinematics {
+                    pose: k,
+                    pose_id: m.label(k),
+                    source,
+                })?;
+            let p_tcp = x_base_tcp.translation.vector;
+            let r_tcp = x_base_tcp.rotation.to_rotation_matrix().into_inner();
+            for (s, &frame) in frames.iter().enumerate() {
+                let pose = data.frame_pose(frame).expect("a frame of the model");
+                let axis = pose.rotation * Vector3::x();
+                let origin = pose.translation.vector;
+                let mut links = 0.0;
+                for load in loads.iter().filter(|l| outboard(l.frame, frame)) {
+                    let at = data.frame_pose(load.frame).expect("a checked frame");
+                    let point = at.translation.vector + at.rotation * load.point;
+                    links += axis.dot(&(point - origin).cross(&load.force));
+                }
+                let mut payload = [0.0; 4];
+                if outboard(end, frame) {
+                    // The weight m g at p_tcp + R c: moment (p_tcp - o) x m g
+                    // plus (R (m c)) x g.
+                    payload[0] = axis.dot(&(p_tcp - origin).cross(&g));
+                    for l in 0..3 {
+                        payload[1 + l] = axis.dot(&r_tcp.column(l).cross(&g));
+                    }
+                }
+                let block = &mut terms[k * stride + s * LATERAL_STRIDE..][..LATERAL_STRIDE];
+                block[..3].copy_from_slice(axis.as_slice());
+                block[3..6].copy_from_slice(origin.as_slice());
+                block[6] = links;
+                block[7..].copy_from_slice(&payload);
+            }
+        }
+        Ok(Self { joints, terms })
+    }
+
+    /// Number of lateral joints.
+    pub(crate) fn len(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Lateral joint `s` at pose `k`.
+    pub(crate) fn joint(&self, k: usize, s: usize) -> LateralJoint {
+        let stride = LATERAL_STRIDE * self.joints.len();
+        let b = &self.terms[k * stride + s * LATERAL_STRIDE..][..LATERAL_STRIDE];
+        LateralJoint {
+            axis: Vector3::new(b[0], b[1], b[2]),
+            origin: Vector3::new(b[3], b[4], b[5]),
+            links: b[6],
+            payload_derivatives: [b[7], b[8], b[9], b[10]],
+        }
+    }
+}
+
 /// The mass-table file (TOML; kg, mm, m/s^2, urad/N.m):
 ///
 /// ```toml
@@ -317,6 +558,7 @@ impl GravityTerms {
 /// payload_mass_kg = 1.0                 # starting value
 /// payload_center_mm = [0.0, 0.0, 100.0] # starting value, TCP frame
 /// initial_compliance_urad_per_nm = 1.0  # starting value, every joint (um/N for linear joints)
+/// lateral = "about-x"                   # lateral compliances about each joint's x axis (optional; default "off")
 ///
 /// [[mass]]
 /// name = "upper arm"
@@ -332,8 +574,14 @@ struct MassTableFile {
     payload_mass_kg: f64,
     payload_center_mm: [f64; 3],
     initial_compliance_urad_per_nm: f64,
+    #[serde(default, skip_serializing_if = "is_off")]
+    lateral: LateralCompliance,
     #[serde(default)]
     mass: Vec<MassFile>,
+}
+
+fn is_off(lateral: &LateralCompliance) -> bool {
+    *lateral == LateralCompliance::Off
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -425,6 +673,7 @@ impl GravityCompliance {
             payload_mass: file.payload_mass_kg,
             payload_center: Vector3::from(file.payload_center_mm) * 1e-3,
             initial_compliance: file.initial_compliance_urad_per_nm * 1e-6,
+            lateral: file.lateral,
         })
     }
 
@@ -447,6 +696,7 @@ impl GravityCompliance {
             payload_mass_kg: self.payload_mass,
             payload_center_mm: (self.payload_center * 1e3).into(),
             initial_compliance_urad_per_nm: self.initial_compliance * 1e6,
+            lateral: self.lateral,
             mass: self
                 .masses
                 .iter()

@@ -126,6 +126,8 @@ pub struct CalibrationOptions {
     pub joint_terms: JointTerms,
     /// Elasto-geometric model: joint compliances under gravity and the
     /// payload are identified with the geometry (default `None`: geometric).
+    /// Its [`GravityCompliance::lateral`] switches the lateral joint
+    /// compliances on ([`crate::gravity`]; default off).
     pub gravity: Option<GravityCompliance>,
     /// Fail with [`CalibError::RankDeficient`] instead of reporting and
     /// freezing non-identifiable unknowns (default false).
@@ -500,6 +502,22 @@ impl Calibration {
                     ));
                 }
             }
+            let lateral: Vec<&UnknownEstimate> = self
+                .unknowns
+                .iter()
+                .filter(|u| u.name.starts_with("lateral_compliance_"))
+                .collect();
+            if !lateral.is_empty() {
+                let identified: Vec<&str> = lateral
+                    .iter()
+                    .filter(|u| u.status == UnknownStatus::Identified)
+                    .map(|u| u.name.as_str())
+                    .collect();
+                notes.push(format!(
+                    "lateral joint compliances identified from the gravity moments: {}; the others stay at zero (too little moment about their axes, or not separable from the geometry and the joint compliances)",
+                    if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
+                ));
+            }
             let payload = names("payload_");
             if !payload.is_empty() {
                 notes.push(format!(
@@ -626,10 +644,11 @@ pub fn calibrate(
         let mut known: Vec<&str> = model.params().iter().map(|p| p.name.as_str()).collect();
         known.extend(crate::FRAME_PARAMETER_NAMES);
         known.extend(crate::TARGET_PARAMETER_NAMES);
-        let elastic_names = GravityCompliance::unknown_names(model);
-        if options.gravity.is_some() {
-            known.extend(elastic_names.iter().map(|s| s.as_str()));
-        }
+        let elastic_names = options
+            .gravity
+            .as_ref()
+            .map_or_else(Vec::new, |g| g.elastic_unknown_names(model));
+        known.extend(elastic_names.iter().map(|s| s.as_str()));
         let joint_names = options.joint_terms.unknown_names(model);
         known.extend(joint_names.iter().map(|s| s.as_str()));
         let mut free = vec![true; known.len()];

@@ -244,7 +244,7 @@ pub use error_model::{
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use flexcal_optim::CancelToken;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
-pub use gravity::{GravityCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
+pub use gravity::{GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
 pub use identify::{
     Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
     ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,

@@ -37,7 +37,7 @@
 //! paired difference, the "one standard error" rule, which prefers the
 //! simpler of two models the data cannot tell apart; BIC: by 2, "positive
 //! evidence" on Kass and Raftery's scale). Removing the compliances removes
-//! the non-linear law with them. Backward, not forward: groups overlap (a
+//! the non-linear law and the lateral compliances with them. Backward, not forward: groups overlap (a
 //! cyclic error of the shoulder imitates part of its compliance), and a
 //! forward search adds first whatever imitates the largest missing effect,
 //! then cannot take it out (a test on a simulated robot shows it). The [`SelectionReport`] lists every
@@ -112,6 +112,9 @@ pub enum TermGroup {
     JointLaw,
     /// Cyclic joint errors ([`crate::joint_law`]).
     CyclicErrors,
+    /// Lateral joint compliances under the gravity moment
+    /// ([`crate::gravity`], `lateral_compliance_*`).
+    LateralCompliances,
 }
 
 impl TermGroup {
@@ -123,6 +126,7 @@ impl TermGroup {
             TermGroup::Compliances => "compliances",
             TermGroup::JointLaw => "joint law",
             TermGroup::CyclicErrors => "cyclic",
+            TermGroup::LateralCompliances => "lateral",
         }
     }
 }
@@ -139,7 +143,8 @@ pub struct SelectionOptions {
     /// Seed of the k-means start (default 1).
     pub seed: u64,
     /// Groups the search may add (default: every group the options allow:
-    /// the law and the compliances only with a mass table).
+    /// the law and the compliances only with a mass table, the lateral
+    /// compliances only when its [`crate::GravityCompliance::lateral`] is on).
     pub groups: Option<Vec<TermGroup>>,
 }
 
@@ -300,6 +305,9 @@ fn candidate_options(
     if !on(TermGroup::Compliances) {
         options.gravity = None;
     }
+    if let (false, Some(gravity)) = (on(TermGroup::LateralCompliances), &mut options.gravity) {
+        gravity.lateral = crate::LateralCompliance::Off;
+    }
     options.joint_terms.law = if on(TermGroup::JointLaw) && options.gravity.is_some() {
         Some(base.joint_terms.law.unwrap_or_default())
     } else {
@@ -309,6 +317,7 @@ fn candidate_options(
     // Fixed names of groups switched off must exist in the candidate.
     let allowed: Vec<String> = {
         let mut names = crate::GravityCompliance::unknown_names(model);
+        names.extend(crate::gravity::lateral_compliance_names(model));
         names.extend(
             crate::joint_law::JointTerms {
                 law: Some(JointLaw::default()),
@@ -319,8 +328,8 @@ fn candidate_options(
         names
     };
     let mut present = options.joint_terms.unknown_names(model);
-    if options.gravity.is_some() {
-        present.extend(crate::GravityCompliance::unknown_names(model));
+    if let Some(gravity) = &options.gravity {
+        present.extend(gravity.elastic_unknown_names(model));
     }
     options
         .fixed
@@ -338,9 +347,12 @@ fn available_groups(model: &Model, base: &CalibrationOptions) -> Vec<TermGroup> 
     if has(Quantity::Beta) {
         groups.push(TermGroup::AxisTilts);
     }
-    if base.gravity.is_some() {
+    if let Some(gravity) = &base.gravity {
         groups.push(TermGroup::Compliances);
         groups.push(TermGroup::JointLaw);
+        if gravity.lateral != crate::LateralCompliance::Off {
+            groups.push(TermGroup::LateralCompliances);
+        }
     }
     if !crate::joint_law::cyclic_joints(model).is_empty() {
         groups.push(TermGroup::CyclicErrors);
@@ -675,7 +687,11 @@ pub fn select_model(
             let trial: Vec<TermGroup> = chosen
                 .iter()
                 .copied()
-                .filter(|&c| c != g && !(g == TermGroup::Compliances && c == TermGroup::JointLaw))
+                .filter(|&c| {
+                    c != g
+                        && !(g == TermGroup::Compliances
+                            && matches!(c, TermGroup::JointLaw | TermGroup::LateralCompliances))
+                })
                 .collect();
             if let Some(s) = score(&trial, &mut report) {
                 if best.as_ref().is_none_or(|(_, _, b)| s.0 < b.0) {

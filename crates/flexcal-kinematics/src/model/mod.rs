@@ -333,6 +333,12 @@ impl Model {
     pub fn actuated_limits(&self) -> &[(f64, f64)] {
         &self.actuated_limits
     }
+    /// Index of the frame whose joint actuated coordinate `i` drives
+    /// ([`Model::frame_index`] numbering), or `None` for `i` out of range:
+    /// the frame whose z axis is that joint's axis.
+    pub fn actuated_frame(&self, i: usize) -> Option<usize> {
+        self.actuated_frames.get(i).copied()
+    }
     /// Number of geometric parameters: the length of xi.
     pub fn n_params(&self) -> usize {
         self.params.len()

@@ -545,6 +545,7 @@ pub fn ir663_mass_table(model: &Model) -> Result<GravityCompliance> {
         payload_mass: 10.0,
         payload_center: nalgebra::Vector3::zeros(),
         initial_compliance: 1e-8,
+        lateral: flexcal_calib::LateralCompliance::Off,
     };
     for m in &table.masses {
         if model.frame_index(&m.frame).is_none() {
