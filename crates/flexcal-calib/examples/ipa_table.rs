@@ -13,7 +13,9 @@
 //! the full geometric model and the dataset README's `dh` and `dh+g`; the
 //! share of validation poses within the predicted 95 % bounds; and the
 //! joint compliances each series identifies with the non-linear joint law.
-//! `ipa_table selected` prints that part only.
+//! `ipa_table selected` prints that part only; `ipa_table selected lateral`
+//! prints it with the lateral joint compliances allowed in the richest model
+//! (`GravityCompliance::lateral`, one more group for the selection).
 //!
 //! `cargo run --release -p flexcal-calib --example ipa_table`
 
@@ -58,6 +60,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut elastic = geometric.clone();
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
     let selected_only = std::env::args().nth(1).as_deref() == Some("selected");
+    if std::env::args().nth(2).as_deref() == Some("lateral") {
+        if let Some(gravity) = elastic.gravity.as_mut() {
+            gravity.lateral = flexcal_calib::LateralCompliance::AboutX;
+        }
+        println!("(lateral joint compliances allowed in the richest model)");
+    }
     if !selected_only {
         earlier_tables(&model, &sets, geometric.clone(), elastic.clone())?;
     }
@@ -117,6 +125,20 @@ fn selected_table(
                 eprintln!("{line}");
             }
         }
+        for u in selected
+            .unknowns
+            .iter()
+            .filter(|u| u.name.starts_with("lateral_compliance_"))
+        {
+            eprintln!(
+                "{train_name}: {} = {:.2} urad/N.m +/- {} ({:?})",
+                u.name,
+                u.value * 1e6,
+                u.standard_error
+                    .map_or("-".into(), |e| format!("{:.2}", e * 1e6)),
+                u.status
+            );
+        }
         let g = calibrate(model, train, geometric)?;
         let split = SplitCheck::new(model, train, &chosen, &selected)?;
         let label = report.as_ref().map_or(String::new(), |r| {
@@ -156,6 +178,20 @@ fn selected_table(
             let mut options = options.clone();
             options.joint_terms.cyclic = false;
             let c = calibrate(model, set(name), &options)?;
+            for u in c
+                .unknowns
+                .iter()
+                .filter(|u| u.name.starts_with("lateral_compliance_"))
+            {
+                eprintln!(
+                    "{name} ({label}): {} = {:.2} urad/N.m +/- {} ({:?})",
+                    u.name,
+                    u.value * 1e6,
+                    u.standard_error
+                        .map_or("-".into(), |e| format!("{:.2}", e * 1e6)),
+                    u.status
+                );
+            }
             let split = SplitCheck::new(model, set(name), &options, &c)?;
             let cell = |unknown: &str, scale: f64| {
                 let Some(u) = c.unknowns.iter().find(|u| u.name == unknown) else {

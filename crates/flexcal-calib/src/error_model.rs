@@ -500,7 +500,9 @@ impl<'a> GeometricErrorModel<'a> {
                 source,
             })?;
         let x_base_tcp = match self.lateral_motion(x, k, &mut Vec::new()) {
-            Some((rotation, translation, _)) => lateral_isometry(&rotation, &translation) * x_base_tcp,
+            Some((rotation, translation, _)) => {
+                lateral_isometry(&rotation, &translation) * x_base_tcp
+            }
             None => x_base_tcp,
         };
         Ok(x_meas_base * x_base_tcp * x_tcp_target)

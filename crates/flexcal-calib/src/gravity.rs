@@ -56,6 +56,12 @@
 //! the next joint's axis, through the next origin when the frames share it,
 //! and then the same motion, under the same moment, as that joint's own
 //! compliance (not identifiable apart from it).
+//!
+//! Limitations of the lateral terms: linear springs only (no hardening
+//! law); "outboard" follows the antecedents of the description's tree, so
+//! on a closed loop the weights beyond the loop's cut joint count for the
+//! branch that holds them in the tree; the rotation moves the TCP only for
+//! joints on its path (a joint of another branch has no influence on it).
 
 use flexcal_kinematics::{
     Data, LinkMass, Model, PointLoad, actuated_forces_into, joint_jacobian_into,
@@ -496,11 +502,13 @@ impl LateralTerms {
         let g = gravity.gravity;
         let end = model.end_frame();
         for (k, m) in set.measurements().iter().enumerate() {
-            let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, &m.q, xi)
-                .map_err(|source| CalibError::Kinematics {
-                    pose: k,
-                    pose_id: m.label(k),
-                    source,
+            let x_base_tcp =
+                flexcal_kinematics::forward_pose(model, &mut data, &m.q, xi).map_err(|source| {
+                    CalibError::Kinematics {
+                        pose: k,
+                        pose_id: m.label(k),
+                        source,
+                    }
                 })?;
             let p_tcp = x_base_tcp.translation.vector;
             let r_tcp = x_base_tcp.rotation.to_rotation_matrix().into_inner();

@@ -79,7 +79,11 @@
 //! `compliance_<joint>` (rad/N.m, or m/N for linear joints), `payload_mass`
 //! (kg) and `payload_mx..mz` (first moment, kg.m, TCP frame); the same
 //! identifiability analysis says which of them gravity alone identifies (a
-//! vertical joint axis never is loaded). The built-in table
+//! vertical joint axis never is loaded). With
+//! [`GravityCompliance::lateral`] each revolute joint also tilts about its
+//! frame's x axis under the gravity moment of everything it carries
+//! (`lateral_compliance_<joint>_x`, rad/N.m; [`gravity`], "Lateral joint
+//! compliances"). The built-in table
 //! [`GravityCompliance::ur10_urdf`] holds the UR10's URDF masses; other robots
 //! give a mass-table file ([`GravityCompliance::from_toml_file`]).
 //!
@@ -184,8 +188,10 @@
 //!
 //! ## Limitations
 //! - The elasto-geometric model has rigid links and joint springs (linear,
-//!   or the law of [`joint_law`]) about the joint axes only: no lateral
-//!   compliance of a joint about other axes; gravity torques are evaluated
+//!   or the law of [`joint_law`]) about the joint axes, and optionally
+//!   linear lateral springs about each revolute joint frame's x axis
+//!   (composed to first order; not about y, which for perpendicular
+//!   successive axes is the next joint's own compliance); gravity torques are evaluated
 //!   on the nominal geometry at the commanded configuration (second-order
 //!   effects), and process forces are not part of it (see
 //!   `flexcal-elastic` for loaded campaigns).

@@ -1,6 +1,6 @@
 //! Model selection from the training data alone: which groups of unknowns
 //! (joint offsets, axis tilts, joint compliances, the non-linear joint law,
-//! cyclic joint errors) are worth identifying.
+//! cyclic joint errors, lateral joint compliances) are worth identifying.
 //!
 //! The paper removes "the columns of J of parameters with little influence"
 //! (section 2.1.5, before (11)) by hand; the identifiability analysis of
@@ -279,9 +279,9 @@ impl SelectionReport {
     }
 }
 
-/// A candidate's score and its per-fold means (cross-validation; empty for
-/// BIC).
-type Score = (f64, Vec<f64>);
+/// A candidate's score, its per-fold means (cross-validation; empty for
+/// BIC) and its number of identified unknowns (the mean over the folds).
+type Score = (f64, Vec<f64>, f64);
 
 /// The options of the candidate with `groups` on, from `base` (whose
 /// `gravity` and `joint_terms` say what is available).
@@ -648,14 +648,14 @@ pub fn select_model(
                 candidate.cv_standard_error_mm = Some(sd / k.sqrt() * 1e3);
                 candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
                 candidate.identified = rank;
-                (mean, fold_means)
+                (mean, fold_means, rank)
             })
         } else {
             calibrate(model, set, &options).map(|c| {
                 let b = bic(&c);
                 candidate.bic = Some(b);
                 candidate.identified = c.rank() as f64;
-                (b, Vec::new())
+                (b, Vec::new(), c.rank() as f64)
             })
         };
         let out = match result {
@@ -714,7 +714,25 @@ pub fn select_model(
             2.0
         };
         let loss = s.0 - current.0;
-        if loss <= margin {
+        // A group none of whose unknowns was identified (all left at their
+        // starting values by the identifiability analysis) leaves the same
+        // number of identified unknowns and nearly the same fits: the
+        // paired uncertainty then collapses to almost nothing and would
+        // keep a group that does nothing. Such a removal goes when it
+        // costs less than 0.1 % of the score (cross-validation; BIC's
+        // margin of 2 already lets it go).
+        let empty_group = cv && s.2 >= current.2 && loss <= 1e-3 * current.0.abs();
+        if loss > margin && empty_group {
+            report.reasons.push(format!(
+                "without {} the score is {:.4} {unit} against {:.4} with as many unknowns identified ({:.0}): none of the group's was, removed",
+                g.label(),
+                show(s.0),
+                show(current.0),
+                s.2
+            ));
+            chosen = trial;
+            current = s;
+        } else if loss <= margin {
             report.reasons.push(format!(
                 "without {} the score is {:.4} {unit} against {:.4}, not worse by more than its uncertainty {:.4}: removed (the simpler model)",
                 g.label(),

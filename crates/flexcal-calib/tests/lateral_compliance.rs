@@ -168,12 +168,20 @@ fn simulate(
             let x_end = data.frame_pose(end).unwrap();
             loads.push(PointLoad {
                 frame: end,
-                point: (x_end.inverse() * (x_tcp * nalgebra::Point3::from(gravity.payload_center))).coords,
+                point: (x_end.inverse() * (x_tcp * nalgebra::Point3::from(gravity.payload_center)))
+                    .coords,
                 force: payload_force,
             });
             let mut tau = vec![0.0; model.n_actuated()];
-            actuated_forces_into(model, &mut data, &q, model.nominal_params(), &loads, &mut tau)
-                .unwrap();
+            actuated_forces_into(
+                model,
+                &mut data,
+                &q,
+                model.nominal_params(),
+                &loads,
+                &mut tau,
+            )
+            .unwrap();
             let deflected: Vec<f64> = (0..6)
                 .map(|i| {
                     q[i] + spring_deflection(tau[i], joints.compliance[i], joints.hardening[i])
@@ -210,7 +218,13 @@ fn simulate(
                 moved = t_j * turn * t_j.inverse() * moved;
             }
             let p = (frame * moved).translation.vector
-                + Vector3::from_fn(|_, _| if noise > 0.0 { normal.sample(&mut rng) } else { 0.0 });
+                + Vector3::from_fn(|_, _| {
+                    if noise > 0.0 {
+                        normal.sample(&mut rng)
+                    } else {
+                        0.0
+                    }
+                });
             Measurement::new(q, p)
         })
         .collect();
@@ -253,14 +267,30 @@ fn lateral_columns_match_central_differences() {
     let (kr16_model, kr16_gravity) = kr16();
     let ur10_model = ur10();
     let ur10_gravity = GravityCompliance::ur10_urdf(&ur10_model).unwrap();
-    let cases: [(&str, &Model, GravityCompliance, Joints, &dyn Fn(&mut ChaCha8Rng) -> Vec<f64>); 2] = [
+    let cases: [(
+        &str,
+        &Model,
+        GravityCompliance,
+        Joints,
+        &dyn Fn(&mut ChaCha8Rng) -> Vec<f64>,
+    ); 2] = [
         ("ur10", &ur10_model, ur10_gravity, ur10_truth(), &ur10_draw),
         ("kr16", &kr16_model, kr16_gravity, kr16_truth(), &kr16_draw),
     ];
     for (label, model, gravity, truth, draw) in cases {
         let (frame, target) = common::generic_frame_and_target();
         let gravity = lateral_on(&gravity);
-        let set = simulate(model, &gravity, model.nominal_params(), &truth, &frame, 6, 0.0, 2, draw);
+        let set = simulate(
+            model,
+            &gravity,
+            model.nominal_params(),
+            &truth,
+            &frame,
+            6,
+            0.0,
+            2,
+            draw,
+        );
         let set = common::with_orientation(&set);
         let terms = JointTerms {
             law: Some(JointLaw::default()),
@@ -276,7 +306,13 @@ fn lateral_columns_match_central_differences() {
         assert_eq!(kinds.len(), problem.n_unknowns());
         let lo = problem.lateral_offset().unwrap();
         assert!(problem.names()[lo].starts_with("lateral_compliance_"));
-        assert!(problem.names()[lo..].iter().filter(|n| n.starts_with("lateral_")).count() == 6);
+        assert!(
+            problem.names()[lo..]
+                .iter()
+                .filter(|n| n.starts_with("lateral_"))
+                .count()
+                == 6
+        );
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut x = problem.initial_unknowns();
         let eo = problem.elastic_offset().unwrap();
@@ -299,13 +335,9 @@ fn lateral_columns_match_central_differences() {
             UnknownKind::Mass | UnknownKind::FirstMoment => 1e-5,
             _ => 1e-6,
         };
-        let jac = common::assert_jacobian_matches(
-            label,
-            &problem,
-            &x,
-            &step,
-            &|column, _| 1e-5 * column.iter().fold(1e-12, |a: f64, v| a.max(v.abs())) + 1e-9,
-        );
+        let jac = common::assert_jacobian_matches(label, &problem, &x, &step, &|column, _| {
+            1e-5 * column.iter().fold(1e-12, |a: f64, v| a.max(v.abs())) + 1e-9
+        });
         // The lateral columns are not trivially zero.
         let nonzero = (lo..lo + 6)
             .filter(|&j| (0..jac.nrows()).any(|i| jac[(i, j)].abs() > 1e-6))
@@ -377,9 +409,14 @@ fn check_within_three_standard_errors(
     for (name, true_combination, value, se) in
         flexcal_calib::combination_check(calibration, &truth_vector)
     {
-        let term = ["compliance_", "hardening_", "lost_motion_", "lateral_compliance_"]
-            .iter()
-            .any(|p| name.starts_with(p));
+        let term = [
+            "compliance_",
+            "hardening_",
+            "lost_motion_",
+            "lateral_compliance_",
+        ]
+        .iter()
+        .any(|p| name.starts_with(p));
         if !term {
             continue;
         }
@@ -417,8 +454,28 @@ fn selection_recovers_lateral_and_law(
         rotation_from_vector(&Vector3::new(0.0, 0.05, 1.5)),
     );
     let noise = 20e-6;
-    let train = simulate(model, gravity, &xi, truth, &frame, 600, noise, seed + 1, draw);
-    let validation = simulate(model, gravity, &xi, truth, &frame, 300, noise, seed + 2, draw);
+    let train = simulate(
+        model,
+        gravity,
+        &xi,
+        truth,
+        &frame,
+        600,
+        noise,
+        seed + 1,
+        draw,
+    );
+    let validation = simulate(
+        model,
+        gravity,
+        &xi,
+        truth,
+        &frame,
+        300,
+        noise,
+        seed + 2,
+        draw,
+    );
     let mut richest = CalibrationOptions::for_model(model);
     richest.weighting = Weighting::Uniform;
     richest.default_position_std = noise;
@@ -471,7 +528,11 @@ fn selection_recovers_lateral_and_law(
         p.after.position_mean * 1e3,
         noise_mean * 1e3
     );
-    assert!(r.after.position_mean < 1.2 * noise_mean, "{label}: {:?}", r.after);
+    assert!(
+        r.after.position_mean < 1.2 * noise_mean,
+        "{label}: {:?}",
+        r.after
+    );
     assert!(p.after.position_mean > r.after.position_mean, "{label}");
 }
 
@@ -494,7 +555,15 @@ fn ur10_selection_keeps_the_law_and_the_lateral_compliance() {
 fn kr16_class_selection_keeps_the_law_and_the_lateral_compliance() {
     let (model, gravity) = kr16();
     let name = format!("lateral_compliance_{}_x", model.actuated_names()[0]);
-    selection_recovers_lateral_and_law("kr16", &model, &gravity, &kr16_truth(), &kr16_draw, &name, 71);
+    selection_recovers_lateral_and_law(
+        "kr16",
+        &model,
+        &gravity,
+        &kr16_truth(),
+        &kr16_draw,
+        &name,
+        71,
+    );
 }
 
 #[test]
@@ -516,6 +585,9 @@ fn lateral_names_switch_and_mass_table_round_trip() {
     assert_eq!(back.lateral, LateralCompliance::AboutX);
     let off = GravityCompliance::from_toml_str(&gravity.to_toml_string().unwrap(), "off").unwrap();
     assert_eq!(off.lateral, LateralCompliance::Off);
-    assert_eq!("x".parse::<LateralCompliance>(), Ok(LateralCompliance::AboutX));
+    assert_eq!(
+        "x".parse::<LateralCompliance>(),
+        Ok(LateralCompliance::AboutX)
+    );
     assert!("y".parse::<LateralCompliance>().is_err());
 }
