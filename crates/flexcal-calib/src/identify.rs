@@ -104,7 +104,8 @@ pub struct CalibrationOptions {
     pub max_standard_error_length: f64,
     /// Same for angles (rad; default 0.25 deg; `> 0`).
     pub max_standard_error_angle: f64,
-    /// Same for joint compliances (rad/N.m or m/N; default 2e-6 rad/N.m,
+    /// Same for joint compliances, lateral ones included (rad/N.m or m/N;
+    /// default 10e-6 rad/N.m,
     /// about the compliance of a joint of a mid-size arm; `> 0`).
     pub max_standard_error_compliance: f64,
     /// Same for the payload mass (kg; default 1; `> 0`).
