@@ -251,6 +251,15 @@ fn kr16_draw(rng: &mut ChaCha8Rng) -> Vec<f64> {
     ]
 }
 
+/// A robot, its mass table, its truth and its configuration draw.
+type Case<'a> = (
+    &'a str,
+    &'a Model,
+    GravityCompliance,
+    Joints,
+    &'a dyn Fn(&mut ChaCha8Rng) -> Vec<f64>,
+);
+
 fn lateral_on(gravity: &GravityCompliance) -> GravityCompliance {
     GravityCompliance {
         lateral: LateralCompliance::AboutX,
@@ -267,13 +276,7 @@ fn lateral_columns_match_central_differences() {
     let (kr16_model, kr16_gravity) = kr16();
     let ur10_model = ur10();
     let ur10_gravity = GravityCompliance::ur10_urdf(&ur10_model).unwrap();
-    let cases: [(
-        &str,
-        &Model,
-        GravityCompliance,
-        Joints,
-        &dyn Fn(&mut ChaCha8Rng) -> Vec<f64>,
-    ); 2] = [
+    let cases: [Case<'_>; 2] = [
         ("ur10", &ur10_model, ur10_gravity, ur10_truth(), &ur10_draw),
         ("kr16", &kr16_model, kr16_gravity, kr16_truth(), &kr16_draw),
     ];
