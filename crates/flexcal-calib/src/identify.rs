@@ -335,10 +335,13 @@ pub struct Calibration {
     /// Whether orientations were used.
     pub use_orientation: bool,
     /// Every unknown, robot parameters first, then `frame_*`, then
-    /// `target_*`, then (elasto-geometric) `compliance_*` and `payload_*`.
+    /// `target_*`, then (elasto-geometric) `compliance_*`, `payload_*` and,
+    /// when on, `lateral_compliance_*`, then the joint terms.
     pub unknowns: Vec<UnknownEstimate>,
     /// The gravity loading when the model is elasto-geometric, with the
-    /// identified elastic unknowns (compliances, payload mass, first moment).
+    /// identified elastic unknowns (compliances, payload mass, first moment,
+    /// lateral compliances when on; order of
+    /// [`GravityCompliance::elastic_unknown_names`]).
     pub elastic: Option<(GravityCompliance, Vec<f64>)>,
     /// The joint error terms of the model ([`crate::joint_law`]).
     pub joint_terms: JointTerms,

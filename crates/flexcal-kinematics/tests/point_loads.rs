@@ -94,3 +94,26 @@ fn a_load_on_a_missing_frame_is_an_error() {
     .unwrap_err();
     assert!(err.to_string().contains("point load"), "{err}");
 }
+
+/// The frame of each actuated coordinate is the frame its joint turns:
+/// frames `1`..`6` of the built-in UR10, and a joint's axis is that
+/// frame's z axis (the joint Jacobian's angular column).
+#[test]
+fn actuated_frames_are_the_joint_frames() {
+    let model = flexcal_kinematics::RobotDescription::builtin("ur10")
+        .unwrap()
+        .build()
+        .unwrap();
+    let q = [0.3, -1.1, 0.9, -0.4, 1.2, 0.5];
+    let mut data = flexcal_kinematics::Data::new(&model);
+    let jac =
+        flexcal_kinematics::joint_jacobian(&model, &mut data, &q, model.nominal_params()).unwrap();
+    for i in 0..6 {
+        let frame = model.actuated_frame(i).unwrap();
+        assert_eq!(model.frame_names()[frame], (i + 1).to_string());
+        let z = data.frame_pose(frame).unwrap().rotation * Vector3::z();
+        let w = Vector3::new(jac[(3, i)], jac[(4, i)], jac[(5, i)]);
+        assert!((z - w).norm() < 1e-12, "joint {i}: {z} vs {w}");
+    }
+    assert_eq!(model.actuated_frame(6), None);
+}
