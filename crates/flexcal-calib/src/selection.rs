@@ -500,12 +500,11 @@ type FitOutcome = (Vec<f64>, usize, f64);
 
 /// Runs the fits of several candidates at once: every fold of every
 /// candidate (cross-validation) or every candidate on the whole set (BIC),
-/// as one queue shared by as many threads as the machine runs at once. A
-/// backward step's candidates are independent, and one queue keeps both
-/// cores busy until the last fit, where scoring candidate by candidate
-/// waited at each candidate for its slowest fold. Each thread's fits own
-/// their workspaces (each [`calibrate`] builds its own). Results come back
-/// in the order of `candidates`, then folds.
+/// as one queue shared by a few threads. A backward step's candidates are
+/// independent, and one queue keeps every core busy until the last fit,
+/// where scoring candidate by candidate waited at each candidate for its
+/// slowest fold. Each fit owns its workspaces (each [`calibrate`] builds
+/// its own). Results come back in the order of `candidates`, then folds.
 fn run_fits(
     model: &Model,
     set: &MeasurementSet,
@@ -533,8 +532,13 @@ fn run_fits(
             f64::NAN,
         ))
     };
+    // At least one thread per fold, as when the folds of a candidate were
+    // fitted each on its thread: on a machine shared with other jobs the
+    // scheduler shares the cores per thread, and fewer threads than before
+    // would get the selection less of them.
     let threads = std::thread::available_parallelism()
         .map_or(1, usize::from)
+        .max(folds.len())
         .clamp(1, jobs.max(1));
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut results: Vec<Option<Result<FitOutcome, CalibError>>> =

@@ -252,7 +252,7 @@ fn a_frame_index_out_of_range_is_a_named_error() {
 }
 
 /// The parameter and joint Jacobians from one forward pass equal those of
-/// two separate calls, on a serial robot and on a closed loop.
+/// two separate calls (to rounding), on a serial robot and on a closed loop.
 #[test]
 fn param_and_joint_jacobians_from_one_pass_equal_the_separate_calls() {
     use flexcal_kinematics::{joint_jacobian_into, param_and_joint_jacobians_into};
@@ -282,9 +282,22 @@ fn param_and_joint_jacobians_from_one_pass_equal_the_separate_calls() {
                 &mut joints_once,
             )
             .unwrap();
-            assert_eq!(pose, pose_once, "{name}");
-            assert_eq!(params, params_once, "{name}");
-            assert_eq!(joints, joints_once, "{name}");
+            // A closed loop's passive joints are solved from the previous
+            // solution: two passes agree to rounding, not bit for bit.
+            let close = |a: &[f64], b: &[f64]| {
+                a.iter()
+                    .zip(b)
+                    .all(|(x, y)| (x - y).abs() <= 1e-12 * (1.0 + x.abs()))
+            };
+            assert!(
+                close(
+                    pose.to_homogeneous().as_slice(),
+                    pose_once.to_homogeneous().as_slice()
+                ),
+                "{name}"
+            );
+            assert!(close(params.as_slice(), params_once.as_slice()), "{name}");
+            assert!(close(joints.as_slice(), joints_once.as_slice()), "{name}");
         }
     }
 }

@@ -864,7 +864,9 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
             .sum::<f64>()
             .sqrt();
         let v_norm = self.step[..rank].iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(2.0 * a_norm <= alpha * v_norm) {
+        // False as well for a non-finite acceleration.
+        let within = 2.0 * a_norm <= alpha * v_norm;
+        if !within {
             return Ok(false);
         }
         for k in 0..rank {
