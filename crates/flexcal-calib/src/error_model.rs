@@ -5,7 +5,7 @@ use std::cell::{Cell, RefCell};
 
 use faer::MatMut;
 use flexcal_kinematics::{
-    Data, Model, ParamKind, forward_pose, joint_jacobian_into, param_jacobian_into,
+    Data, Model, ParamKind, forward_pose, param_and_joint_jacobians_into, param_jacobian_into,
 };
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
 use nalgebra::{
@@ -16,7 +16,7 @@ use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
 use crate::gravity::{GravityCompliance, GravityTerms, LateralTerms};
-use crate::joint_law::{JointTerms, cyclic_basis, cyclic_error, cyclic_joints, joint_deflection};
+use crate::joint_law::{JointTerms, cyclic_basis, cyclic_joints, joint_deflection};
 use crate::metrics::PoseError;
 use crate::{CalibError, MeasurementSet};
 
@@ -121,6 +121,9 @@ pub struct GeometricErrorModel<'a> {
     deflection: RefCell<JointState>,
     joint_terms: JointTerms,
     cyclic_joints: Vec<usize>,
+    /// [`cyclic_basis`] of each cyclic joint at each pose (pose-major): the
+    /// measured angles do not change between evaluations.
+    cyclic_bases: Vec<[f64; 4]>,
 }
 
 /// The actuated coordinates at which the robot is evaluated for one pose,
@@ -203,6 +206,7 @@ impl<'a> GeometricErrorModel<'a> {
             deflection: RefCell::new(JointState::new(model.n_actuated())),
             joint_terms: JointTerms::default(),
             cyclic_joints: Vec::new(),
+            cyclic_bases: Vec::new(),
         })
     }
 
@@ -257,6 +261,12 @@ impl<'a> GeometricErrorModel<'a> {
         } else {
             Vec::new()
         };
+        self.cyclic_bases = self
+            .set
+            .measurements()
+            .iter()
+            .flat_map(|m| self.cyclic_joints.iter().map(|&i| cyclic_basis(m.q[i])))
+            .collect();
         Ok(self)
     }
 
@@ -363,8 +373,15 @@ impl<'a> GeometricErrorModel<'a> {
                 } else {
                     0
                 };
+            let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
             for (s, &i) in self.cyclic_joints.iter().enumerate() {
-                state.q[i] += cyclic_error(q[i], &x[co + 4 * s..co + 4 * s + 4]);
+                // cyclic_error(q[i], ..) with the basis computed once.
+                let amplitudes = &x[co + 4 * s..co + 4 * s + 4];
+                state.q[i] += bases[s]
+                    .iter()
+                    .zip(amplitudes)
+                    .map(|(b, a)| a * b)
+                    .sum::<f64>();
             }
         }
     }
@@ -611,7 +628,10 @@ impl GeometricErrorModel<'_> {
             };
             self.deflect(x, k, &mut buffers);
             let q = &buffers.q;
-            let x_base_tcp = if robot_columns {
+            let x_base_tcp = if robot_columns && n_elastic > 0 {
+                param_and_joint_jacobians_into(self.model, &mut data, q, xi, &mut jac, &mut jq)
+                    .map_err(kinematics_error)?
+            } else if robot_columns {
                 param_jacobian_into(self.model, &mut data, q, xi, &mut jac)
                     .map_err(kinematics_error)?
             } else {
@@ -619,8 +639,6 @@ impl GeometricErrorModel<'_> {
             };
             let motion = self.lateral_motion(x, k, &mut deltas);
             if robot_columns && n_elastic > 0 {
-                joint_jacobian_into(self.model, &mut data, q, xi, &mut jq)
-                    .map_err(kinematics_error)?;
                 elastic.fill(0.0);
                 if let Some((terms, _)) = &self.gravity {
                     for i in 0..na {
@@ -677,8 +695,9 @@ impl GeometricErrorModel<'_> {
                     }
                 }
                 if let Some(co) = cyclic_offset {
+                    let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
                     for (s, &i) in self.cyclic_joints.iter().enumerate() {
-                        let basis = cyclic_basis(m.q[i]);
+                        let basis = bases[s];
                         for (h, b) in basis.iter().enumerate() {
                             elastic
                                 .column_mut(co + 4 * s + h)

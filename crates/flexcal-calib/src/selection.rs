@@ -505,48 +505,99 @@ fn subset(
     set.subset(&indices)
 }
 
-/// Scores one candidate by cross-validation.
-fn cross_validate(
+/// What one fit of a candidate gives its score: per held-out pose position
+/// errors (cross-validation; empty for BIC), the number of identified
+/// unknowns, and the BIC of the fit (BIC only).
+type FitOutcome = (Vec<f64>, usize, f64);
+
+/// Runs the fits of several candidates at once: every fold of every
+/// candidate (cross-validation) or every candidate on the whole set (BIC),
+/// as one queue shared by a few threads. A backward step's candidates are
+/// independent, and one queue keeps every core busy until the last fit,
+/// where scoring candidate by candidate waited at each candidate for its
+/// slowest fold. Each fit owns its workspaces (each [`calibrate`] builds
+/// its own). Results come back in the order of `candidates`, then folds.
+fn run_fits(
     model: &Model,
+    set: &MeasurementSet,
     folds: &[(MeasurementSet, MeasurementSet)],
-    options: &CalibrationOptions,
-) -> Result<(Vec<f64>, Vec<f64>, f64), CalibError> {
-    let mut options = options.clone();
-    options.spread_reference = false;
-    let options = &options;
-    let results: Vec<Result<(Vec<f64>, usize), CalibError>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = folds
-            .iter()
-            .map(|(train, held_out)| {
-                scope.spawn(move || {
-                    let calibration = calibrate(model, train, options)?;
-                    let (errors, _) = calibration.errors_after(
-                        model,
-                        held_out,
-                        FramePolicy::Fixed(calibration.x_meas_base),
-                    )?;
-                    Ok((
-                        errors.iter().map(|e| e.position).collect(),
-                        calibration.rank(),
-                    ))
+    candidates: &[CalibrationOptions],
+) -> Vec<Vec<Result<FitOutcome, CalibError>>> {
+    let per_candidate = folds.len().max(1);
+    let jobs = candidates.len() * per_candidate;
+    let fit = |job: usize| -> Result<FitOutcome, CalibError> {
+        let options = &candidates[job / per_candidate];
+        if folds.is_empty() {
+            let calibration = calibrate(model, set, options)?;
+            return Ok((Vec::new(), calibration.rank(), bic(&calibration)));
+        }
+        let (train, held_out) = &folds[job % per_candidate];
+        let calibration = calibrate(model, train, options)?;
+        let (errors, _) = calibration.errors_after(
+            model,
+            held_out,
+            FramePolicy::Fixed(calibration.x_meas_base),
+        )?;
+        Ok((
+            errors.iter().map(|e| e.position).collect(),
+            calibration.rank(),
+            f64::NAN,
+        ))
+    };
+    // At least one thread per fold, as when the folds of a candidate were
+    // fitted each on its thread: on a machine shared with other jobs the
+    // scheduler shares the cores per thread, and fewer threads than before
+    // would get the selection less of them.
+    let threads = std::thread::available_parallelism()
+        .map_or(1, usize::from)
+        .max(folds.len())
+        .clamp(1, jobs.max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut results: Vec<Option<Result<FitOutcome, CalibError>>> =
+        std::iter::repeat_with(|| None).take(jobs).collect();
+    std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut done = Vec::new();
+                    loop {
+                        let job = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if job >= jobs {
+                            break done;
+                        }
+                        done.push((job, fit(job)));
+                    }
                 })
             })
             .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("a fold's identification does not panic"))
-            .collect()
+        for worker in workers {
+            for (job, result) in worker.join().expect("an identification does not panic") {
+                results[job] = Some(result);
+            }
+        }
     });
+    let mut results = results.into_iter().map(|r| r.expect("every job ran"));
+    (0..candidates.len())
+        .map(|_| results.by_ref().take(per_candidate).collect())
+        .collect()
+}
+
+/// Combines the per-fold outcomes of one candidate into
+/// `(per-pose errors, per-fold means, mean rank)`.
+fn cross_validation_score(
+    fits: Vec<Result<FitOutcome, CalibError>>,
+) -> Result<(Vec<f64>, Vec<f64>, f64), CalibError> {
+    let k = fits.len();
     let mut per_pose = Vec::new();
     let mut fold_means = Vec::new();
     let mut rank = 0.0;
-    for r in results {
-        let (errors, r) = r?;
+    for fit in fits {
+        let (errors, r, _) = fit?;
         fold_means.push(errors.iter().sum::<f64>() / errors.len().max(1) as f64);
         per_pose.push(errors);
         rank += r as f64;
     }
-    rank /= folds.len() as f64;
+    rank /= k as f64;
     Ok((per_pose.concat(), fold_means, rank))
 }
 
@@ -625,52 +676,86 @@ pub fn select_model(
             folds.push((train, held_out));
         }
     }
-    // Score of a candidate: (score, uncertainty of differences, per-pose errors).
-    // Each set of groups is scored once (backward steps reach some twice).
+    // Score of a candidate: (score, per-fold means). Each set of groups is
+    // scored once (backward steps reach some twice); the candidates of one
+    // step are fitted together (`run_fits`).
     let mut scored: Vec<(Vec<TermGroup>, Option<Score>)> = Vec::new();
-    let mut score = |chosen: &[TermGroup], report: &mut SelectionReport| -> Option<Score> {
-        let mut sorted = chosen.to_vec();
-        sorted.sort();
-        if let Some((_, known)) = scored.iter().find(|(g, _)| *g == sorted) {
-            return known.clone();
-        }
-        let key = sorted.clone();
-        let options = candidate_options(model, base, &sorted);
-        let mut candidate = CandidateScore::unscored(sorted);
-        let result = if cv {
-            cross_validate(model, &folds, &options).map(|(per_pose, fold_means, rank)| {
-                let k = fold_means.len() as f64;
-                let mean = per_pose.iter().sum::<f64>() / per_pose.len().max(1) as f64;
-                let fm = fold_means.iter().sum::<f64>() / k;
-                let sd =
-                    (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
-                candidate.cv_mean_error_mm = Some(mean * 1e3);
-                candidate.cv_standard_error_mm = Some(sd / k.sqrt() * 1e3);
-                candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
-                candidate.identified = rank;
-                (mean, fold_means, rank)
+    let mut score_all = |trials: &[Vec<TermGroup>],
+                         report: &mut SelectionReport|
+     -> Vec<Option<Score>> {
+        let keys: Vec<Vec<TermGroup>> = trials
+            .iter()
+            .map(|t| {
+                let mut sorted = t.clone();
+                sorted.sort();
+                sorted
             })
-        } else {
-            calibrate(model, set, &options).map(|c| {
-                let b = bic(&c);
-                candidate.bic = Some(b);
-                candidate.identified = c.rank() as f64;
-                (b, Vec::new(), c.rank() as f64)
-            })
-        };
-        let out = match result {
-            Ok(v) => Some(v),
-            Err(e) => {
-                candidate.failure = Some(e.to_string());
-                None
+            .collect();
+        let mut new: Vec<Vec<TermGroup>> = Vec::new();
+        for key in &keys {
+            if !scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
+                new.push(key.clone());
             }
-        };
-        report.candidates.push(candidate);
-        scored.push((key, out.clone()));
-        out
+        }
+        let options: Vec<CalibrationOptions> = new
+            .iter()
+            .map(|key| {
+                let mut options = candidate_options(model, base, key);
+                // Scores need no spread ratios.
+                options.spread_reference = false;
+                options
+            })
+            .collect();
+        let fits = run_fits(model, set, &folds, &options);
+        for (key, fits) in new.into_iter().zip(fits) {
+            let mut candidate = CandidateScore::unscored(key.clone());
+            let result = if cv {
+                cross_validation_score(fits).map(|(per_pose, fold_means, rank)| {
+                    let k = fold_means.len() as f64;
+                    let mean = per_pose.iter().sum::<f64>() / per_pose.len().max(1) as f64;
+                    let fm = fold_means.iter().sum::<f64>() / k;
+                    let sd = (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0))
+                        .sqrt();
+                    candidate.cv_mean_error_mm = Some(mean * 1e3);
+                    candidate.cv_standard_error_mm = Some(sd / k.sqrt() * 1e3);
+                    candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
+                    candidate.identified = rank;
+                    (mean, fold_means, rank)
+                })
+            } else {
+                fits.into_iter()
+                    .next()
+                    .expect("one fit per candidate")
+                    .map(|(_, rank, b)| {
+                        candidate.bic = Some(b);
+                        candidate.identified = rank as f64;
+                        (b, Vec::new(), rank as f64)
+                    })
+            };
+            let out = match result {
+                Ok(v) => Some(v),
+                Err(e) => {
+                    candidate.failure = Some(e.to_string());
+                    None
+                }
+            };
+            report.candidates.push(candidate);
+            scored.push((key, out));
+        }
+        keys.iter()
+            .map(|key| {
+                scored
+                    .iter()
+                    .find(|(g, _)| g == key)
+                    .and_then(|(_, s)| s.clone())
+            })
+            .collect()
     };
     let mut chosen: Vec<TermGroup> = groups.clone();
-    let Some(mut current) = score(&chosen, &mut report) else {
+    let Some(mut current) = score_all(std::slice::from_ref(&chosen), &mut report)
+        .pop()
+        .flatten()
+    else {
         let failure = report.candidates[0].failure.clone().unwrap_or_default();
         return Err(CalibError::InvalidOption {
             name: "select",
@@ -683,17 +768,26 @@ pub fn select_model(
         // The removal that leaves the best score (the law goes with the
         // compliances it modifies).
         let mut best: Option<(TermGroup, Vec<TermGroup>, Score)> = None;
-        for &g in &chosen {
-            let trial: Vec<TermGroup> = chosen
-                .iter()
-                .copied()
-                .filter(|&c| {
-                    c != g
-                        && !(g == TermGroup::Compliances
-                            && matches!(c, TermGroup::JointLaw | TermGroup::LateralCompliances))
-                })
-                .collect();
-            if let Some(s) = score(&trial, &mut report) {
+        let trials: Vec<Vec<TermGroup>> = chosen
+            .iter()
+            .map(|&g| {
+                chosen
+                    .iter()
+                    .copied()
+                    .filter(|&c| {
+                        c != g
+                            && !(g == TermGroup::Compliances
+                                && matches!(
+                                    c,
+                                    TermGroup::JointLaw | TermGroup::LateralCompliances
+                                ))
+                    })
+                    .collect()
+            })
+            .collect();
+        let scores = score_all(&trials, &mut report);
+        for ((&g, trial), s) in chosen.iter().zip(trials).zip(scores) {
+            if let Some(s) = s {
                 if best.as_ref().is_none_or(|(_, _, b)| s.0 < b.0) {
                     best = Some((g, trial, s));
                 }

@@ -719,6 +719,14 @@ pub fn joint_jacobian_into(
         });
     }
     run_forward(model, data, q, xi, true)?;
+    joint_jacobian_from_forward(model, data, out);
+    Ok(data.tcp.to_isometry())
+}
+
+/// The joint Jacobian from the forward pass (with derivatives) already in
+/// `data`; `out` has `n_actuated` columns.
+fn joint_jacobian_from_forward(model: &Model, data: &Data, out: &mut Matrix6xX<f64>) {
+    let na = model.n_actuated();
     out.fill(0.0);
     let point = data.tcp.p;
     for &f in &model.tcp_path {
@@ -739,7 +747,34 @@ pub fn joint_jacobian_into(
             }
         }
     }
-    Ok(data.tcp.to_isometry())
+}
+
+/// [`param_jacobian_into`] and [`joint_jacobian_into`] at the same `q` and
+/// `xi` from one pass of the forward model (the pass is most of the cost of
+/// either): what an elasto-geometric identification needs at every pose.
+/// Returns the TCP pose `x_base_tcp`.
+///
+/// # Errors
+/// As [`param_jacobian_into`] and [`joint_jacobian_into`].
+pub fn param_and_joint_jacobians_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    params_out: &mut DMatrix<f64>,
+    joints_out: &mut Matrix6xX<f64>,
+) -> Result<Isometry3<f64>, KinematicsError> {
+    let na = model.n_actuated();
+    if joints_out.ncols() != na {
+        return Err(KinematicsError::WrongLength {
+            what: "joint Jacobian columns".into(),
+            expected: na,
+            found: joints_out.ncols(),
+        });
+    }
+    let x_base_tcp = param_jacobian_into(model, data, q, xi, params_out)?;
+    joint_jacobian_from_forward(model, data, joints_out);
+    Ok(x_base_tcp)
 }
 
 /// Joint Jacobian (6 x n_actuated): column k = d[p_tcp; phi]/d q_k, rows

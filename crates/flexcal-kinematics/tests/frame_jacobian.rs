@@ -250,3 +250,54 @@ fn a_frame_index_out_of_range_is_a_named_error() {
     assert!(err.to_string().contains("frame index"), "{err}");
     assert!(forward_frame_pose(&model, &mut data, &q, &xi, 99, &Isometry3::identity()).is_err());
 }
+
+/// The parameter and joint Jacobians from one forward pass equal those of
+/// two separate calls (to rounding), on a serial robot and on a closed loop.
+#[test]
+fn param_and_joint_jacobians_from_one_pass_equal_the_separate_calls() {
+    use flexcal_kinematics::{joint_jacobian_into, param_and_joint_jacobians_into};
+    use nalgebra::Matrix6xX;
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    for name in ["ur10", "ir663"] {
+        let model = RobotDescription::builtin(name).unwrap().build().unwrap();
+        let mut data = Data::new(&model);
+        let xi = model.nominal_params().to_vec();
+        for _ in 0..5 {
+            let q: Vec<f64> = model
+                .actuated_limits()
+                .iter()
+                .map(|&(lo, hi)| lo + 0.1 * (hi - lo) + 0.8 * (hi - lo) * rng.random::<f64>())
+                .collect();
+            let (pose, params) = param_jacobian(&model, &mut data, &q, &xi).unwrap();
+            let mut joints = Matrix6xX::zeros(model.n_actuated());
+            joint_jacobian_into(&model, &mut data, &q, &xi, &mut joints).unwrap();
+            let mut params_once = DMatrix::zeros(6, model.n_params());
+            let mut joints_once = Matrix6xX::zeros(model.n_actuated());
+            let pose_once = param_and_joint_jacobians_into(
+                &model,
+                &mut data,
+                &q,
+                &xi,
+                &mut params_once,
+                &mut joints_once,
+            )
+            .unwrap();
+            // A closed loop's passive joints are solved from the previous
+            // solution: two passes agree to rounding, not bit for bit.
+            let close = |a: &[f64], b: &[f64]| {
+                a.iter()
+                    .zip(b)
+                    .all(|(x, y)| (x - y).abs() <= 1e-12 * (1.0 + x.abs()))
+            };
+            assert!(
+                close(
+                    pose.to_homogeneous().as_slice(),
+                    pose_once.to_homogeneous().as_slice()
+                ),
+                "{name}"
+            );
+            assert!(close(params.as_slice(), params_once.as_slice()), "{name}");
+            assert!(close(joints.as_slice(), joints_once.as_slice()), "{name}");
+        }
+    }
+}

@@ -554,3 +554,64 @@ proptest! {
         prop_assert!(report.iterations <= 2);
     }
 }
+
+/// Rosenbrock's function as least squares, `r = [10 (x1 - x0^2); 1 - x0]`:
+/// a narrow curved valley down to `(1, 1)`.
+struct Rosenbrock;
+
+impl Residuals for Rosenbrock {
+    fn n_residuals(&self) -> usize {
+        2
+    }
+    fn n_params(&self) -> usize {
+        2
+    }
+    fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
+        out[0] = 10.0 * (x[1] - x[0] * x[0]);
+        out[1] = 1.0 - x[0];
+        Ok(())
+    }
+}
+
+impl Jacobian for Rosenbrock {
+    fn jacobian(&self, x: &[f64], mut out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+        out[(0, 0)] = -20.0 * x[0];
+        out[(0, 1)] = 10.0;
+        out[(1, 0)] = -1.0;
+        out[(1, 1)] = 0.0;
+        Ok(())
+    }
+}
+
+#[test]
+fn geodesic_acceleration_reaches_the_same_minimum_in_fewer_iterations() {
+    let solve = |geodesic: Option<f64>| {
+        let mut solver = LevenbergMarquardt::params();
+        solver.geodesic_acceleration = geodesic;
+        solver
+            .check()
+            .unwrap()
+            .solve(&Rosenbrock, &[-1.2, 1.0], &ProblemSetup::default(), &mut ())
+            .unwrap()
+    };
+    let plain = solve(None);
+    let accelerated = solve(Some(0.75));
+    for report in [&plain, &accelerated] {
+        assert!(
+            report.termination.is_converged(),
+            "{:?}",
+            report.termination
+        );
+        assert_relative_eq!(report.x[0], 1.0, epsilon = 1e-6);
+        assert_relative_eq!(report.x[1], 1.0, epsilon = 1e-6);
+    }
+    assert!(
+        accelerated.iterations < plain.iterations,
+        "{} accelerated against {} plain",
+        accelerated.iterations,
+        plain.iterations
+    );
+    let mut invalid = LevenbergMarquardt::params();
+    invalid.geodesic_acceleration = Some(0.0);
+    assert!(invalid.check().is_err());
+}
