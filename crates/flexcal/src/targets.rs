@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::calib::{
     self, TargetCalibration, TargetErrors, TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
-use crate::calibration::{CalibrationConfig, MeasurementFormat};
+use crate::calibration::{CalibrationConfig, CalibrationOutputs, MeasurementFormat};
 use crate::{Error, Result};
 
 /// Every result of a multi-target calibration run.
@@ -97,6 +97,61 @@ pub fn run_target_calibration(
 }
 
 impl TargetCalibrationRun {
+    /// What `flexcal calibrate --targets` prints: a line naming the robot
+    /// and the identification file, then [`TargetCalibrationRun::lines`],
+    /// each ended by a newline.
+    pub fn summary_text(&self, robot: &crate::kinematics::Model) -> String {
+        let mut text = format!(
+            "Calibrating `{}` ({} parameters) from {}\n",
+            robot.name(),
+            robot.n_params(),
+            self.data.source
+        );
+        for line in self.lines() {
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    }
+
+    /// Writes the files `outputs` names, each atomically: the calibrated
+    /// robot description (TOML) and the JSON report
+    /// ([`TargetCalibrationRun::to_json_string`]); returns one line per file
+    /// written saying what it holds.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for the outputs a multi-target run does
+    /// not have (per-pose residuals, an accuracy map); the file that could
+    /// not be written; a calibrated description that cannot be built.
+    pub fn write_outputs(
+        &self,
+        robot: &crate::kinematics::Model,
+        outputs: &CalibrationOutputs,
+    ) -> Result<Vec<String>> {
+        for (parameter, set) in [
+            ("residuals", outputs.residuals.is_some()),
+            ("accuracy_grid", outputs.accuracy_grid.is_some()),
+        ] {
+            if set {
+                return Err(Error::InvalidParameter {
+                    parameter: parameter.into(),
+                    message: "not available with several targets per pose (--targets)".into(),
+                });
+            }
+        }
+        let mut written = Vec::new();
+        if let Some(path) = &outputs.description {
+            let description = self.calibration.description(robot)?;
+            flexcal_io::write_atomic(path, description.to_toml_string())?;
+            written.push(format!("calibrated robot written to {}", path.display()));
+        }
+        if let Some(path) = &outputs.report {
+            flexcal_io::write_atomic(path, self.to_json_string()?)?;
+            written.push(format!("report written to {}", path.display()));
+        }
+        Ok(written)
+    }
+
     /// The run as text for a terminal: the identification (rank, what the
     /// targets cannot see, identified unknowns with their standard errors)
     /// and per-target errors before and after (mm).
