@@ -104,7 +104,10 @@ fn export(
             .for_each(|line| println!("{line}")),
         None => {
             print!("{}", export.text);
-            export.dropped.iter().for_each(|d| eprintln!("not exported: {d}"));
+            export
+                .dropped
+                .iter()
+                .for_each(|d| eprintln!("not exported: {d}"));
         }
     }
     Ok(())

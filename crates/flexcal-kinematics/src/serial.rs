@@ -218,14 +218,15 @@ fn sin_cos(x: Lanes) -> (Lanes, Lanes) {
     let cos_bits = (c & !swap) | (s & swap);
     let sin = Lanes::from_bits(sin_bits ^ ((k & two) << 62));
     let cos = Lanes::from_bits(cos_bits ^ (((k + one) & two) << 62));
+    // Within the reduction's range; false for NaN, which takes std's too.
+    let in_range = |v: &f64| v.abs() < 1e5;
     let x_lanes = x.to_array();
-    // Written so that NaN takes the branch too.
-    if x_lanes.iter().all(|v| v.abs() < 1e5) {
+    if x_lanes.iter().all(in_range) {
         return (sin, cos);
     }
     let (mut sin, mut cos) = (sin.to_array(), cos.to_array());
     for (l, x) in x_lanes.iter().enumerate() {
-        if !(x.abs() < 1e5) {
+        if !in_range(x) {
             (sin[l], cos[l]) = x.sin_cos();
         }
     }

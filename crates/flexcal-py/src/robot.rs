@@ -445,7 +445,8 @@ impl Robot {
                     let out = matrices.as_slice_mut()?;
                     let width = q.width;
                     batched_into(py, q.n, 16, threads, out, |first_row, part| {
-                        let rows = &q.data[first_row * width..(first_row + part.len() / 16) * width];
+                        let rows =
+                            &q.data[first_row * width..(first_row + part.len() / 16) * width];
                         // q was checked finite: no error is expected here.
                         chain.matrices_into(rows, part).map_err(Failure::from)
                     })?;

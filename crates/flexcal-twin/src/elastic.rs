@@ -635,6 +635,9 @@ mod tests {
             "virtual IR-663 elastic campaign (seed 9): 2 data files and the truth written to out/elastic"
         );
         assert_eq!(lines[1], summary.truth_line());
-        assert!(lines[2].ends_with("--data out/elastic --train-load 900`"), "{text}");
+        assert!(
+            lines[2].ends_with("--data out/elastic --train-load 900`"),
+            "{text}"
+        );
     }
 }

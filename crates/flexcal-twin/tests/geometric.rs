@@ -162,11 +162,16 @@ fn campaign_files_load_back_and_are_reproducible() {
     let text = campaign.summary_text(5, dir.path());
     assert_eq!(text.lines().count(), 2, "{text}");
     assert!(
-        text.starts_with("virtual IR-663 geometric campaign (seed 5): 27 identification + 4 validation poses"),
+        text.starts_with(
+            "virtual IR-663 geometric campaign (seed 5): 27 identification + 4 validation poses"
+        ),
         "{text}"
     );
     let identification = dir.path().join("identification.csv");
-    assert!(text.contains(&format!("--data {}", identification.display())), "{text}");
+    assert!(
+        text.contains(&format!("--data {}", identification.display())),
+        "{text}"
+    );
 }
 
 /// The identified combinations (C.1) of the twin's true errors are the

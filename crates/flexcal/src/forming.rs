@@ -212,8 +212,13 @@ mod tests {
         let text = experiment.summary_text(17, dir.path());
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 2 + result.compensated.len(), "{text}");
-        assert!(lines[0].starts_with("virtual IR-663 forming (seed 17): max |deviation along z_p| "));
-        assert!(lines[1].starts_with("  compensated, FE beam model (nominal Gamma): "), "{text}");
+        assert!(
+            lines[0].starts_with("virtual IR-663 forming (seed 17): max |deviation along z_p| ")
+        );
+        assert!(
+            lines[1].starts_with("  compensated, FE beam model (nominal Gamma): "),
+            "{text}"
+        );
         assert!(lines[2].contains("(paths 0: "), "{text}");
         assert!(lines[2].ends_with(&format!("written to {}", dir.path().display())));
     }

@@ -217,7 +217,10 @@ pub fn write_export(robot: &str, export: &RobotExport, out: &Path) -> Result<Vec
     flexcal_io::write_atomic(out, &export.text)?;
     let mut lines = vec![format!("{robot} written to {}", out.display())];
     if let Some(d) = export.max_deviation_m {
-        lines.push(format!("read back: largest TCP displacement {:.3e} mm", d * 1e3));
+        lines.push(format!(
+            "read back: largest TCP displacement {:.3e} mm",
+            d * 1e3
+        ));
     }
     lines.extend(export.dropped.iter().map(|d| format!("not exported: {d}")));
     Ok(lines)
