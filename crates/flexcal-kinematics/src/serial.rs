@@ -24,12 +24,22 @@ type Lanes = wide::f64x2;
 /// The bits of [`Lanes`], for the quadrant of the sine and cosine.
 type LaneBits = wide::u64x2;
 
-/// A number of the chain's arithmetic: `f64` for the constant parts, or
-/// [`Lanes`] for the configurations evaluated together (structure of
-/// arrays: each quantity of the [`LANES`] configurations in one register).
+/// A number of the chain's arithmetic: `f64` for the constant parts and for
+/// one configuration, or [`Lanes`] for the configurations evaluated
+/// together (structure of arrays: each quantity of the [`LANES`]
+/// configurations in one register). Both evaluate the same operations in
+/// the same order, so that a lane's result is the `f64` result to the bit.
 trait Scalar: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
     /// The constant `value` in every lane.
     fn splat(value: f64) -> Self;
+    /// `(sin x, cos x)` of each lane (see [`reduced_sin_cos`]).
+    fn sin_cos(self) -> (Self, Self);
+}
+
+/// Within the range of [`reduced_sin_cos`]; false for NaN.
+#[inline(always)]
+fn in_range(x: &f64) -> bool {
+    x.abs() < 1e5
 }
 
 impl Scalar for f64 {
@@ -37,12 +47,58 @@ impl Scalar for f64 {
     fn splat(value: f64) -> Self {
         value
     }
+
+    #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        if !in_range(&self) {
+            return f64::sin_cos(self);
+        }
+        let (sin_r, cos_r, shifted) = reduced_sin_cos(self);
+        // Quadrant k: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s): odd
+        // quadrants swap the two, bit 1 of k and of k + 1 give the signs.
+        let k = shifted.to_bits();
+        let swap = 0u64.wrapping_sub(k & 1);
+        let (s, c) = (sin_r.to_bits(), cos_r.to_bits());
+        let sin_bits = (s & !swap) | (c & swap);
+        let cos_bits = (c & !swap) | (s & swap);
+        (
+            f64::from_bits(sin_bits ^ ((k & 2) << 62)),
+            f64::from_bits(cos_bits ^ ((k.wrapping_add(1) & 2) << 62)),
+        )
+    }
 }
 
 impl Scalar for Lanes {
     #[inline(always)]
     fn splat(value: f64) -> Self {
         Lanes::splat(value)
+    }
+
+    /// The `f64` version lane by lane, the quadrant's bit operations on
+    /// [`LaneBits`].
+    #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        let (sin_r, cos_r, shifted) = reduced_sin_cos(self);
+        let k = shifted.to_bits();
+        let one = LaneBits::splat(1);
+        let two = LaneBits::splat(2);
+        let swap = LaneBits::splat(0) - (k & one);
+        let (s, c) = (sin_r.to_bits(), cos_r.to_bits());
+        let sin_bits = (s & !swap) | (c & swap);
+        let cos_bits = (c & !swap) | (s & swap);
+        let sin = Lanes::from_bits(sin_bits ^ ((k & two) << 62));
+        let cos = Lanes::from_bits(cos_bits ^ (((k + one) & two) << 62));
+        let x_lanes = self.to_array();
+        if x_lanes.iter().all(in_range) {
+            return (sin, cos);
+        }
+        let (mut sin, mut cos) = (sin.to_array(), cos.to_array());
+        for (l, x) in x_lanes.iter().enumerate() {
+            if !in_range(x) {
+                (sin[l], cos[l]) = f64::sin_cos(*x);
+            }
+        }
+        (Lanes::new(sin), Lanes::new(cos))
     }
 }
 
@@ -161,15 +217,16 @@ impl<T: Scalar> Rigid<T> {
     }
 }
 
-/// `(sin x, cos x)` of each lane within about one unit in the last place for
-/// |x| < 1e5 (std's `sin_cos` beyond, and for NaN): Cody-Waite reduction by
-/// pi/2 and fdlibm's minimax polynomials on [-pi/4, pi/4] (Sun
-/// Microsystems' `k_sin.c` and `k_cos.c` coefficients), with the quadrant
-/// applied by bit masks. Inlined, the six of a chain overlap with each
-/// other and with the products, where std's are opaque library calls one
-/// value at a time.
+/// The sine and cosine of x reduced to [-pi/4, pi/4], and x 2/pi + 1.5 *
+/// 2^52, whose low bits are the quadrant, from which [`Scalar::sin_cos`]
+/// gets `(sin x, cos x)` within about one unit in the last place for |x| <
+/// 1e5 (std's `sin_cos` beyond, and for NaN): Cody-Waite reduction by pi/2
+/// and fdlibm's minimax polynomials (Sun Microsystems' `k_sin.c` and
+/// `k_cos.c` coefficients), the quadrant applied by bit masks. Inlined,
+/// the six of a chain overlap with each other and with the products, where
+/// std's are opaque library calls one value at a time.
 #[inline(always)]
-fn sin_cos(x: Lanes) -> (Lanes, Lanes) {
+fn reduced_sin_cos<T: Scalar>(x: T) -> (T, T, T) {
     // pi/2 in two parts: the first 33 bits (so n * PIO2_HI is exact for
     // |n| < 2^20) and the rest (to 2e-21).
     const PIO2_HI: f64 = 1.570_796_326_734_125_6;
@@ -195,7 +252,7 @@ fn sin_cos(x: Lanes) -> (Lanes, Lanes) {
     // The sum's low mantissa bits are n modulo 4 (the quadrant), read
     // without a float-to-integer conversion, which SSE2 lacks for 64 bits.
     const SHIFT: f64 = 6_755_399_441_055_744.0;
-    let c = Lanes::splat;
+    let c = T::splat;
     let shifted = x * c(std::f64::consts::FRAC_2_PI) + c(SHIFT);
     let n = shifted - c(SHIFT);
     let r = (x - n * c(PIO2_HI)) - n * c(PIO2_LO);
@@ -207,30 +264,7 @@ fn sin_cos(x: Lanes) -> (Lanes, Lanes) {
         + z * z
             * (c(C[0])
                 + z * (c(C[1]) + z * (c(C[2]) + z * (c(C[3]) + z * (c(C[4]) + z * c(C[5]))))));
-    // Quadrant k: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s): odd
-    // quadrants swap the two, bit 1 of k and of k + 1 give the signs.
-    let k = shifted.to_bits();
-    let one = LaneBits::splat(1);
-    let two = LaneBits::splat(2);
-    let swap = LaneBits::splat(0) - (k & one);
-    let (s, c) = (sin_r.to_bits(), cos_r.to_bits());
-    let sin_bits = (s & !swap) | (c & swap);
-    let cos_bits = (c & !swap) | (s & swap);
-    let sin = Lanes::from_bits(sin_bits ^ ((k & two) << 62));
-    let cos = Lanes::from_bits(cos_bits ^ (((k + one) & two) << 62));
-    // Within the reduction's range; false for NaN, which takes std's too.
-    let in_range = |v: &f64| v.abs() < 1e5;
-    let x_lanes = x.to_array();
-    if x_lanes.iter().all(in_range) {
-        return (sin, cos);
-    }
-    let (mut sin, mut cos) = (sin.to_array(), cos.to_array());
-    for (l, x) in x_lanes.iter().enumerate() {
-        if !in_range(x) {
-            (sin[l], cos[l]) = x.sin_cos();
-        }
-    }
-    (Lanes::new(sin), Lanes::new(cos))
+    (sin_r, cos_r, shifted)
 }
 
 /// How a joint of the chain moves with its actuated coordinate.
@@ -255,18 +289,16 @@ impl Joint {
     /// Previous joint's frame (or R0) to this joint's frame when its
     /// actuated coordinate is `value` (rad or m, one per lane).
     #[inline(always)]
-    fn local(&self, value: Lanes) -> Rigid<Lanes> {
-        let before = self.before.splat::<Lanes>();
+    fn local<T: Scalar>(&self, value: T) -> Rigid<T> {
+        let before = self.before.splat::<T>();
         match self.motion {
             Motion::Revolute { theta, r } => {
-                let (sin, cos) = sin_cos(Lanes::splat(theta) + value);
-                before.then_joint(sin, cos, Lanes::splat(r))
+                let (sin, cos) = (T::splat(theta) + value).sin_cos();
+                before.then_joint(sin, cos, T::splat(r))
             }
-            Motion::Prismatic { sin, cos, r } => before.then_joint(
-                Lanes::splat(sin),
-                Lanes::splat(cos),
-                Lanes::splat(r) + value,
-            ),
+            Motion::Prismatic { sin, cos, r } => {
+                before.then_joint(T::splat(sin), T::splat(cos), T::splat(r) + value)
+            }
         }
     }
 }
@@ -393,7 +425,7 @@ impl SerialChain {
     /// `x_base_tcp` with actuated coordinate `j` equal to `q(j)` (one value
     /// per lane), unchecked.
     #[inline(always)]
-    fn evaluate(&self, q: impl Fn(usize) -> Lanes) -> Rigid<Lanes> {
+    fn evaluate<T: Scalar>(&self, q: impl Fn(usize) -> T) -> Rigid<T> {
         let mut joints = self.joints.iter();
         // The first joint's transform is the start: no product.
         let mut x = joints.next().map_or(Rigid::IDENTITY.splat(), |joint| {
@@ -410,15 +442,12 @@ impl SerialChain {
         Ok(self.evaluate_one(q))
     }
 
-    /// `x_base_tcp` at one configuration `q`, unchecked: both lanes of the
-    /// batch kernel evaluate it, so that it is the batch's result to the bit.
+    /// `x_base_tcp` at one configuration `q`, unchecked: the batch
+    /// kernel's operations on `f64`, so that it is a batch's result to the
+    /// bit.
     #[inline]
     fn evaluate_one(&self, q: &[f64]) -> Rigid {
-        let x = self.evaluate(|j| Lanes::splat(q[j]));
-        Rigid {
-            columns: x.columns.map(|c| c.map(|v| v.as_array()[0])),
-            p: x.p.map(|v| v.as_array()[0]),
-        }
+        self.evaluate(|j| q[j])
     }
 
     /// `x_base_tcp` at `q` (rad, m; length [`SerialChain::n_actuated`]) as a
@@ -494,11 +523,10 @@ impl SerialChain {
 
 #[cfg(test)]
 mod tests {
-    use super::{LANES, Lanes};
+    use super::{LANES, Lanes, Scalar};
 
     fn sin_cos(x: f64) -> (f64, f64) {
-        let (s, c) = super::sin_cos(Lanes::splat(x));
-        (s.as_array()[0], c.as_array()[0])
+        Scalar::sin_cos(x)
     }
 
     #[test]
@@ -539,7 +567,8 @@ mod tests {
         ];
         let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
         for group in inputs.windows(LANES) {
-            let (s, c) = super::sin_cos(Lanes::new(std::array::from_fn(|l| group[l])));
+            // The trait's: wide's own inherent `sin_cos` is another approximation.
+            let (s, c) = Scalar::sin_cos(Lanes::new(std::array::from_fn(|l| group[l])));
             for (l, &x) in group.iter().enumerate() {
                 let (s1, c1) = sin_cos(x);
                 assert!(
