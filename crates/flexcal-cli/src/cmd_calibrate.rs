@@ -174,53 +174,30 @@ pub struct CalibrateArgs {
 }
 
 /// Runs `flexcal calibrate`: flags -> [`CalibrationConfig`] ->
-/// [`run_calibration`] -> print and write.
+/// [`run_calibration`] (or [`run_target_calibration`] with `--targets`) ->
+/// print and write.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
     let model = crate::robot_arg::load_model(&args.robot, &args.robot_file)?;
     let config = config(&args, &model)?;
-    if config.targets.is_some() {
-        return run_targets(&args, &model, &config);
-    }
-    let run = run_calibration(&model, &config)?;
-    print!("{}", run.summary_text(&model));
     let outputs = CalibrationOutputs {
         residuals: args.residuals,
         accuracy_grid: args.accuracy_map,
         description: args.out,
         report: args.report,
     };
-    for line in run.write_outputs(&model, &outputs)? {
-        println!("{line}");
-    }
-    Ok(())
-}
-
-/// `flexcal calibrate --targets`: [`run_target_calibration`] -> print and write.
-fn run_targets(
-    args: &CalibrateArgs,
-    model: &Model,
-    config: &CalibrationConfig,
-) -> anyhow::Result<()> {
-    if args.residuals.is_some() {
-        crate::usage_bail!("--residuals is not available with --targets");
-    }
-    let run = run_target_calibration(model, config)?;
-    println!(
-        "Calibrating `{}` ({} parameters) from {}",
-        model.name(),
-        model.n_params(),
-        args.data.display()
-    );
-    run.lines().iter().for_each(|l| println!("{l}"));
-    if let Some(out) = &args.out {
-        let description = run.calibration.description(model)?;
-        flexcal::io::write_atomic(out, description.to_toml_string())?;
-        println!("calibrated robot written to {}", out.display());
-    }
-    if let Some(path) = &args.report {
-        flexcal::io::write_atomic(path, run.to_json_string()?)?;
-        println!("report written to {}", path.display());
-    }
+    let written = if config.targets.is_some() {
+        if outputs.residuals.is_some() {
+            crate::usage_bail!("--residuals is not available with --targets");
+        }
+        let run = run_target_calibration(&model, &config)?;
+        print!("{}", run.summary_text(&model));
+        run.write_outputs(&model, &outputs)?
+    } else {
+        let run = run_calibration(&model, &config)?;
+        print!("{}", run.summary_text(&model));
+        run.write_outputs(&model, &outputs)?
+    };
+    written.iter().for_each(|line| println!("{line}"));
     Ok(())
 }
 

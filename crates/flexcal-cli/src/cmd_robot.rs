@@ -99,21 +99,15 @@ fn export(
     };
     let export = export_robot(&model, model.nominal_params(), format, &options)?;
     match &out {
-        Some(path) => {
-            flexcal::io::write_atomic(path, &export.text)?;
-            println!("{} written to {}", model.name(), path.display());
-            if let Some(d) = export.max_deviation_m {
-                println!("read back: largest TCP displacement {:.3e} mm", d * 1e3);
-            }
-            for d in &export.dropped {
-                println!("not exported: {d}");
-            }
-        }
+        Some(path) => flexcal::robot::write_export(model.name(), &export, path)?
+            .iter()
+            .for_each(|line| println!("{line}")),
         None => {
             print!("{}", export.text);
-            for d in &export.dropped {
-                eprintln!("not exported: {d}");
-            }
+            export
+                .dropped
+                .iter()
+                .for_each(|d| eprintln!("not exported: {d}"));
         }
     }
     Ok(())

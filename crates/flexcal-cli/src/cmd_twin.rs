@@ -61,24 +61,7 @@ fn run_forming_cmd(args: FormingArgs) -> anyhow::Result<()> {
     };
     let experiment = flexcal::forming::run_forming_experiment(&config)?;
     experiment.write(&args.out)?;
-    let result = &experiment.result;
-    println!(
-        "virtual IR-663 forming (seed {}): max |deviation along z_p| {:.3} mm uncompensated",
-        args.seed, result.uncompensated.max_abs_deviation_z_mm
-    );
-    for c in &result.compensated {
-        println!("  {}: {:.3} mm", c.label, c.max_abs_deviation_z_mm);
-    }
-    let labels: Vec<String> = result
-        .paths()
-        .enumerate()
-        .map(|(p, path)| format!("{p}: {}", path.label))
-        .collect();
-    println!(
-        "target_path.csv, forming_result.json and forming_paths.csv (paths {}) written to {}",
-        labels.join("; "),
-        args.out.display()
-    );
+    print!("{}", experiment.summary_text(args.seed, &args.out));
     Ok(())
 }
 
@@ -99,17 +82,7 @@ fn run_elastic(args: CampaignArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     let summary = flexcal::twin::elastic::write_elastic_campaign(&args.out, &options)?;
-    println!(
-        "virtual IR-663 elastic campaign (seed {}): {} data files and the truth written to {}",
-        args.seed,
-        summary.data_files.len(),
-        args.out.display()
-    );
-    println!("{}", summary.truth_line());
-    println!(
-        "identify with `flexcal identify stiffness --robot ir663 --elastic ir663 --data {} --train-load 900`",
-        args.out.display()
-    );
+    print!("{}", summary.text(args.seed, &args.out));
     Ok(())
 }
 
@@ -125,19 +98,7 @@ pub fn run(command: TwinCommand) -> anyhow::Result<()> {
             };
             let campaign = geometric_campaign(&options)?;
             write_geometric_campaign(&campaign, &args.out)?;
-            println!(
-                "virtual IR-663 geometric campaign (seed {}): {} identification + {} validation poses, \
-                 truth.toml and truth.json written to {}",
-                args.seed,
-                campaign.identification.len(),
-                campaign.validation.len(),
-                args.out.display()
-            );
-            println!(
-                "measurements in the camera frame, which the calibration registers (target = TCP): calibrate with \
-                 `flexcal calibrate --robot ir663 --data {0}/identification.csv --validate {0}/validation.csv --fixed-target`",
-                args.out.display()
-            );
+            print!("{}", campaign.summary_text(args.seed, &args.out));
             Ok(())
         }
     }

@@ -140,18 +140,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            // One line: the context, then each cause not already spelled out
-            // by the one above it (errors that name a file print their
-            // source too).
-            let mut line = String::new();
-            for cause in err.chain().map(|c| c.to_string()) {
-                if line.is_empty() {
-                    line = cause;
-                } else if !line.ends_with(&cause) {
-                    line = format!("{line}: {cause}");
-                }
-            }
-            eprintln!("error: {line}");
+            eprintln!("error: {}", flexcal::cause_chain_line(err.chain()));
             if is_usage_error(&err) {
                 ExitCode::from(2)
             } else {

@@ -125,7 +125,9 @@
 //! call allocates on a serial chain. Closed loops use small dynamic matrices
 //! (their Newton steps and implicit derivatives allocate). For many
 //! configurations of a serial chain at one xi, [`SerialChain`] multiplies
-//! out the constant parts once and evaluates only the joints. Figures:
+//! out the constant parts once and evaluates only the joints, two
+//! configurations at a time in SIMD registers in its batch call
+//! ([`SerialChain::matrices_into`]). Figures:
 //! `cargo bench -p flexcal-kinematics`.
 //!
 //! ## Limitations

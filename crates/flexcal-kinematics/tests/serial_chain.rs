@@ -175,3 +175,67 @@ fn bad_inputs_are_named() {
     let e = chain.matrices_into(&q, &mut out[..30]).unwrap_err();
     assert!(matches!(e, KinematicsError::WrongLength { .. }), "{e}");
 }
+
+/// The batch kernel evaluates four configurations at a time and the rest
+/// one by one: every batch size from 0 to 11 (whole groups, remainders of
+/// 1-3, remainders only) gives `matrix`'s result to the bit, including
+/// coordinates far outside the inline sine's range (|q| >= 1e5 rad, std's
+/// sine then) mixed into a group with ordinary ones.
+#[test]
+fn batches_of_every_size_match_single_calls_to_the_bit() {
+    for (model, seed) in [
+        (
+            RobotDescription::builtin("ur10").unwrap().build().unwrap(),
+            3,
+        ),
+        (urdf_model("prismatic_first.urdf", None), 4),
+    ] {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let xi = random_xi(&model, &mut rng);
+        let chain = SerialChain::new(&model, &xi).unwrap();
+        let n_actuated = chain.n_actuated();
+        for n in 0..12 {
+            let mut q: Vec<f64> = (0..n).flat_map(|_| random_q(&model, &mut rng)).collect();
+            if n > 2 {
+                q[n_actuated + 1] = 1.5e5;
+                q[2 * n_actuated] = -7e8;
+            }
+            let mut batch = vec![f64::NAN; 16 * n];
+            chain.matrices_into(&q, &mut batch).unwrap();
+            for (k, row) in batch.chunks_exact(16).enumerate() {
+                let single = chain
+                    .matrix(&q[k * n_actuated..(k + 1) * n_actuated])
+                    .unwrap();
+                assert_eq!(
+                    Matrix4::from_row_slice(row),
+                    single,
+                    "{}: row {k} of {n}",
+                    model.name()
+                );
+            }
+        }
+    }
+}
+
+/// A non-finite coordinate anywhere in a batch (inside a group of four or in
+/// the remainder) is named by row and column before anything is written.
+#[test]
+fn non_finite_values_in_a_batch_are_named_and_nothing_is_written() {
+    let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+    let chain = SerialChain::new(&model, model.nominal_params()).unwrap();
+    for (row, column, value) in [
+        (2, 4, f64::NAN),
+        (5, 0, f64::NEG_INFINITY),
+        (4, 5, f64::INFINITY),
+    ] {
+        let mut q = vec![0.2; 6 * 6];
+        q[6 * row + column] = value;
+        let mut out = vec![-1.0; 16 * 6];
+        let e = chain.matrices_into(&q, &mut out).unwrap_err();
+        assert_eq!(e.to_string(), format!("q[{row}, {column}] is not finite"));
+        assert!(
+            out.iter().all(|&v| v == -1.0),
+            "output written before the error"
+        );
+    }
+}

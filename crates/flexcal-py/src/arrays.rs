@@ -1,6 +1,8 @@
 //! NumPy arrays in and out: shapes and finiteness are checked here, before
 //! any library call, and every error names the argument and the index.
 
+use std::borrow::Cow;
+
 use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
 use pyo3::prelude::*;
@@ -8,11 +10,11 @@ use pyo3::prelude::*;
 use crate::errors::{NotFiniteError, ShapeError};
 
 /// Rows of equal width read from a 1-D (one row) or 2-D (n rows) array,
-/// copied row-major.
+/// row-major: the array's own memory when it is C-contiguous, else a copy.
 #[derive(Debug, Clone)]
-pub struct Rows {
+pub struct Rows<'a> {
     /// Values, row after row.
-    pub data: Vec<f64>,
+    pub data: Cow<'a, [f64]>,
     /// Number of rows.
     pub n: usize,
     /// Values per row.
@@ -21,7 +23,7 @@ pub struct Rows {
     pub batched: bool,
 }
 
-impl Rows {
+impl Rows<'_> {
     /// Row `k`.
     pub fn row(&self, k: usize) -> &[f64] {
         &self.data[k * self.width..(k + 1) * self.width]
@@ -44,6 +46,11 @@ fn shape_text(shape: &[usize]) -> String {
 
 /// Checks that every value is finite, naming the first that is not.
 pub fn check_finite(name: &str, data: &[f64], shape: &[usize]) -> PyResult<()> {
+    // One pass without an early exit, which the compiler vectorises; the
+    // search for the culprit only when there is one.
+    if data.iter().fold(true, |all, v| all & v.is_finite()) {
+        return Ok(());
+    }
     if let Some(flat) = data.iter().position(|v| !v.is_finite()) {
         let mut index = Vec::with_capacity(shape.len());
         let mut rest = flat;
@@ -65,23 +72,26 @@ pub fn check_finite(name: &str, data: &[f64], shape: &[usize]) -> PyResult<()> {
     Ok(())
 }
 
-/// The values of `view` row-major: one copy of the memory when the array is
+/// The values of `view` row-major: the array's memory itself when it is
 /// C-contiguous (element-wise iteration over a dynamic-dimension view costs
-/// several times more), element by element otherwise.
-fn row_major(view: &numpy::ndarray::ArrayViewD<'_, f64>) -> Vec<f64> {
-    match view.as_slice() {
-        Some(values) => values.to_vec(),
-        None => view.iter().copied().collect(),
+/// several times more than reading it), a copy element by element
+/// otherwise. Like NumPy's own routines that release the GIL, the batched
+/// calls read a borrowed array while Python code in another thread could
+/// still write to it: a caller doing so gets a mix of old and new values.
+fn row_major<'a>(view: &numpy::ndarray::ArrayViewD<'a, f64>) -> Cow<'a, [f64]> {
+    match view.to_slice() {
+        Some(values) => Cow::Borrowed(values),
+        None => Cow::Owned(view.iter().copied().collect()),
     }
 }
 
 /// Reads `array` as rows of `width` values: shape `(width,)` or `(n, width)`,
 /// every value finite. `unit` is said in messages (`rad or m`).
-pub fn rows(
+pub fn rows<'a>(
     name: &str,
-    array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    array: &'a PyArrayLikeDyn<'_, f64, AllowTypeChange>,
     width: usize,
-) -> PyResult<Rows> {
+) -> PyResult<Rows<'a>> {
     let view = array.as_array();
     let shape = view.shape().to_vec();
     let (n, batched) = match shape[..] {
@@ -133,7 +143,7 @@ pub fn exact(
             shape_text(&actual)
         )));
     }
-    let data = row_major(&view);
+    let data = row_major(&view).into_owned();
     check_finite(name, &data, &actual)?;
     Ok((data, actual))
 }

@@ -10,7 +10,7 @@ use flexcal::kinematics::{
     joint_jacobian_into, param_jacobian_into,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn, PyArrayMethods};
 use pyo3::prelude::*;
 
 use crate::arrays::{Rows, exact, rows, to_numpy};
@@ -71,7 +71,10 @@ impl Robot {
         }
     }
 
-    fn configurations(&self, q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<Rows> {
+    fn configurations<'a>(
+        &self,
+        q: &'a PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    ) -> PyResult<Rows<'a>> {
         rows("q", q, self.model.n_actuated())
     }
 
@@ -100,8 +103,7 @@ impl Robot {
 }
 
 /// Evaluates `per_row` on every row of `q`, writing `width` values per row,
-/// in batches without the GIL (checking for Ctrl-C between batches) and on
-/// up to `threads` threads, each with its own [`Data`].
+/// through [`batched_into`], each thread with its own [`Data`].
 fn batched<F>(
     py: Python<'_>,
     model: &Model,
@@ -113,18 +115,36 @@ fn batched<F>(
 where
     F: Fn(&Model, &mut Data, &[f64], &mut [f64]) -> Result<(), KinError> + Sync,
 {
+    let mut out = vec![0.0; q.n * width];
+    batched_into(py, q.n, width, threads, &mut out, |first_row, part| {
+        run_rows(model, q, first_row, part, width, &per_row)
+    })?;
+    Ok(out)
+}
+
+/// Fills `out`, `n` rows of `width` values, with `per_rows(first_row,
+/// part)`, `part` being the rows from `first_row` on: in batches of
+/// [`BATCH_ROWS`] rows without the GIL (checking for Ctrl-C between
+/// batches), each split over up to `threads` threads.
+fn batched_into<F>(
+    py: Python<'_>,
+    n: usize,
+    width: usize,
+    threads: Option<usize>,
+    out: &mut [f64],
+    per_rows: F,
+) -> PyResult<()>
+where
+    F: Fn(usize, &mut [f64]) -> Result<(), Failure> + Sync,
+{
     let threads = match threads {
         Some(0) => return Err(InputError::new_err("threads: must be at least 1")),
         Some(t) => t,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
-    let mut out = vec![0.0; q.n * width];
-    if q.n <= PARALLEL_MIN_ROWS.min(BATCH_ROWS) / 8 {
+    if n <= PARALLEL_MIN_ROWS.min(BATCH_ROWS) / 8 {
         // Small batches: the GIL round trip would cost more than the work.
-        return run_here(|| {
-            run_rows(model, q, 0, &mut out, width, &per_row)?;
-            Ok(out)
-        });
+        return run_here(|| per_rows(0, out));
     }
     let mut start = 0;
     for chunk in out.chunks_mut(BATCH_ROWS * width) {
@@ -136,7 +156,7 @@ where
         };
         run_detached(py, || {
             if workers == 1 {
-                return run_rows(model, q, start, chunk, width, &per_row);
+                return per_rows(start, chunk);
             }
             let per_worker = rows_here.div_ceil(workers);
             std::thread::scope(|scope| {
@@ -144,10 +164,8 @@ where
                     .chunks_mut(per_worker * width)
                     .enumerate()
                     .map(|(w, part)| {
-                        let per_row = &per_row;
-                        scope.spawn(move || {
-                            run_rows(model, q, start + w * per_worker, part, width, per_row)
-                        })
+                        let per_rows = &per_rows;
+                        scope.spawn(move || per_rows(start + w * per_worker, part))
                     })
                     .collect();
                 handles.into_iter().try_for_each(|h| {
@@ -160,7 +178,7 @@ where
         py.check_signals()?;
         start += rows_here;
     }
-    Ok(out)
+    Ok(())
 }
 
 fn run_rows<F>(
@@ -417,12 +435,27 @@ impl Robot {
             None => forward_pose(m, d, q, &xi),
         };
         match output {
+            "matrix" if chain.is_some() => {
+                // The batch kernel, four configurations at a time, straight
+                // into the NumPy array's memory.
+                let chain = chain.as_ref().expect("checked by the guard");
+                let array = PyArrayDyn::<f64>::zeros(py, shape(&q, &[4, 4]), false);
+                {
+                    let mut matrices = array.readwrite();
+                    let out = matrices.as_slice_mut()?;
+                    let width = q.width;
+                    batched_into(py, q.n, 16, threads, out, |first_row, part| {
+                        let rows =
+                            &q.data[first_row * width..(first_row + part.len() / 16) * width];
+                        // q was checked finite: no error is expected here.
+                        chain.matrices_into(rows, part).map_err(Failure::from)
+                    })?;
+                }
+                Ok(array.into_any().unbind())
+            }
             "matrix" => {
                 let out = batched(py, &self.model, &q, 16, threads, |m, d, q, out| {
-                    let x = match &chain {
-                        Some(chain) => chain.matrix(q)?,
-                        None => forward_pose(m, d, q, &xi)?.to_homogeneous(),
-                    };
+                    let x = forward_pose(m, d, q, &xi)?.to_homogeneous();
                     // nalgebra stores column-major; NumPy wants rows.
                     out.copy_from_slice(x.transpose().as_slice());
                     Ok(())

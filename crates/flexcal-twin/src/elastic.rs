@@ -500,6 +500,21 @@ pub struct ElasticCampaignSummary {
 }
 
 impl ElasticCampaignSummary {
+    /// What `flexcal twin elastic` prints after writing the campaign of
+    /// `seed` into `dir`: the files, [`ElasticCampaignSummary::truth_line`]
+    /// and the command that identifies the stiffness from them; lines ended
+    /// by newlines.
+    pub fn text(&self, seed: u64, dir: &Path) -> String {
+        format!(
+            "virtual IR-663 elastic campaign (seed {seed}): {} data files and the truth written to {}\n{}\n\
+             identify with `flexcal identify stiffness --robot ir663 --elastic ir663 --data {} --train-load 900`\n",
+            self.data_files.len(),
+            dir.display(),
+            self.truth_line(),
+            dir.display()
+        )
+    }
+
     /// One line on the truth: the range of the TCP deflection under 1100 N
     /// vertical (mm) and of the screw joints' effective stiffness k h^2
     /// (N.m/rad) over the grid.
@@ -600,6 +615,29 @@ mod tests {
         assert!(
             line.contains("joint 2 1.00e6 to 2.00e6, joint 8 3.00e6 to 4.00e6 N.m/rad"),
             "{line}"
+        );
+    }
+
+    #[test]
+    fn the_text_counts_the_files_and_ends_with_the_identify_command() {
+        let summary = ElasticCampaignSummary {
+            data_files: vec![PathBuf::from("a.csv"), PathBuf::from("b.csv")],
+            truth_files: Vec::new(),
+            deflection_norm_1100n_z_mm: [1.0, 2.0],
+            kar2_effective_range_nm_rad: [1.0e6, 2.0e6],
+            kar8_effective_range_nm_rad: [3.0e6, 4.0e6],
+        };
+        let text = summary.text(9, Path::new("out/elastic"));
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3, "{text}");
+        assert_eq!(
+            lines[0],
+            "virtual IR-663 elastic campaign (seed 9): 2 data files and the truth written to out/elastic"
+        );
+        assert_eq!(lines[1], summary.truth_line());
+        assert!(
+            lines[2].ends_with("--data out/elastic --train-load 900`"),
+            "{text}"
         );
     }
 }

@@ -124,6 +124,24 @@ pub struct GeometricCampaign {
     pub validation: MeasurementSet,
 }
 
+impl GeometricCampaign {
+    /// What `flexcal twin geometric` prints after
+    /// [`write_geometric_campaign`] into `dir` (campaign of `seed`): the
+    /// pose counts and files, then how to calibrate from them; lines ended
+    /// by newlines.
+    pub fn summary_text(&self, seed: u64, dir: &Path) -> String {
+        format!(
+            "virtual IR-663 geometric campaign (seed {seed}): {} identification + {} validation poses, \
+             truth.toml and truth.json written to {dir}\n\
+             measurements in the camera frame, which the calibration registers (target = TCP): calibrate with \
+             `flexcal calibrate --robot ir663 --data {dir}/identification.csv --validate {dir}/validation.csv --fixed-target`\n",
+            self.identification.len(),
+            self.validation.len(),
+            dir = dir.display()
+        )
+    }
+}
+
 /// Generates the geometric campaign of the virtual IR-663.
 ///
 /// # Errors

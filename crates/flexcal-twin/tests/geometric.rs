@@ -158,6 +158,20 @@ fn campaign_files_load_back_and_are_reproducible() {
     let errors = &json["errors_from_nominal"];
     let re_plus_r7 = errors["rE"].as_f64().unwrap() + errors["r7"].as_f64().unwrap();
     assert!((re_plus_r7 - 0.7799).abs() < 1e-9, "rE + r7 = {re_plus_r7}");
+    // The summary counts the poses written and names the files it wrote.
+    let text = campaign.summary_text(5, dir.path());
+    assert_eq!(text.lines().count(), 2, "{text}");
+    assert!(
+        text.starts_with(
+            "virtual IR-663 geometric campaign (seed 5): 27 identification + 4 validation poses"
+        ),
+        "{text}"
+    );
+    let identification = dir.path().join("identification.csv");
+    assert!(
+        text.contains(&format!("--data {}", identification.display())),
+        "{text}"
+    );
 }
 
 /// The identified combinations (C.1) of the twin's true errors are the

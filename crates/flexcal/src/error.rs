@@ -154,3 +154,35 @@ impl Error {
 
 /// The facade's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// An error and its causes on one line, as `flexcal` prints them: the first
+/// message, then each cause that the line does not already end with (an
+/// error naming a file often repeats its source's message), joined by `: `.
+/// `causes` runs from the outermost context to the root cause, as
+/// `anyhow::Error::chain` or repeated [`std::error::Error::source`] give it.
+pub fn cause_chain_line<T: std::fmt::Display>(causes: impl IntoIterator<Item = T>) -> String {
+    let mut line = String::new();
+    for cause in causes.into_iter().map(|c| c.to_string()) {
+        if line.is_empty() {
+            line = cause;
+        } else if !line.ends_with(&cause) {
+            line = format!("{line}: {cause}");
+        }
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cause_chain_line;
+
+    #[test]
+    fn causes_already_spelled_out_are_not_repeated() {
+        assert_eq!(
+            cause_chain_line(["reading a.csv", "line 3: not a number", "not a number"]),
+            "reading a.csv: line 3: not a number"
+        );
+        assert_eq!(cause_chain_line(["one", "two"]), "one: two");
+        assert_eq!(cause_chain_line(Vec::<String>::new()), "");
+    }
+}

@@ -96,6 +96,33 @@ impl FormingExperiment {
     }
 }
 
+impl FormingExperiment {
+    /// What `flexcal twin forming` prints once [`FormingExperiment::write`]
+    /// has written into `dir`: the largest |deviation along z_p| (mm)
+    /// uncompensated and with each model, then the files and the paths'
+    /// numbers in `forming_paths.csv`; `seed` is the measurement noise's.
+    pub fn summary_text(&self, seed: u64, dir: &Path) -> String {
+        let result = &self.result;
+        let mut text = format!(
+            "virtual IR-663 forming (seed {seed}): max |deviation along z_p| {:.3} mm uncompensated\n",
+            result.uncompensated.max_abs_deviation_z_mm
+        );
+        for c in &result.compensated {
+            text += &format!("  {}: {:.3} mm\n", c.label, c.max_abs_deviation_z_mm);
+        }
+        let labels: Vec<String> = result
+            .paths()
+            .enumerate()
+            .map(|(p, path)| format!("{p}: {}", path.label))
+            .collect();
+        text + &format!(
+            "target_path.csv, forming_result.json and forming_paths.csv (paths {}) written to {}\n",
+            labels.join("; "),
+            dir.display()
+        )
+    }
+}
+
 /// Runs the forming experiment on the virtual IR-663 with the user's files.
 ///
 /// # Errors
@@ -180,5 +207,19 @@ mod tests {
             value["uncompensated"]["max_abs_deviation_z_mm"].as_f64(),
             Some(result.uncompensated.max_abs_deviation_z_mm)
         );
+        // The summary: the uncompensated deviation, one line per model,
+        // then the files with the paths' numbers.
+        let text = experiment.summary_text(17, dir.path());
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 2 + result.compensated.len(), "{text}");
+        assert!(
+            lines[0].starts_with("virtual IR-663 forming (seed 17): max |deviation along z_p| ")
+        );
+        assert!(
+            lines[1].starts_with("  compensated, FE beam model (nominal Gamma): "),
+            "{text}"
+        );
+        assert!(lines[2].contains("(paths 0: "), "{text}");
+        assert!(lines[2].ends_with(&format!("written to {}", dir.path().display())));
     }
 }

@@ -15,7 +15,8 @@ use std::path::{Path, PathBuf};
 
 use flexcal_calib::GravityCompliance;
 use flexcal_kinematics::{
-    ExportFormat, ImportOptions, ImportedRobot, Model, RobotDescription, builtin_robot_names,
+    ExportFormat, ImportOptions, ImportedRobot, Model, RobotDescription, RobotExport,
+    builtin_robot_names,
 };
 
 use crate::Error;
@@ -205,9 +206,51 @@ pub fn mdh_format_for(out: Option<&Path>) -> ExportFormat {
     }
 }
 
+/// Writes `export`, of the robot named `robot`, to the file `out`
+/// (atomically) and returns what `flexcal robot export` prints about it, one
+/// line each: the file written, the largest TCP displacement of the export
+/// read back (mm) when it was checked, and what the format does not hold.
+///
+/// # Errors
+/// The file that could not be written.
+pub fn write_export(robot: &str, export: &RobotExport, out: &Path) -> Result<Vec<String>, Error> {
+    flexcal_io::write_atomic(out, &export.text)?;
+    let mut lines = vec![format!("{robot} written to {}", out.display())];
+    if let Some(d) = export.max_deviation_m {
+        lines.push(format!(
+            "read back: largest TCP displacement {:.3e} mm",
+            d * 1e3
+        ));
+    }
+    lines.extend(export.dropped.iter().map(|d| format!("not exported: {d}")));
+    Ok(lines)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_export_written_to_a_file_says_where_and_what_it_lost() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("robot.urdf");
+        let export = RobotExport {
+            format: ExportFormat::Urdf,
+            text: "<robot/>".into(),
+            dropped: vec!["the tool's mass".into()],
+            max_deviation_m: Some(2e-9),
+        };
+        let lines = write_export("ur10", &export, &path).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "<robot/>");
+        assert_eq!(
+            lines,
+            [
+                format!("ur10 written to {}", path.display()),
+                "read back: largest TCP displacement 2.000e-6 mm".to_string(),
+                "not exported: the tool's mass".to_string(),
+            ]
+        );
+    }
 
     #[test]
     fn an_mdh_table_is_markdown_unless_the_file_says_otherwise() {

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::calib::{
     self, TargetCalibration, TargetErrors, TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
-use crate::calibration::{CalibrationConfig, MeasurementFormat};
+use crate::calibration::{CalibrationConfig, CalibrationOutputs, MeasurementFormat};
 use crate::{Error, Result};
 
 /// Every result of a multi-target calibration run.
@@ -97,6 +97,61 @@ pub fn run_target_calibration(
 }
 
 impl TargetCalibrationRun {
+    /// What `flexcal calibrate --targets` prints: a line naming the robot
+    /// and the identification file, then [`TargetCalibrationRun::lines`],
+    /// each ended by a newline.
+    pub fn summary_text(&self, robot: &crate::kinematics::Model) -> String {
+        let mut text = format!(
+            "Calibrating `{}` ({} parameters) from {}\n",
+            robot.name(),
+            robot.n_params(),
+            self.data.source
+        );
+        for line in self.lines() {
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    }
+
+    /// Writes the files `outputs` names, each atomically: the calibrated
+    /// robot description (TOML) and the JSON report
+    /// ([`TargetCalibrationRun::to_json_string`]); returns one line per file
+    /// written saying what it holds.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for the outputs a multi-target run does
+    /// not have (per-pose residuals, an accuracy map); the file that could
+    /// not be written; a calibrated description that cannot be built.
+    pub fn write_outputs(
+        &self,
+        robot: &crate::kinematics::Model,
+        outputs: &CalibrationOutputs,
+    ) -> Result<Vec<String>> {
+        for (parameter, set) in [
+            ("residuals", outputs.residuals.is_some()),
+            ("accuracy_grid", outputs.accuracy_grid.is_some()),
+        ] {
+            if set {
+                return Err(Error::InvalidParameter {
+                    parameter: parameter.into(),
+                    message: "not available with several targets per pose (--targets)".into(),
+                });
+            }
+        }
+        let mut written = Vec::new();
+        if let Some(path) = &outputs.description {
+            let description = self.calibration.description(robot)?;
+            flexcal_io::write_atomic(path, description.to_toml_string())?;
+            written.push(format!("calibrated robot written to {}", path.display()));
+        }
+        if let Some(path) = &outputs.report {
+            flexcal_io::write_atomic(path, self.to_json_string()?)?;
+            written.push(format!("report written to {}", path.display()));
+        }
+        Ok(written)
+    }
+
     /// The run as text for a terminal: the identification (rank, what the
     /// targets cannot see, identified unknowns with their standard errors)
     /// and per-target errors before and after (mm).
@@ -172,5 +227,103 @@ impl TargetCalibrationRun {
                 message: e.to_string(),
             })
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    use nalgebra::{Isometry3, Translation3};
+
+    use super::*;
+    use crate::calib::{CalibrationOptions, TargetObservation, TargetPose};
+    use crate::kinematics::{Data, RobotDescription, forward_frame_pose};
+
+    fn calib_data(name: &str) -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../flexcal-calib/tests/data")
+            .join(name)
+    }
+
+    /// The two-armed robot measured at its nominal geometry in its base
+    /// frame: the run's text names the robot and the file, and its outputs
+    /// are the description and the report (per-pose residuals refused).
+    #[test]
+    fn the_summary_names_the_file_and_the_outputs_are_written() {
+        let robot = RobotDescription::from_toml_file(&calib_data("two_arms.toml"))
+            .unwrap()
+            .build()
+            .unwrap();
+        let targets_file = calib_data("two_arms_targets.toml");
+        let targets = calib::read_targets(&targets_file).unwrap();
+        let mut data = Data::new(&robot);
+        let xi = robot.nominal_params();
+        let poses = (0..40)
+            .map(|k| {
+                let q: Vec<f64> = robot
+                    .actuated_limits()
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &(lo, hi))| {
+                        lo + ((k as f64 + 1.0) * (2.0f64 + i as f64).sqrt()).fract() * (hi - lo)
+                    })
+                    .collect();
+                let observations = targets
+                    .iter()
+                    .map(|t| {
+                        let point =
+                            Isometry3::from_parts(Translation3::from(t.offset), Default::default());
+                        let frame = robot.frame_index(&t.frame).unwrap();
+                        let x = forward_frame_pose(&robot, &mut data, &q, xi, frame, &point);
+                        Some(TargetObservation::new(x.unwrap().translation.vector))
+                    })
+                    .collect();
+                TargetPose {
+                    pose_id: None,
+                    q,
+                    observations,
+                }
+            })
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let measurements = dir.path().join("markers.csv");
+        TargetMeasurementSet::new("nominal", targets, poses)
+            .unwrap()
+            .write_csv(&measurements)
+            .unwrap();
+        let config = CalibrationConfig {
+            targets: Some(targets_file),
+            ..CalibrationConfig::new(&measurements, CalibrationOptions::for_model(&robot))
+        };
+        let run = run_target_calibration(&robot, &config).unwrap();
+        let text = run.summary_text(&robot);
+        assert!(
+            text.starts_with(&format!(
+                "Calibrating `{}` ({} parameters) from {}\n40 poses, 80 observations of 2 targets",
+                robot.name(),
+                robot.n_params(),
+                measurements.display()
+            )),
+            "{text}"
+        );
+        let outputs = CalibrationOutputs {
+            residuals: None,
+            accuracy_grid: None,
+            description: Some(dir.path().join("calibrated.toml")),
+            report: Some(dir.path().join("report.json")),
+        };
+        let written = run.write_outputs(&robot, &outputs).unwrap();
+        assert_eq!(written.len(), 2, "{written:?}");
+        assert!(dir.path().join("calibrated.toml").exists());
+        assert!(dir.path().join("report.json").exists());
+        let residuals = CalibrationOutputs {
+            residuals: Some(dir.path().join("residuals.csv")),
+            ..outputs
+        };
+        assert!(matches!(
+            run.write_outputs(&robot, &residuals),
+            Err(Error::InvalidParameter { .. })
+        ));
     }
 }
