@@ -167,6 +167,10 @@ pub struct CalibrateArgs {
     /// Write the JSON report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Write the HTML report here (errors, selection, unknowns, predicted
+    /// bounds and the accuracy map as charts).
+    #[arg(long)]
+    pub html: Option<PathBuf>,
     /// Write the per-pose errors after calibration here (CSV: the validation
     /// set when given, else the identification set).
     #[arg(long)]
@@ -188,6 +192,7 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         accuracy_grid: args.accuracy_map,
         description: args.out,
         report: args.report,
+        html: args.html,
     };
     for line in run.write_outputs(&model, &outputs)? {
         println!("{line}");
@@ -201,8 +206,8 @@ fn run_targets(
     model: &Model,
     config: &CalibrationConfig,
 ) -> anyhow::Result<()> {
-    if args.residuals.is_some() {
-        crate::usage_bail!("--residuals is not available with --targets");
+    if args.residuals.is_some() || args.html.is_some() {
+        crate::usage_bail!("--residuals and --html are not available with --targets");
     }
     let run = run_target_calibration(model, config)?;
     println!(
