@@ -27,7 +27,7 @@
 //! training data can know.
 
 use flexcal_kinematics::Model;
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -35,7 +35,7 @@ use crate::error_model::GeometricErrorModel;
 use crate::identify::{Calibration, UnknownStatus};
 use crate::split::SplitCheck;
 use crate::{CalibError, Measurement, MeasurementSet};
-use flexcal_optim::Jacobian;
+use flexcal_optim::{Jacobian, Residuals};
 
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
@@ -54,6 +54,9 @@ pub struct PoseAccuracy {
     pub bound_95_mm: f64,
     /// The measured error after calibration, on a measured set (mm).
     pub actual_error_mm: Option<f64>,
+    /// The calibrated model's target position at this pose, in the robot
+    /// base frame (mm): where on the workspace the bound applies.
+    pub position_mm: [f64; 3],
 }
 
 /// Predicted accuracy over a set of poses (a workspace grid or a
@@ -75,21 +78,24 @@ pub struct AccuracyMap {
 }
 
 impl AccuracyMap {
-    /// The map as CSV: `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm`.
+    /// The map as CSV:
+    /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm`
+    /// (the last three: [`PoseAccuracy::position_mm`]).
     pub fn to_csv_string(&self) -> String {
         let n = self.poses.first().map_or(0, |p| p.q.len());
         let mut out = String::from("pose");
         for i in 1..=n {
             out.push_str(&format!(",q{i}"));
         }
-        out.push_str(",model_uncertainty_mm,bound_95_mm,actual_error_mm\n");
+        out.push_str(",model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm\n");
         for p in &self.poses {
             out.push_str(&p.pose.replace(',', ";"));
             for q in &p.q {
                 out.push_str(&format!(",{q:.9}"));
             }
+            let [x, y, z] = p.position_mm;
             out.push_str(&format!(
-                ",{:.6},{:.6},{}\n",
+                ",{:.6},{:.6},{},{x:.4},{y:.4},{z:.4}\n",
                 p.model_uncertainty_mm,
                 p.bound_95_mm,
                 p.actual_error_mm
@@ -237,6 +243,16 @@ impl Calibration {
                 name: "accuracy",
                 reason: e.to_string(),
             })?;
+        // The predicted target positions: the residuals against the set's
+        // measured positions, carried back to the base frame.
+        let mut predicted = vec![0.0; problem.n_residuals()];
+        problem
+            .residuals(&x, &mut predicted)
+            .map_err(|e| CalibError::InvalidOption {
+                name: "accuracy",
+                reason: e.to_string(),
+            })?;
+        let base_from_meas = self.x_meas_base.inverse();
         // Residual scatter per axis, positions, with the degrees of freedom.
         let rows = 3 * self.n_poses;
         let p = self.rank();
@@ -251,6 +267,13 @@ impl Calibration {
             let trace = pred.trace().max(0.0);
             let bound = (CHI2_3_95 * (trace / 3.0 + s2)).sqrt();
             let actual_error = actual.map(|a| a[k]);
+            let measured = set.measurements()[k].position;
+            let in_meas = Point3::new(
+                measured.x + predicted[3 * k],
+                measured.y + predicted[3 * k + 1],
+                measured.z + predicted[3 * k + 2],
+            );
+            let position = base_from_meas * in_meas;
             if actual_error.is_some_and(|e| e <= bound) {
                 within += 1;
             }
@@ -260,6 +283,7 @@ impl Calibration {
                 model_uncertainty_mm: trace.sqrt() * 1e3,
                 bound_95_mm: bound * 1e3,
                 actual_error_mm: actual_error.map(|e| e * 1e3),
+                position_mm: [position.x * 1e3, position.y * 1e3, position.z * 1e3],
             });
         }
         let mean_bound_95_mm =

@@ -167,6 +167,10 @@ pub struct CalibrateArgs {
     /// Write the JSON report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Write the HTML report here (errors, selection, unknowns, predicted
+    /// bounds and the accuracy map as charts).
+    #[arg(long)]
+    pub html: Option<PathBuf>,
     /// Write the per-pose errors after calibration here (CSV: the validation
     /// set when given, else the identification set).
     #[arg(long)]
@@ -184,10 +188,11 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         accuracy_grid: args.accuracy_map,
         description: args.out,
         report: args.report,
+        html: args.html,
     };
     let written = if config.targets.is_some() {
-        if outputs.residuals.is_some() {
-            crate::usage_bail!("--residuals is not available with --targets");
+        if outputs.residuals.is_some() || outputs.html.is_some() {
+            crate::usage_bail!("--residuals and --html are not available with --targets");
         }
         let run = run_target_calibration(&model, &config)?;
         print!("{}", run.summary_text(&model));

@@ -58,12 +58,21 @@ fn twin_files_calibrate_end_to_end() {
         &path(d, "calibrated.toml"),
         "--report",
         &path(d, "report.json"),
+        "--html",
+        &path(d, "report.html"),
     ]);
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert!(
         stdout.contains("NON-IDENTIFIABLE") && stdout.contains("validation after"),
         "{stdout}"
+    );
+    assert!(stdout.contains("HTML report written to"), "{stdout}");
+    let page = std::fs::read_to_string(d.join("report.html")).unwrap();
+    assert!(
+        page.starts_with("<!DOCTYPE html>")
+            && page.contains("Measured error against the predicted 95 % bound"),
+        "{page}"
     );
     let report: serde_json::Value = read_json(d.join("report.json"));
     let id = &report["identification"];

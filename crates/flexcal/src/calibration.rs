@@ -13,6 +13,8 @@
 //!
 //! [`CalibrationRun::summary_text`] is the human-readable summary of a run
 //! (the text `flexcal calibrate` prints); [`text`] has its pieces.
+//! [`CalibrationRun::html_report`] is the same run as an HTML page with its
+//! charts ([`html`]).
 
 use std::path::{Path, PathBuf};
 
@@ -25,6 +27,7 @@ use crate::calib::{
 };
 use crate::{Error, Result};
 
+pub mod html;
 pub mod text;
 
 /// Format of a measurement file.
@@ -228,6 +231,10 @@ pub struct CalibrationOutputs {
     pub description: Option<PathBuf>,
     /// The JSON report ([`CalibrationRun::report`]).
     pub report: Option<PathBuf>,
+    /// The self-contained HTML page of the run
+    /// ([`CalibrationRun::html_report`]): errors, selection, unknowns,
+    /// measured errors against their predicted bounds, the accuracy map.
+    pub html: Option<PathBuf>,
 }
 
 impl CalibrationRun {
@@ -268,6 +275,10 @@ impl CalibrationRun {
         if let Some(path) = &outputs.report {
             flexcal_io::write_atomic(path, self.report(robot).to_json_string()?)?;
             written.push(format!("report written to {}", path.display()));
+        }
+        if let Some(path) = &outputs.html {
+            flexcal_io::write_atomic(path, self.html_report(robot).to_html())?;
+            written.push(format!("HTML report written to {}", path.display()));
         }
         Ok(written)
     }

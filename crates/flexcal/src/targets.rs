@@ -121,7 +121,7 @@ impl TargetCalibrationRun {
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] for the outputs a multi-target run does
-    /// not have (per-pose residuals, an accuracy map); the file that could
+    /// not have (per-pose residuals, an accuracy map, the HTML page); the file that could
     /// not be written; a calibrated description that cannot be built.
     pub fn write_outputs(
         &self,
@@ -131,6 +131,7 @@ impl TargetCalibrationRun {
         for (parameter, set) in [
             ("residuals", outputs.residuals.is_some()),
             ("accuracy_grid", outputs.accuracy_grid.is_some()),
+            ("html", outputs.html.is_some()),
         ] {
             if set {
                 return Err(Error::InvalidParameter {
@@ -312,6 +313,7 @@ mod tests {
             accuracy_grid: None,
             description: Some(dir.path().join("calibrated.toml")),
             report: Some(dir.path().join("report.json")),
+            html: None,
         };
         let written = run.write_outputs(&robot, &outputs).unwrap();
         assert_eq!(written.len(), 2, "{written:?}");

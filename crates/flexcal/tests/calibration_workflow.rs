@@ -73,9 +73,23 @@ fn workflow_on_the_twin_campaign() {
         accuracy_grid: None,
         description: Some(dir.join("out/calibrated.toml")),
         report: Some(dir.join("out/report.json")),
+        html: Some(dir.join("out/report.html")),
     };
     let written = run.write_outputs(&robot, &outputs).unwrap();
-    assert_eq!(written.len(), 3, "{written:?}");
+    assert_eq!(written.len(), 4, "{written:?}");
+    let html = std::fs::read_to_string(dir.join("out/report.html")).unwrap();
+    for title in [
+        "Position errors",
+        "Identified unknowns",
+        "Predicted accuracy on the validation poses",
+    ] {
+        assert!(
+            html.contains(&format!(">{title}</h2>")),
+            "no section {title}"
+        );
+    }
+    assert_eq!(run.html_report(&robot).figure_count(), 2);
+    assert!(!html.contains("NaN"), "a NaN on the page");
     let residuals = std::fs::read_to_string(dir.join("out/residuals.csv")).unwrap();
     assert_eq!(residuals.lines().count(), 1 + set.len());
     let calibrated =
@@ -89,6 +103,62 @@ fn workflow_on_the_twin_campaign() {
     assert!(largest_change < 1e-12, "{largest_change}");
     let json = std::fs::read_to_string(dir.join("out/report.json")).unwrap();
     assert_eq!(json, report.to_json_string().unwrap());
+
+    // The accuracy map at configurations of a grid file: each pose's
+    // position is the calibrated robot's target position in the base frame,
+    // and the page draws it in two planes.
+    let grid_path = dir.join("grid.csv");
+    let n = robot.n_actuated();
+    let mut grid = (1..=n)
+        .map(|i| format!("q{i}"))
+        .collect::<Vec<_>>()
+        .join(",")
+        + "\n";
+    for m in run.data.measurements().iter().take(6) {
+        let row: Vec<String> = m.q.iter().map(|v| format!("{v:.12}")).collect();
+        grid += &(row.join(",") + "\n");
+    }
+    std::fs::write(&grid_path, grid).unwrap();
+    let mapped = run_calibration(
+        &robot,
+        &CalibrationConfig {
+            accuracy_grid: Some(grid_path.clone()),
+            ..config.clone()
+        },
+    )
+    .unwrap();
+    let map = mapped.accuracy_map.as_ref().expect("an accuracy map");
+    assert_eq!(map.poses.len(), 6);
+    let mut data = flexcal::kinematics::Data::new(&robot);
+    for p in &map.poses {
+        let pose = flexcal::kinematics::forward_pose(&robot, &mut data, &p.q, &run.calibration.xi)
+            .unwrap()
+            * run.calibration.x_tcp_target;
+        for k in 0..3 {
+            let e = (p.position_mm[k] - pose.translation.vector[k] * 1e3).abs();
+            assert!(e < 1e-6, "{}: axis {k} off by {e} mm", p.pose);
+        }
+        assert!(p.bound_95_mm > 0.0 && p.bound_95_mm.is_finite());
+    }
+    let page = mapped.html_report(&robot);
+    assert_eq!(page.figure_count(), 4);
+    assert!(page.to_html().contains(">Accuracy map</h2>"));
+    let written = mapped
+        .write_outputs(
+            &robot,
+            &CalibrationOutputs {
+                accuracy_grid: Some(grid_path.clone()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    assert_eq!(written.len(), 1, "{written:?}");
+    let csv = std::fs::read_to_string(dir.join("grid.accuracy.csv")).unwrap();
+    assert!(
+        csv.lines().next().unwrap().ends_with(",x_mm,y_mm,z_mm"),
+        "{csv}"
+    );
+    assert_eq!(csv.lines().count(), 7);
 
     // Refused by name: a cross-series check without a validation set, and
     // a label that names no pose.

@@ -2,8 +2,8 @@
 //!
 //! The report must be one self-contained page that opens without network or
 //! system fonts, so the charts are written as plain SVG text: line charts
-//! (several series, optional log scale), grouped bar charts and heat maps over
-//! a regular grid. Every chart has a title, labelled axes with "nice" ticks and
+//! (several series, optional log scale), grouped bar charts, heat maps over
+//! a regular grid and scatter maps of a scalar at scattered points. Every chart has a title, labelled axes with "nice" ticks and
 //! a legend where there is more than one series.
 
 use std::fmt::Write;
@@ -448,27 +448,7 @@ pub fn heat_map(
         y_hi,
         log_y: false,
     };
-    let mut v_lo = f64::INFINITY;
-    let mut v_hi = f64::NEG_INFINITY;
-    for v in values.iter().flatten().filter(|v| v.is_finite()) {
-        v_lo = v_lo.min(*v);
-        v_hi = v_hi.max(*v);
-    }
-    if !v_lo.is_finite() {
-        v_lo = 0.0;
-        v_hi = 1.0;
-    }
-    let span = (v_hi - v_lo).max(1e-300);
-    let colour = |v: f64| {
-        let t = ((v - v_lo) / span).clamp(0.0, 1.0);
-        // From pale yellow to dark blue.
-        let (r, g, b) = (
-            255.0 + t * (8.0 - 255.0),
-            247.0 + t * (48.0 - 247.0),
-            188.0 + t * (107.0 - 188.0),
-        );
-        format!("rgb({:.0},{:.0},{:.0})", r, g, b)
-    };
+    let scale = ColourScale::over(values.iter().flatten().copied());
     let mut out = open_chart(title, &frame, x_label, y_label);
     let half = |v: &[f64], i: usize| -> (f64, f64) {
         let left = if i > 0 {
@@ -499,7 +479,7 @@ pub fn heat_map(
                 r#"<rect x="{px0:.1}" y="{py0:.1}" width="{:.1}" height="{:.1}" fill="{}"><title>({}, {}): {} {}</title></rect>"#,
                 (px1 - px0).abs(),
                 (py1 - py0).abs(),
-                colour(*v),
+                scale.colour(*v),
                 format_tick(xs[c]),
                 format_tick(ys[r]),
                 format_tick(*v),
@@ -507,32 +487,118 @@ pub fn heat_map(
             );
         }
     }
-    // Colour bar.
-    let bx = WIDTH - MARGIN_RIGHT + 20.0;
-    let steps = 20;
-    let bar_h = Frame::plot_height();
-    for i in 0..steps {
-        let t0 = i as f64 / steps as f64;
-        let y = MARGIN_TOP + (1.0 - t0 - 1.0 / steps as f64) * bar_h;
-        let _ = write!(
-            out,
-            r#"<rect x="{bx}" y="{y:.1}" width="16" height="{:.1}" fill="{}"/>"#,
-            bar_h / steps as f64 + 0.5,
-            colour(v_lo + t0 * span)
-        );
-    }
-    let _ = write!(
-        out,
-        r#"<text x="{tx}" y="{t1}">{hi} {u}</text><text x="{tx}" y="{t2}">{lo} {u}</text>"#,
-        tx = bx + 22.0,
-        t1 = MARGIN_TOP + 10.0,
-        t2 = MARGIN_TOP + bar_h,
-        hi = format_tick(v_hi),
-        lo = format_tick(v_lo),
-        u = escape(unit)
-    );
+    scale.bar(&mut out, unit);
     out.push_str("</svg>");
     out
+}
+
+/// A scatter plot of points `(x, y, value)` coloured by their value, with a
+/// colour bar: a scalar known at scattered places (a workspace grid seen
+/// from one side).
+pub fn scatter_map(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    points: &[(f64, f64, f64)],
+    unit: &str,
+) -> String {
+    let finite: Vec<&(f64, f64, f64)> = points
+        .iter()
+        .filter(|(x, y, v)| x.is_finite() && y.is_finite() && v.is_finite())
+        .collect();
+    let (x_lo, x_hi) = padded_range(finite.iter().map(|p| p.0), false);
+    let (y_lo, y_hi) = padded_range(finite.iter().map(|p| p.1), false);
+    let frame = Frame {
+        x_lo,
+        x_hi,
+        y_lo,
+        y_hi,
+        log_y: false,
+    };
+    let scale = ColourScale::over(finite.iter().map(|p| p.2));
+    let mut out = open_chart(title, &frame, x_label, y_label);
+    // The largest values last, so that they stay visible where points overlap.
+    let mut order: Vec<&(f64, f64, f64)> = finite;
+    order.sort_by(|a, b| a.2.total_cmp(&b.2));
+    for (x, y, v) in order {
+        let _ = write!(
+            out,
+            r##"<circle cx="{:.1}" cy="{:.1}" r="3.2" fill="{}" stroke="#666" stroke-width="0.3"><title>({}, {}): {} {}</title></circle>"##,
+            frame.px(*x),
+            frame.py(*y),
+            scale.colour(*v),
+            format_tick(*x),
+            format_tick(*y),
+            format_tick(*v),
+            escape(unit)
+        );
+    }
+    scale.bar(&mut out, unit);
+    out.push_str("</svg>");
+    out
+}
+
+/// The colours of a scalar from its smallest to its largest finite value,
+/// pale yellow to dark blue.
+struct ColourScale {
+    lo: f64,
+    hi: f64,
+}
+
+impl ColourScale {
+    fn over(values: impl Iterator<Item = f64>) -> Self {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for v in values.filter(|v| v.is_finite()) {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        if lo.is_finite() {
+            Self { lo, hi }
+        } else {
+            Self { lo: 0.0, hi: 1.0 }
+        }
+    }
+
+    fn span(&self) -> f64 {
+        (self.hi - self.lo).max(1e-300)
+    }
+
+    fn colour(&self, v: f64) -> String {
+        let t = ((v - self.lo) / self.span()).clamp(0.0, 1.0);
+        let (r, g, b) = (
+            255.0 + t * (8.0 - 255.0),
+            247.0 + t * (48.0 - 247.0),
+            188.0 + t * (107.0 - 188.0),
+        );
+        format!("rgb({:.0},{:.0},{:.0})", r, g, b)
+    }
+
+    /// The colour bar right of the plot, labelled with the extremes.
+    fn bar(&self, out: &mut String, unit: &str) {
+        let bx = WIDTH - MARGIN_RIGHT + 20.0;
+        let steps = 20;
+        let bar_h = Frame::plot_height();
+        for i in 0..steps {
+            let t0 = i as f64 / steps as f64;
+            let y = MARGIN_TOP + (1.0 - t0 - 1.0 / steps as f64) * bar_h;
+            let _ = write!(
+                out,
+                r#"<rect x="{bx}" y="{y:.1}" width="16" height="{:.1}" fill="{}"/>"#,
+                bar_h / steps as f64 + 0.5,
+                self.colour(self.lo + t0 * self.span())
+            );
+        }
+        let _ = write!(
+            out,
+            r#"<text x="{tx}" y="{t1}">{hi} {u}</text><text x="{tx}" y="{t2}">{lo} {u}</text>"#,
+            tx = bx + 22.0,
+            t1 = MARGIN_TOP + 10.0,
+            t2 = MARGIN_TOP + bar_h,
+            hi = format_tick(self.hi),
+            lo = format_tick(self.lo),
+            u = escape(unit)
+        );
+    }
 }
 
 #[cfg(test)]
@@ -587,5 +653,15 @@ mod tests {
             "mm",
         );
         well_formed(&h);
+        let m = scatter_map(
+            "bounds",
+            "x",
+            "y",
+            &[(0.0, 1.0, 0.1), (1.0, 0.0, 0.3), (f64::NAN, 0.0, 1.0)],
+            "mm",
+        );
+        well_formed(&m);
+        assert_eq!(m.matches("<circle").count(), 2);
+        assert!(m.contains("0.3 mm") && m.contains("0.1 mm"));
     }
 }

@@ -1,0 +1,265 @@
+//! The calibration run as a self-contained HTML page
+//! (`flexcal calibrate --html FILE`): the errors before and after, the model
+//! selection, every identified unknown, the measured errors of the
+//! validation poses against their predicted 95 % bounds, and the predicted
+//! accuracy over the workspace (the accuracy map) drawn where the target is.
+//!
+//! Everything on the page comes from the typed results of
+//! [`CalibrationRun`]; nothing is computed here but the ordering of points.
+//! Units: positions and errors in mm, unknowns in the display unit of their
+//! kind ([`crate::calib::error_model::UnknownKind::display_unit`]).
+
+use crate::calib::{AccuracyMap, ErrorStatistics, SelectionReport};
+use crate::kinematics::Model;
+use crate::report::svg::{self, Series, YScale};
+use crate::report::{Report, Section};
+
+use super::CalibrationRun;
+use super::text::status_word;
+
+impl CalibrationRun {
+    /// The run as a report page (write it with [`Report::to_html`]).
+    pub fn html_report(&self, robot: &Model) -> Report {
+        let model = if self.options.gravity.is_some() {
+            "elasto-geometric"
+        } else {
+            "geometric"
+        };
+        let mut report = Report::new(
+            format!("Calibration of {}", robot.name()),
+            format!(
+                "{model} model identified from {} poses of {}",
+                self.data.len(),
+                self.data.source
+            ),
+        );
+        report.push(self.errors_section());
+        if let Some(selection) = &self.selection {
+            report.push(selection_section(selection));
+        }
+        report.push(self.unknowns_section());
+        if let Some(coverage) = &self.coverage {
+            report.push(coverage_section(coverage));
+        }
+        if let Some(map) = &self.accuracy_map {
+            report.push(map_section(map));
+        }
+        report
+    }
+
+    fn errors_section(&self) -> Section {
+        let mut section = Section::new("Position errors");
+        let mut rows = vec![
+            statistics_row("identification, nominal", &self.calibration.training_before),
+            statistics_row(
+                "identification, calibrated",
+                &self.calibration.training_after,
+            ),
+        ];
+        if let Some(v) = &self.validation {
+            rows.push(statistics_row("validation, nominal", &v.before));
+            rows.push(statistics_row("validation, calibrated", &v.after));
+        }
+        section.table(
+            "Position error of the target (mm), measurement frame fitted for the nominal robot",
+            &["poses", "count", "mean", "RMS", "max"],
+            rows,
+        );
+        let (name, _, errors) = self.per_pose();
+        let points: Vec<(f64, f64)> = errors
+            .iter()
+            .enumerate()
+            .map(|(k, e)| ((k + 1) as f64, e.position * 1e3))
+            .collect();
+        section.figure(
+            svg::line_chart(
+                &format!("Position error after calibration, {name} poses"),
+                "pose (file order)",
+                "error [mm]",
+                &[Series::new("calibrated", points)],
+                YScale::Linear,
+            ),
+            format!(
+                "Each {name} pose's position error with the calibrated robot, in the order of the file."
+            ),
+        );
+        section
+    }
+
+    fn unknowns_section(&self) -> Section {
+        let mut section = Section::new("Identified unknowns");
+        let rows = self
+            .calibration
+            .unknowns
+            .iter()
+            .map(|u| {
+                let (unit, factor) = u.kind.display_unit();
+                vec![
+                    u.name.clone(),
+                    unit.to_string(),
+                    format!("{:.6}", u.initial * factor),
+                    format!("{:.6}", u.value * factor),
+                    u.standard_error
+                        .map_or(String::new(), |s| format!("{:.6}", s * factor)),
+                    status_word(u.status).to_string(),
+                ]
+            })
+            .collect();
+        section.paragraph(format!(
+            "{} of {} unknowns identified; termination: {:?} after {} iterations.",
+            self.calibration.rank(),
+            self.calibration.unknowns.len(),
+            self.calibration.solve.termination,
+            self.calibration.solve.iterations
+        ));
+        section.table(
+            "Every unknown: starting and identified value, standard error",
+            &[
+                "unknown",
+                "unit",
+                "start",
+                "identified",
+                "std error",
+                "status",
+            ],
+            rows,
+        );
+        section
+    }
+}
+
+fn statistics_row(label: &str, s: &ErrorStatistics) -> Vec<String> {
+    vec![
+        label.to_string(),
+        s.n_poses.to_string(),
+        format!("{:.4}", s.position_mean * 1e3),
+        format!("{:.4}", s.position_rms * 1e3),
+        format!("{:.4}", s.position_max * 1e3),
+    ]
+}
+
+fn selection_section(selection: &SelectionReport) -> Section {
+    let mut section = Section::new("Model selection");
+    let chosen = selection.chosen.clone();
+    let rows = selection
+        .candidates
+        .iter()
+        .map(|c| {
+            let fmt = |v: Option<f64>, digits: usize| {
+                v.map_or(String::new(), |v| format!("{v:.digits$}"))
+            };
+            vec![
+                c.label(),
+                fmt(c.cv_mean_error_mm, 4),
+                fmt(c.cv_standard_error_mm, 4),
+                fmt(c.bic, 1),
+                format!("{:.0}", c.identified),
+                match &c.failure {
+                    Some(f) => format!("not scored: {f}"),
+                    None if c.groups == chosen => "chosen".into(),
+                    None => String::new(),
+                },
+            ]
+        })
+        .collect();
+    section.table(
+        "Candidates in the order of the search (held-out mean position error, mm)",
+        &[
+            "groups",
+            "held-out mean",
+            "std error",
+            "BIC",
+            "identified",
+            "",
+        ],
+        rows,
+    );
+    for reason in &selection.reasons {
+        section.paragraph(reason);
+    }
+    section
+}
+
+fn coverage_section(map: &AccuracyMap) -> Section {
+    let mut section = Section::new("Predicted accuracy on the validation poses");
+    let mut order: Vec<usize> = (0..map.poses.len()).collect();
+    order.sort_by(|&a, &b| {
+        map.poses[a]
+            .bound_95_mm
+            .total_cmp(&map.poses[b].bound_95_mm)
+    });
+    let bound = order
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| ((i + 1) as f64, map.poses[k].bound_95_mm))
+        .collect();
+    let actual = order
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &k)| map.poses[k].actual_error_mm.map(|e| ((i + 1) as f64, e)))
+        .collect();
+    section.figure(
+        svg::line_chart(
+            "Measured error against the predicted 95 % bound",
+            "validation pose (ordered by bound)",
+            "position error [mm]",
+            &[
+                Series::new("measured", actual),
+                Series::new("predicted 95 % bound", bound).dashed(),
+            ],
+            YScale::Linear,
+        ),
+        format!(
+            "The measured errors lie within their bound at {:.1} % of the validation poses (95 % expected where the validation poses see what the training poses saw); mean bound {:.3} mm, training residual scatter {:.4} mm per axis.",
+            100.0 * map.coverage.unwrap_or(f64::NAN),
+            map.mean_bound_95_mm,
+            map.residual_scatter_mm
+        ),
+    );
+    section
+}
+
+fn map_section(map: &AccuracyMap) -> Section {
+    let mut section = Section::new("Accuracy map");
+    let view = |a: usize, b: usize| -> Vec<(f64, f64, f64)> {
+        map.poses
+            .iter()
+            .map(|p| (p.position_mm[a], p.position_mm[b], p.bound_95_mm))
+            .collect()
+    };
+    section.paragraph(format!(
+        "Predicted 95 % bound of the position error at {} configurations: mean {:.3} mm, from {:.3} to {:.3} mm; training residual scatter {:.4} mm per axis{}.",
+        map.poses.len(),
+        map.mean_bound_95_mm,
+        map.poses.iter().map(|p| p.bound_95_mm).fold(f64::INFINITY, f64::min),
+        map.poses.iter().map(|p| p.bound_95_mm).fold(f64::NEG_INFINITY, f64::max),
+        map.residual_scatter_mm,
+        if map.inflated.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; covariance raised to the split-half errors of {}",
+                map.inflated
+                    .iter()
+                    .map(|(n, f)| format!("{n} (x{f:.2})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    ));
+    for (a, b, plane) in [(0, 1, "x-y"), (0, 2, "x-z")] {
+        section.figure(
+            svg::scatter_map(
+                &format!("Predicted 95 % bound, {plane} plane of the robot base"),
+                &format!("{} [mm]", ["x", "y", "z"][a]),
+                &format!("{} [mm]", ["x", "y", "z"][b]),
+                &view(a, b),
+                "mm",
+            ),
+            format!(
+                "Each configuration of the grid drawn at the calibrated target position, projected on the {plane} plane, coloured by its predicted 95 % bound."
+            ),
+        );
+    }
+    section
+}
