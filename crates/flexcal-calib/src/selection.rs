@@ -777,10 +777,7 @@ pub fn select_model(
                     .filter(|&c| {
                         c != g
                             && !(g == TermGroup::Compliances
-                                && matches!(
-                                    c,
-                                    TermGroup::JointLaw | TermGroup::LateralCompliances
-                                ))
+                                && matches!(c, TermGroup::JointLaw | TermGroup::LateralCompliances))
                     })
                     .collect()
             })
