@@ -4,7 +4,8 @@
 
 use faer::Mat;
 use flexcal_calib::{
-    GeometricErrorModel, GravityCompliance, Measurement, MeasurementSet, rotation_from_vector,
+    GeometricErrorModel, GravityCompliance, Measurement, MeasurementSet, UnknownKind,
+    rotation_from_vector,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, PointLoad, actuated_forces_into, forward_pose};
 use flexcal_optim::{Jacobian, Residuals};
@@ -191,4 +192,44 @@ pub fn with_orientation(set: &MeasurementSet) -> MeasurementSet {
         })
         .collect();
     MeasurementSet::new("with orientation", measurements).unwrap()
+}
+
+/// Checks the Jacobian of an elasto-geometric `problem` of `model` (with
+/// gravity and joint terms) against central differences away from the
+/// start: frame and target increments, compliances (5-20 urad/N.m),
+/// hardening, angles and the payload drawn from `seed`, each unknown
+/// stepped by a size fit for its kind. Returns the point and the Jacobian.
+pub fn assert_elastic_jacobian_matches(
+    label: &str,
+    model: &Model,
+    problem: &GeometricErrorModel<'_>,
+    seed: u64,
+) -> (Vec<f64>, Mat<f64>) {
+    let kinds = problem.kinds();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut x = problem.initial_unknowns();
+    let eo = problem.elastic_offset().expect("an elastic model");
+    let jo = problem.joint_terms_offset().expect("joint terms");
+    for v in x[model.n_params()..eo].iter_mut() {
+        *v = rng.random_range(-0.05..0.05);
+    }
+    for (j, (v, kind)) in x[eo..].iter_mut().zip(&kinds[eo..]).enumerate() {
+        *v += match kind {
+            UnknownKind::Compliance => rng.random_range(5e-6..2e-5),
+            UnknownKind::Hardening => rng.random_range(0.0..800.0),
+            UnknownKind::Angle => rng.random_range(-2e-4..2e-4),
+            _ if eo + j < jo => rng.random_range(-0.1..0.1),
+            _ => 0.0,
+        };
+    }
+    let step = |j: usize| match kinds[j] {
+        UnknownKind::Compliance => 1e-10,
+        UnknownKind::Hardening => 1e-1,
+        UnknownKind::Mass | UnknownKind::FirstMoment => 1e-5,
+        _ => 1e-6,
+    };
+    let jac = assert_jacobian_matches(label, problem, &x, &step, &|column, _| {
+        1e-5 * column.iter().fold(1e-12, |a: f64, v| a.max(v.abs())) + 1e-9
+    });
+    (x, jac)
 }
