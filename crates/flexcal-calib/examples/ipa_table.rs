@@ -156,14 +156,47 @@ fn selected_table(
             let g_report = g.validate(model, validate, false)?;
             let s_report = selected.validate(model, validate, false)?;
             let map = selected.accuracy_coverage(model, validate, Some(&split))?;
+            let plain = selected.accuracy_coverage(model, validate, None)?;
             println!(
-                "| {t} -> {v} | {:.3} / {:.2} | {:.3} / {:.2} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {:.1} % (mean bound {:.2} mm) | {label} |",
+                "| {t} -> {v} | {:.3} / {:.2} | {:.3} / {:.2} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {:.1} % (mean bound {:.2} mm, x{:.2}; {:.1} % / {:.2} mm without) | {label} |",
                 g_report.after.position_mean * 1e3,
                 g_report.after.position_max * 1e3,
                 s_report.after.position_mean * 1e3,
                 s_report.after.position_max * 1e3,
                 100.0 * map.coverage.unwrap_or(f64::NAN),
-                map.mean_bound_95_mm
+                map.mean_bound_95_mm,
+                map.inflation,
+                100.0 * plain.coverage.unwrap_or(f64::NAN),
+                plain.mean_bound_95_mm
+            );
+            // Coverage inside and outside the training poses' ranges of the
+            // shoulder and elbow (the joints that carry the arm's weight).
+            let ranges: Vec<(f64, f64)> = (0..model.n_actuated())
+                .map(|j| {
+                    train
+                        .measurements()
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                            (lo.min(m.q[j]), hi.max(m.q[j]))
+                        })
+                })
+                .collect();
+            let mut counts = [[0usize; 2]; 2];
+            for p in &map.poses {
+                let outside = p.q[1..3]
+                    .iter()
+                    .zip(&ranges[1..3])
+                    .any(|(q, (lo, hi))| q < lo || q > hi);
+                let within = p.actual_error_mm.is_some_and(|e| e <= p.bound_95_mm);
+                counts[usize::from(outside)][usize::from(within)] += 1;
+            }
+            let share = |c: [usize; 2]| 100.0 * c[1] as f64 / (c[0] + c[1]).max(1) as f64;
+            eprintln!(
+                "{t} -> {v}: within the bound {:.1} % of the {} poses inside the training ranges of joints 2 and 3, {:.1} % of the {} outside",
+                share(counts[0]),
+                counts[0][0] + counts[0][1],
+                share(counts[1]),
+                counts[1][0] + counts[1][1]
             );
         }
     }

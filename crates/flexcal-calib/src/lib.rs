@@ -97,10 +97,11 @@
 //!   alone by k-fold cross-validation over joint-space clusters or by BIC
 //!   (the paper's removal of "parameters with little influence" before
 //!   (11), by evidence): [`calibrate_selected`], `calibrate --select`.
-//! - [`accuracy`]: the identification covariance (raised to the split-half
-//!   errors where they are larger) carried to the target position of any
-//!   pose, with the training scatter, as a 95 % bound; its coverage on a
-//!   validation series.
+//! - [`accuracy`]: the identification covariance, conditioned on the
+//!   measurement frame and raised by the split-half check's prediction
+//!   ratio where above 1, carried to the target position of any pose, with
+//!   the training scatter, as a 95 % bound; its coverage on a validation
+//!   series.
 //!
 //! ## Equations (Marie, Courteille, Maurine 2013)
 //! - Pose error and linear error model (7)-(8), (49): `dS^k = J^k dxi`, with

@@ -101,6 +101,17 @@ pub struct SplitCheck {
     /// The identified robot, target and elastic unknowns (the measurement
     /// frame is re-registered on each half, so its unknowns are not compared).
     pub unknowns: Vec<SplitEstimate>,
+    /// The check in the prediction space: for each split, the two halves'
+    /// calibrated target positions at every pose of the set (measurement
+    /// frame) differ by `d_k`; the ratio is `sqrt(sum |d_k|^2 / 4 / sum
+    /// tr(J_k Sigma J_k^T))` over the poses and the two splits, `Sigma`
+    /// the full set's covariance of the identified unknowns. Each half has
+    /// twice the full set's variance, so the ratio is about 1 when the
+    /// standard errors hold; above 1 it is the factor by which they
+    /// understate the uncertainty of what the model predicts, the
+    /// correlations between unknowns kept ([`crate::AccuracyMap`] raises
+    /// its bounds by it). `None` when the full set has no covariance.
+    pub prediction_ratio: Option<f64>,
 }
 
 impl SplitCheck {
@@ -160,7 +171,11 @@ impl SplitCheck {
                 }
             })
             .collect();
-        Ok(Self { unknowns })
+        let prediction_ratio = prediction_ratio(model, set, calibration, &fits)?;
+        Ok(Self {
+            unknowns,
+            prediction_ratio,
+        })
     }
 
     /// What the check found, in sentences.
@@ -180,6 +195,11 @@ impl SplitCheck {
             "split-half check: the halves' estimates differ by {median:.1} times what the standard errors predict (median over {} unknowns)",
             ratios.len()
         ));
+        if let Some(ratio) = self.prediction_ratio {
+            notes.push(format!(
+                "split-half check of the predicted target positions: the halves differ by {ratio:.1} times what the covariance predicts (predicted 95 % bounds are raised by that factor when above 1)"
+            ));
+        }
         if !flagged.is_empty() {
             notes.push(format!(
                 "standard errors understated (split error above {SPLIT_RATIO_WARNING} standard errors): {}; what the model leaves is shared by neighbouring poses, not independent noise",
@@ -195,4 +215,30 @@ impl SplitCheck {
         ));
         notes
     }
+}
+
+/// [`SplitCheck::prediction_ratio`] from the four half fits (odd, even,
+/// first half, second half).
+fn prediction_ratio(
+    model: &Model,
+    set: &MeasurementSet,
+    calibration: &Calibration,
+    fits: &[Calibration],
+) -> Result<Option<f64>, CalibError> {
+    if calibration.solve.covariance.is_none() {
+        return Ok(None);
+    }
+    let variances = calibration.prediction_variances(model, set)?;
+    let mut squared_half_differences = 0.0;
+    for pair in fits.chunks(2) {
+        let a = pair[0].predicted_positions(model, set)?;
+        let b = pair[1].predicted_positions(model, set)?;
+        squared_half_differences += a
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| (a - b).norm_squared() / 4.0)
+            .sum::<f64>();
+    }
+    let predicted_variance = 2.0 * variances.iter().sum::<f64>();
+    Ok((predicted_variance > 0.0).then(|| (squared_half_differences / predicted_variance).sqrt()))
 }

@@ -65,6 +65,11 @@ fn independent_noise_passes_and_an_unmodelled_sag_is_caught() {
     let median = median_ratio(&clean);
     println!("independent noise: median ratio {median:.2}");
     assert!((0.6..1.5).contains(&median), "median ratio {median}");
+    // In the prediction space too: the halves' predicted positions differ
+    // as the covariance says.
+    let clean_prediction = clean.prediction_ratio.unwrap();
+    println!("independent noise: prediction ratio {clean_prediction:.2}");
+    assert!((0.6..1.5).contains(&clean_prediction), "{clean_prediction}");
     let flagged = clean
         .unknowns
         .iter()
@@ -104,6 +109,9 @@ fn independent_noise_passes_and_an_unmodelled_sag_is_caught() {
         ratio("d2"),
         sagging.notes()
     );
+    let sag_prediction = sagging.prediction_ratio.unwrap();
+    println!("unmodelled sag: prediction ratio {sag_prediction:.2}");
+    assert!(sag_prediction > 3.0, "{sag_prediction}");
     // The parameters that take up the sag differ between the halves far
     // beyond their standard errors, and the notes name them.
     assert!(ratio("theta2") > 5.0 && ratio("d2") > 5.0);

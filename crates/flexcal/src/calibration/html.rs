@@ -234,17 +234,13 @@ fn map_section(map: &AccuracyMap) -> Section {
         map.poses.iter().map(|p| p.bound_95_mm).fold(f64::INFINITY, f64::min),
         map.poses.iter().map(|p| p.bound_95_mm).fold(f64::NEG_INFINITY, f64::max),
         map.residual_scatter_mm,
-        if map.inflated.is_empty() {
-            String::new()
-        } else {
+        if map.inflation > 1.0 {
             format!(
-                "; covariance raised to the split-half errors of {}",
-                map.inflated
-                    .iter()
-                    .map(|(n, f)| format!("{n} (x{f:.2})"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                "; standard errors raised {:.2} times (split-half check of the predicted positions)",
+                map.inflation
             )
+        } else {
+            String::new()
         }
     ));
     for (a, b, plane) in [(0, 1, "x-y"), (0, 2, "x-z")] {
