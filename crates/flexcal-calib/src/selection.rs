@@ -1,6 +1,7 @@
 //! Model selection from the training data alone: which groups of unknowns
-//! (joint offsets, axis tilts, joint compliances, the non-linear joint law,
-//! cyclic joint errors, lateral joint compliances) are worth identifying.
+//! (joint offsets, axis tilts, joint compliances, the payload, the
+//! non-linear joint law, cyclic joint errors, lateral joint compliances) are
+//! worth identifying.
 //!
 //! The paper removes "the columns of J of parameters with little influence"
 //! (section 2.1.5, before (11)) by hand; the identifiability analysis of
@@ -37,7 +38,8 @@
 //! paired difference, the "one standard error" rule, which prefers the
 //! simpler of two models the data cannot tell apart; BIC: by 2, "positive
 //! evidence" on Kass and Raftery's scale). Removing the compliances removes
-//! the non-linear law and the lateral compliances with them. Backward, not forward: groups overlap (a
+//! the payload, the non-linear law and the lateral compliances with them.
+//! Backward, not forward: groups overlap (a
 //! cyclic error of the shoulder imitates part of its compliance), and a
 //! forward search adds first whatever imitates the largest missing effect,
 //! then cannot take it out (a test on a simulated robot shows it). The [`SelectionReport`] lists every
@@ -106,8 +108,12 @@ pub enum TermGroup {
     JointOffsets,
     /// Hayati tilts of parallel axes (the `beta` parameters).
     AxisTilts,
-    /// Joint compliances under gravity and the payload (needs a mass table).
+    /// Joint compliances under gravity (needs a mass table).
     Compliances,
+    /// The payload's mass and first moment (`payload_*`), identified with
+    /// the compliances; off, the mass table's payload is taken as known.
+    /// Removed with the compliances.
+    Payload,
     /// The non-linear joint stiffness law ([`crate::joint_law`]).
     JointLaw,
     /// Cyclic joint errors ([`crate::joint_law`]).
@@ -124,6 +130,7 @@ impl TermGroup {
             TermGroup::JointOffsets => "offsets",
             TermGroup::AxisTilts => "tilts",
             TermGroup::Compliances => "compliances",
+            TermGroup::Payload => "payload",
             TermGroup::JointLaw => "joint law",
             TermGroup::CyclicErrors => "cyclic",
             TermGroup::LateralCompliances => "lateral",
@@ -304,6 +311,12 @@ fn candidate_options(
     }
     if !on(TermGroup::Compliances) {
         options.gravity = None;
+    } else if !on(TermGroup::Payload) {
+        for name in crate::PAYLOAD_PARAMETER_NAMES {
+            if !options.fixed.iter().any(|f| f == name) {
+                options.fixed.push(name.to_string());
+            }
+        }
     }
     if let (false, Some(gravity)) = (on(TermGroup::LateralCompliances), &mut options.gravity) {
         gravity.lateral = crate::LateralCompliance::Off;
@@ -349,6 +362,13 @@ fn available_groups(model: &Model, base: &CalibrationOptions) -> Vec<TermGroup> 
     }
     if let Some(gravity) = &base.gravity {
         groups.push(TermGroup::Compliances);
+        // The payload, unless every one of its unknowns is fixed already.
+        if crate::PAYLOAD_PARAMETER_NAMES
+            .iter()
+            .any(|name| !base.fixed.iter().any(|f| f == name))
+        {
+            groups.push(TermGroup::Payload);
+        }
         groups.push(TermGroup::JointLaw);
         if gravity.lateral != crate::LateralCompliance::Off {
             groups.push(TermGroup::LateralCompliances);
@@ -358,6 +378,77 @@ fn available_groups(model: &Model, base: &CalibrationOptions) -> Vec<TermGroup> 
         groups.push(TermGroup::CyclicErrors);
     }
     groups
+}
+
+/// Whether the unknown `name` belongs to `group`. The compliances take
+/// with them the groups that cannot stand without them (the payload, the
+/// law, the lateral compliances).
+fn in_group(model: &Model, group: TermGroup, name: &str) -> bool {
+    let quantity = |q: Quantity| {
+        model
+            .params()
+            .iter()
+            .any(|p| p.quantity == q && p.name == name)
+    };
+    match group {
+        TermGroup::JointOffsets => quantity(Quantity::Theta),
+        TermGroup::AxisTilts => quantity(Quantity::Beta),
+        TermGroup::Compliances => {
+            name.starts_with("compliance_")
+                || [
+                    TermGroup::Payload,
+                    TermGroup::JointLaw,
+                    TermGroup::LateralCompliances,
+                ]
+                .into_iter()
+                .any(|g| in_group(model, g, name))
+        }
+        TermGroup::Payload => name.starts_with("payload_"),
+        TermGroup::JointLaw => name.starts_with("hardening_") || name.starts_with("lost_motion_"),
+        TermGroup::CyclicErrors => name.starts_with("cyclic_"),
+        TermGroup::LateralCompliances => name.starts_with("lateral_compliance_"),
+    }
+}
+
+/// Drops from `groups` every group none of whose unknowns the model with
+/// every group identifies on the whole set (the identifiability analysis
+/// leaves them at their starting values): a fit on fewer poses does not
+/// identify them either, so removing such a group changes no fit, and
+/// scoring its removal would cost a fit per fold at every step for nothing.
+/// One fit on the whole set; when it fails the search goes on with every
+/// group and reports the failure as it would.
+fn remove_unidentified_groups(
+    model: &Model,
+    set: &MeasurementSet,
+    base: &CalibrationOptions,
+    groups: &mut Vec<TermGroup>,
+    reasons: &mut Vec<String>,
+) {
+    let mut options = candidate_options(model, base, groups);
+    options.spread_reference = false;
+    let Ok(full) = calibrate(model, set, &options) else {
+        return;
+    };
+    let identified: Vec<&str> = full
+        .unknowns
+        .iter()
+        .filter(|u| u.status == UnknownStatus::Identified)
+        .map(|u| u.name.as_str())
+        .collect();
+    let present: Vec<&str> = full.unknowns.iter().map(|u| u.name.as_str()).collect();
+    groups.retain(|&g| {
+        let has = |names: &[&str]| names.iter().any(|n| in_group(model, g, n));
+        // A group without unknowns in this model (none present) is left to
+        // the search, which reports it as it is.
+        if !has(&present) || has(&identified) {
+            return true;
+        }
+        reasons.push(format!(
+            "{}: none of its unknowns is identified on the whole set with every group (left at their starting values): not a candidate",
+            g.label()
+        ));
+        false
+    });
 }
 
 /// Fold of each pose (`0..folds`).
@@ -642,6 +733,9 @@ pub fn select_model(
         chosen: Vec::new(),
         reasons: Vec::new(),
     };
+    if selection.method != SelectionMethod::None {
+        remove_unidentified_groups(model, set, base, &mut groups, &mut report.reasons);
+    }
     if selection.method == SelectionMethod::None {
         report.chosen = groups.clone();
         report
@@ -777,7 +871,12 @@ pub fn select_model(
                     .filter(|&c| {
                         c != g
                             && !(g == TermGroup::Compliances
-                                && matches!(c, TermGroup::JointLaw | TermGroup::LateralCompliances))
+                                && matches!(
+                                    c,
+                                    TermGroup::Payload
+                                        | TermGroup::JointLaw
+                                        | TermGroup::LateralCompliances
+                                ))
                     })
                     .collect()
             })

@@ -429,3 +429,94 @@ fn predicted_95_percent_bounds_cover_about_95_percent_of_new_poses() {
     assert_eq!(csv.lines().count(), 1 + configurations.len());
     assert!(csv.starts_with("pose,q1,q2,q3,q4,q5,q6,model_uncertainty_mm,bound_95_mm"));
 }
+
+/// The payload is a group of its own: on a simulated UR10 carrying 3 kg at
+/// 0.15 m where its mass table says 1 kg at 0.1 m (a tool changed after the
+/// table was written), cross-validation keeps the payload and the chosen
+/// model recovers its mass within 3 standard errors, while the model
+/// without it stays far from the noise. When the table's payload is the
+/// truth, the payload identified (if selection keeps it) is the table's
+/// within 3 standard errors, and both models reach the noise.
+#[test]
+fn selection_identifies_a_wrong_payload_and_leaves_a_known_one_alone() {
+    use flexcal_calib::{SelectionMethod, SelectionOptions, TermGroup, select_model};
+    let model = ur10();
+    let table = GravityCompliance::ur10_urdf(&model).unwrap();
+    let xi = common::perturbed_geometry(&model, &mut ChaCha8Rng::seed_from_u64(33), 5e-4, 1e-3);
+    // Linear joints: what is tested is the payload.
+    let truth = Joints {
+        hardening: [0.0; 6],
+        lost_motion: [0.0; 6],
+        cyclic: [[0.0; 4]; 6],
+        ..joints()
+    };
+    let (frame, _) = common::generic_frame_and_target();
+    let noise = 20e-6;
+    let mut options = CalibrationOptions::for_model(&model);
+    options.weighting = Weighting::Uniform;
+    options.default_position_std = noise;
+    options.target = FrameTreatment::Fixed;
+    options.gravity = Some(table.clone());
+    let selection = SelectionOptions {
+        method: SelectionMethod::CrossValidation,
+        groups: Some(vec![
+            TermGroup::JointOffsets,
+            TermGroup::AxisTilts,
+            TermGroup::Compliances,
+            TermGroup::Payload,
+        ]),
+        ..SelectionOptions::default()
+    };
+    let noise_mean = noise * (8.0 / PI).sqrt();
+    for (mass, center_z) in [(3.0, 0.15), (table.payload_mass, table.payload_center.z)] {
+        let mut carried = table.clone();
+        carried.payload_mass = mass;
+        carried.payload_center.z = center_z;
+        let train = simulate(&model, &carried, &xi, &truth, &frame, 600, noise, 43);
+        let validation = simulate(&model, &carried, &xi, &truth, &frame, 300, noise, 44);
+        let (report, chosen) = select_model(&model, &train, &options, &selection).unwrap();
+        for line in report.lines() {
+            eprintln!("payload {mass} kg: {line}");
+        }
+        assert!(report.chosen.contains(&TermGroup::Compliances), "{mass} kg");
+        let calibration = calibrate(&model, &train, &chosen).unwrap();
+        let mut without = chosen.clone();
+        without
+            .fixed
+            .extend(flexcal_calib::PAYLOAD_PARAMETER_NAMES.map(String::from));
+        let table_payload = calibrate(&model, &train, &without).unwrap();
+        let error = |c: &flexcal_calib::Calibration| {
+            c.validate(&model, &validation, false)
+                .unwrap()
+                .after
+                .position_mean
+        };
+        let (chosen_error, table_error) = (error(&calibration), error(&table_payload));
+        eprintln!(
+            "payload {mass} kg: validation mean {:.4} mm chosen, {:.4} mm with the table's payload (noise {:.4} mm)",
+            chosen_error * 1e3,
+            table_error * 1e3,
+            noise_mean * 1e3
+        );
+        assert!(chosen_error < 1.2 * noise_mean, "{mass} kg: {chosen_error}");
+        let u = calibration
+            .unknowns
+            .iter()
+            .find(|u| u.name == "payload_mass")
+            .unwrap();
+        if report.chosen.contains(&TermGroup::Payload) {
+            assert_eq!(u.status, UnknownStatus::Identified);
+            let se = u.standard_error.unwrap();
+            eprintln!("payload mass {:.3} +/- {se:.3} kg (truth {mass})", u.value);
+            assert!((u.value - mass).abs() < 3.0 * se, "{} +/- {se}", u.value);
+        } else {
+            assert_eq!(u.value, mass);
+        }
+        if mass == table.payload_mass {
+            assert!(table_error < 1.2 * noise_mean, "{table_error}");
+        } else {
+            assert!(report.chosen.contains(&TermGroup::Payload));
+            assert!(table_error > 1.5 * noise_mean, "{table_error}");
+        }
+    }
+}
