@@ -92,6 +92,14 @@ fn workflow_on_the_twin_campaign() {
         );
     }
     assert!(text.contains("\nSplit-half check"), "{text}");
+    let bounds = lines
+        .iter()
+        .find(|l| l.starts_with("predicted 95 % bounds"))
+        .expect("a line on the predicted bounds");
+    assert!(
+        bounds.contains(&format!("raised {:.2} times", coverage.inflation)),
+        "{bounds}"
+    );
     let after = lines
         .iter()
         .find(|l| l.starts_with("validation after"))

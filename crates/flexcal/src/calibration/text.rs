@@ -70,8 +70,16 @@ impl CalibrationRun {
         if let Some(map) = &self.coverage {
             put!(
                 out,
-                "predicted 95 % bounds (mean {:.3} mm) cover {:.1} % of the validation poses",
+                "predicted 95 % bounds (mean {:.3} mm{}) cover {:.1} % of the validation poses",
                 map.mean_bound_95_mm,
+                if map.inflation > 1.0 {
+                    format!(
+                        ", standard errors raised {:.2} times by the split-half check",
+                        map.inflation
+                    )
+                } else {
+                    String::new()
+                },
                 100.0 * map.coverage.unwrap_or(f64::NAN)
             );
         }
