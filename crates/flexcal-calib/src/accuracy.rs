@@ -64,6 +64,12 @@ pub struct PoseAccuracy {
     /// The calibrated model's target position at this pose, in the robot
     /// base frame (mm): where on the workspace the bound applies.
     pub position_mm: [f64; 3],
+    /// The actuated coordinates (by name) at which this pose lies outside
+    /// the identification poses' range: there the bound assumes that the
+    /// model holds beyond the data, which no statistic of the training
+    /// poses can check (empty: inside every range).
+    #[serde(default)]
+    pub outside_training_range: Vec<String>,
 }
 
 /// Predicted accuracy over a set of poses (a workspace grid or a
@@ -83,19 +89,26 @@ pub struct AccuracyMap {
     pub coverage: Option<f64>,
     /// Mean of the bounds (mm).
     pub mean_bound_95_mm: f64,
+    /// Number of poses outside the identification poses' range of at least
+    /// one actuated coordinate ([`PoseAccuracy::outside_training_range`]).
+    #[serde(default)]
+    pub extrapolated_poses: usize,
 }
 
 impl AccuracyMap {
     /// The map as CSV:
-    /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm`
-    /// (the last three: [`PoseAccuracy::position_mm`]).
+    /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm,outside_training_range`
+    /// (`x_mm,y_mm,z_mm`: [`PoseAccuracy::position_mm`]; the last column:
+    /// [`PoseAccuracy::outside_training_range`], names separated by `;`).
     pub fn to_csv_string(&self) -> String {
         let n = self.poses.first().map_or(0, |p| p.q.len());
         let mut out = String::from("pose");
         for i in 1..=n {
             out.push_str(&format!(",q{i}"));
         }
-        out.push_str(",model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm\n");
+        out.push_str(
+            ",model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm,outside_training_range\n",
+        );
         for p in &self.poses {
             out.push_str(&p.pose.replace(',', ";"));
             for q in &p.q {
@@ -103,11 +116,12 @@ impl AccuracyMap {
             }
             let [x, y, z] = p.position_mm;
             out.push_str(&format!(
-                ",{:.6},{:.6},{},{x:.4},{y:.4},{z:.4}\n",
+                ",{:.6},{:.6},{},{x:.4},{y:.4},{z:.4},{}\n",
                 p.model_uncertainty_mm,
                 p.bound_95_mm,
                 p.actual_error_mm
-                    .map_or(String::new(), |e| format!("{e:.6}"))
+                    .map_or(String::new(), |e| format!("{e:.6}")),
+                p.outside_training_range.join(";").replace(',', ";")
             ));
         }
         out
@@ -321,6 +335,7 @@ impl Calibration {
         let s2 = ssr / (rows.saturating_sub(p).max(1)) as f64;
         let mut poses = Vec::with_capacity(set.len());
         let mut within = 0usize;
+        let mut extrapolated_poses = 0usize;
         for (k, label) in labels.into_iter().enumerate() {
             let rows_k =
                 DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
@@ -338,9 +353,16 @@ impl Calibration {
             if actual_error.is_some_and(|e| e <= bound) {
                 within += 1;
             }
+            let q = &set.measurements()[k].q;
+            let outside_training_range: Vec<String> = self
+                .outside_training_range(q)
+                .map(|i| model.actuated_names()[i].clone())
+                .collect();
+            extrapolated_poses += usize::from(!outside_training_range.is_empty());
             poses.push(PoseAccuracy {
+                outside_training_range,
                 pose: label,
-                q: set.measurements()[k].q.clone(),
+                q: q.clone(),
                 model_uncertainty_mm: trace.sqrt() * 1e3,
                 bound_95_mm: bound * 1e3,
                 actual_error_mm: actual_error.map(|e| e * 1e3),
@@ -355,6 +377,7 @@ impl Calibration {
             residual_scatter_mm: s2.sqrt() * 1e3,
             inflation,
             mean_bound_95_mm,
+            extrapolated_poses,
         })
     }
 }

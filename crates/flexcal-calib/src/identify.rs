@@ -388,6 +388,19 @@ pub struct Calibration {
 }
 
 impl Calibration {
+    /// Indices of the actuated coordinates at which `q` (rad or m) lies
+    /// outside [`Calibration::actuated_ranges`] (by more than 1e-9): where
+    /// a prediction is an extrapolation from the identification poses.
+    pub fn outside_training_range<'a>(&'a self, q: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
+        const MARGIN: f64 = 1e-9;
+        self.actuated_ranges
+            .iter()
+            .zip(q)
+            .enumerate()
+            .filter(|(_, ((lo, hi), q))| **q < lo - MARGIN || **q > hi + MARGIN)
+            .map(|(i, _)| i)
+    }
+
     /// Names of the non-identifiable unknowns.
     pub fn non_identifiable(&self) -> Vec<&str> {
         self.with_status(UnknownStatus::NonIdentifiable)

@@ -277,21 +277,19 @@ impl Calibration {
         // Extrapolation: which coordinates of the validation poses leave the
         // identification poses' ranges (a joint whose motion does not change
         // the errors, like a vertical first axis, may do so harmlessly).
-        let margin = 1e-9;
         let n = set.len().max(1) as f64;
+        let mut counts = vec![0usize; self.actuated_ranges.len()];
+        for m in set.measurements() {
+            for i in self.outside_training_range(&m.q) {
+                counts[i] += 1;
+            }
+        }
         let extrapolated_coordinates = model
             .actuated_names()
             .iter()
-            .zip(&self.actuated_ranges)
-            .enumerate()
-            .filter_map(|(i, (name, (lo, hi)))| {
-                let count = set
-                    .measurements()
-                    .iter()
-                    .filter(|m| m.q[i] < lo - margin || m.q[i] > hi + margin)
-                    .count();
-                (count > 0).then(|| (name.clone(), count as f64 / n))
-            })
+            .zip(counts)
+            .filter(|(_, count)| *count > 0)
+            .map(|(name, count)| (name.clone(), count as f64 / n))
             .collect();
         Ok(ValidationReport {
             before,

@@ -428,6 +428,59 @@ fn predicted_95_percent_bounds_cover_about_95_percent_of_new_poses() {
     let csv = grid.to_csv_string();
     assert_eq!(csv.lines().count(), 1 + configurations.len());
     assert!(csv.starts_with("pose,q1,q2,q3,q4,q5,q6,model_uncertainty_mm,bound_95_mm"));
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",outside_training_range")
+    );
+
+    // Extrapolation is flagged per pose, as the validation counts it per
+    // coordinate; a pose beyond the training range of joint 2 names it.
+    let report = calibration.validate(&model, &validation, false).unwrap();
+    let flagged = |name: &str| {
+        map.poses
+            .iter()
+            .filter(|p| p.outside_training_range.iter().any(|n| n == name))
+            .count()
+    };
+    for (name, fraction) in &report.extrapolated_coordinates {
+        assert_eq!(
+            flagged(name),
+            (fraction * validation.len() as f64).round() as usize,
+            "{name}"
+        );
+    }
+    assert_eq!(
+        map.extrapolated_poses,
+        map.poses
+            .iter()
+            .filter(|p| !p.outside_training_range.is_empty())
+            .count()
+    );
+    let (lo, hi) = calibration.actuated_ranges[1];
+    let mut inside = configurations[0].clone();
+    for (q, (lo, hi)) in inside.iter_mut().zip(&calibration.actuated_ranges) {
+        *q = 0.5 * (lo + hi);
+    }
+    let mut beyond = inside.clone();
+    beyond[1] = hi + 0.1 * (hi - lo);
+    let two = calibration
+        .predicted_accuracy(&model, &[inside, beyond], None)
+        .unwrap();
+    assert!(two.poses[0].outside_training_range.is_empty());
+    assert_eq!(
+        two.poses[1].outside_training_range,
+        vec![model.actuated_names()[1].clone()]
+    );
+    assert_eq!(two.extrapolated_poses, 1);
+    assert!(
+        two.to_csv_string()
+            .lines()
+            .nth(2)
+            .unwrap()
+            .ends_with(&format!(",{}", model.actuated_names()[1]))
+    );
 }
 
 /// The payload is a group of its own: on a simulated UR10 carrying 3 kg at

@@ -262,9 +262,10 @@ impl CalibrationRun {
             let path = grid.with_extension("accuracy.csv");
             map.write_csv(&path)?;
             written.push(format!(
-                "predicted accuracy at {} poses written to {}",
+                "predicted accuracy at {} poses written to {}{}",
                 map.poses.len(),
-                path.display()
+                path.display(),
+                extrapolation_note(map)
             ));
         }
         if let Some(path) = &outputs.description {
@@ -464,4 +465,16 @@ pub fn run_calibration(
         coverage,
         accuracy_map,
     })
+}
+
+/// `"; N of them outside the identification poses' range ..."` when a map
+/// holds extrapolated poses, else empty.
+pub(crate) fn extrapolation_note(map: &calib::AccuracyMap) -> String {
+    if map.extrapolated_poses == 0 {
+        return String::new();
+    }
+    format!(
+        "; {} of them outside the identification poses' range of some coordinate, where the bound assumes the model holds beyond the data (column outside_training_range)",
+        map.extrapolated_poses
+    )
 }

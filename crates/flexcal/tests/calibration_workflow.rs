@@ -198,7 +198,10 @@ fn workflow_on_the_twin_campaign() {
     assert_eq!(written.len(), 1, "{written:?}");
     let csv = std::fs::read_to_string(dir.join("grid.accuracy.csv")).unwrap();
     assert!(
-        csv.lines().next().unwrap().ends_with(",x_mm,y_mm,z_mm"),
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",x_mm,y_mm,z_mm,outside_training_range"),
         "{csv}"
     );
     assert_eq!(csv.lines().count(), 7);

@@ -228,7 +228,7 @@ fn map_section(map: &AccuracyMap) -> Section {
             .collect()
     };
     section.paragraph(format!(
-        "Predicted 95 % bound of the position error at {} configurations: mean {:.3} mm, from {:.3} to {:.3} mm; training residual scatter {:.4} mm per axis{}.",
+        "Predicted 95 % bound of the position error at {} configurations: mean {:.3} mm, from {:.3} to {:.3} mm; training residual scatter {:.4} mm per axis{}{}.",
         map.poses.len(),
         map.mean_bound_95_mm,
         map.poses.iter().map(|p| p.bound_95_mm).fold(f64::INFINITY, f64::min),
@@ -241,7 +241,8 @@ fn map_section(map: &AccuracyMap) -> Section {
             )
         } else {
             String::new()
-        }
+        },
+        super::extrapolation_note(map)
     ));
     for (a, b, plane) in [(0, 1, "x-y"), (0, 2, "x-z")] {
         section.figure(
