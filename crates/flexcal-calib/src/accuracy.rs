@@ -96,6 +96,17 @@ pub struct AccuracyMap {
 }
 
 impl AccuracyMap {
+    /// `standard errors raised X times by the split-half check ...` when
+    /// [`AccuracyMap::inflation`] is above 1, for reports.
+    pub fn inflation_note(&self) -> Option<String> {
+        (self.inflation > 1.0).then(|| {
+            format!(
+                "standard errors raised {:.2} times by the split-half check of the predicted positions",
+                self.inflation
+            )
+        })
+    }
+
     /// The map as CSV:
     /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm,outside_training_range`
     /// (`x_mm,y_mm,z_mm`: [`PoseAccuracy::position_mm`]; the last column:

@@ -234,14 +234,8 @@ fn map_section(map: &AccuracyMap) -> Section {
         map.poses.iter().map(|p| p.bound_95_mm).fold(f64::INFINITY, f64::min),
         map.poses.iter().map(|p| p.bound_95_mm).fold(f64::NEG_INFINITY, f64::max),
         map.residual_scatter_mm,
-        if map.inflation > 1.0 {
-            format!(
-                "; standard errors raised {:.2} times (split-half check of the predicted positions)",
-                map.inflation
-            )
-        } else {
-            String::new()
-        },
+        map.inflation_note()
+            .map_or(String::new(), |note| format!("; {note}")),
         super::extrapolation_note(map)
     ));
     for (a, b, plane) in [(0, 1, "x-y"), (0, 2, "x-z")] {

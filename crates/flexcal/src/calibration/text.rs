@@ -72,14 +72,8 @@ impl CalibrationRun {
                 out,
                 "predicted 95 % bounds (mean {:.3} mm{}) cover {:.1} % of the validation poses",
                 map.mean_bound_95_mm,
-                if map.inflation > 1.0 {
-                    format!(
-                        ", standard errors raised {:.2} times by the split-half check",
-                        map.inflation
-                    )
-                } else {
-                    String::new()
-                },
+                map.inflation_note()
+                    .map_or(String::new(), |note| format!(", {note}")),
                 100.0 * map.coverage.unwrap_or(f64::NAN)
             );
         }
