@@ -563,6 +563,35 @@ impl CalibrationResult {
         })
     }
 
+    /// Predicted 95 % bound of the position error at each configuration of
+    /// `q` (rad or m; shape (dof,) or (n, dof)): the identification's
+    /// covariance, conditioned on the measurement frame, carried to the
+    /// target position, with the training residuals' scatter.
+    fn predicted_accuracy(
+        &self,
+        q: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    ) -> PyResult<crate::accuracy::AccuracyResult> {
+        let q = crate::arrays::rows("q", &q, self.nominal.n_actuated())?;
+        crate::accuracy::predicted(&self.calibration, &self.nominal, &q)
+    }
+
+    /// The predicted 95 % bounds at the poses of `other` with their
+    /// measured errors after calibration (the measurement frame re-fitted
+    /// as in `validate`) and the share within the bound. Releases the GIL;
+    /// Ctrl-C interrupts the wait.
+    fn accuracy_coverage(
+        &self,
+        py: Python<'_>,
+        other: &MeasurementSet,
+    ) -> PyResult<crate::accuracy::AccuracyResult> {
+        let calibration = Arc::clone(&self.calibration);
+        let model = Arc::clone(&self.nominal);
+        let set = Arc::clone(&other.set);
+        run_interruptible(py, move || {
+            Ok(crate::accuracy::coverage(&calibration, &model, &set)?)
+        })
+    }
+
     /// The JSON report, as `flexcal calibrate --report` writes it (mm and
     /// deg at this boundary), with the validation when given.
     #[pyo3(signature = (validation = None))]

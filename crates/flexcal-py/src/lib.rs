@@ -22,6 +22,7 @@
 //!   such hook and finishes in the background. Batched forward models and
 //!   Jacobians stop between batches.
 
+mod accuracy;
 mod arrays;
 mod calibration;
 mod compensation;
@@ -48,6 +49,7 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<calibration::UnknownEstimate>()?;
     m.add_class::<calibration::SelectionResult>()?;
     m.add_class::<calibration::SelectionCandidate>()?;
+    m.add_class::<accuracy::AccuracyResult>()?;
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;

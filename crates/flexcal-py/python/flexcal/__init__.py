@@ -16,6 +16,7 @@ library's one-line message. See docs/python.md in the repository.
 """
 
 from ._flexcal import (
+    AccuracyResult,
     CalibrationError,
     CalibrationResult,
     CommandedPath,
@@ -49,6 +50,7 @@ from ._flexcal import (
 )
 
 __all__ = [
+    "AccuracyResult",
     "CalibrationError",
     "CalibrationResult",
     "CommandedPath",

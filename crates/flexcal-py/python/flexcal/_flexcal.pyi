@@ -251,6 +251,38 @@ class ValidationResult:
     @property
     def extrapolated_coordinates(self) -> list[tuple[str, float]]: ...
 
+class AccuracyResult:
+    """Predicted 95 % bounds of the position error (SI units)."""
+
+    @property
+    def bound_95(self) -> FloatArray:
+        """(n,) 95 % bound on the position error at each pose, m."""
+    @property
+    def model_uncertainty(self) -> FloatArray:
+        """(n,) the identification's own uncertainty, sqrt(tr Sigma_pred), m."""
+    @property
+    def actual_error(self) -> FloatArray:
+        """(n,) measured position error after calibration, m (NaN without a measurement)."""
+    @property
+    def positions(self) -> FloatArray:
+        """(n, 3) calibrated target position in the robot base frame, m."""
+    @property
+    def outside_training_range(self) -> list[list[str]]:
+        """Per pose, the coordinates outside the identification poses' range."""
+    @property
+    def extrapolated_poses(self) -> int: ...
+    @property
+    def coverage(self) -> Optional[float]:
+        """Share of measured poses within their bound (None without measurements)."""
+    @property
+    def residual_scatter(self) -> float:
+        """Per-axis scatter of the training residuals, m."""
+    @property
+    def inflation(self) -> float:
+        """Factor on every standard deviation from the split-half check (1: none)."""
+    def to_csv(self) -> str:
+        """The CSV of `flexcal calibrate --accuracy-map` (mm)."""
+
 class SelectionCandidate:
     """One candidate model scored by the model selection (SI units)."""
 
@@ -356,6 +388,10 @@ class CalibrationResult:
     def target(self) -> FloatArray:
         """(4, 4) identified x_tcp_target, m."""
     def validate(self, other: MeasurementSet, refit_target: bool = False) -> ValidationResult: ...
+    def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
+        """95 % bounds at the configurations q ((dof,) or (n, dof), rad or m)."""
+    def accuracy_coverage(self, other: MeasurementSet) -> AccuracyResult:
+        """95 % bounds at the poses of `other` with their measured errors."""
     def to_json(self, validation: Optional[ValidationResult] = None) -> str:
         """The JSON report of `flexcal calibrate --report` (mm, deg)."""
 

@@ -177,3 +177,45 @@ def test_without_selection_there_is_no_report(ur10):
     assert flexcal.calibrate(ur10, data).selection is None
     with pytest.raises(flexcal.InputError, match='select: expected "cv", "bic" or "none"'):
         flexcal.calibrate(ur10, data, select="aic")
+
+
+def test_predicted_accuracy_covers_new_poses_and_names_extrapolation(ur10):
+    truth, rng = simulated_ur10(ur10, seed=21)
+    q = configurations(ur10, 200, seed=22)
+    train = flexcal.MeasurementSet.from_arrays(q, measure(ur10, truth, q, rng))
+    q2 = configurations(ur10, 400, seed=23)
+    test = flexcal.MeasurementSet.from_arrays(q2, measure(ur10, truth, q2, rng))
+    result = flexcal.calibrate(ur10, train, select="none")
+    checked = result.accuracy_coverage(test)
+    # A model that is the truth's, with Gaussian noise: about 95 % of new
+    # poses within their bound (400 poses: the share's standard error is 1.1 %).
+    assert 0.90 <= checked.coverage <= 0.99, checked
+    assert checked.bound_95.shape == (400,)
+    assert np.all(checked.actual_error >= 0.0)
+    assert checked.residual_scatter == pytest.approx(NOISE, rel=0.15)
+    assert checked.inflation == 1.0
+    # The same bounds from the configurations alone, without measurements.
+    grid = result.predicted_accuracy(q2)
+    np.testing.assert_allclose(grid.bound_95, checked.bound_95, rtol=1e-9)
+    assert np.all(np.isnan(grid.actual_error))
+    assert grid.coverage is None
+    assert np.all(grid.model_uncertainty < grid.bound_95)
+    assert grid.positions.shape == (400, 3)
+    # The calibrated target positions are the robot's up to the base frame,
+    # which the data fix only together with the measurement frame: the
+    # distances between them are the true robot's.
+    tool = ur10.fk(q2[:50], xi=truth)[:, :3, 3]
+
+    def distances(p):
+        return np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)
+
+    assert np.max(np.abs(distances(grid.positions[:50]) - distances(tool))) < 0.2e-3
+    # A configuration beyond the training range of joint 2 is named.
+    beyond = q2[0].copy()
+    beyond[1] = q[:, 1].max() + 0.2
+    one = result.predicted_accuracy(beyond)
+    assert one.outside_training_range[0] == [ur10.joint_names[1]]
+    assert one.extrapolated_poses == 1
+    assert one.to_csv().splitlines()[0].endswith(",outside_training_range")
+    with pytest.raises(flexcal.ShapeError, match="q"):
+        result.predicted_accuracy(np.zeros((3, 5)))
