@@ -13,12 +13,14 @@
 //!   robot's accuracy, and the marginal block `S_rr` would count as robot
 //!   error what is only the frame's: the lengths next to the base trade off
 //!   with the frame's translation (on the virtual IR-663 their marginal
-//!   errors are 1 to 4 mm, which made 95 % bounds of 1.5 mm for errors of
-//!   0.03 mm). The linearised covariance assumes independent errors; where
-//!   the split-half check ([`crate::SplitCheck`]) finds an unknown's split
-//!   error larger than its standard error, that unknown's rows and columns
-//!   of the full covariance are scaled by the ratio (the standard error
-//!   raised to the split error) before the conditioning;
+//!   errors are 1 to 4 mm, which made mean 95 % bounds of 1.76 mm for
+//!   errors of 0.027 mm; conditioned, 0.050 mm). The linearised covariance
+//!   assumes independent errors; where the split-half check
+//!   ([`crate::SplitCheck::prediction_ratio`]) finds the halves' predicted
+//!   positions further apart than the covariance says, every standard
+//!   deviation is raised by that one ratio ([`AccuracyMap::inflation`]).
+//!   Scaling each unknown by its own split ratio would break the
+//!   correlations that make combinations of unknowns well known;
 //! - what the model leaves: the scatter of the training residuals, per
 //!   axis `s^2 = SSR / (3 N - p)` (positions; p identified unknowns), which
 //!   holds measurement noise and every effect the model lacks, taken as
@@ -151,8 +153,8 @@ impl AccuracyMap {
 
 impl Calibration {
     /// Predicted accuracy at the configurations `configurations` (rad or
-    /// m), the covariance inflated by `split` where it understates (module
-    /// docs).
+    /// m), the covariance raised by `split`'s prediction ratio where it
+    /// understates (module docs).
     ///
     /// # Errors
     /// [`CalibError::InvalidOption`] when the identification has no
@@ -288,10 +290,7 @@ impl Calibration {
         let mut residuals = vec![0.0; problem.n_residuals()];
         problem
             .residuals(&x, &mut residuals)
-            .map_err(|e| CalibError::InvalidOption {
-                name: "accuracy",
-                reason: e.to_string(),
-            })?;
+            .map_err(model_failure)?;
         Ok(set
             .measurements()
             .iter()
@@ -393,15 +392,7 @@ impl Calibration {
     }
 }
 
-/// The covariance of the robot's unknowns with the measurement frame known:
-/// the Schur complement `S_rr - S_rf S_ff^+ S_fr` (m, rad; the frame block's
-/// pseudo-inverse, its singular values below `1e-12` times the largest
-/// taken as zero). It equals the inverse of the robot block of the
-/// information matrix: the uncertainty of the robot's geometry that a
-/// change of the measurement frame cannot explain. The marginal block
-/// `S_rr` is not the robot's accuracy: lengths next to the base trade off
-/// with the frame's translation, so their marginal errors can be
-/// millimetres while the robot's shape is known to micrometres.
+/// The covariance does not match the error model's unknowns.
 fn covariance_size(covariance: &DMatrix<f64>, n: usize) -> CalibError {
     CalibError::InvalidOption {
         name: "accuracy",
@@ -412,21 +403,37 @@ fn covariance_size(covariance: &DMatrix<f64>, n: usize) -> CalibError {
     }
 }
 
+/// A model failure at a pose, as the accuracy's error.
+fn model_failure(e: flexcal_optim::ProblemError) -> CalibError {
+    CalibError::InvalidOption {
+        name: "accuracy",
+        reason: e.to_string(),
+    }
+}
+
+/// The error model's Jacobian and residuals at `x`.
 fn jacobian_and_residuals(
     problem: &GeometricErrorModel<'_>,
     x: &[f64],
 ) -> Result<(faer::Mat<f64>, Vec<f64>), CalibError> {
-    let failure = |e: flexcal_optim::ProblemError| CalibError::InvalidOption {
-        name: "accuracy",
-        reason: e.to_string(),
-    };
     let mut jac = faer::Mat::<f64>::zeros(problem.n_residuals(), x.len());
-    problem.jacobian(x, jac.as_mut()).map_err(failure)?;
+    problem.jacobian(x, jac.as_mut()).map_err(model_failure)?;
     let mut residuals = vec![0.0; problem.n_residuals()];
-    problem.residuals(x, &mut residuals).map_err(failure)?;
+    problem
+        .residuals(x, &mut residuals)
+        .map_err(model_failure)?;
     Ok((jac, residuals))
 }
 
+/// The covariance of the robot's unknowns with the measurement frame known:
+/// the Schur complement `S_rr - S_rf S_ff^+ S_fr` (m, rad; the frame block's
+/// pseudo-inverse, its singular values below `1e-12` times the largest
+/// taken as zero). It equals the inverse of the robot block of the
+/// information matrix: the uncertainty of the robot's geometry that a
+/// change of the measurement frame cannot explain. The marginal block
+/// `S_rr` is not the robot's accuracy: lengths next to the base trade off
+/// with the frame's translation, so their marginal errors can be
+/// millimetres while the robot's shape is known to micrometres.
 fn conditioned_on(rr: DMatrix<f64>, rf: &DMatrix<f64>, ff: &DMatrix<f64>) -> DMatrix<f64> {
     if ff.nrows() == 0 {
         return rr;
