@@ -72,13 +72,19 @@ def test_calibrate_recovers_the_truth(ur10):
     assert len(result.cost_history) == len(result.position_rms_history) > 1
 
 
-def test_validation_on_another_set(ur10):
-    truth, rng = simulated_ur10(ur10, seed=11)
-    q = configurations(ur10, 120, seed=12)
+def calibrated_with_a_test_set(ur10, seed, n_train, n_test):
+    """A simulated UR10 calibrated (geometric, no selection) on `n_train`
+    poses, another `n_test` measured poses of it, and the truth."""
+    truth, rng = simulated_ur10(ur10, seed=seed)
+    q = configurations(ur10, n_train, seed=seed + 1)
     train = flexcal.MeasurementSet.from_arrays(q, measure(ur10, truth, q, rng))
-    q2 = configurations(ur10, 60, seed=13)
+    q2 = configurations(ur10, n_test, seed=seed + 2)
     test = flexcal.MeasurementSet.from_arrays(q2, measure(ur10, truth, q2, rng))
-    result = flexcal.calibrate(ur10, train, select="none")
+    return flexcal.calibrate(ur10, train, select="none"), test, q, q2, truth
+
+
+def test_validation_on_another_set(ur10):
+    result, test, _, _, _ = calibrated_with_a_test_set(ur10, 11, 120, 60)
     validation = result.validate(test)
     assert validation.after.position_mean < validation.before.position_mean / 5
     assert validation.position_errors.shape == (60,)
@@ -180,12 +186,7 @@ def test_without_selection_there_is_no_report(ur10):
 
 
 def test_predicted_accuracy_covers_new_poses_and_names_extrapolation(ur10):
-    truth, rng = simulated_ur10(ur10, seed=21)
-    q = configurations(ur10, 200, seed=22)
-    train = flexcal.MeasurementSet.from_arrays(q, measure(ur10, truth, q, rng))
-    q2 = configurations(ur10, 400, seed=23)
-    test = flexcal.MeasurementSet.from_arrays(q2, measure(ur10, truth, q2, rng))
-    result = flexcal.calibrate(ur10, train, select="none")
+    result, test, q, q2, truth = calibrated_with_a_test_set(ur10, 21, 200, 400)
     checked = result.accuracy_coverage(test)
     # A model that is the truth's, with Gaussian noise: about 95 % of new
     # poses within their bound (400 poses: the share's standard error is 1.1 %).
