@@ -125,20 +125,7 @@ fn selected_table(
                 eprintln!("{line}");
             }
         }
-        for u in selected
-            .unknowns
-            .iter()
-            .filter(|u| u.name.starts_with("lateral_compliance_"))
-        {
-            eprintln!(
-                "{train_name}: {} = {:.2} urad/N.m +/- {} ({:?})",
-                u.name,
-                u.value * 1e6,
-                u.standard_error
-                    .map_or("-".into(), |e| format!("{:.2}", e * 1e6)),
-                u.status
-            );
-        }
+        print_lateral(train_name, &selected);
         let g = calibrate(model, train, geometric)?;
         let split = SplitCheck::new(model, train, &chosen, &selected)?;
         let label = report.as_ref().map_or(String::new(), |r| {
@@ -211,20 +198,7 @@ fn selected_table(
             let mut options = options.clone();
             options.joint_terms.cyclic = false;
             let c = calibrate(model, set(name), &options)?;
-            for u in c
-                .unknowns
-                .iter()
-                .filter(|u| u.name.starts_with("lateral_compliance_"))
-            {
-                eprintln!(
-                    "{name} ({label}): {} = {:.2} urad/N.m +/- {} ({:?})",
-                    u.name,
-                    u.value * 1e6,
-                    u.standard_error
-                        .map_or("-".into(), |e| format!("{:.2}", e * 1e6)),
-                    u.status
-                );
-            }
+            print_lateral(&format!("{name} ({label})"), &c);
             let split = SplitCheck::new(model, set(name), &options, &c)?;
             let cell = |unknown: &str, scale: f64| {
                 let Some(u) = c.unknowns.iter().find(|u| u.name == unknown) else {
@@ -255,6 +229,25 @@ fn selected_table(
         }
     }
     Ok(())
+}
+
+/// Prints the lateral compliances of `calibration` (urad/N.m) to stderr,
+/// each line starting with `label`.
+fn print_lateral(label: &str, calibration: &Calibration) {
+    for u in calibration
+        .unknowns
+        .iter()
+        .filter(|u| u.name.starts_with("lateral_compliance_"))
+    {
+        eprintln!(
+            "{label}: {} = {:.2} urad/N.m +/- {} ({:?})",
+            u.name,
+            u.value * 1e6,
+            u.standard_error
+                .map_or("-".into(), |e| format!("{:.2}", e * 1e6)),
+            u.status
+        );
+    }
 }
 
 /// The tables of the geometric and linear elasto-geometric models.

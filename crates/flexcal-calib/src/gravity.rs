@@ -484,17 +484,6 @@ impl LateralTerms {
             .iter()
             .filter_map(|&i| model.actuated_frame(i))
             .collect();
-        // Whether frame `f` moves with frame `joint` (is it or comes after it).
-        let outboard = |f: usize, joint: usize| {
-            let mut current = Some(f);
-            while let Some(c) = current {
-                if c == joint {
-                    return true;
-                }
-                current = model.antecedent(c);
-            }
-            false
-        };
         let stride = LATERAL_STRIDE * joints.len();
         let mut terms = vec![0.0; set.len() * stride];
         let mut data = Data::new(model);
@@ -517,13 +506,13 @@ impl LateralTerms {
                 let axis = pose.rotation * Vector3::x();
                 let origin = pose.translation.vector;
                 let mut links = 0.0;
-                for load in loads.iter().filter(|l| outboard(l.frame, frame)) {
+                for load in loads.iter().filter(|l| model.moves_with(l.frame, frame)) {
                     let at = data.frame_pose(load.frame).expect("a checked frame");
                     let point = at.translation.vector + at.rotation * load.point;
                     links += axis.dot(&(point - origin).cross(&load.force));
                 }
                 let mut payload = [0.0; 4];
-                if outboard(end, frame) {
+                if model.moves_with(end, frame) {
                     // The weight m g at p_tcp + R c: moment (p_tcp - o) x m g
                     // plus (R (m c)) x g.
                     payload[0] = axis.dot(&(p_tcp - origin).cross(&g));

@@ -54,20 +54,6 @@ fn joints() -> Joints {
     }
 }
 
-/// Elastic deflection of a spring `(e / c)(1 + eta |e|) = tau` by Newton's
-/// method from the linear solution.
-fn spring_deflection(tau: f64, c: f64, eta: f64) -> f64 {
-    if c == 0.0 {
-        return 0.0;
-    }
-    let mut e = c * tau;
-    for _ in 0..60 {
-        let g = (e / c) * (1.0 + eta * e.abs()) - tau;
-        e -= g / ((1.0 + 2.0 * eta * e.abs()) / c);
-    }
-    e
-}
-
 /// Measurements of a UR10 whose joints follow `joints` under gravity (the
 /// spring equilibrium by Newton's method), with the payload of `gravity`;
 /// Gaussian noise `noise` (m) per axis.
@@ -107,8 +93,11 @@ fn simulate(
             (0..6)
                 .map(|i| {
                     let [a1, b1, a2, b2] = joints.cyclic[i];
-                    q[i] + spring_deflection(tau[i], joints.compliance[i], joints.hardening[i])
-                        + joints.lost_motion[i] * (tau[i] / lost_motion_torque).tanh()
+                    q[i] + common::spring_deflection(
+                        tau[i],
+                        joints.compliance[i],
+                        joints.hardening[i],
+                    ) + joints.lost_motion[i] * (tau[i] / lost_motion_torque).tanh()
                         + a1 * q[i].sin()
                         + b1 * q[i].cos()
                         + a2 * (2.0 * q[i]).sin()

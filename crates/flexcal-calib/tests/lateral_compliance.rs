@@ -97,32 +97,6 @@ fn kr16_truth() -> Joints {
     }
 }
 
-/// Elastic deflection of a spring `(e / c)(1 + eta |e|) = tau` by Newton's
-/// method from the linear solution.
-fn spring_deflection(tau: f64, c: f64, eta: f64) -> f64 {
-    if c == 0.0 {
-        return 0.0;
-    }
-    let mut e = c * tau;
-    for _ in 0..60 {
-        let g = (e / c) * (1.0 + eta * e.abs()) - tau;
-        e -= g / ((1.0 + 2.0 * eta * e.abs()) / c);
-    }
-    e
-}
-
-/// Whether frame `f` is `joint` or comes after it in the robot's tree.
-fn outboard(model: &Model, f: usize, joint: usize) -> bool {
-    let mut current = Some(f);
-    while let Some(c) = current {
-        if c == joint {
-            return true;
-        }
-        current = model.antecedent(c);
-    }
-    false
-}
-
 /// Measurements of a robot whose joints follow `joints` under the weights
 /// of `gravity` (its links and its payload start as the true payload):
 /// torques by virtual work at the commanded configuration, joints at the
@@ -145,15 +119,7 @@ fn simulate(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let normal = Normal::new(0.0, noise.max(1e-300)).unwrap();
     let mut data = Data::new(model);
-    let links: Vec<PointLoad> = gravity
-        .masses
-        .iter()
-        .map(|m| PointLoad {
-            frame: model.frame_index(&m.frame).unwrap(),
-            point: m.center,
-            force: gravity.gravity * m.mass,
-        })
-        .collect();
+    let links = common::link_loads(model, gravity);
     let payload_force = gravity.gravity * gravity.payload_mass;
     let lost_motion_torque = JointLaw::default().lost_motion_torque;
     let measurements = (0..n)
@@ -183,8 +149,11 @@ fn simulate(
             .unwrap();
             let deflected: Vec<f64> = (0..6)
                 .map(|i| {
-                    q[i] + spring_deflection(tau[i], joints.compliance[i], joints.hardening[i])
-                        + joints.lost_motion[i] * (tau[i] / lost_motion_torque).tanh()
+                    q[i] + common::spring_deflection(
+                        tau[i],
+                        joints.compliance[i],
+                        joints.hardening[i],
+                    ) + joints.lost_motion[i] * (tau[i] / lost_motion_torque).tanh()
                 })
                 .collect();
             let x = forward_pose(model, &mut data, &deflected, xi).unwrap();
@@ -202,12 +171,12 @@ fn simulate(
                 let axis = t_j.rotation * Vector3::x();
                 let origin = t_j.translation.vector;
                 let mut moment = 0.0;
-                for load in links.iter().filter(|l| outboard(model, l.frame, f)) {
+                for load in links.iter().filter(|l| model.moves_with(l.frame, f)) {
                     let at = data.frame_pose(load.frame).unwrap();
                     let p = (at * nalgebra::Point3::from(load.point)).coords;
                     moment += axis.dot(&(p - origin).cross(&load.force));
                 }
-                if outboard(model, end, f) {
+                if model.moves_with(end, f) {
                     moment += axis.dot(&(payload_point - origin).cross(&payload_force));
                 }
                 let turn = Isometry3::from_parts(

@@ -86,6 +86,10 @@ d_mm = 300
     let x = forward_pose(&model, &mut data, &[std::f64::consts::FRAC_PI_2, 0.0], &xi).unwrap();
     // Planar arm: 0.4 m along y after the first quarter turn, then 0.3 m more.
     assert!((x.translation.vector - nalgebra::Vector3::new(0.0, 0.7, 0.0)).norm() < 1e-12);
+    // What moves with each joint: a frame and those after it, never before.
+    let [f1, f2, fe] = ["1", "2", "E"].map(|n| model.frame_index(n).unwrap());
+    assert!(model.moves_with(fe, f1) && model.moves_with(fe, f2) && model.moves_with(f2, f2));
+    assert!(!model.moves_with(f1, f2) && !model.moves_with(f2, fe));
 }
 
 #[test]

@@ -134,16 +134,7 @@ impl GravitySimulation<'_> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let normal = Normal::new(0.0, self.noise.max(1e-300)).unwrap();
         let mut data = Data::new(model);
-        let mut loads: Vec<PointLoad> = self
-            .gravity
-            .masses
-            .iter()
-            .map(|m| PointLoad {
-                frame: model.frame_index(&m.frame).unwrap(),
-                point: m.center,
-                force: self.gravity.gravity * m.mass,
-            })
-            .collect();
+        let mut loads = link_loads(model, self.gravity);
         loads.push(PointLoad {
             frame: model.end_frame(),
             point: self.payload.1,
@@ -232,4 +223,34 @@ pub fn assert_elastic_jacobian_matches(
         1e-5 * column.iter().fold(1e-12, |a: f64, v| a.max(v.abs())) + 1e-9
     });
     (x, jac)
+}
+
+/// Elastic deflection of a spring `(e / c)(1 + eta |e|) = tau` (rad, N.m,
+/// rad/N.m, 1/rad) by Newton's method from the linear solution: the truth
+/// of the simulated non-linear joints, written apart from the library's
+/// joint law.
+pub fn spring_deflection(tau: f64, c: f64, eta: f64) -> f64 {
+    if c == 0.0 {
+        return 0.0;
+    }
+    let mut e = c * tau;
+    for _ in 0..60 {
+        let g = (e / c) * (1.0 + eta * e.abs()) - tau;
+        e -= g / ((1.0 + 2.0 * eta * e.abs()) / c);
+    }
+    e
+}
+
+/// The weights of the links of `gravity` as point loads on `model`'s
+/// frames (N).
+pub fn link_loads(model: &Model, gravity: &GravityCompliance) -> Vec<PointLoad> {
+    gravity
+        .masses
+        .iter()
+        .map(|m| PointLoad {
+            frame: model.frame_index(&m.frame).unwrap(),
+            point: m.center,
+            force: gravity.gravity * m.mass,
+        })
+        .collect()
 }

@@ -371,6 +371,19 @@ impl Model {
     pub fn antecedent(&self, i: usize) -> Option<usize> {
         self.frames.get(i).and_then(|f| f.parent)
     }
+    /// Whether frame `frame` is `joint_frame` or comes after it in the
+    /// description's tree: whether it moves when the joint of
+    /// `joint_frame` turns (the loads a joint carries).
+    pub fn moves_with(&self, frame: usize, joint_frame: usize) -> bool {
+        let mut current = Some(frame);
+        while let Some(c) = current {
+            if c == joint_frame {
+                return true;
+            }
+            current = self.antecedent(c);
+        }
+        false
+    }
     /// Index of the end frame (the frame the tool transform is attached to).
     pub fn end_frame(&self) -> usize {
         self.end_frame
