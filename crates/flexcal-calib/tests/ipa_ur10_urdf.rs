@@ -1,23 +1,31 @@
 //! A UR10 imported from its public URDF calibrates on the IPA laser-tracker
 //! data (series B, validated on C) to the same figures as the built-in
 //! `ur10` (within 1 %): the URDF conversion gives a calibratable
-//! parameterisation. Needs ../shared/ (the dataset and the URDF); says so
-//! and fails when they are absent.
+//! parameterisation. Needs ../shared/ (the dataset and the URDF); says on
+//! stderr that it skipped when they are absent.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use flexcal_calib::{CalibrationOptions, MeasurementSet, Weighting, calibrate};
 use flexcal_kinematics::{ImportOptions, ImportedRobot, Model, RobotDescription};
 
-fn shared(path: &str) -> PathBuf {
+/// `path` under ../shared/, or `None` after saying on stderr (written
+/// directly, so that the test harness's capture does not hide it) that the
+/// test skipped.
+fn shared(path: &str) -> Option<PathBuf> {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared")
         .join(path);
-    if !p.exists() {
-        eprintln!("SKIPPED: {} absent", p.display());
+    if p.exists() {
+        return Some(p);
     }
-    assert!(p.exists(), "{} is needed by this test", p.display());
-    p
+    let _ = writeln!(
+        std::io::stderr(),
+        "SKIPPED urdf_ur10_calibrates_like_the_builtin_ur10: {} absent",
+        p.display()
+    );
+    None
 }
 
 fn validation_mean_mm(
@@ -39,20 +47,21 @@ fn validation_mean_mm(
 
 #[test]
 fn urdf_ur10_calibrates_like_the_builtin_ur10() {
-    let train = MeasurementSet::read_ipa(&shared(
-        "datasets/ipa-ur10/Series_B/measurements_joint_configurations.csv",
-    ))
-    .unwrap();
-    let validate = MeasurementSet::read_ipa(&shared(
-        "datasets/ipa-ur10/Series_C/measurements_random_poses.csv",
-    ))
-    .unwrap();
+    let (Some(train), Some(validate), Some(urdf)) = (
+        shared("datasets/ipa-ur10/Series_B/measurements_joint_configurations.csv"),
+        shared("datasets/ipa-ur10/Series_C/measurements_random_poses.csv"),
+        shared("robots/urdf/ur10_robot.urdf"),
+    ) else {
+        return;
+    };
+    let train = MeasurementSet::read_ipa(&train).unwrap();
+    let validate = MeasurementSet::read_ipa(&validate).unwrap();
     let builtin = RobotDescription::builtin("ur10").unwrap().build().unwrap();
     let options = ImportOptions {
         tip: Some("tool0".into()),
         ..ImportOptions::default()
     };
-    let imported = ImportedRobot::read_urdf(&shared("robots/urdf/ur10_robot.urdf"), &options)
+    let imported = ImportedRobot::read_urdf(&urdf, &options)
         .unwrap()
         .description
         .build()
