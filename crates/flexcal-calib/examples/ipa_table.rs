@@ -23,8 +23,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use flexcal_calib::{
-    Calibration, CalibrationOptions, ErrorStatistics, GravityCompliance, JointLaw, MeasurementSet,
-    SelectionOptions, SplitCheck, UnknownStatus, Weighting, calibrate, calibrate_selected,
+    Calibration, CalibrationOptions, CoordinateCoverage, ErrorStatistics, GravityCompliance,
+    JointLaw, MeasurementSet, SelectionOptions, SplitCheck, UnknownStatus, Weighting, calibrate,
+    calibrate_selected,
 };
 use flexcal_kinematics::Model;
 use flexcal_kinematics::RobotDescription;
@@ -158,22 +159,13 @@ fn selected_table(
             );
             // Coverage inside and outside the training poses' ranges of the
             // shoulder and elbow (the joints that carry the arm's weight).
-            let ranges: Vec<(f64, f64)> = (0..model.n_actuated())
-                .map(|j| {
-                    train
-                        .measurements()
-                        .iter()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-                            (lo.min(m.q[j]), hi.max(m.q[j]))
-                        })
-                })
-                .collect();
+            let ranges = CoordinateCoverage::of_actuated(model, train);
             let mut counts = [[0usize; 2]; 2];
             for p in &map.poses {
                 let outside = p.q[1..3]
                     .iter()
                     .zip(&ranges[1..3])
-                    .any(|(q, (lo, hi))| q < lo || q > hi);
+                    .any(|(q, range)| !range.contains(*q, 0.0));
                 let within = p.actual_error_mm.is_some_and(|e| e <= p.bound_95_mm);
                 counts[usize::from(outside)][usize::from(within)] += 1;
             }
@@ -185,6 +177,40 @@ fn selected_table(
                 share(counts[1]),
                 counts[1][0] + counts[1][1]
             );
+            // Validation error by the side of the shoulder's (joint 2's)
+            // gravity torque: a joint behaving differently under the two
+            // signs (lost motion, stiffness by direction) would show here.
+            if let Some(gravity) = &elastic.gravity {
+                let shoulder = |s: &MeasurementSet| -> Result<Vec<f64>, flexcal_calib::CalibError> {
+                    Ok(gravity
+                        .joint_torques(model, s)?
+                        .iter()
+                        .map(|t| t[1])
+                        .collect())
+                };
+                let trained = shoulder(train)?;
+                let (lo, hi) = trained
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| {
+                        (a.min(t), b.max(t))
+                    });
+                let positive = trained.iter().filter(|t| **t >= 0.0).count();
+                let mut sides = [(0usize, 0.0f64); 2];
+                for (tau, e) in shoulder(validate)?.iter().zip(&s_report.after_per_pose) {
+                    let side = &mut sides[usize::from(*tau >= 0.0)];
+                    side.0 += 1;
+                    side.1 += e.position;
+                }
+                let mean = |(n, sum): (usize, f64)| 1e3 * sum / n.max(1) as f64;
+                eprintln!(
+                    "{t} -> {v}: joint-2 gravity torque {lo:.1} to {hi:.1} N.m in {t}, >= 0 at {:.1} % of its poses; validation mean {:.3} mm over the {} poses of {v} with torque < 0, {:.3} mm over the {} with torque >= 0",
+                    100.0 * positive as f64 / trained.len() as f64,
+                    mean(sides[0]),
+                    sides[0].0,
+                    mean(sides[1]),
+                    sides[1].0
+                );
+            }
         }
     }
     println!(

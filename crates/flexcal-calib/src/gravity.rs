@@ -307,6 +307,42 @@ impl GravityCompliance {
         x
     }
 
+    /// Generalised gravity forces (N.m for a revolute coordinate, N for a
+    /// prismatic one) of every pose of `set`, one row of `n_actuated` per
+    /// pose: the links' weights and the starting payload
+    /// ([`GravityCompliance::payload_mass`] at
+    /// [`GravityCompliance::payload_center`]) on the nominal geometry at the
+    /// commanded configuration. These are the torques that load the joint
+    /// springs of the elasto-geometric model before identification adjusts
+    /// the payload: which side of each joint's torque a campaign loads, and
+    /// over what span, decides what it can tell of the joint's stiffness.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for a mass table that does not fit the
+    /// model, [`CalibError::Kinematics`] naming the pose whose forward model
+    /// fails.
+    pub fn joint_torques(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+    ) -> Result<Vec<Vec<f64>>, CalibError> {
+        let terms = GravityTerms::new(model, set, self)?;
+        let first_moment = self.payload_center * self.payload_mass;
+        let payload = [
+            self.payload_mass,
+            first_moment.x,
+            first_moment.y,
+            first_moment.z,
+        ];
+        Ok((0..set.len())
+            .map(|k| {
+                let mut tau = vec![0.0; model.n_actuated()];
+                terms.forces(k, &payload, &mut tau);
+                tau
+            })
+            .collect())
+    }
+
     fn check(&self, model: &Model) -> Result<Vec<PointLoad>, CalibError> {
         let invalid = |reason: String| CalibError::InvalidOption {
             name: "gravity",

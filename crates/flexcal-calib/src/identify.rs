@@ -11,6 +11,7 @@ use flexcal_optim::{
 };
 use nalgebra::Isometry3;
 
+use crate::coverage::CoordinateCoverage;
 use crate::error_model::{
     GeometricErrorModel, UnknownKind, pose_errors, register_measurement_frame,
     register_target_rotation,
@@ -382,22 +383,27 @@ pub struct Calibration {
     pub data_checks: DataChecks,
     /// Number of poses used.
     pub n_poses: usize,
-    /// Range `(min, max)` of each actuated coordinate over the identification
-    /// poses (rad or m): validation poses outside it are extrapolations.
-    pub actuated_ranges: Vec<(f64, f64)>,
+    /// What the identification poses cover of each actuated coordinate: the
+    /// interval from its smallest to its largest value (m), or for a
+    /// revolute coordinate the arc of the circle (rad; the model is
+    /// `2 pi`-periodic in it, see [`crate::coverage`]). Validation poses
+    /// outside it are extrapolations.
+    pub actuated_ranges: Vec<CoordinateCoverage>,
 }
 
 impl Calibration {
     /// Indices of the actuated coordinates at which `q` (rad or m) lies
-    /// outside [`Calibration::actuated_ranges`] (by more than 1e-9): where
-    /// a prediction is an extrapolation from the identification poses.
+    /// outside [`Calibration::actuated_ranges`] (by more than 1e-9; a
+    /// revolute coordinate a whole number of turns away from a covered
+    /// angle is inside): where a prediction is an extrapolation from the
+    /// identification poses.
     pub fn outside_training_range<'a>(&'a self, q: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
         const MARGIN: f64 = 1e-9;
         self.actuated_ranges
             .iter()
             .zip(q)
             .enumerate()
-            .filter(|(_, ((lo, hi), q))| **q < lo - MARGIN || **q > hi + MARGIN)
+            .filter(|(_, (range, q))| !range.contains(**q, MARGIN))
             .map(|(i, _)| i)
     }
 
@@ -1043,16 +1049,8 @@ pub fn calibrate(
     // geometric errors of millimetres the difference from the solution is of
     // second order, and the start's factor is at hand.
     let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
-    // Range (min, max) of each actuated coordinate over the poses.
-    let actuated_ranges: Vec<(f64, f64)> = (0..model.n_actuated())
-        .map(|i| {
-            set.measurements()
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-                    (lo.min(m.q[i]), hi.max(m.q[i]))
-                })
-        })
-        .collect();
+    // What the poses cover of each actuated coordinate.
+    let actuated_ranges = CoordinateCoverage::of_actuated(model, set);
     let spread_ratios = if !options.spread_reference {
         vec![None; n]
     } else {
@@ -1397,8 +1395,8 @@ fn unit_covariance_diagonal(s: &Mat<f64>, cols: &[usize]) -> Option<Vec<f64>> {
 struct SpreadInputs<'a> {
     model: &'a Model,
     set: &'a MeasurementSet,
-    /// Range of each actuated coordinate over the identification poses.
-    actuated_ranges: &'a [(f64, f64)],
+    /// What the identification poses cover of each actuated coordinate.
+    actuated_ranges: &'a [CoordinateCoverage],
     options: &'a CalibrationOptions,
     use_orientation: bool,
     frames: (Isometry3<f64>, Isometry3<f64>),
@@ -1445,7 +1443,7 @@ impl SpreadInputs<'_> {
             .zip(self.actuated_ranges)
             .map(|((&limits, kind), &seen)| match kind {
                 flexcal_kinematics::ActuatedKind::Revolute => limits,
-                _ => seen,
+                _ => (seen.lo, seen.hi),
             })
             .collect();
         let count = poses.min(SPREAD_REFERENCE_POSES);

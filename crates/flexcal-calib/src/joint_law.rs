@@ -151,20 +151,18 @@ pub const PERIOD_COVERAGE: f64 = 0.9;
 /// For each unknown named in `names`: whether it is a cyclic error of a
 /// joint whose coordinates in `set` do not cover [`PERIOD_COVERAGE`] of
 /// the harmonic's period (a full turn for the first harmonic, half a turn
-/// for the second).
+/// for the second), taken as an arc of the period's circle.
 pub fn partial_period_mask(
     model: &Model,
     set: &crate::MeasurementSet,
     names: &[String],
 ) -> Vec<bool> {
-    let range = |i: usize| {
-        let (lo, hi) = set
-            .measurements()
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
-                (a.min(m.q[i]), b.max(m.q[i]))
-            });
-        hi - lo
+    // The arc of the harmonic's period the angles cover (see
+    // [`crate::coverage`]): a joint turning more than once may span a
+    // period on the line and still leave most of the circle unseen.
+    let covered = |i: usize, period: f64| {
+        crate::CoordinateCoverage::of(set.measurements().iter().map(|m| m.q[i]), Some(period))
+            .length()
     };
     let turn = 2.0 * std::f64::consts::PI;
     names
@@ -185,7 +183,7 @@ pub fn partial_period_mask(
                 } else {
                     turn / 2.0
                 };
-                CYCLIC_SUFFIXES.contains(&suffix) && range(i) < PERIOD_COVERAGE * period
+                CYCLIC_SUFFIXES.contains(&suffix) && covered(i, period) < PERIOD_COVERAGE * period
             })
         })
         .collect()

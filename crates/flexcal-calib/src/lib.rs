@@ -222,6 +222,7 @@
 #![deny(missing_docs)]
 
 pub mod accuracy;
+pub mod coverage;
 pub mod cross;
 mod error;
 pub mod error_model;
@@ -243,6 +244,7 @@ pub mod temperature;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy};
+pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
 pub use error_model::{

@@ -243,3 +243,62 @@ fn mass_tables_round_trip_and_bad_ones_are_named() {
     let ir663 = RobotDescription::builtin("ir663").unwrap().build().unwrap();
     assert!(GravityCompliance::builtin(&ir663).is_err());
 }
+
+/// The joint torques of the mass table are the work rates of the weights:
+/// `tau_i = sum_k F_k . d p_k / d q_i` over the links' centres of mass and
+/// the payload's, against central differences of `sum_k F_k . p_k(q)` on
+/// the nominal geometry; and a bad mass table is named.
+#[test]
+fn joint_torques_are_the_work_rates_of_the_weights() {
+    use flexcal_kinematics::{Data, forward_frame_pose, forward_pose};
+    let model = ur10();
+    let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let configurations: Vec<Vec<f64>> = (0..20)
+        .map(|_| common::ur10_configuration(&mut rng))
+        .collect();
+    let set = MeasurementSet::new(
+        "torques",
+        configurations
+            .iter()
+            .map(|q| flexcal_calib::Measurement::new(q.clone(), Vector3::zeros()))
+            .collect(),
+    )
+    .unwrap();
+    let torques = gravity.joint_torques(&model, &set).unwrap();
+    assert_eq!(torques.len(), set.len());
+    let xi = model.nominal_params().to_vec();
+    let mut data = Data::new(&model);
+    let mut work = |q: &[f64]| -> f64 {
+        let mut w = 0.0;
+        for m in &gravity.masses {
+            let frame = model.frame_index(&m.frame).unwrap();
+            let point = Isometry3::from_parts(Translation3::from(m.center), Default::default());
+            let p = forward_frame_pose(&model, &mut data, q, &xi, frame, &point).unwrap();
+            w += (gravity.gravity * m.mass).dot(&p.translation.vector);
+        }
+        let tcp = forward_pose(&model, &mut data, q, &xi).unwrap();
+        let payload = tcp * nalgebra::Point3::from(gravity.payload_center);
+        w + (gravity.gravity * gravity.payload_mass).dot(&payload.coords)
+    };
+    let h = 1e-6;
+    for (q, tau) in configurations.iter().zip(&torques) {
+        for i in 0..model.n_actuated() {
+            let (mut plus, mut minus) = (q.clone(), q.clone());
+            plus[i] += h;
+            minus[i] -= h;
+            let fd = (work(&plus) - work(&minus)) / (2.0 * h);
+            assert!(
+                (tau[i] - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+                "joint {i}: {} vs {fd}",
+                tau[i]
+            );
+        }
+    }
+    // The shoulder of a UR10 holding its arm out carries tens of N.m.
+    assert!(torques.iter().any(|t| t[1].abs() > 50.0));
+    let mut bad = gravity.clone();
+    bad.masses[0].frame = "no_such_frame".into();
+    let err = bad.joint_torques(&model, &set).unwrap_err().to_string();
+    assert!(err.contains("no_such_frame"), "{err}");
+}

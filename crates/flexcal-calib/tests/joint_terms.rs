@@ -447,17 +447,25 @@ fn predicted_95_percent_bounds_cover_about_95_percent_of_new_poses() {
             .filter(|p| !p.outside_training_range.is_empty())
             .count()
     );
-    let (lo, hi) = calibration.actuated_ranges[1];
+    let (lo, hi) = (
+        calibration.actuated_ranges[1].lo,
+        calibration.actuated_ranges[1].hi,
+    );
     let mut inside = configurations[0].clone();
-    for (q, (lo, hi)) in inside.iter_mut().zip(&calibration.actuated_ranges) {
-        *q = 0.5 * (lo + hi);
+    for (q, range) in inside.iter_mut().zip(&calibration.actuated_ranges) {
+        *q = 0.5 * (range.lo + range.hi);
     }
     let mut beyond = inside.clone();
     beyond[1] = hi + 0.1 * (hi - lo);
+    // The same arm pose a turn further on every joint is no extrapolation:
+    // the model predicts the same bound there.
+    let turned: Vec<f64> = inside.iter().map(|q| q + std::f64::consts::TAU).collect();
     let two = calibration
-        .predicted_accuracy(&model, &[inside, beyond], None)
+        .predicted_accuracy(&model, &[inside, beyond, turned], None)
         .unwrap();
     assert!(two.poses[0].outside_training_range.is_empty());
+    assert!(two.poses[2].outside_training_range.is_empty());
+    assert!((two.poses[2].bound_95_mm - two.poses[0].bound_95_mm).abs() < 1e-9);
     assert_eq!(
         two.poses[1].outside_training_range,
         vec![model.actuated_names()[1].clone()]

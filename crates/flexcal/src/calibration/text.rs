@@ -380,7 +380,14 @@ pub fn errors_text(c: &Calibration, validation: Option<&ValidationReport>) -> St
             let list: Vec<String> = v
                 .extrapolated_coordinates
                 .iter()
-                .map(|(name, f)| format!("{name} ({:.0} % of the poses)", f * 100.0))
+                .map(|(name, f)| {
+                    // A share that rounds to 0 % is still some poses.
+                    if *f < 0.005 {
+                        format!("{name} (under 1 % of the poses)")
+                    } else {
+                        format!("{name} ({:.0} % of the poses)", f * 100.0)
+                    }
+                })
                 .collect();
             put!(
                 out,
