@@ -389,6 +389,11 @@ pub struct Calibration {
     /// `2 pi`-periodic in it, see [`crate::coverage`]). Validation poses
     /// outside it are extrapolations.
     pub actuated_ranges: Vec<CoordinateCoverage>,
+    /// Span of each actuated coordinate's gravity torque (N.m, or N for a
+    /// prismatic one) over the identification poses, with the mass table's
+    /// payload ([`GravityCompliance::joint_torques`]): the torques over which
+    /// the compliances were identified. Empty for the geometric model.
+    pub torque_ranges: Vec<CoordinateCoverage>,
 }
 
 impl Calibration {
@@ -508,6 +513,35 @@ impl Calibration {
                 .map(|u| u.name.as_str())
                 .collect();
             let not = names("compliance_");
+            // Each identified compliance with the torques it was identified
+            // over: beyond them the spring law is extrapolated.
+            // The compliances are the elastic unknowns in the order of the
+            // actuated coordinates, as are the torque spans.
+            let compliances: Vec<&str> = self
+                .unknowns
+                .iter()
+                .filter(|u| u.name.starts_with("compliance_"))
+                .map(|u| u.name.as_str())
+                .collect();
+            let identified: Vec<String> = identified
+                .iter()
+                .map(|name| {
+                    let span = compliances
+                        .iter()
+                        .position(|c| c == name)
+                        .and_then(|i| self.torque_ranges.get(i));
+                    // One decimal, without a negative zero.
+                    let round = |v: f64| (v * 10.0).round() / 10.0 + 0.0;
+                    match span {
+                        Some(r) => format!(
+                            "{name} (torque {:.1} to {:.1} N.m)",
+                            round(r.lo),
+                            round(r.hi)
+                        ),
+                        None => name.to_string(),
+                    }
+                })
+                .collect();
             notes.push(format!(
                 "joint compliances identified from gravity loading: {}; not identifiable from gravity alone (too little or no gravity torque, kept at the starting value): {}",
                 if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
@@ -1049,8 +1083,18 @@ pub fn calibrate(
     // geometric errors of millimetres the difference from the solution is of
     // second order, and the start's factor is at hand.
     let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
-    // What the poses cover of each actuated coordinate.
+    // What the poses cover of each actuated coordinate, and of its gravity
+    // torque.
     let actuated_ranges = CoordinateCoverage::of_actuated(model, set);
+    let torque_ranges = match &options.gravity {
+        Some(gravity) => {
+            let torques = gravity.joint_torques(model, set)?;
+            (0..model.n_actuated())
+                .map(|i| CoordinateCoverage::of(torques.iter().map(|t| t[i]), None))
+                .collect()
+        }
+        None => Vec::new(),
+    };
     let spread_ratios = if !options.spread_reference {
         vec![None; n]
     } else {
@@ -1137,6 +1181,7 @@ pub fn calibrate(
         data_checks,
         n_poses: set.len(),
         actuated_ranges,
+        torque_ranges,
     })
 }
 

@@ -170,6 +170,33 @@ fn identifies_known_joint_compliances_of_a_simulated_ur10() {
             u.value
         );
     }
+    // The torques the compliances were identified over: the span of each
+    // joint's gravity torque over the training poses, named in the notes.
+    assert!(geometric.torque_ranges.is_empty());
+    let torques = gravity.joint_torques(&model, &train).unwrap();
+    assert_eq!(elastic.torque_ranges.len(), model.n_actuated());
+    for (i, span) in elastic.torque_ranges.iter().enumerate() {
+        let (lo, hi) = torques
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(t[i]), b.max(t[i]))
+            });
+        assert_eq!((span.lo, span.hi, span.period), (lo, hi, None));
+    }
+    let span = elastic.torque_ranges[1];
+    let expected = format!(
+        "compliance_theta2 (torque {:.1} to {:.1} N.m)",
+        (span.lo * 10.0).round() / 10.0 + 0.0,
+        (span.hi * 10.0).round() / 10.0 + 0.0
+    );
+    assert!(
+        elastic
+            .identifiability_notes()
+            .iter()
+            .any(|n| n.contains(&expected)),
+        "{:?}",
+        elastic.identifiability_notes()
+    );
     // Validated on other poses: down to the noise, and well below what
     // geometry alone reaches.
     let e = elastic.validate(&model, &validation, false).unwrap();

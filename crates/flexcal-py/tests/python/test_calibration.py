@@ -211,11 +211,22 @@ def test_predicted_accuracy_covers_new_poses_and_names_extrapolation(ur10):
         return np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)
 
     assert np.max(np.abs(distances(grid.positions[:50]) - distances(tool))) < 0.2e-3
-    # A configuration beyond the training range of joint 2 is named.
+    # A configuration beyond the training range of joint 2 is named. The
+    # model is 2 pi-periodic in a revolute joint, so the training range is
+    # the arc of the circle the angles cover: the largest gap between them
+    # modulo 2 pi is what they have not seen.
+    angles = np.sort(np.mod(q[:, 1], 2.0 * np.pi))
+    gaps = np.diff(np.append(angles, angles[0] + 2.0 * np.pi))
+    widest = int(np.argmax(gaps))
     beyond = q2[0].copy()
-    beyond[1] = q[:, 1].max() + 0.2
+    beyond[1] = angles[widest] + 0.5 * gaps[widest]
     one = result.predicted_accuracy(beyond)
-    assert one.outside_training_range[0] == [ur10.joint_names[1]]
+    others = set(grid.outside_training_range[0]) - {ur10.joint_names[1]}
+    assert set(one.outside_training_range[0]) == others | {ur10.joint_names[1]}
+    # The same arm pose a turn later on every joint is the same prediction.
+    turned = result.predicted_accuracy(q2[0] + 2.0 * np.pi)
+    assert turned.outside_training_range[0] == grid.outside_training_range[0]
+    assert turned.bound_95[0] == pytest.approx(grid.bound_95[0], rel=1e-9)
     assert one.extrapolated_poses == 1
     assert one.to_csv().splitlines()[0].endswith(",outside_training_range")
     with pytest.raises(flexcal.ShapeError, match="q"):
