@@ -395,6 +395,40 @@ impl CalibrationResult {
         Ok(d)
     }
 
+    /// What the identification poses cover of each actuated coordinate, by
+    /// name: `(lo, hi)` (rad or m); for a revolute coordinate the arc from
+    /// `lo` to `hi` of the circle (the model is 2 pi-periodic in it).
+    #[getter]
+    fn actuated_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, r) in self
+            .nominal
+            .actuated_names()
+            .iter()
+            .zip(&self.calibration.actuated_ranges)
+        {
+            d.set_item(name, (r.lo, r.hi))?;
+        }
+        Ok(d)
+    }
+
+    /// Span `(lo, hi)` of each actuated coordinate's gravity torque over the
+    /// identification poses (N.m, or N), by name: the torques the joint
+    /// compliances were identified over. Empty for the geometric model.
+    #[getter]
+    fn torque_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, r) in self
+            .nominal
+            .actuated_names()
+            .iter()
+            .zip(&self.calibration.torque_ranges)
+        {
+            d.set_item(name, (r.lo, r.hi))?;
+        }
+        Ok(d)
+    }
+
     /// Number of identified unknowns.
     #[getter]
     fn rank(&self) -> usize {

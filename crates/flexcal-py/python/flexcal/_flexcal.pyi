@@ -342,6 +342,14 @@ class CalibrationResult:
     def standard_errors(self) -> dict[str, float]:
         """Standard error of each identified unknown (SI)."""
     @property
+    def actuated_ranges(self) -> dict[str, tuple[float, float]]:
+        """What the identification poses cover of each actuated coordinate
+        (rad or m): for a revolute one the arc from lo to hi of the circle."""
+    @property
+    def torque_ranges(self) -> dict[str, tuple[float, float]]:
+        """Span of each coordinate's gravity torque over the identification
+        poses (N.m or N); empty for the geometric model."""
+    @property
     def rank(self) -> int: ...
     @property
     def n_unknowns(self) -> int: ...

@@ -141,6 +141,20 @@ def test_elasto_geometric_on_a_simulated_set_runs(ur10):
     assert any(u.name.startswith("compliance_") for u in result.parameters)
     # Gravity never loads joint 1 (vertical axis).
     assert "compliance_theta1" in result.non_identifiable
+    assert result.torque_ranges["theta1"] == pytest.approx((0.0, 0.0), abs=1e-9)
+    # The shoulder carries tens of N.m; each span is ordered and named.
+    assert list(result.torque_ranges) == ur10.joint_names
+    lo, hi = result.torque_ranges["theta2"]
+    assert lo <= hi and max(abs(lo), abs(hi)) > 20.0
+    # A revolute coordinate's coverage is an arc of the circle containing
+    # every training angle, whichever turn it was recorded in.
+    for j, name in enumerate(ur10.joint_names):
+        start, end = result.actuated_ranges[name]
+        assert 0.0 <= end - start < 2.0 * np.pi
+        ahead = np.mod(q[:, j] - start, 2.0 * np.pi)
+        assert np.all(ahead <= end - start + 1e-9), name
+    geometric = flexcal.calibrate(ur10, data, select="none")
+    assert geometric.torque_ranges == {}
 
 
 @pytest.mark.parametrize("select", ["cv", "bic"])
