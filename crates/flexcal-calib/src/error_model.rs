@@ -270,6 +270,34 @@ impl<'a> GeometricErrorModel<'a> {
         Ok(self)
     }
 
+    /// Span of each actuated coordinate's gravity torque over the poses, with
+    /// the starting payload (N.m or N;
+    /// [`crate::GravityCompliance::joint_torques`]); empty when geometric.
+    pub fn torque_ranges(&self) -> Vec<crate::CoordinateCoverage> {
+        let Some((terms, initial)) = &self.gravity else {
+            return Vec::new();
+        };
+        let na = self.model.n_actuated();
+        // The starting elastic unknowns: compliances, then the payload.
+        let payload = &initial[na..na + 4];
+        let mut tau = vec![0.0; na];
+        let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); na];
+        for k in 0..self.set.len() {
+            terms.forces(k, payload, &mut tau);
+            for (r, t) in ranges.iter_mut().zip(&tau) {
+                *r = (r.0.min(*t), r.1.max(*t));
+            }
+        }
+        ranges
+            .into_iter()
+            .map(|(lo, hi)| crate::CoordinateCoverage {
+                lo,
+                hi,
+                period: None,
+            })
+            .collect()
+    }
+
     /// Index of the first unknown of the joint terms (the law's, then the
     /// cyclic ones), when there are any.
     pub fn joint_terms_offset(&self) -> Option<usize> {

@@ -1086,15 +1086,7 @@ pub fn calibrate(
     // What the poses cover of each actuated coordinate, and of its gravity
     // torque.
     let actuated_ranges = CoordinateCoverage::of_actuated(model, set);
-    let torque_ranges = match &options.gravity {
-        Some(gravity) => {
-            let torques = gravity.joint_torques(model, set)?;
-            (0..model.n_actuated())
-                .map(|i| CoordinateCoverage::of(torques.iter().map(|t| t[i]), None))
-                .collect()
-        }
-        None => Vec::new(),
-    };
+    let torque_ranges = problem.torque_ranges();
     let spread_ratios = if !options.spread_reference {
         vec![None; n]
     } else {
