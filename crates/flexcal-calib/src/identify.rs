@@ -383,6 +383,9 @@ pub struct Calibration {
     pub data_checks: DataChecks,
     /// Number of poses used.
     pub n_poses: usize,
+    /// Names of the robot's actuated coordinates, in the order of
+    /// [`Calibration::actuated_ranges`] and [`Calibration::torque_ranges`].
+    pub actuated_names: Vec<String>,
     /// What the identification poses cover of each actuated coordinate: the
     /// interval from its smallest to its largest value (m), or for a
     /// revolute coordinate the arc of the circle (rad; the model is
@@ -515,20 +518,13 @@ impl Calibration {
             let not = names("compliance_");
             // Each identified compliance with the torques it was identified
             // over: beyond them the spring law is extrapolated.
-            // The compliances are the elastic unknowns in the order of the
-            // actuated coordinates, as are the torque spans.
-            let compliances: Vec<&str> = self
-                .unknowns
-                .iter()
-                .filter(|u| u.name.starts_with("compliance_"))
-                .map(|u| u.name.as_str())
-                .collect();
             let identified: Vec<String> = identified
                 .iter()
                 .map(|name| {
-                    let span = compliances
+                    let span = self
+                        .actuated_names
                         .iter()
-                        .position(|c| c == name)
+                        .position(|a| name.strip_prefix("compliance_") == Some(a.as_str()))
                         .and_then(|i| self.torque_ranges.get(i));
                     // One decimal, without a negative zero.
                     let round = |v: f64| (v * 10.0).round() / 10.0 + 0.0;
@@ -1172,6 +1168,7 @@ pub fn calibrate(
         training_after_per_pose: errors_after,
         data_checks,
         n_poses: set.len(),
+        actuated_names: model.actuated_names().to_vec(),
         actuated_ranges,
         torque_ranges,
     })

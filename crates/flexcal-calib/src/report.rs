@@ -116,10 +116,37 @@ pub struct IdentificationJson {
     pub parameters: Vec<ParameterJson>,
     /// Repeated readings and suspect poses of the identification set.
     pub data_checks: DataChecks,
+    /// What the identification poses cover of each actuated coordinate, and
+    /// of its gravity torque (elasto-geometric): beyond them predictions
+    /// extrapolate ([`Calibration::actuated_ranges`],
+    /// [`Calibration::torque_ranges`]).
+    pub coverage: Vec<CoverageJson>,
     /// The identified (or fixed) measurement frame `x_meas_base`: the
     /// robot base seen from the instrument. A part located by the instrument
     /// is carried into the calibrated robot's base through it.
     pub measurement_frame: FrameJson,
+}
+
+/// One actuated coordinate in the `coverage` array.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CoverageJson {
+    /// Name of the actuated coordinate.
+    pub coordinate: String,
+    /// `deg` for a revolute coordinate, `mm` otherwise.
+    pub unit: &'static str,
+    /// Start of the covered interval, or of the arc of the circle for a
+    /// revolute coordinate (display unit).
+    pub lo: f64,
+    /// Its end (display unit): `hi - lo` is the covered length, at most
+    /// 360 deg for a revolute coordinate.
+    pub hi: f64,
+    /// Whether the coordinate is periodic (revolute): a value a whole number
+    /// of turns from a covered one is covered.
+    pub periodic: bool,
+    /// Span `[lo, hi]` of the coordinate's gravity torque (N.m, or N) over
+    /// the identification poses, elasto-geometric model only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub torque: Option<[f64; 2]>,
 }
 
 /// The `validation` object.
@@ -348,6 +375,27 @@ impl CalibrationReportJson {
                 .collect(),
             parameters,
             data_checks: calibration.data_checks.clone(),
+            coverage: calibration
+                .actuated_names
+                .iter()
+                .zip(&calibration.actuated_ranges)
+                .enumerate()
+                .map(|(i, (name, range))| {
+                    let (unit, scale) = if range.period.is_some() {
+                        ("deg", 180.0 / std::f64::consts::PI)
+                    } else {
+                        ("mm", 1e3)
+                    };
+                    CoverageJson {
+                        coordinate: name.clone(),
+                        unit,
+                        lo: range.lo * scale,
+                        hi: range.hi * scale,
+                        periodic: range.period.is_some(),
+                        torque: calibration.torque_ranges.get(i).map(|t| [t.lo, t.hi]),
+                    }
+                })
+                .collect(),
             measurement_frame: FrameJson::from(&calibration.x_meas_base),
         };
         let validation = validation.map(|v| ValidationJson {

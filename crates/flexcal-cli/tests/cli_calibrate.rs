@@ -85,6 +85,11 @@ fn twin_files_calibrate_end_to_end() {
     assert_eq!(rank + non + poor, 43 + 6, "{id}");
     assert!((37..=41).contains(&rank), "rank {rank}");
     assert!(!id["combinations"].as_array().unwrap().is_empty());
+    // The geometric model's coverage has no torque spans.
+    for entry in id["coverage"].as_array().unwrap() {
+        assert!(entry.get("torque").is_none(), "{entry}");
+        assert!(entry["lo"].as_f64().unwrap() <= entry["hi"].as_f64().unwrap());
+    }
     let v = &report["validation"];
     for key in [
         "position_mean_mm",
@@ -500,6 +505,20 @@ fn elasto_geometric_calibration_end_to_end() {
         history.len(),
         identification["cost_history"].as_array().unwrap().len()
     );
+    // What the poses cover: an arc of at most a turn for each revolute
+    // joint, with the gravity torque span its compliance was identified over.
+    let coverage = identification["coverage"].as_array().unwrap();
+    assert_eq!(coverage.len(), 6);
+    for entry in coverage {
+        assert_eq!(entry["unit"], "deg");
+        assert_eq!(entry["periodic"], true);
+        let (lo, hi) = (entry["lo"].as_f64().unwrap(), entry["hi"].as_f64().unwrap());
+        assert!(lo <= hi && hi - lo < 360.0, "{entry}");
+        let torque = entry["torque"].as_array().unwrap();
+        assert!(torque[0].as_f64().unwrap() <= torque[1].as_f64().unwrap());
+    }
+    assert_eq!(coverage[1]["coordinate"], "theta2");
+    assert!(coverage[1]["torque"][1].as_f64().unwrap().abs() > 1.0);
     let validation = &json["validation"];
     assert!(validation["position_mean_mm"].as_f64().unwrap() < 1e-3);
     assert!(validation["note"].as_str().unwrap().contains("re-fitted"));
