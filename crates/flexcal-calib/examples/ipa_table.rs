@@ -11,8 +11,10 @@
 //! poses: the dataset's protocol): the elasto-geometric model whose groups
 //! of unknowns cross-validation chose on the training series alone, against
 //! the full geometric model and the dataset README's `dh` and `dh+g`; the
-//! share of validation poses within the predicted 95 % bounds; and the
-//! joint compliances each series identifies with the non-linear joint law.
+//! share of validation poses within the predicted 95 % bounds, inside and
+//! outside the training ranges of joints 2 and 3; the validation error by
+//! the side of the shoulder's gravity torque (on stderr); and the joint
+//! compliances each series identifies with the non-linear joint law.
 //! `ipa_table selected` prints that part only; `ipa_table selected lateral`
 //! prints it with the lateral joint compliances allowed in the richest model
 //! (`GravityCompliance::lateral`, one more group for the selection).
