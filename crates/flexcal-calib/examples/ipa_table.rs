@@ -191,11 +191,8 @@ fn selected_table(
                         .collect())
                 };
                 let trained = shoulder(train)?;
-                let (lo, hi) = trained
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| {
-                        (a.min(t), b.max(t))
-                    });
+                let span = CoordinateCoverage::of(trained.iter().copied(), None);
+                let (lo, hi) = (span.lo, span.hi);
                 let positive = trained.iter().filter(|t| **t >= 0.0).count();
                 let mut sides = [(0usize, 0.0f64); 2];
                 for (tau, e) in shoulder(validate)?.iter().zip(&s_report.after_per_pose) {

@@ -301,8 +301,7 @@ impl GravityCompliance {
     /// mass, first moment, lateral compliances at zero).
     pub fn initial_unknowns(&self, model: &Model) -> Vec<f64> {
         let mut x = vec![self.initial_compliance; model.n_actuated()];
-        x.push(self.payload_mass);
-        x.extend((self.payload_center * self.payload_mass).iter());
+        x.extend(self.payload_unknowns());
         x.resize(x.len() + self.lateral_unknown_names(model).len(), 0.0);
         x
     }
@@ -327,13 +326,7 @@ impl GravityCompliance {
         set: &MeasurementSet,
     ) -> Result<Vec<Vec<f64>>, CalibError> {
         let terms = GravityTerms::new(model, set, self)?;
-        let first_moment = self.payload_center * self.payload_mass;
-        let payload = [
-            self.payload_mass,
-            first_moment.x,
-            first_moment.y,
-            first_moment.z,
-        ];
+        let payload = self.payload_unknowns();
         Ok((0..set.len())
             .map(|k| {
                 let mut tau = vec![0.0; model.n_actuated()];
@@ -341,6 +334,18 @@ impl GravityCompliance {
                 tau
             })
             .collect())
+    }
+
+    /// The starting payload as unknowns: `[m, m c_x, m c_y, m c_z]` (kg,
+    /// kg.m).
+    fn payload_unknowns(&self) -> [f64; 4] {
+        let first_moment = self.payload_center * self.payload_mass;
+        [
+            self.payload_mass,
+            first_moment.x,
+            first_moment.y,
+            first_moment.z,
+        ]
     }
 
     fn check(&self, model: &Model) -> Result<Vec<PointLoad>, CalibError> {

@@ -400,16 +400,7 @@ impl CalibrationResult {
     /// `lo` to `hi` of the circle (the model is 2 pi-periodic in it).
     #[getter]
     fn actuated_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for (name, r) in self
-            .nominal
-            .actuated_names()
-            .iter()
-            .zip(&self.calibration.actuated_ranges)
-        {
-            d.set_item(name, (r.lo, r.hi))?;
-        }
-        Ok(d)
+        ranges_by_name(py, &self.calibration, &self.calibration.actuated_ranges)
     }
 
     /// Span `(lo, hi)` of each actuated coordinate's gravity torque over the
@@ -417,16 +408,7 @@ impl CalibrationResult {
     /// compliances were identified over. Empty for the geometric model.
     #[getter]
     fn torque_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for (name, r) in self
-            .nominal
-            .actuated_names()
-            .iter()
-            .zip(&self.calibration.torque_ranges)
-        {
-            d.set_item(name, (r.lo, r.hi))?;
-        }
-        Ok(d)
+        ranges_by_name(py, &self.calibration, &self.calibration.torque_ranges)
     }
 
     /// Number of identified unknowns.
@@ -822,4 +804,18 @@ pub fn calibrate<'py>(
         calibrated: Robot::new(calibrated),
         selection: selection.map(Arc::new),
     })
+}
+
+/// `{coordinate name: (lo, hi)}` of per-coordinate coverages of a calibration
+/// (empty when `ranges` is).
+fn ranges_by_name<'py>(
+    py: Python<'py>,
+    calibration: &Calibration,
+    ranges: &[flexcal::calib::CoordinateCoverage],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (name, r) in calibration.actuated_names.iter().zip(ranges) {
+        d.set_item(name, (r.lo, r.hi))?;
+    }
+    Ok(d)
 }
