@@ -19,6 +19,10 @@
 //! prints it with the lateral joint compliances allowed in the richest model
 //! (`GravityCompliance::lateral`, one more group for the selection).
 //!
+//! Then two series pooled as two stations (one measurement frame each,
+//! `MeasurementSet::pooled`) and validated on the third, by the same
+//! protocol and selection; `ipa_table pooled` prints that part only.
+//!
 //! `cargo run --release -p flexcal-calib --example ipa_table`
 
 use std::path::PathBuf;
@@ -62,7 +66,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     geometric.weighting = Weighting::Uniform;
     let mut elastic = geometric.clone();
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
-    let selected_only = std::env::args().nth(1).as_deref() == Some("selected");
+    let part = std::env::args().nth(1);
+    if part.as_deref() == Some("pooled") {
+        return pooled_table(&model, &sets, &geometric, &elastic);
+    }
+    let selected_only = part.as_deref() == Some("selected");
     if std::env::args().nth(2).as_deref() == Some("lateral") {
         if let Some(gravity) = elastic.gravity.as_mut() {
             gravity.lateral = flexcal_calib::LateralCompliance::AboutX;
@@ -72,7 +80,55 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if !selected_only {
         earlier_tables(&model, &sets, geometric.clone(), elastic.clone())?;
     }
-    selected_table(&model, &sets, &geometric, &elastic)
+    selected_table(&model, &sets, &geometric, &elastic)?;
+    if !selected_only {
+        pooled_table(&model, &sets, &geometric, &elastic)?;
+    }
+    Ok(())
+}
+
+/// Two series pooled as two stations, validated on the third (positions
+/// only, all poses, the model selected by cross-validation on the pooled
+/// poses): what a campaign measured from two tracker placements gives.
+fn pooled_table(
+    model: &Model,
+    sets: &[(&str, MeasurementSet)],
+    geometric: &CalibrationOptions,
+    elastic: &CalibrationOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let set = |name: &str| series(sets, name);
+    let richest = richest_options(elastic);
+    println!(
+        "\nTwo series pooled as two stations (one measurement frame each), validated on the third (positions only, all poses):"
+    );
+    println!(
+        "| stations -> validate | geometric | elasto-geometric, selected | within 95 % bound | chosen | compliance_theta2 (urad/N.m) |\n|---|---|---|---|---|---|"
+    );
+    for (a, b, v) in [("B", "C", "D"), ("B", "D", "C"), ("C", "D", "B")] {
+        let pooled = MeasurementSet::pooled(&[set(a).clone(), set(b).clone()])?;
+        let validate = set(v);
+        let start = Instant::now();
+        let (selected, report, chosen) =
+            calibrate_selected(model, &pooled, &richest, &SelectionOptions::default())?;
+        eprintln!(
+            "{a} + {b}: selection and identification {:.2} s",
+            start.elapsed().as_secs_f64()
+        );
+        let g = calibrate(model, &pooled, geometric)?;
+        let split = SplitCheck::new(model, &pooled, &chosen, &selected)?;
+        let g_report = g.validate(model, validate, false)?;
+        let s_report = selected.validate(model, validate, false)?;
+        let map = selected.accuracy_coverage(model, validate, Some(&split))?;
+        let label = chosen_label(report.as_ref());
+        let compliance = estimate_cell(&selected, &split, "compliance_theta2", 1e6);
+        println!(
+            "| {a} + {b} -> {v} | {} | {} | {} | {label} | {compliance} |",
+            mean_max(&g_report.after),
+            mean_max(&s_report.after),
+            bound_cell(&map),
+        );
+    }
+    Ok(())
 }
 
 /// The dataset README's baselines (`baseline.py`), validation mean / max
@@ -91,10 +147,8 @@ fn selected_table(
     geometric: &CalibrationOptions,
     elastic: &CalibrationOptions,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let set = |name: &str| &sets.iter().find(|(n, _)| *n == name).expect("series").1;
-    // The richest model allowed: compliances, the non-linear law, cyclic errors.
-    let mut richest = elastic.clone();
-    richest.joint_terms.law = Some(JointLaw::default());
+    let set = |name: &str| series(sets, name);
+    let richest = richest_options(elastic);
     let selection = SelectionOptions::default();
     println!(
         "\nModel selection by cross-validation on the training series (positions only, all poses):"
@@ -131,13 +185,7 @@ fn selected_table(
         print_lateral(train_name, &selected);
         let g = calibrate(model, train, geometric)?;
         let split = SplitCheck::new(model, train, &chosen, &selected)?;
-        let label = report.as_ref().map_or(String::new(), |r| {
-            r.chosen
-                .iter()
-                .map(|g| g.label())
-                .collect::<Vec<_>>()
-                .join(" + ")
-        });
+        let label = chosen_label(report.as_ref());
         for (t, v, [dh, dh_max, dhg, dhg_max]) in BASELINES {
             if t != train_name {
                 continue;
@@ -148,14 +196,10 @@ fn selected_table(
             let map = selected.accuracy_coverage(model, validate, Some(&split))?;
             let plain = selected.accuracy_coverage(model, validate, None)?;
             println!(
-                "| {t} -> {v} | {:.3} / {:.2} | {:.3} / {:.2} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {:.1} % (mean bound {:.2} mm, x{:.2}; {:.1} % / {:.2} mm without) | {label} |",
-                g_report.after.position_mean * 1e3,
-                g_report.after.position_max * 1e3,
-                s_report.after.position_mean * 1e3,
-                s_report.after.position_max * 1e3,
-                100.0 * map.coverage.unwrap_or(f64::NAN),
-                map.mean_bound_95_mm,
-                map.inflation,
+                "| {t} -> {v} | {} | {} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {}; {:.1} % / {:.2} mm without | {label} |",
+                mean_max(&g_report.after),
+                mean_max(&s_report.after),
+                bound_cell(&map),
                 100.0 * plain.coverage.unwrap_or(f64::NAN),
                 plain.mean_bound_95_mm
             );
@@ -225,25 +269,7 @@ fn selected_table(
             let c = calibrate(model, set(name), &options)?;
             print_lateral(&format!("{name} ({label})"), &c);
             let split = SplitCheck::new(model, set(name), &options, &c)?;
-            let cell = |unknown: &str, scale: f64| {
-                let Some(u) = c.unknowns.iter().find(|u| u.name == unknown) else {
-                    return "-".to_string();
-                };
-                if u.status != UnknownStatus::Identified {
-                    return format!("{:.2} ({:?})", u.value * scale, u.status);
-                }
-                let split_error = split
-                    .unknowns
-                    .iter()
-                    .find(|s| s.name == unknown)
-                    .and_then(|s| s.split_error)
-                    .map_or("-".into(), |e| format!("{e:.2}"));
-                format!(
-                    "{:.2} +/- {:.2} / {split_error}",
-                    u.value * scale,
-                    u.standard_error.unwrap_or(f64::NAN) * scale
-                )
-            };
+            let cell = |unknown: &str, scale: f64| estimate_cell(&c, &split, unknown, scale);
             println!(
                 "| {name} | {label} | {} | {} | {} | {} |",
                 cell("compliance_theta2", 1e6),
@@ -254,6 +280,74 @@ fn selected_table(
         }
     }
     Ok(())
+}
+
+/// Mean / max position error (mm).
+fn mean_max(s: &ErrorStatistics) -> String {
+    format!("{:.3} / {:.2}", s.position_mean * 1e3, s.position_max * 1e3)
+}
+
+/// The share of poses within their predicted 95 % bound, the mean bound
+/// and the split-half inflation.
+fn bound_cell(map: &flexcal_calib::AccuracyMap) -> String {
+    format!(
+        "{:.1} % (mean bound {:.2} mm, x{:.2})",
+        100.0 * map.coverage.unwrap_or(f64::NAN),
+        map.mean_bound_95_mm,
+        map.inflation
+    )
+}
+
+/// The series named `name` (B, C or D).
+fn series<'a>(sets: &'a [(&str, MeasurementSet)], name: &str) -> &'a MeasurementSet {
+    &sets.iter().find(|(n, _)| *n == name).expect("series").1
+}
+
+/// The richest model the selection starts from: the compliances of
+/// `elastic` and the non-linear joint law (the selection adds the cyclic
+/// errors as a group of their own).
+fn richest_options(elastic: &CalibrationOptions) -> CalibrationOptions {
+    let mut richest = elastic.clone();
+    richest.joint_terms.law = Some(JointLaw::default());
+    richest
+}
+
+/// The groups of unknowns a selection chose, as the report names them.
+fn chosen_label(report: Option<&flexcal_calib::SelectionReport>) -> String {
+    report.map_or(String::new(), |r| {
+        r.chosen
+            .iter()
+            .map(|g| g.label())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    })
+}
+
+/// `value +/- standard error / split error` of `unknown` in `calibration`
+/// (SI times `scale`), or its value and status when it is not identified.
+fn estimate_cell(
+    calibration: &Calibration,
+    split: &SplitCheck,
+    unknown: &str,
+    scale: f64,
+) -> String {
+    let Some(u) = calibration.unknowns.iter().find(|u| u.name == unknown) else {
+        return "-".to_string();
+    };
+    if u.status != UnknownStatus::Identified {
+        return format!("{:.2} ({:?})", u.value * scale, u.status);
+    }
+    let split_error = split
+        .unknowns
+        .iter()
+        .find(|s| s.name == unknown)
+        .and_then(|s| s.split_error)
+        .map_or("-".into(), |e| format!("{e:.2}"));
+    format!(
+        "{:.2} +/- {:.2} / {split_error}",
+        u.value * scale,
+        u.standard_error.unwrap_or(f64::NAN) * scale
+    )
 }
 
 /// Prints the lateral compliances of `calibration` (urad/N.m) to stderr,

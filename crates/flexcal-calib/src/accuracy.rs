@@ -219,8 +219,11 @@ impl Calibration {
         model: &'a Model,
         set: &'a MeasurementSet,
     ) -> Result<(GeometricErrorModel<'a>, Vec<f64>), CalibError> {
+        // The later stations' frames are unknowns of the identification
+        // (their covariance is part of it), with no pose of `set`.
         let mut problem =
-            GeometricErrorModel::new(model, set, false, self.x_meas_base, self.x_tcp_target)?;
+            GeometricErrorModel::new(model, set, false, self.x_meas_base, self.x_tcp_target)?
+                .with_station_frames(&self.station_frames)?;
         if let Some((gravity, _)) = &self.elastic {
             problem = problem.with_gravity(gravity)?;
         }

@@ -40,6 +40,20 @@ pub const TARGET_PARAMETER_NAMES: [&str; 6] = [
     "target_rz",
 ];
 
+/// Names of the six measurement-frame unknowns of station `station`
+/// (0-based) of a set with several stations ([`MeasurementSet::pooled`]):
+/// `frame_x..frame_rz` for the first, `frame_s2_x..frame_s2_rz` for the
+/// second, and so on.
+pub fn station_frame_names(station: usize) -> [String; 6] {
+    FRAME_PARAMETER_NAMES.map(|name| {
+        if station == 0 {
+            name.to_string()
+        } else {
+            name.replacen("frame_", &format!("frame_s{}_", station + 1), 1)
+        }
+    })
+}
+
 /// Kind of an unknown of the extended vector `[xi; frame; target]` (and,
 /// elasto-geometric, `[c; m; m c]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -91,6 +105,12 @@ impl UnknownKind {
 /// stacked over a measurement set, as a least-squares problem in the
 /// unknowns `x = [xi; tau; t]` (n_params + 6 + 6).
 ///
+/// A set with several stations ([`MeasurementSet::pooled`]) has one
+/// measurement frame per station: the frames of the second and later
+/// stations follow the target's unknowns (`frame_s2_x`, ...;
+/// [`station_frame_names`]), and each pose is predicted in its station's
+/// frame.
+///
 /// Residual rows per pose: `predicted - measured` position (m), then, when
 /// orientations are used, the rotation vector `log(R_pred R_meas^T)` (rad).
 /// The Jacobian is exact: the robot part is the parameter Jacobian of
@@ -111,6 +131,8 @@ pub struct GeometricErrorModel<'a> {
     use_orientation: bool,
     x_meas_base0: Isometry3<f64>,
     x_tcp_target0: Isometry3<f64>,
+    /// Starting measurement frames of the second and later stations.
+    station_frames0: Vec<Isometry3<f64>>,
     names: Vec<String>,
     data: RefCell<Data>,
     pose_jacobian: RefCell<DMatrix<f64>>,
@@ -187,15 +209,20 @@ impl<'a> GeometricErrorModel<'a> {
                     .into(),
             });
         }
+        let station_frames0 = vec![x_meas_base0; set.n_stations() - 1];
         let mut names: Vec<String> = model.params().iter().map(|p| p.name.clone()).collect();
         names.extend(FRAME_PARAMETER_NAMES.iter().map(|s| s.to_string()));
         names.extend(TARGET_PARAMETER_NAMES.iter().map(|s| s.to_string()));
+        for s in 1..set.n_stations() {
+            names.extend(station_frame_names(s));
+        }
         Ok(Self {
             model,
             set,
             use_orientation,
             x_meas_base0,
             x_tcp_target0,
+            station_frames0,
             names,
             data: RefCell::new(Data::new(model)),
             pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
@@ -208,6 +235,63 @@ impl<'a> GeometricErrorModel<'a> {
             cyclic_joints: Vec::new(),
             cyclic_bases: Vec::new(),
         })
+    }
+
+    /// The starting measurement frames of the second and later stations
+    /// (without this, each starts at the first station's). More frames than
+    /// the set has stations give the model the unknowns of a calibration
+    /// with that many stations (the extra ones have no pose: zero columns),
+    /// so that its unknowns line up with that calibration's.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] with fewer frames than the set's
+    /// stations beyond the first, or after the gravity model or the joint
+    /// terms (their unknowns come after the frames).
+    pub fn with_station_frames(mut self, frames: &[Isometry3<f64>]) -> Result<Self, CalibError> {
+        if self.gravity.is_some() || self.joint_terms.any() {
+            return Err(CalibError::InvalidOption {
+                name: "station_frames",
+                reason: "the station frames go before the gravity model and the joint terms".into(),
+            });
+        }
+        if frames.len() + 1 < self.set.n_stations() {
+            return Err(CalibError::InvalidOption {
+                name: "station_frames",
+                reason: format!(
+                    "{} starting frames for the {} stations after the first of {}",
+                    frames.len(),
+                    self.set.n_stations() - 1,
+                    self.set.source
+                ),
+            });
+        }
+        self.station_frames0 = frames.to_vec();
+        self.names.truncate(self.model.n_params() + 12);
+        for s in 1..=frames.len() {
+            self.names.extend(station_frame_names(s));
+        }
+        Ok(self)
+    }
+
+    /// Number of measurement frames (stations) of the model.
+    pub fn n_stations(&self) -> usize {
+        self.station_frames0.len() + 1
+    }
+
+    /// Index of the first measurement-frame unknown of station `s`
+    /// (0-based).
+    pub fn station_frame_offset(&self, s: usize) -> usize {
+        if s == 0 {
+            self.frame_offset()
+        } else {
+            self.model.n_params() + 12 + 6 * (s - 1)
+        }
+    }
+
+    /// Index one past the last frame unknown (measurement frames and target
+    /// offset): where the elastic and joint-term unknowns start.
+    pub fn frames_end(&self) -> usize {
+        self.model.n_params() + 12 + 6 * self.station_frames0.len()
     }
 
     /// Makes the model elasto-geometric: joint compliances under gravity
@@ -304,7 +388,7 @@ impl<'a> GeometricErrorModel<'a> {
         let na = self.model.n_actuated();
         self.joint_terms
             .any()
-            .then(|| self.model.n_params() + 12 + self.n_elastic_block(na))
+            .then(|| self.frames_end() + self.n_elastic_block(na))
     }
 
     /// Unknowns of the elastic block: compliances, payload and lateral
@@ -320,7 +404,7 @@ impl<'a> GeometricErrorModel<'a> {
     pub fn lateral_offset(&self) -> Option<usize> {
         self.lateral
             .as_ref()
-            .map(|_| self.model.n_params() + 12 + self.model.n_actuated() + 4)
+            .map(|_| self.frames_end() + self.model.n_actuated() + 4)
     }
 
     /// The rigid motion `G = (rotation, translation)` of the lateral
@@ -335,7 +419,7 @@ impl<'a> GeometricErrorModel<'a> {
     ) -> Option<(UnitQuaternion<f64>, Vector3<f64>, Vector3<f64>)> {
         let lateral = self.lateral.as_ref()?;
         let lo = self.lateral_offset()?;
-        let po = self.model.n_params() + 12 + self.model.n_actuated();
+        let po = self.frames_end() + self.model.n_actuated();
         let payload = &x[po..po + 4];
         deltas.clear();
         let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
@@ -353,7 +437,7 @@ impl<'a> GeometricErrorModel<'a> {
     /// Index of the first elastic unknown (the compliances), when the model
     /// is elasto-geometric.
     pub fn elastic_offset(&self) -> Option<usize> {
-        self.gravity.as_ref().map(|_| self.model.n_params() + 12)
+        self.gravity.as_ref().map(|_| self.frames_end())
     }
 
     /// The actuated coordinates at which the robot is evaluated for pose `k`:
@@ -366,7 +450,7 @@ impl<'a> GeometricErrorModel<'a> {
         let na = self.model.n_actuated();
         let joint_offset = self.joint_terms_offset();
         if let Some((terms, _)) = &self.gravity {
-            let eo = self.model.n_params() + 12;
+            let eo = self.frames_end();
             terms.forces(k, &x[eo + na..eo + na + 4], &mut state.tau);
             match (&self.joint_terms.law, joint_offset) {
                 (Some(law), Some(lo)) => {
@@ -422,8 +506,9 @@ impl<'a> GeometricErrorModel<'a> {
         self.robot_columns.set(on);
     }
 
-    /// Number of unknowns: `n_params + 12`, plus `n_actuated + 4` when
-    /// elasto-geometric.
+    /// Number of unknowns: `n_params + 12`, plus 6 per station after the
+    /// first, plus `n_actuated + 4` (and the lateral compliances) when
+    /// elasto-geometric, plus the joint terms.
     pub fn n_unknowns(&self) -> usize {
         self.names.len()
     }
@@ -450,7 +535,7 @@ impl<'a> GeometricErrorModel<'a> {
                 ParamKind::Angle => UnknownKind::Angle,
             })
             .collect();
-        for _ in 0..2 {
+        for _ in 0..2 + self.station_frames0.len() {
             kinds.extend([UnknownKind::Length; 3]);
             kinds.extend([UnknownKind::Angle; 3]);
         }
@@ -489,7 +574,7 @@ impl<'a> GeometricErrorModel<'a> {
     /// and the starting elastic unknowns when elasto-geometric.
     pub fn initial_unknowns(&self) -> Vec<f64> {
         let mut x = self.model.nominal_params().to_vec();
-        x.extend([0.0; 12]);
+        x.extend(vec![0.0; 12 + 6 * self.station_frames0.len()]);
         if let Some((_, initial)) = &self.gravity {
             x.extend(initial);
         }
@@ -497,17 +582,32 @@ impl<'a> GeometricErrorModel<'a> {
         x
     }
 
-    /// The measurement frame `x_meas_base` and target offset `x_tcp_target` at `x`.
+    /// The measurement frame `x_meas_base` of station `s` (0-based) at `x`.
+    pub fn station_frame(&self, x: &[f64], s: usize) -> Isometry3<f64> {
+        let f = self.station_frame_offset(s);
+        let start = if s == 0 {
+            &self.x_meas_base0
+        } else {
+            &self.station_frames0[s - 1]
+        };
+        Isometry3::from_parts(
+            Translation3::from(start.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2])),
+            rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5])) * start.rotation,
+        )
+    }
+
+    /// The measurement frames of the second and later stations at `x`.
+    pub fn station_frames(&self, x: &[f64]) -> Vec<Isometry3<f64>> {
+        (1..self.n_stations())
+            .map(|s| self.station_frame(x, s))
+            .collect()
+    }
+
+    /// The measurement frame `x_meas_base` (of the first station) and target
+    /// offset `x_tcp_target` at `x`.
     pub fn frames(&self, x: &[f64]) -> (Isometry3<f64>, Isometry3<f64>) {
-        let f = self.frame_offset();
         let t = self.target_offset();
-        let x_meas_base = Isometry3::from_parts(
-            Translation3::from(
-                self.x_meas_base0.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2]),
-            ),
-            rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5]))
-                * self.x_meas_base0.rotation,
-        );
+        let x_meas_base = self.station_frame(x, 0);
         let x_tcp_target = Isometry3::from_parts(
             Translation3::from(
                 self.x_tcp_target0.translation.vector + Vector3::new(x[t], x[t + 1], x[t + 2]),
@@ -523,17 +623,27 @@ impl<'a> GeometricErrorModel<'a> {
     /// # Errors
     /// [`CalibError::Kinematics`] naming the pose.
     pub fn predict(&self, x: &[f64], k: usize) -> Result<Isometry3<f64>, CalibError> {
-        self.predict_in(&self.frames(x), x, k)
+        self.predict_in(&self.all_frames(x), x, k)
+    }
+
+    /// Every station's measurement frame and the target offset at `x`.
+    fn all_frames(&self, x: &[f64]) -> (Vec<Isometry3<f64>>, Isometry3<f64>) {
+        let (first, target) = self.frames(x);
+        let mut frames = vec![first];
+        frames.extend(self.station_frames(x));
+        (frames, target)
     }
 
     /// [`GeometricErrorModel::predict`] with the frames of `x` already at
-    /// hand (they cost two exponential maps: once per evaluation, not per pose).
+    /// hand (they cost two exponential maps each: once per evaluation, not
+    /// per pose).
     fn predict_in(
         &self,
-        (x_meas_base, x_tcp_target): &(Isometry3<f64>, Isometry3<f64>),
+        (stations, x_tcp_target): &(Vec<Isometry3<f64>>, Isometry3<f64>),
         x: &[f64],
         k: usize,
     ) -> Result<Isometry3<f64>, CalibError> {
+        let x_meas_base = &stations[self.set.station_of(k)];
         let m = &self.set.measurements()[k];
         let xi = &x[..self.model.n_params()];
         let mut buffers = self.deflection.borrow_mut();
@@ -574,7 +684,7 @@ impl Residuals for GeometricErrorModel<'_> {
     }
     fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
         let rows = self.rows_per_pose();
-        let frames = self.frames(x);
+        let frames = self.all_frames(x);
         for k in 0..self.set.len() {
             let predicted = self.predict_in(&frames, x, k)?;
             self.write_residual(k, &predicted, &mut out[k * rows..(k + 1) * rows]);
@@ -607,14 +717,24 @@ impl GeometricErrorModel<'_> {
     ) -> Result<(), ProblemError> {
         let np = self.model.n_params();
         let xi = &x[..np];
-        let (x_meas_base, x_tcp_target) = self.frames(x);
-        let fo = self.frame_offset();
+        let (stations, x_tcp_target) = self.all_frames(x);
         let to = self.target_offset();
-        let phi = Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]);
         let psi = Vector3::new(x[to + 3], x[to + 4], x[to + 5]);
-        let jl_phi = left_jacobian(&phi);
         let jr_psi = left_jacobian(&psi).transpose();
-        let r_mb = x_meas_base.rotation.to_rotation_matrix().into_inner();
+        let station_terms: Vec<StationTerms> = stations
+            .iter()
+            .enumerate()
+            .map(|(s, frame)| {
+                let offset = self.station_frame_offset(s);
+                let phi = Vector3::new(x[offset + 3], x[offset + 4], x[offset + 5]);
+                StationTerms {
+                    frame: *frame,
+                    offset,
+                    jl_phi: left_jacobian(&phi),
+                    rotation: frame.rotation.to_rotation_matrix().into_inner(),
+                }
+            })
+            .collect();
         let rows = self.rows_per_pose();
         let mut data = self.data.borrow_mut();
         let mut jac = self.pose_jacobian.borrow_mut();
@@ -625,7 +745,7 @@ impl GeometricErrorModel<'_> {
             jac.fill(0.0);
         }
         let na = self.model.n_actuated();
-        let eo = np + 12;
+        let eo = self.frames_end();
         // Elastic and joint-term unknowns: every unknown after the target's.
         let n_elastic = self.names.len() - eo;
         let law_offset = self
@@ -649,6 +769,13 @@ impl GeometricErrorModel<'_> {
         let first = poses.start;
         for k in poses {
             let m = &self.set.measurements()[k];
+            let station = self.set.station_of(k);
+            let StationTerms {
+                frame: x_meas_base,
+                offset: fo,
+                jl_phi,
+                rotation: r_mb,
+            } = station_terms[station];
             let kinematics_error = |source| CalibError::Kinematics {
                 pose: k,
                 pose_id: m.label(k),
@@ -754,6 +881,16 @@ impl GeometricErrorModel<'_> {
             let target_base =
                 x_base_tcp.translation.vector + r_bt * x_tcp_target.translation.vector;
             let r0 = (k - first) * rows;
+            // Other stations' frames do not move this pose.
+            for (s, other) in station_terms.iter().enumerate() {
+                if s != station {
+                    for i in 0..rows {
+                        for c in 0..6 {
+                            out[(r0 + i, other.offset + c)] = 0.0;
+                        }
+                    }
+                }
+            }
             // Robot parameters and elastic unknowns: moving the TCP by
             // (v, w) moves the target by v + w x offset.
             let lever = skew(&offset_base);
@@ -820,6 +957,17 @@ impl GeometricErrorModel<'_> {
         }
         Ok(())
     }
+}
+
+/// What the Jacobian needs of one station's measurement frame at the
+/// unknowns: the frame, the column of its first unknown, the left Jacobian
+/// of its rotation vector and its rotation matrix.
+#[derive(Clone, Copy)]
+struct StationTerms {
+    frame: Isometry3<f64>,
+    offset: usize,
+    jl_phi: Matrix3<f64>,
+    rotation: Matrix3<f64>,
 }
 
 /// The rigid motion `p -> rotation p + translation` as an isometry.

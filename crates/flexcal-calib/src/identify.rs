@@ -326,8 +326,14 @@ pub struct Calibration {
     pub xi: Vec<f64>,
     /// Nominal robot parameters (m, rad).
     pub nominal_xi: Vec<f64>,
-    /// Identified (or fixed) measurement frame `x_meas_base`.
+    /// Identified (or fixed) measurement frame `x_meas_base` (of the first
+    /// station, when the set has several).
     pub x_meas_base: Isometry3<f64>,
+    /// Identified (or fixed) measurement frames of the second and later
+    /// stations ([`MeasurementSet::pooled`]); empty for one station.
+    pub station_frames: Vec<Isometry3<f64>>,
+    /// Names of the stations, in order (one for a set from one file).
+    pub station_names: Vec<String>,
     /// Identified (or fixed) target offset `x_tcp_target`.
     pub x_tcp_target: Isometry3<f64>,
     /// Starting target offset (nominal).
@@ -341,7 +347,8 @@ pub struct Calibration {
     /// Whether orientations were used.
     pub use_orientation: bool,
     /// Every unknown, robot parameters first, then `frame_*`, then
-    /// `target_*`, then (elasto-geometric) `compliance_*`, `payload_*` and,
+    /// `target_*`, then the later stations' frames (`frame_s2_*`, ...), then
+    /// (elasto-geometric) `compliance_*`, `payload_*` and,
     /// when on, `lateral_compliance_*`, then the joint terms.
     pub unknowns: Vec<UnknownEstimate>,
     /// The gravity loading when the model is elasto-geometric, with the
@@ -702,6 +709,10 @@ pub fn calibrate(
         let mut known: Vec<&str> = model.params().iter().map(|p| p.name.as_str()).collect();
         known.extend(crate::FRAME_PARAMETER_NAMES);
         known.extend(crate::TARGET_PARAMETER_NAMES);
+        let station_names: Vec<String> = (1..set.n_stations())
+            .flat_map(crate::error_model::station_frame_names)
+            .collect();
+        known.extend(station_names.iter().map(|s| s.as_str()));
         let elastic_names = options
             .gravity
             .as_ref()
@@ -719,6 +730,9 @@ pub fn calibrate(
         }
         if options.target == FrameTreatment::Fixed {
             free[np + 6..np + 9].fill(false);
+        }
+        if frame_fixed {
+            free[np + 12..np + 12 + station_names.len()].fill(false);
         }
         for name in &options.fixed {
             let j = known.iter().position(|k| k == name).ok_or_else(|| {
@@ -739,26 +753,51 @@ pub fn calibrate(
             });
         }
     }
+    // Each station's frame starts from the registration of its own poses
+    // (a station that a subset of the set leaves out has nothing to
+    // register: its frame has no influence).
+    let register = |s: usize| -> Result<Option<Isometry3<f64>>, CalibError> {
+        match set.station_poses(s) {
+            Some(poses) => Ok(Some(register_measurement_frame(
+                model,
+                &poses,
+                model.nominal_params(),
+                &x_tcp_target0,
+            )?)),
+            None => Ok(None),
+        }
+    };
     let x_meas_base0 = match (frame_fixed, options.measurement_frame_value) {
         (_, Some(x)) => x,
         (true, None) => Isometry3::identity(),
-        (false, None) => {
-            register_measurement_frame(model, set, model.nominal_params(), &x_tcp_target0)?
-        }
+        (false, None) => register(0)?.unwrap_or_else(Isometry3::identity),
     };
+    let mut station_frames0 = Vec::new();
+    let mut empty_stations = Vec::new();
+    for s in 1..set.n_stations() {
+        let start = if frame_fixed { None } else { register(s)? };
+        if set.station_poses(s).is_none() {
+            empty_stations.push(s);
+        }
+        station_frames0.push(start.unwrap_or(x_meas_base0));
+    }
     // Measured orientations: the target's orientation starts where the data
-    // put it (unless fixed or given), as the measurement frame does.
+    // put it (unless fixed or given), as the measurement frame does; from
+    // the first station's poses, in its frame.
     let x_tcp_target0 = if use_orientation
         && options.target != FrameTreatment::Fixed
         && options.target_value.is_none()
     {
-        let rotation = register_target_rotation(model, set, model.nominal_params(), &x_meas_base0)?;
+        let first_station = set.station_poses(0).unwrap_or_else(|| set.clone());
+        let rotation =
+            register_target_rotation(model, &first_station, model.nominal_params(), &x_meas_base0)?;
         Isometry3::from_parts(x_tcp_target0.translation, rotation)
     } else {
         x_tcp_target0
     };
     let mut problem =
-        GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?;
+        GeometricErrorModel::new(model, set, use_orientation, x_meas_base0, x_tcp_target0)?
+            .with_station_frames(&station_frames0)?;
     if let Some(gravity) = &options.gravity {
         problem = problem.with_gravity(gravity)?;
     }
@@ -787,14 +826,22 @@ pub fn calibrate(
     }
     let fo = problem.frame_offset();
     let to = problem.target_offset();
-    // Target unknowns end where the elastic ones (if any) begin.
     let te = to + 6;
+    // The frames of the later stations follow the target's unknowns; the
+    // elastic ones (if any) begin where they end.
+    let fe = problem.frames_end();
     // The frames take what they can from the robot's base and tool parameters.
     priorities[fo..to].fill(2);
     priorities[to..te].fill(1);
+    priorities[te..fe].fill(2);
     let mut no_influence = vec![false; n];
     if frame_fixed {
         fixed[fo..to].fill(true);
+        fixed[te..fe].fill(true);
+    }
+    for &s in &empty_stations {
+        let o = problem.station_frame_offset(s);
+        no_influence[o..o + 6].fill(true);
     }
     if options.target == FrameTreatment::Fixed {
         fixed[to..te].fill(true);
@@ -952,7 +999,7 @@ pub fn calibrate(
     };
     // Frames alone first, from the registration: the robot's linearisation
     // point is then the nominal robot in the right place.
-    let frame_unknowns: Vec<usize> = (fo..te)
+    let frame_unknowns: Vec<usize> = (fo..fe)
         .filter(|&j| !fixed[j] && !no_influence[j])
         .collect();
     if !frame_unknowns.is_empty() {
@@ -1093,6 +1140,7 @@ pub fn calibrate(
             options,
             use_orientation,
             frames: (x_meas_base0, x_tcp_target0),
+            station_frames: &station_frames0,
             context: &context,
         }
         .ratios(&reduced_start, &x_start, &identified)?
@@ -1126,13 +1174,14 @@ pub fn calibrate(
         })
         .collect();
     let (x_meas_base, x_tcp_target) = problem.frames(&x);
+    let station_frames = problem.station_frames(&x);
     let np = model.n_params();
     let xi = x[..np].to_vec();
     let joint_start = problem.joint_terms_offset().unwrap_or(n);
     let elastic = options
         .gravity
         .as_ref()
-        .map(|g| (g.clone(), x[te..joint_start].to_vec()));
+        .map(|g| (g.clone(), x[fe..joint_start].to_vec()));
     let joint_term_values = x[joint_start..].to_vec();
     // Before: the starting model (nominal geometry, and starting compliances)
     // with its frames fitted; after: the fit. Both on the same error model.
@@ -1144,6 +1193,8 @@ pub fn calibrate(
         xi,
         nominal_xi: model.nominal_params().to_vec(),
         x_meas_base,
+        station_frames,
+        station_names: set.station_names().to_vec(),
         x_tcp_target,
         x_tcp_target_initial: x_tcp_target0,
         x_tcp_target_nominal_robot: x_tcp_target_nominal,
@@ -1434,6 +1485,8 @@ struct SpreadInputs<'a> {
     options: &'a CalibrationOptions,
     use_orientation: bool,
     frames: (Isometry3<f64>, Isometry3<f64>),
+    /// Starting frames of the later stations.
+    station_frames: &'a [Isometry3<f64>],
     context: &'a AnalysisContext<'a>,
 }
 
@@ -1518,14 +1571,21 @@ impl SpreadInputs<'_> {
         if drawn.len() < count {
             return Ok(out);
         }
-        let reference = MeasurementSet::new("spread reference", drawn)?;
+        // The spread poses are shared out among the stations, each of
+        // which then sees as many as its frame needs.
+        let stations = self.set.n_stations();
+        let reference = MeasurementSet::new("spread reference", drawn)?.with_stations(
+            self.set.station_names().to_vec(),
+            (0..count).map(|k| k % stations).collect(),
+        )?;
         let mut problem = GeometricErrorModel::new(
             self.model,
             &reference,
             self.use_orientation,
             self.frames.0,
             self.frames.1,
-        )?;
+        )?
+        .with_station_frames(self.station_frames)?;
         if let Some(gravity) = &self.options.gravity {
             problem = problem.with_gravity(gravity)?;
         }

@@ -154,6 +154,7 @@
 //! | column | unit | required |
 //! |---|---|---|
 //! | `pose_id` | text | no |
+//! | `station` | text, the placement of the measurement system (one measurement frame each) | no |
 //! | `q1` .. `qn` | rad (revolute), m (prismatic, screw) | yes |
 //! | `x_mm, y_mm, z_mm` | mm, target position in the measurement frame | yes |
 //! | `rx_deg, ry_deg, rz_deg` | deg, rotation vector of the target orientation | no |
@@ -162,7 +163,8 @@
 //! | `fx_n, fy_n, fz_n, mx_nm, my_nm, mz_nm` | N, N.m, applied wrench | no |
 //! | `temperature_c` | deg C | no |
 //!
-//! A group of optional columns is all present or all absent. The IPA UR10
+//! A group of optional columns is all present or all absent. Without a
+//! `station` column the file is one station. The IPA UR10
 //! laser-tracker export is read by [`MeasurementSet::read_ipa`].
 //!
 //! ## Identifiability in practice
@@ -249,6 +251,7 @@ pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
 pub use error_model::{
     FRAME_PARAMETER_NAMES, GeometricErrorModel, TARGET_PARAMETER_NAMES, UnknownKind,
+    station_frame_names,
 };
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use flexcal_optim::CancelToken;
@@ -268,7 +271,9 @@ pub use measurement::{
     IPA_JOINT_COLUMNS, Measurement, MeasurementSet, read_configurations, read_transform_mm,
 };
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
-pub use report::{CalibrationReportJson, FrameJson, ResidualModelJson, read_measurement_frame};
+pub use report::{
+    CalibrationReportJson, FrameJson, ResidualModelJson, StationJson, read_measurement_frame,
+};
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,

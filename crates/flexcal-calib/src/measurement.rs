@@ -58,11 +58,22 @@ impl Measurement {
 /// A validated set of measurements: every pose has the same number of
 /// actuated coordinates, finite values, and either all or none carry an
 /// orientation (and likewise standard deviations).
+///
+/// Each pose belongs to a *station*: one placement of the measurement
+/// system, with its own measurement frame `x_meas_base` (a laser tracker
+/// moved to see another part of the workspace, or a campaign of another
+/// day). A set read from one file without a `station` column is one
+/// station; [`MeasurementSet::pooled`] joins sets as stations of one
+/// identification.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasurementSet {
     /// Where the measurements come from (file name), used in messages.
     pub source: String,
     measurements: Vec<Measurement>,
+    /// Name of each station, in order (at least one).
+    stations: Vec<String>,
+    /// Station (index into `stations`) of each pose.
+    station_of: Vec<usize>,
     /// Nominal pose `x_tcp_target` of the target in the TCP frame when the
     /// file format knows it (the IPA probe offset); the identification starts
     /// from it.
@@ -143,9 +154,165 @@ impl MeasurementSet {
         }
         Ok(Self {
             source: source.to_string(),
+            station_of: vec![0; measurements.len()],
             measurements,
+            stations: vec![source.to_string()],
             nominal_target: None,
         })
+    }
+
+    /// The same poses as stations named `stations`, pose `k` measured from
+    /// station `station_of[k]`.
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] when `station_of` does not have one
+    /// entry per pose, names a station that does not exist, or a station
+    /// has no pose.
+    pub fn with_stations(
+        mut self,
+        stations: Vec<String>,
+        station_of: Vec<usize>,
+    ) -> Result<Self, CalibError> {
+        let bad = |what: String| CalibError::BadMeasurement {
+            source_name: self.source.clone(),
+            line: 0,
+            what,
+        };
+        if station_of.len() != self.len() {
+            return Err(bad(format!(
+                "{} station indices for {} poses",
+                station_of.len(),
+                self.len()
+            )));
+        }
+        if let Some(k) = station_of.iter().position(|&s| s >= stations.len()) {
+            return Err(bad(format!(
+                "pose {k}: station {} of {}",
+                station_of[k] + 1,
+                stations.len()
+            )));
+        }
+        if let Some(s) = (0..stations.len()).find(|s| !station_of.contains(s)) {
+            return Err(bad(format!("station `{}` has no pose", stations[s])));
+        }
+        self.stations = stations;
+        self.station_of = station_of;
+        Ok(self)
+    }
+
+    /// Joins measurement sets of one robot and one target as the stations of
+    /// one identification: each set keeps its own measurement frame (its
+    /// stations, when it has several), the robot and the target offset are
+    /// shared. With more than one station the pose labels are prefixed by
+    /// the station's number, `s2:line 534` (pose `line 534` of the second).
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] naming the set: no sets, a different
+    /// number of actuated coordinates, orientations or standard deviations
+    /// in some sets only, or nominal target offsets that differ (a target
+    /// remounted between stations is not one target).
+    pub fn pooled(sets: &[MeasurementSet]) -> Result<Self, CalibError> {
+        let Some(first) = sets.first() else {
+            return Err(CalibError::BadMeasurement {
+                source_name: "pooled measurements".into(),
+                line: 0,
+                what: "no measurement sets to pool".into(),
+            });
+        };
+        if sets.len() == 1 {
+            return Ok(first.clone());
+        }
+        let pattern = |set: &MeasurementSet| {
+            (
+                set.has_orientation(),
+                set.has_position_std(),
+                set.has_orientation_std(),
+            )
+        };
+        let mut stations = Vec::new();
+        let mut station_of = Vec::new();
+        let mut measurements = Vec::new();
+        for set in sets {
+            let bad = |what: String| CalibError::BadMeasurement {
+                source_name: set.source.clone(),
+                line: 0,
+                what,
+            };
+            if set.n_actuated() != first.n_actuated() {
+                return Err(bad(format!(
+                    "{} actuated coordinates, {} has {}",
+                    set.n_actuated(),
+                    first.source,
+                    first.n_actuated()
+                )));
+            }
+            if pattern(set) != pattern(first) {
+                return Err(bad(format!(
+                    "orientations or standard deviations are measured in {} and not here, or the reverse: pooled sets must measure the same",
+                    first.source
+                )));
+            }
+            let same_target = match (set.nominal_target, first.nominal_target) {
+                (None, None) => true,
+                (Some(a), Some(b)) => {
+                    (a.translation.vector - b.translation.vector).norm() < 1e-9
+                        && a.rotation.angle_to(&b.rotation) < 1e-9
+                }
+                _ => false,
+            };
+            if !same_target {
+                return Err(bad(format!(
+                    "its nominal target offset differs from that of {}: pooled sets must measure one target",
+                    first.source
+                )));
+            }
+            let offset = stations.len();
+            stations.extend(set.stations.iter().cloned());
+            for (k, m) in set.measurements.iter().enumerate() {
+                let station = offset + set.station_of[k];
+                let mut m = m.clone();
+                m.pose_id = Some(format!("s{}:{}", station + 1, m.label(k)));
+                measurements.push(m);
+                station_of.push(station);
+            }
+        }
+        let source: Vec<&str> = sets.iter().map(|s| s.source.as_str()).collect();
+        let mut set = Self::new(&source.join(" + "), measurements)?;
+        set.nominal_target = first.nominal_target;
+        set.with_stations(stations, station_of)
+    }
+
+    /// Number of stations (at least 1).
+    pub fn n_stations(&self) -> usize {
+        self.stations.len()
+    }
+    /// Names of the stations, in order (a file name, or the `station`
+    /// column's values).
+    pub fn station_names(&self) -> &[String] {
+        &self.stations
+    }
+    /// Station (0-based index into [`MeasurementSet::station_names`]) of
+    /// pose `k`.
+    pub fn station_of(&self, k: usize) -> usize {
+        self.station_of[k]
+    }
+    /// The poses of station `s` as a set of their own (one station), or
+    /// `None` when this set has none of them (a subset can leave a station
+    /// out).
+    pub fn station_poses(&self, s: usize) -> Option<Self> {
+        let indices: Vec<usize> = (0..self.len())
+            .filter(|&k| self.station_of[k] == s)
+            .collect();
+        let mut set = Self::new(
+            &self.stations[s],
+            indices
+                .iter()
+                .map(|&k| self.measurements[k].clone())
+                .collect(),
+        )
+        .ok()?;
+        set.nominal_target = self.nominal_target;
+        Some(set)
     }
 
     /// The measurements.
@@ -195,6 +362,10 @@ impl MeasurementSet {
         }
         let mut set = Self::new(&self.source, picked)?;
         set.nominal_target = self.nominal_target;
+        // The subset keeps every station (so its unknowns keep their names),
+        // even one that none of the picked poses belongs to.
+        set.stations = self.stations.clone();
+        set.station_of = indices.iter().map(|&i| self.station_of[i]).collect();
         Ok(set)
     }
 
@@ -255,6 +426,7 @@ impl MeasurementSet {
         let wrench = optional(&["fx_n", "fy_n", "fz_n", "mx_nm", "my_nm", "mz_nm"])?;
         let temperature = table.find_column("temperature_c");
         let pose_id = table.find_column("pose_id");
+        let station = table.find_column("station");
         let vec3 = |row: usize, cols: &[usize], scale: f64| -> Result<Vector3<f64>, CalibError> {
             Ok(Vector3::new(
                 table.f64_at(row, cols[0])? * scale,
@@ -308,7 +480,32 @@ impl MeasurementSet {
             }
             measurements.push(m);
         }
-        Self::new(&source, measurements)
+        let set = Self::new(&source, measurements)?;
+        let Some(column) = station else {
+            return Ok(set);
+        };
+        // Stations by name, in the order they first appear.
+        let mut names: Vec<String> = Vec::new();
+        let mut station_of = Vec::with_capacity(table.len());
+        for row in 0..table.len() {
+            let name = table.cell(row, column).trim();
+            if name.is_empty() {
+                return Err(CalibError::BadMeasurement {
+                    source_name: source.clone(),
+                    line: table.line_of(row),
+                    what: "empty `station` cell".into(),
+                });
+            }
+            let s = match names.iter().position(|n| n == name) {
+                Some(s) => s,
+                None => {
+                    names.push(name.to_string());
+                    names.len() - 1
+                }
+            };
+            station_of.push(s);
+        }
+        set.with_stations(names, station_of)
     }
 
     /// The set in flexcal's own CSV format (mm and deg, full precision).
@@ -319,6 +516,10 @@ impl MeasurementSet {
         } else {
             Vec::new()
         };
+        let with_stations = self.n_stations() > 1;
+        if with_stations {
+            header.push("station".into());
+        }
         header.extend((1..=self.n_actuated()).map(|i| format!("q{i}")));
         header.extend(["x_mm", "y_mm", "z_mm"].map(String::from));
         let first = &self.measurements[0];
@@ -354,6 +555,10 @@ impl MeasurementSet {
                     .clone()
                     .unwrap_or_else(|| format!("pose-{}", k + 1));
                 cells.push(id.trim_start_matches('#').replace(',', ";"));
+            }
+            if with_stations {
+                let name = &self.stations[self.station_of[k]];
+                cells.push(name.trim_start_matches('#').replace(',', ";"));
             }
             cells.extend(m.q.iter().map(|v| v.to_string()));
             cells.extend(m.position.iter().map(|v| (v * 1e3).to_string()));

@@ -82,7 +82,8 @@ pub struct IdentificationJson {
     pub before: StatisticsJson,
     /// Identified unknowns.
     pub rank: usize,
-    /// Unknowns in the model (robot + 6 frame + 6 target).
+    /// Unknowns in the model (robot + 6 frame + 6 target, 6 more per further
+    /// station, then the elastic and joint terms).
     pub n_unknowns: usize,
     /// Free unknowns considered (not fixed, with influence).
     pub n_free: usize,
@@ -124,6 +125,20 @@ pub struct IdentificationJson {
     /// The identified (or fixed) measurement frame `x_meas_base`: the
     /// robot base seen from the instrument. A part located by the instrument
     /// is carried into the calibrated robot's base through it.
+    pub measurement_frame: FrameJson,
+    /// With measurements from several stations: each station's name and
+    /// identified measurement frame, the first station's being
+    /// `measurement_frame` (absent for one station).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub stations: Vec<StationJson>,
+}
+
+/// One station in the `stations` array.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct StationJson {
+    /// Name of the station (its file, or its `station` column value).
+    pub name: String,
+    /// Its measurement frame `x_meas_base`.
     pub measurement_frame: FrameJson,
 }
 
@@ -397,6 +412,18 @@ impl CalibrationReportJson {
                 })
                 .collect(),
             measurement_frame: FrameJson::from(&calibration.x_meas_base),
+            stations: if calibration.station_frames.is_empty() {
+                Vec::new()
+            } else {
+                std::iter::once(&calibration.x_meas_base)
+                    .chain(&calibration.station_frames)
+                    .zip(&calibration.station_names)
+                    .map(|(frame, name)| StationJson {
+                        name: name.clone(),
+                        measurement_frame: FrameJson::from(frame),
+                    })
+                    .collect()
+            },
         };
         let validation = validation.map(|v| ValidationJson {
             after: StatisticsJson::from(&v.after),

@@ -83,9 +83,18 @@ impl ResidualModel {
         }
         // What the model misses, in the base frame.
         let errors = calibration.training_errors(model, set)?;
-        let to_base = calibration.x_meas_base.rotation.inverse();
-        let residuals: Vec<Vector3<f64>> =
-            errors.iter().map(|e| to_base * e.position_vector).collect();
+        // Each pose's error into the base frame through its station's frame.
+        let residuals: Vec<Vector3<f64>> = errors
+            .iter()
+            .enumerate()
+            .map(|(k, e)| {
+                let frame = match set.station_of(k) {
+                    0 => &calibration.x_meas_base,
+                    s => &calibration.station_frames[s - 1],
+                };
+                frame.rotation.inverse() * e.position_vector
+            })
+            .collect();
         let columns: Vec<Vec<f64>> = indices
             .iter()
             .map(|&i| set.measurements().iter().map(|m| m.q[i]).collect())

@@ -451,7 +451,10 @@ fn remove_unidentified_groups(
     });
 }
 
-/// Fold of each pose (`0..folds`).
+/// Fold of each pose (`0..folds`). With several stations each station's
+/// poses are shared out among the folds on their own: every training fold
+/// then holds poses of every station, whose measurement frame it needs to
+/// predict the held-out poses of that station.
 fn fold_assignment(
     model: &Model,
     set: &MeasurementSet,
@@ -460,6 +463,23 @@ fn fold_assignment(
     seed: u64,
 ) -> Vec<usize> {
     let n = set.len();
+    if set.n_stations() > 1 {
+        let mut assignment = vec![0; n];
+        for s in 0..set.n_stations() {
+            let indices: Vec<usize> = (0..n).filter(|&k| set.station_of(k) == s).collect();
+            let station = set.station_poses(s);
+            let within = match station {
+                Some(poses) if poses.len() >= folds => {
+                    fold_assignment(model, &poses, folds, scheme, seed)
+                }
+                _ => (0..indices.len()).map(|k| k % folds).collect(),
+            };
+            for (k, f) in indices.into_iter().zip(within) {
+                assignment[k] = f;
+            }
+        }
+        return assignment;
+    }
     match scheme {
         FoldScheme::AcquisitionBlocks => (0..n).map(|k| k * folds / n).collect(),
         FoldScheme::JointClusters => {
@@ -997,5 +1017,54 @@ mod tests {
         }
         assert!(counts.iter().all(|c| *c > 0 && *c <= 21), "{counts:?}");
         assert_eq!(a, balanced_kmeans(&points, 5, 1));
+    }
+
+    #[test]
+    fn every_fold_holds_poses_of_every_station() {
+        // Two stations seeing apart regions of joint space (as two tracker
+        // placements do): clusters over the pooled poses would put each
+        // station in folds of its own, and a training fold without a
+        // station could not place its held-out poses.
+        let model = flexcal_kinematics::RobotDescription::builtin("ur10")
+            .unwrap()
+            .build()
+            .unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+        let station = |name: &str, centre: f64, n: usize, rng: &mut rand_chacha::ChaCha8Rng| {
+            let poses = (0..n)
+                .map(|_| {
+                    let q = (0..6)
+                        .map(|i| {
+                            let c = if i == 0 { centre } else { 0.0 };
+                            c + rng.random_range(-0.5..0.5)
+                        })
+                        .collect();
+                    crate::Measurement::new(q, nalgebra::Vector3::zeros())
+                })
+                .collect();
+            MeasurementSet::new(name, poses).unwrap()
+        };
+        let pooled = MeasurementSet::pooled(&[
+            station("west", -2.0, 60, &mut rng),
+            station("east", 2.0, 23, &mut rng),
+        ])
+        .unwrap();
+        for scheme in [FoldScheme::JointClusters, FoldScheme::AcquisitionBlocks] {
+            let folds = fold_assignment(&model, &pooled, 5, scheme, 1);
+            for f in 0..5 {
+                for s in 0..2 {
+                    let held_out = (0..pooled.len())
+                        .filter(|&k| folds[k] == f && pooled.station_of(k) == s)
+                        .count();
+                    let of_station = (0..pooled.len())
+                        .filter(|&k| pooled.station_of(k) == s)
+                        .count();
+                    assert!(
+                        held_out > 0 && held_out < of_station / 2,
+                        "{scheme:?}: fold {f} holds {held_out} of station {s}'s {of_station} poses"
+                    );
+                }
+            }
+        }
     }
 }

@@ -14,7 +14,9 @@
 //! (with two splits, above about 2.5 is beyond chance) says the standard
 //! error understates the uncertainty by that factor. The first / second
 //! split also sees drift over the campaign and regions of the workspace
-//! visited at different times.
+//! visited at different times. With measurements from several stations
+//! each station's poses are halved on their own, so that every half places
+//! every station's measurement frame.
 
 use flexcal_kinematics::Model;
 use serde::Serialize;
@@ -129,13 +131,26 @@ impl SplitCheck {
         calibration: &Calibration,
     ) -> Result<Self, CalibError> {
         let half_options = reidentification_options(options, calibration);
-        // Odd, even, first-half and second-half poses.
+        // Odd, even, first-half and second-half poses; with several
+        // stations, the halves of each station's poses (every half fit
+        // then places every station).
         let n = set.len();
-        let in_half = |h: usize, k: usize| match h {
-            0 => k % 2 == 1,
-            1 => k % 2 == 0,
-            2 => k < n / 2,
-            _ => k >= n / 2,
+        let mut station_sizes = vec![0usize; set.n_stations()];
+        let rank_in_station: Vec<usize> = (0..n)
+            .map(|k| {
+                let size = &mut station_sizes[set.station_of(k)];
+                *size += 1;
+                *size - 1
+            })
+            .collect();
+        let in_half = |h: usize, k: usize| {
+            let (r, size) = (rank_in_station[k], station_sizes[set.station_of(k)]);
+            match h {
+                0 => r % 2 == 1,
+                1 => r % 2 == 0,
+                2 => r < size / 2,
+                _ => r >= size / 2,
+            }
         };
         let fits = (0..4)
             .map(|h| {

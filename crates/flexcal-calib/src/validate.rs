@@ -20,9 +20,10 @@ pub enum FramePolicy {
     /// identity; or the frame identified with the robot on the same series).
     Fixed(Isometry3<f64>),
     /// Re-fitted on the evaluated data with the robot frozen: closed-form
-    /// registration then least squares on the 6 frame unknowns (and the 3
-    /// target position unknowns if `refit_target`). Used when the validation
-    /// series was measured from another tracker position.
+    /// registration then least squares on the 6 frame unknowns (6 per
+    /// station when the data has several) and the 3 target position
+    /// unknowns if `refit_target`. Used when the validation series was
+    /// measured from another tracker position.
     Refit {
         /// Also re-fit the target position offset.
         refit_target: bool,
@@ -72,18 +73,46 @@ pub fn evaluate_errors_with_terms(
     set: &MeasurementSet,
     xi: &[f64],
     elastic: Option<(&GravityCompliance, &[f64])>,
-    (joint_terms, joint_values): (&JointTerms, &[f64]),
+    joint_terms: (&JointTerms, &[f64]),
     x_tcp_target: &Isometry3<f64>,
     policy: FramePolicy,
+    use_orientation: bool,
+) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
+    evaluate_errors_at_stations(
+        model,
+        set,
+        xi,
+        elastic,
+        joint_terms,
+        x_tcp_target,
+        (policy, &[]),
+        use_orientation,
+    )
+}
+
+/// [`evaluate_errors_with_terms`] where a fixed measurement frame comes
+/// with the fixed frames of the later stations of `set` (a calibration's
+/// [`Calibration::station_frames`]).
+#[allow(clippy::too_many_arguments)]
+fn evaluate_errors_at_stations(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+    elastic: Option<(&GravityCompliance, &[f64])>,
+    (joint_terms, joint_values): (&JointTerms, &[f64]),
+    x_tcp_target: &Isometry3<f64>,
+    (policy, fixed_stations): (FramePolicy, &[Isometry3<f64>]),
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
     // The error model at given robot unknowns: geometric or elasto-geometric.
     let problem_at = |x_meas_base: Isometry3<f64>,
+                      station_frames: &[Isometry3<f64>],
                       x_tcp_target: Isometry3<f64>|
      -> Result<(GeometricErrorModel<'_>, Vec<f64>), CalibError> {
         let mut problem =
-            GeometricErrorModel::new(model, set, use_orientation, x_meas_base, x_tcp_target)?;
+            GeometricErrorModel::new(model, set, use_orientation, x_meas_base, x_tcp_target)?
+                .with_station_frames(station_frames)?;
         if let Some((gravity, _)) = elastic {
             problem = problem.with_gravity(gravity)?;
         }
@@ -120,15 +149,39 @@ pub fn evaluate_errors_with_terms(
         Ok((problem, x))
     };
     let (problem, x) = match policy {
-        FramePolicy::Fixed(x_meas_base) => problem_at(x_meas_base, *x_tcp_target)?,
+        FramePolicy::Fixed(x_meas_base) => {
+            if fixed_stations.len() + 1 < set.n_stations() {
+                return Err(CalibError::InvalidOption {
+                    name: "frame_policy",
+                    reason: format!(
+                        "one fixed measurement frame for the {} stations of {}: re-fit them",
+                        set.n_stations(),
+                        set.source
+                    ),
+                });
+            }
+            problem_at(x_meas_base, fixed_stations, *x_tcp_target)?
+        }
         FramePolicy::Refit { refit_target } => {
-            let start = register_measurement_frame(model, set, xi, x_tcp_target)?;
-            let (problem, x0) = problem_at(start, *x_tcp_target)?;
+            // Each station's frame from its own poses.
+            let mut starts = Vec::with_capacity(set.n_stations());
+            for s in 0..set.n_stations() {
+                let poses = set
+                    .station_poses(s)
+                    .ok_or_else(|| CalibError::BadMeasurement {
+                        source_name: set.source.clone(),
+                        line: 0,
+                        what: format!("station `{}` has no pose", set.station_names()[s]),
+                    })?;
+                starts.push(register_measurement_frame(model, &poses, xi, x_tcp_target)?);
+            }
+            let (problem, x0) = problem_at(starts[0], &starts[1..], *x_tcp_target)?;
             let n = problem.n_unknowns();
             let fo = problem.frame_offset();
             let to = problem.target_offset();
             let mut fixed = vec![true; n];
             fixed[fo..to].fill(false);
+            fixed[to + 6..problem.frames_end()].fill(false);
             if refit_target {
                 fixed[to..to + 3].fill(false);
                 if use_orientation {
@@ -208,14 +261,14 @@ impl Calibration {
         set: &MeasurementSet,
         policy: FramePolicy,
     ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
-        evaluate_errors_with_terms(
+        evaluate_errors_at_stations(
             model,
             set,
             &self.xi,
             self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
             (&self.joint_terms, &self.joint_term_values),
             &self.x_tcp_target,
-            policy,
+            (policy, &self.station_frames),
             self.use_orientation,
         )
     }

@@ -161,14 +161,7 @@ fn identifies_known_joint_compliances_of_a_simulated_ur10() {
         ("compliance_theta2", truth.compliance[1]),
         ("compliance_theta3", truth.compliance[2]),
     ] {
-        let u = status(name);
-        assert_eq!(u.status, UnknownStatus::Identified, "{name}");
-        let se = u.standard_error.unwrap();
-        assert!(
-            (u.value - true_value).abs() < 3.0 * se && se < 0.2 * true_value,
-            "{name}: identified {} +/- {se}, true {true_value}",
-            u.value
-        );
+        common::assert_recovered(&elastic, name, true_value);
     }
     // The torques the compliances were identified over: the span of each
     // joint's gravity torque over the training poses, named in the notes.

@@ -57,9 +57,13 @@ pub struct CalibrateArgs {
     pub robot: String,
     #[command(flatten)]
     pub robot_file: crate::robot_arg::RobotFileArgs,
-    /// Identification measurements.
-    #[arg(long)]
-    pub data: PathBuf,
+    /// Identification measurements. Give it again for each further station
+    /// (another placement of the tracker, another campaign of the same
+    /// robot and target): the files are pooled, each with its own
+    /// measurement frame (`frame_s2_x`, ...), and pose labels carry the
+    /// station's number (`--exclude s2:line 534`).
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
     /// Format of the measurement files.
     #[arg(long, value_enum, default_value = "own")]
     pub format: DataFormat,
@@ -67,7 +71,8 @@ pub struct CalibrateArgs {
     #[arg(long)]
     pub validate: Option<PathBuf>,
     /// Parameters to keep at nominal, comma-separated (robot parameters or
-    /// frame_x..frame_rz, target_x..target_rz).
+    /// frame_x..frame_rz, target_x..target_rz; frame_s2_x.. of a second
+    /// station).
     #[arg(long, value_delimiter = ',')]
     pub fix: Vec<String>,
     /// Parameters to leave out of the base set first when the data cannot
@@ -280,6 +285,7 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
         selection: args.select,
         accuracy_grid: args.accuracy_map.clone(),
         targets: args.targets.clone(),
-        ..CalibrationConfig::new(&args.data, options)
+        station_data: args.data[1..].to_vec(),
+        ..CalibrationConfig::new(&args.data[0], options)
     })
 }

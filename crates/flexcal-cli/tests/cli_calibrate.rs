@@ -22,6 +22,49 @@ fn read_json(path: impl AsRef<Path>) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// A measurement file `DIR/name.csv` of the nominal UR10 at `n`
+/// deterministic configurations spread over the workspace (`phase` shifts
+/// them), its target positions (mm) seen through `place` (the tracker's
+/// placement); configurations and positions by `flexcal fk`.
+fn ur10_measurements(
+    d: &Path,
+    name: &str,
+    n: usize,
+    phase: f64,
+    place: &dyn Fn([f64; 3]) -> [f64; 3],
+) -> String {
+    let q_file = path(d, &format!("{name}-q.csv"));
+    let p_file = path(d, &format!("{name}-p.csv"));
+    let mut q_text = String::from("q1,q2,q3,q4,q5,q6\n");
+    for k in 0..n {
+        let t = k as f64 + phase;
+        q_text.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            (0.37 * t).sin() * 2.5,
+            -1.5 + (0.53 * t).sin(),
+            (0.29 * t).cos() * 2.0,
+            (0.71 * t).sin() * 2.0,
+            0.8 + (0.43 * t).sin(),
+            (0.61 * t).cos() * 2.5
+        ));
+    }
+    std::fs::write(&q_file, &q_text).unwrap();
+    let out = flexcal(&[
+        "fk", "--robot", "ur10", "--input", &q_file, "--output", &p_file,
+    ]);
+    assert!(out.status.success(), "{}", text(&out).1);
+    let poses = std::fs::read_to_string(&p_file).unwrap();
+    let mut csv = String::from("q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm\n");
+    for (q, p) in q_text.lines().skip(1).zip(poses.lines().skip(1)) {
+        let xyz: Vec<f64> = p.split(',').take(3).map(|v| v.parse().unwrap()).collect();
+        let [x, y, z] = place([xyz[0] * 1e3, xyz[1] * 1e3, xyz[2] * 1e3]);
+        csv.push_str(&format!("{q},{x},{y},{z}\n"));
+    }
+    let file = path(d, &format!("{name}.csv"));
+    std::fs::write(&file, csv).unwrap();
+    file
+}
+
 #[test]
 fn twin_files_calibrate_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
@@ -370,47 +413,11 @@ fn bad_input_gives_clear_errors() {
 fn elasto_geometric_calibration_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // Deterministic configurations spread over the workspace.
-    let joints = |n: usize, phase: f64| -> String {
-        let mut text = String::from("q1,q2,q3,q4,q5,q6\n");
-        for k in 0..n {
-            let t = k as f64 + phase;
-            text.push_str(&format!(
-                "{},{},{},{},{},{}\n",
-                (0.37 * t).sin() * 2.5,
-                -1.5 + (0.53 * t).sin(),
-                (0.29 * t).cos() * 2.0,
-                (0.71 * t).sin() * 2.0,
-                0.8 + (0.43 * t).sin(),
-                (0.61 * t).cos() * 2.5
-            ));
-        }
-        text
-    };
+    // Seen from a tracker 3 m away.
     let measurements = |name: &str, n: usize, phase: f64| -> String {
-        let q_file = path(d, &format!("{name}-q.csv"));
-        let p_file = path(d, &format!("{name}-p.csv"));
-        let q_text = joints(n, phase);
-        std::fs::write(&q_file, &q_text).unwrap();
-        let out = flexcal(&[
-            "fk", "--robot", "ur10", "--input", &q_file, "--output", &p_file,
-        ]);
-        assert!(out.status.success(), "{}", text(&out).1);
-        let poses = std::fs::read_to_string(&p_file).unwrap();
-        let mut csv = String::from("q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm\n");
-        for (q, p) in q_text.lines().skip(1).zip(poses.lines().skip(1)) {
-            let xyz: Vec<f64> = p.split(',').take(3).map(|v| v.parse().unwrap()).collect();
-            // Seen from a tracker 3 m away.
-            csv.push_str(&format!(
-                "{q},{},{},{}\n",
-                xyz[0] * 1e3 + 3000.0,
-                xyz[1] * 1e3 - 200.0,
-                xyz[2] * 1e3 + 100.0
-            ));
-        }
-        let file = path(d, &format!("{name}.csv"));
-        std::fs::write(&file, csv).unwrap();
-        file
+        ur10_measurements(d, name, n, phase, &|[x, y, z]| {
+            [x + 3000.0, y - 200.0, z + 100.0]
+        })
     };
     let train = measurements("train", 120, 0.0);
     let validate = measurements("validate", 60, 0.5);
@@ -575,6 +582,96 @@ fn elasto_geometric_calibration_end_to_end() {
     assert!(!out.status.success() && !stderr.contains("panicked"));
     assert!(
         stderr.contains("--residual-model") && stderr.contains("theta9"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn several_stations_pool_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One UR10 seen from two placements of the tracker: the second on the
+    // other side, turned a quarter turn about the vertical.
+    let station = |name: &str, n: usize, phase: f64, place: &dyn Fn([f64; 3]) -> [f64; 3]| {
+        ur10_measurements(d, name, n, phase, place)
+    };
+    let north = station("north", 40, 0.0, &|[x, y, z]| {
+        [x + 3000.0, y - 200.0, z + 100.0]
+    });
+    let south = station("south", 40, 0.5, &|[x, y, z]| {
+        [-y - 2500.0, x + 1500.0, z - 300.0]
+    });
+    let report = path(d, "report.json");
+    let pooled = |extra: &[&str]| {
+        let mut args = vec![
+            "calibrate",
+            "--robot",
+            "ur10",
+            "--data",
+            &north,
+            "--data",
+            &south,
+        ];
+        args.extend_from_slice(extra);
+        flexcal(&args)
+    };
+    let out = pooled(&["--exclude", "s2:#3", "--report", &report]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("frame_s2_x"), "{stdout}");
+    assert!(stdout.contains("79 poses"), "{stdout}");
+    assert!(
+        stdout.contains(&format!(
+            "station s2: {south} (39 poses, measurement frame frame_s2_*)"
+        )),
+        "{stdout}"
+    );
+    let json = read_json(&report);
+    let id = &json["identification"];
+    // The nominal robot measured exactly: nothing left.
+    assert!(id["position_max_mm"].as_f64().unwrap() < 1e-6, "{id}");
+    let stations = id["stations"].as_array().unwrap();
+    assert_eq!(stations.len(), 2);
+    assert_eq!(stations[1]["name"].as_str().unwrap(), south);
+    for (s, expected) in [[3000.0, -200.0, 100.0], [-2500.0, 1500.0, -300.0]]
+        .iter()
+        .enumerate()
+    {
+        let t = &stations[s]["measurement_frame"]["translation_mm"];
+        for (i, e) in expected.iter().enumerate() {
+            assert!(
+                (t[i].as_f64().unwrap() - e).abs() < 1e-6,
+                "station {s}: {t} against {expected:?}"
+            );
+        }
+    }
+    assert_eq!(
+        id["measurement_frame"], stations[0]["measurement_frame"],
+        "the first station's frame is the report's measurement frame"
+    );
+    // One station has no `stations` array.
+    let single = path(d, "single.json");
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &north,
+        "--report",
+        &single,
+    ]);
+    assert!(out.status.success(), "{}", text(&out).1);
+    assert!(
+        read_json(&single)["identification"]
+            .get("stations")
+            .is_none()
+    );
+    // A label without its station is named with the labels' form.
+    let out = pooled(&["--exclude", "#3"]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("#3") && stderr.contains("s1:#0") && stderr.lines().count() == 1,
         "{stderr}"
     );
 }

@@ -546,10 +546,22 @@ impl CalibrationResult {
         position_norms(py, &self.calibration.training_after_per_pose)
     }
 
-    /// The identified measurement frame x_meas_base (4 x 4, m).
+    /// The identified measurement frame x_meas_base (4 x 4, m); of the
+    /// first station when the set has several.
     #[getter]
     fn measurement_frame<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
         matrix(py, &self.calibration.x_meas_base)
+    }
+
+    /// The identified measurement frame of every station (4 x 4, m), by
+    /// station name; one entry for a set of one station.
+    #[getter]
+    fn station_frames<'py>(&self, py: Python<'py>) -> Vec<(String, Bound<'py, PyArrayDyn<f64>>)> {
+        std::iter::once(&self.calibration.x_meas_base)
+            .chain(&self.calibration.station_frames)
+            .zip(&self.calibration.station_names)
+            .map(|(frame, name)| (name.clone(), matrix(py, frame)))
+            .collect()
     }
 
     /// The identified target pose in the TCP frame x_tcp_target (4 x 4, m).

@@ -124,6 +124,39 @@ impl MeasurementSet {
         self.set.write_csv(&path).map_err(|e| calib_error(&e))
     }
 
+    /// Several sets as the stations of one calibration: each keeps its own
+    /// measurement frame (a tracker moved, a campaign of another day), the
+    /// robot and the target are shared. Labels then carry the station's
+    /// number (`s2:line 534`). The sets must come from the same format.
+    #[staticmethod]
+    fn pooled(sets: Vec<PyRef<'_, MeasurementSet>>) -> PyResult<Self> {
+        let origin = sets.first().map_or(Origin::Own, |s| s.origin);
+        if sets.iter().any(|s| s.origin != origin) {
+            return Err(InputError::new_err(
+                "sets: pooled sets must come from the same format (own or ipa)",
+            ));
+        }
+        let owned: Vec<Set> = sets.iter().map(|s| (*s.set).clone()).collect();
+        Ok(Self {
+            set: Arc::new(Set::pooled(&owned).map_err(|e| calib_error(&e))?),
+            origin,
+        })
+    }
+
+    /// Names of the stations (a file, or a `station` column's values).
+    #[getter]
+    fn station_names(&self) -> Vec<String> {
+        self.set.station_names().to_vec()
+    }
+
+    /// The station (index into `station_names`) of each pose.
+    #[getter]
+    fn station_of(&self) -> Vec<usize> {
+        (0..self.set.len())
+            .map(|k| self.set.station_of(k))
+            .collect()
+    }
+
     /// The poses at `indices` (for splitting a set).
     fn subset(&self, indices: Vec<usize>) -> PyResult<Self> {
         Ok(Self {

@@ -76,6 +76,11 @@ impl MeasurementFormat {
 pub struct CalibrationConfig {
     /// Identification measurements.
     pub data: PathBuf,
+    /// Identification measurements of further stations (same format):
+    /// pooled with `data` ([`MeasurementSet::pooled`]), each file with its
+    /// own measurement frame, the robot and the target shared. Pose labels
+    /// then carry the station's number (`s2:line 534`), `exclude` included.
+    pub station_data: Vec<PathBuf>,
     /// Format of both measurement files.
     pub format: MeasurementFormat,
     /// Validation measurements (same format), ideally other poses.
@@ -118,6 +123,7 @@ impl CalibrationConfig {
     pub fn new(data: impl Into<PathBuf>, options: CalibrationOptions) -> Self {
         Self {
             data: data.into(),
+            station_data: Vec::new(),
             format: MeasurementFormat::Own,
             validate: None,
             exclude: Vec::new(),
@@ -297,7 +303,16 @@ fn read_excluding(
     option: &'static str,
     exclusions: &mut Vec<Exclusion>,
 ) -> Result<MeasurementSet> {
-    let set = format.read(path)?;
+    exclude(format.read(path)?, labels, option, exclusions)
+}
+
+/// `set` without the poses labelled `labels`, the exclusion recorded.
+fn exclude(
+    set: MeasurementSet,
+    labels: &[String],
+    option: &'static str,
+    exclusions: &mut Vec<Exclusion>,
+) -> Result<MeasurementSet> {
     if labels.is_empty() {
         return Ok(set);
     }
@@ -345,13 +360,22 @@ pub fn run_calibration(
         }
     }
     let mut exclusions = Vec::new();
-    let data = read_excluding(
-        &config.data,
-        config.format,
-        &config.exclude,
-        "--exclude",
-        &mut exclusions,
-    )?;
+    let data = if config.station_data.is_empty() {
+        read_excluding(
+            &config.data,
+            config.format,
+            &config.exclude,
+            "--exclude",
+            &mut exclusions,
+        )?
+    } else {
+        let sets = std::iter::once(&config.data)
+            .chain(&config.station_data)
+            .map(|path| config.format.read(path))
+            .collect::<Result<Vec<_>>>()?;
+        let pooled = MeasurementSet::pooled(&sets).map_err(step("pooling the stations"))?;
+        exclude(pooled, &config.exclude, "--exclude", &mut exclusions)?
+    };
     let validation_set = config
         .validate
         .as_deref()

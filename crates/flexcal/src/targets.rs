@@ -53,6 +53,7 @@ pub fn run_target_calibration(
     };
     let unsupported = [
         ("format", config.format != MeasurementFormat::Own),
+        ("station_data", !config.station_data.is_empty()),
         ("exclude", !config.exclude.is_empty()),
         ("exclude_validation", !config.exclude_validation.is_empty()),
         ("target_mm", config.target_mm.is_some()),

@@ -50,6 +50,23 @@ pub fn assert_jacobian_matches(
     jac
 }
 
+/// Asserts that `name` is identified in `calibration` within 3 standard
+/// errors of `true_value`, with a standard error below a fifth of it.
+pub fn assert_recovered(calibration: &flexcal_calib::Calibration, name: &str, true_value: f64) {
+    let u = calibration
+        .unknowns
+        .iter()
+        .find(|u| u.name == name)
+        .unwrap_or_else(|| panic!("no unknown {name}"));
+    assert_eq!(u.status, flexcal_calib::UnknownStatus::Identified, "{name}");
+    let se = u.standard_error.unwrap();
+    assert!(
+        (u.value - true_value).abs() < 3.0 * se && se < 0.2 * true_value,
+        "{name}: identified {} +/- {se}, true {true_value}",
+        u.value
+    );
+}
+
 /// A UR10 configuration (rad) drawn over a working range: shoulder from
 /// -2.6 to -0.5 rad (arm above the base), elbow within +-2.2 rad, the other
 /// joints within +-2.5 rad.

@@ -177,6 +177,14 @@ class MeasurementSet:
         """flexcal's CSV (mm, deg columns) or the IPA laser-tracker export."""
     def write_csv(self, path: StrPath) -> None:
         """Writes flexcal's CSV (mm, deg)."""
+    @staticmethod
+    def pooled(sets: Sequence[MeasurementSet]) -> MeasurementSet:
+        """The sets as the stations of one calibration (one measurement frame each)."""
+    @property
+    def station_names(self) -> list[str]: ...
+    @property
+    def station_of(self) -> list[int]:
+        """Index into station_names, per pose."""
     def subset(self, indices: Sequence[int]) -> MeasurementSet: ...
     def excluding(self, labels: Sequence[str]) -> MeasurementSet:
         """Without the poses of these labels (pose_id, `#k`, `line N`)."""
@@ -391,7 +399,10 @@ class CalibrationResult:
         """(n,) identification-set position errors after identification, m."""
     @property
     def measurement_frame(self) -> FloatArray:
-        """(4, 4) identified x_meas_base, m."""
+        """(4, 4) identified x_meas_base, m (of the first station)."""
+    @property
+    def station_frames(self) -> list[tuple[str, FloatArray]]:
+        """(station name, (4, 4) x_meas_base in m) of every station."""
     @property
     def target(self) -> FloatArray:
         """(4, 4) identified x_tcp_target, m."""

@@ -245,3 +245,52 @@ def test_predicted_accuracy_covers_new_poses_and_names_extrapolation(ur10):
     assert one.to_csv().splitlines()[0].endswith(",outside_training_range")
     with pytest.raises(flexcal.ShapeError, match="q"):
         result.predicted_accuracy(np.zeros((3, 5)))
+
+
+def test_two_stations_are_pooled_with_a_frame_each(ur10):
+    """A robot seen from two tracker placements: the pooled calibration
+    finds both frames, and the motion between the placements exactly."""
+    truth, rng = simulated_ur10(ur10, seed=41)
+
+    def placement(angle, offset):
+        c, s = np.cos(angle), np.sin(angle)
+        frame = np.eye(4)
+        frame[:2, :2] = [[c, -s], [s, c]]
+        frame[:3, 3] = offset
+        return frame
+
+    frames = [placement(0.3, [3.0, -0.2, 0.1]), placement(-2.0, [-2.5, 1.5, -0.3])]
+    sets = []
+    for k, frame in enumerate(frames):
+        q = configurations(ur10, 80, seed=42 + k)
+        local = measure(ur10, truth, q, rng)
+        seen = local @ frame[:3, :3].T + frame[:3, 3]
+        sets.append(flexcal.MeasurementSet.from_arrays(q, seen, source=f"station {k + 1}"))
+    pooled = flexcal.MeasurementSet.pooled(sets)
+    assert pooled.station_names == ["station 1", "station 2"]
+    assert pooled.station_of == [0] * 80 + [1] * 80
+    assert pooled.labels[80] == "s2:#0"
+    result = flexcal.calibrate(ur10, pooled, fixed_target=True, select="none")
+    assert result.after.position_rms < 1.5 * np.sqrt(3) * NOISE
+    names = [name for name, _ in result.station_frames]
+    assert names == ["station 1", "station 2"]
+    (_, first), (_, second) = result.station_frames
+    np.testing.assert_array_equal(first, result.measurement_frame)
+    # The base errors the frames absorb cancel in the motion between them.
+    identified = second @ np.linalg.inv(first)
+    true_motion = frames[1] @ np.linalg.inv(frames[0])
+    assert np.abs(identified[:3, 3] - true_motion[:3, 3]).max() < 1e-4
+    assert np.abs(identified[:3, :3] - true_motion[:3, :3]).max() < 1e-4
+    # Treated as one station the same poses cannot be fitted.
+    one = flexcal.MeasurementSet.from_arrays(pooled.q, pooled.positions)
+    wrong = flexcal.calibrate(ur10, one, fixed_target=True, select="none")
+    assert wrong.after.position_rms > 0.1
+
+
+def test_sets_of_different_formats_are_not_pooled():
+    ipa = flexcal.MeasurementSet.read_csv(
+        ipa_series("Series_C", "measurements_random_poses.csv"), format="ipa"
+    )
+    own = flexcal.MeasurementSet.from_arrays(ipa.q[:10], ipa.positions[:10])
+    with pytest.raises(flexcal.InputError, match="same format"):
+        flexcal.MeasurementSet.pooled([ipa, own])

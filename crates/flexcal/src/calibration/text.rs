@@ -57,6 +57,24 @@ impl CalibrationRun {
             self.data.len(),
             self.data.source
         );
+        if self.data.n_stations() > 1 {
+            // What the `s2:` of the labels and the `frame_s2_*` unknowns mean.
+            for (s, name) in self.data.station_names().iter().enumerate() {
+                let poses = (0..self.data.len())
+                    .filter(|&k| self.data.station_of(k) == s)
+                    .count();
+                put!(
+                    out,
+                    "  station s{}: {name} ({poses} poses, measurement frame {})",
+                    s + 1,
+                    if s == 0 {
+                        "frame_*".to_string()
+                    } else {
+                        format!("frame_s{}_*", s + 1)
+                    }
+                );
+            }
+        }
         if let Some(selection) = &self.selection {
             selection.lines().iter().for_each(|l| {
                 put!(out, "{l}");
