@@ -29,15 +29,17 @@ fn pose_values(k: usize) -> [f64; 12] {
 }
 
 /// A measurement file as flexcal writes it: UR10 configurations with
-/// positions, orientations, standard deviations and temperatures.
+/// positions, orientations, standard deviations and temperatures, measured
+/// from two stations.
 fn measurement_csv() -> String {
     let mut text = String::from(
-        "pose_id,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,sx_mm,sy_mm,sz_mm,temperature_c\n",
+        "pose_id,station,q1,q2,q3,q4,q5,q6,x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,sx_mm,sy_mm,sz_mm,temperature_c\n",
     );
     for k in 0..12 {
         let values: Vec<String> = pose_values(k).iter().map(f64::to_string).collect();
         text.push_str(&format!(
-            "p{k},{},0.01,0.01,0.02,{}\n",
+            "p{k},{},{},0.01,0.01,0.02,{}\n",
+            ["north", "south"][k % 2],
             values.join(","),
             21.5 + k as f64 * 0.1
         ));
@@ -57,6 +59,11 @@ fn measurement_csv_reader_survives_mutated_files() {
             Ok(set) => {
                 valid += 1;
                 assert!(!set.measurements().is_empty());
+                // Every station named has a pose, every pose a station.
+                for s in 0..set.n_stations() {
+                    assert!(set.station_poses(s).is_some(), "station {s}");
+                }
+                assert!((0..set.len()).all(|k| set.station_of(k) < set.n_stations()));
             }
             Err(e) => assert!(e.to_string().contains("fuzz.csv"), "{e}"),
         }

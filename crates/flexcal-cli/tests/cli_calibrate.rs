@@ -674,4 +674,20 @@ fn several_stations_pool_end_to_end() {
         stderr.contains("#3") && stderr.contains("s1:#0") && stderr.lines().count() == 1,
         "{stderr}"
     );
+    // The same file twice is a slip, not two stations.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &north,
+        "--data",
+        &north,
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("given twice") && stderr.contains(&north) && stderr.lines().count() == 1,
+        "{stderr}"
+    );
 }

@@ -369,6 +369,25 @@ pub fn run_calibration(
             &mut exclusions,
         )?
     } else {
+        // The same file twice would be two stations that saw the very same
+        // poses: a slip of the command line, not a campaign.
+        let files: Vec<&PathBuf> = std::iter::once(&config.data)
+            .chain(&config.station_data)
+            .collect();
+        if let Some((k, path)) = files
+            .iter()
+            .enumerate()
+            .find(|(k, p)| files[..*k].contains(p))
+        {
+            return Err(invalid(
+                "station_data",
+                format!(
+                    "{} is given twice (as station {} and an earlier one): each file is one station",
+                    path.display(),
+                    k + 1
+                ),
+            ));
+        }
         let sets = std::iter::once(&config.data)
             .chain(&config.station_data)
             .map(|path| config.format.read(path))
