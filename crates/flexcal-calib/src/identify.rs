@@ -767,30 +767,38 @@ pub fn calibrate(
             None => Ok(None),
         }
     };
+    let registered = (0..set.n_stations())
+        .map(|s| if frame_fixed { Ok(None) } else { register(s) })
+        .collect::<Result<Vec<_>, CalibError>>()?;
     let x_meas_base0 = match (frame_fixed, options.measurement_frame_value) {
         (_, Some(x)) => x,
         (true, None) => Isometry3::identity(),
-        (false, None) => register(0)?.unwrap_or_else(Isometry3::identity),
+        (false, None) => registered[0].unwrap_or_else(Isometry3::identity),
     };
-    let mut station_frames0 = Vec::new();
-    let mut empty_stations = Vec::new();
-    for s in 1..set.n_stations() {
-        let start = if frame_fixed { None } else { register(s)? };
-        if set.station_poses(s).is_none() {
-            empty_stations.push(s);
-        }
-        station_frames0.push(start.unwrap_or(x_meas_base0));
-    }
+    let station_frames0: Vec<Isometry3<f64>> = registered[1..]
+        .iter()
+        .map(|start| start.unwrap_or(x_meas_base0))
+        .collect();
+    let empty_stations: Vec<usize> = (0..set.n_stations())
+        .filter(|&s| set.station_poses(s).is_none())
+        .collect();
     // Measured orientations: the target's orientation starts where the data
     // put it (unless fixed or given), as the measurement frame does; from
-    // the first station's poses, in its frame.
+    // the first station with poses, in its frame.
     let x_tcp_target0 = if use_orientation
         && options.target != FrameTreatment::Fixed
         && options.target_value.is_none()
     {
-        let first_station = set.station_poses(0).unwrap_or_else(|| set.clone());
-        let rotation =
-            register_target_rotation(model, &first_station, model.nominal_params(), &x_meas_base0)?;
+        let s = (0..set.n_stations())
+            .find(|s| !empty_stations.contains(s))
+            .unwrap_or(0);
+        let frame = if s == 0 {
+            x_meas_base0
+        } else {
+            station_frames0[s - 1]
+        };
+        let poses = set.station_poses(s).unwrap_or_else(|| set.clone());
+        let rotation = register_target_rotation(model, &poses, model.nominal_params(), &frame)?;
         Isometry3::from_parts(x_tcp_target0.translation, rotation)
     } else {
         x_tcp_target0
@@ -1574,6 +1582,9 @@ impl SpreadInputs<'_> {
         // The spread poses are shared out among the stations, each of
         // which then sees as many as its frame needs.
         let stations = self.set.n_stations();
+        if count < stations {
+            return Ok(out);
+        }
         let reference = MeasurementSet::new("spread reference", drawn)?.with_stations(
             self.set.station_names().to_vec(),
             (0..count).map(|k| k % stations).collect(),

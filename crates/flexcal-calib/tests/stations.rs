@@ -176,6 +176,26 @@ fn pooled_stations_recover_both_frames_exactly_where_one_frame_cannot() {
     // Each station validates on its own: the identified frames are exact.
     let errors = calibration.training_errors(&model, &pooled).unwrap();
     assert!(errors.iter().all(|e| e.position < 1e-9));
+    // A subset without the first station's poses: that frame has no
+    // influence and the rest fits as well.
+    let second_only = pooled.subset(&(50..100).collect::<Vec<_>>()).unwrap();
+    let subset_fit = calibrate(&model, &second_only, &options).unwrap();
+    assert!(subset_fit.training_after.position_max < 1e-9);
+    for u in &subset_fit.unknowns {
+        if u.name.starts_with("frame_") {
+            let first_frame = !u.name.starts_with("frame_s2_");
+            assert_eq!(
+                u.status,
+                if first_frame {
+                    UnknownStatus::NoInfluence
+                } else {
+                    UnknownStatus::Identified
+                },
+                "{}",
+                u.name
+            );
+        }
+    }
     // The two stations as one (one measurement frame for both) cannot fit:
     // the frames are metres apart.
     let mut joined = first.measurements().to_vec();
