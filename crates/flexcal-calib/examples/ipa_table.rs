@@ -19,6 +19,9 @@
 //! prints it with the lateral joint compliances allowed in the richest model
 //! (`GravityCompliance::lateral`, one more group for the selection).
 //!
+//! The compliance table ends with the three series pooled as three
+//! stations.
+//!
 //! Then two series pooled as two stations (one measurement frame each,
 //! `MeasurementSet::pooled`) and validated on the third, by the same
 //! protocol and selection; `ipa_table pooled` prints that part only.
@@ -262,13 +265,21 @@ fn selected_table(
     println!(
         "| series | model | compliance_theta2 | compliance_theta3 | hardening_theta2 (1/mrad) | lost_motion_theta2 (mrad) |\n|---|---|---|---|---|---|"
     );
-    for name in ["B", "C", "D"] {
+    // Each series, then the three together as three stations: the shoulder
+    // loaded from both sides over the whole span of its torque.
+    let all = MeasurementSet::pooled(&[set("B").clone(), set("C").clone(), set("D").clone()])?;
+    for (name, data) in [
+        ("B", set("B")),
+        ("C", set("C")),
+        ("D", set("D")),
+        ("B + C + D", &all),
+    ] {
         for (label, options) in [("linear", elastic), ("law", &richest)] {
             let mut options = options.clone();
             options.joint_terms.cyclic = false;
-            let c = calibrate(model, set(name), &options)?;
+            let c = calibrate(model, data, &options)?;
             print_lateral(&format!("{name} ({label})"), &c);
-            let split = SplitCheck::new(model, set(name), &options, &c)?;
+            let split = SplitCheck::new(model, data, &options, &c)?;
             let cell = |unknown: &str, scale: f64| estimate_cell(&c, &split, unknown, scale);
             println!(
                 "| {name} | {label} | {} | {} | {} | {} |",
