@@ -334,6 +334,10 @@ pub struct Calibration {
     pub station_frames: Vec<Isometry3<f64>>,
     /// Names of the stations, in order (one for a set from one file).
     pub station_names: Vec<String>,
+    /// Errors after identification of each station's poses, in the order
+    /// of `station_names` (one entry, equal to `training_after`, for one
+    /// station; a station a subset left out has zero poses).
+    pub station_errors: Vec<ErrorStatistics>,
     /// Identified (or fixed) target offset `x_tcp_target`.
     pub x_tcp_target: Isometry3<f64>,
     /// Starting target offset (nominal).
@@ -1197,12 +1201,22 @@ pub fn calibrate(
     let errors_after = pose_errors(&problem, &x)?;
     let training_after = error_statistics(&errors_after);
     let data_checks = DataChecks::new(set, &errors_after);
+    let station_errors = (0..set.n_stations())
+        .map(|s| {
+            let of_station: Vec<PoseError> = (0..set.len())
+                .filter(|&k| set.station_of(k) == s)
+                .map(|k| errors_after[k])
+                .collect();
+            error_statistics(&of_station)
+        })
+        .collect();
     Ok(Calibration {
         xi,
         nominal_xi: model.nominal_params().to_vec(),
         x_meas_base,
         station_frames,
         station_names: set.station_names().to_vec(),
+        station_errors,
         x_tcp_target,
         x_tcp_target_initial: x_tcp_target0,
         x_tcp_target_nominal_robot: x_tcp_target_nominal,

@@ -140,6 +140,10 @@ pub struct StationJson {
     pub name: String,
     /// Its measurement frame `x_meas_base`.
     pub measurement_frame: FrameJson,
+    /// Errors of its poses after identification (the fields `n_poses`,
+    /// `position_mean_mm`, ... sit directly in this object).
+    #[serde(flatten)]
+    pub after: StatisticsJson,
 }
 
 /// One actuated coordinate in the `coverage` array.
@@ -418,9 +422,11 @@ impl CalibrationReportJson {
                 std::iter::once(&calibration.x_meas_base)
                     .chain(&calibration.station_frames)
                     .zip(&calibration.station_names)
-                    .map(|(frame, name)| StationJson {
+                    .zip(&calibration.station_errors)
+                    .map(|((frame, name), errors)| StationJson {
                         name: name.clone(),
                         measurement_frame: FrameJson::from(frame),
+                        after: StatisticsJson::from(errors),
                     })
                     .collect()
             },

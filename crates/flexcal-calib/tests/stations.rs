@@ -164,6 +164,12 @@ fn pooled_stations_recover_both_frames_exactly_where_one_frame_cannot() {
         calibration.training_after
     );
     assert_eq!(calibration.station_frames.len(), 1);
+    let counts: Vec<usize> = calibration
+        .station_errors
+        .iter()
+        .map(|e| e.n_poses)
+        .collect();
+    assert_eq!(counts, [50, 50]);
     // The base parameters the frames absorb are the same for both stations:
     // the motion from one tracker placement to the other is exact.
     let identified = calibration.station_frames[0] * calibration.x_meas_base.inverse();

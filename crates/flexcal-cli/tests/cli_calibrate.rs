@@ -633,6 +633,18 @@ fn several_stations_pool_end_to_end() {
     let stations = id["stations"].as_array().unwrap();
     assert_eq!(stations.len(), 2);
     assert_eq!(stations[1]["name"].as_str().unwrap(), south);
+    // Each station's errors after identification, over its own poses.
+    let counts: Vec<u64> = stations
+        .iter()
+        .map(|s| s["n_poses"].as_u64().unwrap())
+        .collect();
+    assert_eq!(counts, [40, 39]);
+    assert!(
+        stations
+            .iter()
+            .all(|s| s["position_max_mm"].as_f64().unwrap() < 1e-6)
+    );
+    assert!(stdout.contains("  station s2"), "{stdout}");
     for (s, expected) in [[3000.0, -200.0, 100.0], [-2500.0, 1500.0, -300.0]]
         .iter()
         .enumerate()

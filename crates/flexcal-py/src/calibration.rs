@@ -539,6 +539,18 @@ impl CalibrationResult {
         (&self.calibration.training_after).into()
     }
 
+    /// Errors after identification of each station's poses, by station
+    /// name (one entry for a set of one station).
+    #[getter]
+    fn station_errors(&self) -> Vec<(String, ErrorStatistics)> {
+        self.calibration
+            .station_names
+            .iter()
+            .zip(&self.calibration.station_errors)
+            .map(|(name, errors)| (name.clone(), errors.into()))
+            .collect()
+    }
+
     /// Position error of every identification pose after identification,
     /// shape (n,), m.
     #[getter]

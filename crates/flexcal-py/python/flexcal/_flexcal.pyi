@@ -404,6 +404,9 @@ class CalibrationResult:
     def station_frames(self) -> list[tuple[str, FloatArray]]:
         """(station name, (4, 4) x_meas_base in m) of every station."""
     @property
+    def station_errors(self) -> list[tuple[str, ErrorStatistics]]:
+        """(station name, errors of its poses after identification)."""
+    @property
     def target(self) -> FloatArray:
         """(4, 4) identified x_tcp_target, m."""
     def validate(self, other: MeasurementSet, refit_target: bool = False) -> ValidationResult: ...

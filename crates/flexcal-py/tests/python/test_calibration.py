@@ -274,6 +274,11 @@ def test_two_stations_are_pooled_with_a_frame_each(ur10):
     assert result.after.position_rms < 1.5 * np.sqrt(3) * NOISE
     names = [name for name, _ in result.station_frames]
     assert names == ["station 1", "station 2"]
+    assert [(name, e.n_poses) for name, e in result.station_errors] == [
+        ("station 1", 80),
+        ("station 2", 80),
+    ]
+    assert max(e.position_rms for _, e in result.station_errors) < 1.5 * np.sqrt(3) * NOISE
     (_, first), (_, second) = result.station_frames
     np.testing.assert_array_equal(first, result.measurement_frame)
     # The base errors the frames absorb cancel in the motion between them.

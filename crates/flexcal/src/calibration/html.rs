@@ -56,6 +56,14 @@ impl CalibrationRun {
                 &self.calibration.training_after,
             ),
         ];
+        if self.calibration.station_errors.len() > 1 {
+            for (s, errors) in self.calibration.station_errors.iter().enumerate() {
+                rows.push(statistics_row(
+                    &format!("identification, calibrated, station s{}", s + 1),
+                    errors,
+                ));
+            }
+        }
         if let Some(v) = &self.validation {
             rows.push(statistics_row("validation, nominal", &v.before));
             rows.push(statistics_row("validation, calibrated", &v.after));

@@ -390,6 +390,11 @@ pub fn errors_text(c: &Calibration, validation: Option<&ValidationReport>) -> St
     );
     out += &statistics_row("identification before", &c.training_before);
     out += &statistics_row("identification after", &c.training_after);
+    if c.station_errors.len() > 1 {
+        for (s, errors) in c.station_errors.iter().enumerate() {
+            out += &statistics_row(&format!("  station s{}", s + 1), errors);
+        }
+    }
     if let Some(v) = validation {
         out += &statistics_row("validation before", &v.before);
         out += &statistics_row("validation after", &v.after);
