@@ -230,6 +230,7 @@ mod error;
 pub mod error_model;
 pub mod geometry;
 pub mod gravity;
+pub mod holdout;
 pub mod identify;
 pub mod identify_targets;
 pub mod joint_law;
@@ -257,6 +258,7 @@ pub use error_model::{
 pub use flexcal_optim::CancelToken;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
+pub use holdout::{StationHoldOut, hold_out_stations};
 pub use identify::{
     Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
     ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,
@@ -272,7 +274,8 @@ pub use measurement::{
 };
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{
-    CalibrationReportJson, FrameJson, ResidualModelJson, StationJson, read_measurement_frame,
+    CalibrationReportJson, FrameJson, ResidualModelJson, StationHoldOutJson, StationJson,
+    read_measurement_frame,
 };
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{

@@ -291,6 +291,37 @@ pub struct CalibrationReportJson {
     /// The model selection that chose the identified groups, when run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub selection: Option<crate::SelectionReport>,
+    /// Each station held out in turn ([`crate::hold_out_stations`]), when
+    /// asked for.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub station_hold_out: Vec<StationHoldOutJson>,
+}
+
+/// One station held out, in the report's units.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct StationHoldOutJson {
+    /// Name of the held-out station.
+    pub station: String,
+    /// Groups the selection chose on the other stations (absent without
+    /// selection).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chosen: Option<Vec<String>>,
+    /// Its errors with the robot calibrated on the other stations.
+    #[serde(flatten)]
+    pub after: StatisticsJson,
+    /// The same with the nominal robot.
+    pub before: StatisticsJson,
+}
+
+impl From<&crate::StationHoldOut> for StationHoldOutJson {
+    fn from(h: &crate::StationHoldOut) -> Self {
+        Self {
+            station: h.station.clone(),
+            chosen: h.chosen.clone(),
+            after: StatisticsJson::from(&h.after),
+            before: StatisticsJson::from(&h.before),
+        }
+    }
 }
 
 /// The `residual_model` object.
@@ -457,6 +488,7 @@ impl CalibrationReportJson {
             residual_model: None,
             split_check: None,
             cross_check: None,
+            station_hold_out: Vec::new(),
             selection: None,
         }
     }

@@ -276,6 +276,23 @@ fn pooled_stations_identify_compliances_within_their_standard_errors() {
         .accuracy_coverage(&model, &sets[1], None)
         .unwrap();
     assert_eq!(map.poses.len(), sets[1].len());
+    // Each station held out: identified on the other, validated on it.
+    let selection = flexcal_calib::SelectionOptions {
+        method: flexcal_calib::SelectionMethod::None,
+        ..Default::default()
+    };
+    let held = flexcal_calib::hold_out_stations(&model, &pooled, &options, &selection).unwrap();
+    assert_eq!(held.len(), 2);
+    for (h, set) in held.iter().zip(&sets) {
+        assert_eq!(h.after.n_poses, set.len());
+        assert!(h.chosen.is_none());
+        assert!(
+            h.after.position_mean < 1.3 * noise_mean && h.before.position_mean > 10.0 * noise_mean,
+            "{h:?}"
+        );
+    }
+    let e = flexcal_calib::hold_out_stations(&model, &sets[0], &options, &selection).unwrap_err();
+    assert!(e.to_string().contains("at least two"), "{e}");
     // The split-half check halves each station's poses (every half places
     // both frames): with independent noise its halves agree as the
     // covariance predicts, in the unknowns and in the predicted positions.

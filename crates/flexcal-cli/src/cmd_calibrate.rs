@@ -140,6 +140,12 @@ pub struct CalibrateArgs {
     /// identification time).
     #[arg(long)]
     pub split_check: bool,
+    /// With several --data files (stations): hold each out in turn,
+    /// identify on the others (the model selected on them) and validate on
+    /// it, its measurement frame re-fitted (one more identification per
+    /// station).
+    #[arg(long)]
+    pub hold_out_stations: bool,
     /// Check what transfers: identify the same unknowns again on the
     /// validation set and compare them in combined standard errors
     /// (needs --validate).
@@ -280,6 +286,7 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
         target_mm,
         refit_target: args.refit_target,
         split_check: args.split_check,
+        hold_out_stations: args.hold_out_stations,
         cross_check: args.cross_check,
         residual_inputs: crate::list_items(&args.residual_model),
         selection: args.select,

@@ -615,7 +615,15 @@ fn several_stations_pool_end_to_end() {
         args.extend_from_slice(extra);
         flexcal(&args)
     };
-    let out = pooled(&["--exclude", "s2:#3", "--report", &report]);
+    let out = pooled(&[
+        "--exclude",
+        "s2:#3",
+        "--report",
+        &report,
+        "--hold-out-stations",
+        "--select",
+        "none",
+    ]);
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("frame_s2_x"), "{stdout}");
@@ -645,6 +653,16 @@ fn several_stations_pool_end_to_end() {
             .all(|s| s["position_max_mm"].as_f64().unwrap() < 1e-6)
     );
     assert!(stdout.contains("  station s2"), "{stdout}");
+    // Each station held out: the nominal robot, measured exactly, predicts
+    // the other station exactly.
+    assert!(stdout.contains("Each station held out"), "{stdout}");
+    let held = json["station_hold_out"].as_array().unwrap();
+    assert_eq!(held.len(), 2);
+    assert_eq!(held[0]["station"].as_str().unwrap(), north);
+    assert!(
+        held.iter()
+            .all(|h| h["position_max_mm"].as_f64().unwrap() < 1e-6)
+    );
     for (s, expected) in [[3000.0, -200.0, 100.0], [-2500.0, 1500.0, -300.0]]
         .iter()
         .enumerate()

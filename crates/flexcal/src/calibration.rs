@@ -100,6 +100,10 @@ pub struct CalibrationConfig {
     pub refit_target: bool,
     /// Run the split-half check of the standard errors.
     pub split_check: bool,
+    /// With several stations: hold each out in turn, identify on the
+    /// others (model selection included) and validate on it
+    /// ([`calib::hold_out_stations`]).
+    pub hold_out_stations: bool,
     /// Identify again on the validation set and compare (needs `validate`).
     pub cross_check: bool,
     /// Actuated coordinates of the fuzzy residual model (none: no model).
@@ -132,6 +136,7 @@ impl CalibrationConfig {
             target_mm: None,
             refit_target: false,
             split_check: false,
+            hold_out_stations: false,
             cross_check: false,
             residual_inputs: Vec::new(),
             selection: None,
@@ -184,6 +189,8 @@ pub struct CalibrationRun {
     pub validation: Option<ValidationReport>,
     /// The cross-series check, when asked for.
     pub cross: Option<CrossCheck>,
+    /// Each station held out in turn, when asked for.
+    pub station_hold_out: Vec<calib::StationHoldOut>,
     /// The fuzzy residual model, when asked for.
     pub residual: Option<ResidualFit>,
     /// The model selection, when one ran.
@@ -217,6 +224,11 @@ impl CalibrationRun {
             CalibrationReportJson::new(robot.name(), &self.calibration, self.validation.as_ref());
         report.split_check = self.split.clone();
         report.cross_check = self.cross.clone();
+        report.station_hold_out = self
+            .station_hold_out
+            .iter()
+            .map(calib::StationHoldOutJson::from)
+            .collect();
         report.selection = self.selection.clone();
         report.residual_model = self.residual.as_ref().map(|r| {
             ResidualModelJson::new(robot.actuated_names(), &r.model, r.validation.as_ref())
@@ -425,14 +437,17 @@ pub fn run_calibration(
             rotation,
         ));
     }
-    let selection = calib::SelectionOptions {
+    let selection_options = calib::SelectionOptions {
         method: config
             .selection
             .unwrap_or_else(|| calib::default_method(&data)),
         ..Default::default()
     };
+    // The options before selection, for the stations held out (each
+    // selects its own model on the other stations).
+    let base_options = options.clone();
     let (calibration, selection, options) =
-        calib::calibrate_selected(robot, &data, &options, &selection)
+        calib::calibrate_selected(robot, &data, &options, &selection_options)
             .map_err(step("identification"))?;
     let split = config
         .split_check
@@ -460,6 +475,12 @@ pub fn run_calibration(
             )
         }
         None => None,
+    };
+    let station_hold_out = if config.hold_out_stations {
+        calib::hold_out_stations(robot, &data, &base_options, &selection_options)
+            .map_err(step("each station held out"))?
+    } else {
+        Vec::new()
     };
     let cross = match (&validation_set, config.cross_check) {
         (Some(set), true) => Some(
@@ -503,6 +524,7 @@ pub fn run_calibration(
         split,
         validation,
         cross,
+        station_hold_out,
         residual,
         selection,
         coverage,

@@ -54,6 +54,7 @@ pub fn run_target_calibration(
     let unsupported = [
         ("format", config.format != MeasurementFormat::Own),
         ("station_data", !config.station_data.is_empty()),
+        ("hold_out_stations", config.hold_out_stations),
         ("exclude", !config.exclude.is_empty()),
         ("exclude_validation", !config.exclude_validation.is_empty()),
         ("target_mm", config.target_mm.is_some()),

@@ -98,6 +98,42 @@ impl CalibrationRun {
         if let Some(cross) = &self.cross {
             out += &cross_check_text(cross);
         }
+        if !self.station_hold_out.is_empty() {
+            put!(out);
+            put!(
+                out,
+                "Each station held out (identified on the others, model selected on them; validated on it with its measurement frame re-fitted):"
+            );
+            put!(
+                out,
+                "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10}  chosen",
+                "held out",
+                "poses",
+                "before mm",
+                "mean mm",
+                "rms mm",
+                "max mm"
+            );
+            for (s, h) in self.station_hold_out.iter().enumerate() {
+                put!(
+                    out,
+                    "{:<24} {:>5} {:>10.4} {:>10.4} {:>10.4} {:>10.4}  {}",
+                    format!("station s{}", s + 1),
+                    h.after.n_poses,
+                    h.before.position_mean * 1e3,
+                    h.after.position_mean * 1e3,
+                    h.after.position_rms * 1e3,
+                    h.after.position_max * 1e3,
+                    h.chosen
+                        .as_ref()
+                        .map_or("(no selection)".to_string(), |c| if c.is_empty() {
+                            "base model".to_string()
+                        } else {
+                            c.join(" + ")
+                        })
+                );
+            }
+        }
         if let Some(fit) = &self.residual {
             let r = &fit.model;
             put!(out);
