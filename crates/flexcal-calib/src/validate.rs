@@ -163,25 +163,38 @@ fn evaluate_errors_at_stations(
             problem_at(x_meas_base, fixed_stations, *x_tcp_target)?
         }
         FramePolicy::Refit { refit_target } => {
-            // Each station's frame from its own poses.
+            // Each station's frame from its own poses; a station a subset
+            // left without poses keeps a placeholder that moves nothing.
             let mut starts = Vec::with_capacity(set.n_stations());
             for s in 0..set.n_stations() {
-                let poses = set
-                    .station_poses(s)
-                    .ok_or_else(|| CalibError::BadMeasurement {
-                        source_name: set.source.clone(),
-                        line: 0,
-                        what: format!("station `{}` has no pose", set.station_names()[s]),
-                    })?;
-                starts.push(register_measurement_frame(model, &poses, xi, x_tcp_target)?);
+                starts.push(match set.station_poses(s) {
+                    Some(poses) => {
+                        Some(register_measurement_frame(model, &poses, xi, x_tcp_target)?)
+                    }
+                    None => None,
+                });
             }
-            let (problem, x0) = problem_at(starts[0], &starts[1..], *x_tcp_target)?;
+            let placeholder = starts
+                .iter()
+                .flatten()
+                .next()
+                .copied()
+                .unwrap_or_else(Isometry3::identity);
+            let later: Vec<Isometry3<f64>> = starts[1..]
+                .iter()
+                .map(|s| s.unwrap_or(placeholder))
+                .collect();
+            let (problem, x0) =
+                problem_at(starts[0].unwrap_or(placeholder), &later, *x_tcp_target)?;
             let n = problem.n_unknowns();
-            let fo = problem.frame_offset();
             let to = problem.target_offset();
             let mut fixed = vec![true; n];
-            fixed[fo..to].fill(false);
-            fixed[to + 6..problem.frames_end()].fill(false);
+            for (s, start) in starts.iter().enumerate() {
+                if start.is_some() {
+                    let o = problem.station_frame_offset(s);
+                    fixed[o..o + 6].fill(false);
+                }
+            }
             if refit_target {
                 fixed[to..to + 3].fill(false);
                 if use_orientation {
@@ -211,7 +224,9 @@ fn evaluate_errors_at_stations(
             (problem, report.x)
         }
     };
-    let (x_meas_base, _) = problem.frames(&x);
+    // The frame of the first station the poses come from.
+    let first = (0..set.len()).map(|k| set.station_of(k)).min().unwrap_or(0);
+    let x_meas_base = problem.station_frame(&x, first);
     Ok((pose_errors(&problem, &x)?, x_meas_base))
 }
 

@@ -271,6 +271,17 @@ fn pooled_stations_identify_compliances_within_their_standard_errors() {
         "{:?}",
         report.after
     );
+    // Its poses of the second station alone (a subset keeps both stations'
+    // names): the empty station's frame is left alone, the other re-fitted.
+    let second_only = fresh.subset(&(100..200).collect::<Vec<_>>()).unwrap();
+    let report = calibration.validate(&model, &second_only, false).unwrap();
+    assert!(
+        report.after.position_mean < 1.3 * noise_mean,
+        "{:?}",
+        report.after
+    );
+    let moved = report.measurement_frame.inverse() * second_station();
+    assert!(moved.translation.vector.norm() < 1e-3, "{moved:?}");
     // The predicted accuracy carries the covariance of the pooled fit.
     let map = calibration
         .accuracy_coverage(&model, &sets[1], None)
