@@ -324,6 +324,7 @@ pub struct CalibrationResult {
     nominal: Arc<Model>,
     calibrated: Robot,
     selection: Option<Arc<SelectionReport>>,
+    station_hold_out: Arc<Vec<flexcal::calib::StationHoldOut>>,
 }
 
 #[pymethods]
@@ -539,6 +540,33 @@ impl CalibrationResult {
         (&self.calibration.training_after).into()
     }
 
+    /// With `hold_out_stations=True`: each station held out in turn,
+    /// `(station, chosen groups or None, errors before, errors after)` on
+    /// its poses with the robot identified on the other stations (empty
+    /// otherwise).
+    #[getter]
+    #[allow(clippy::type_complexity)]
+    fn station_hold_out(
+        &self,
+    ) -> Vec<(
+        String,
+        Option<Vec<String>>,
+        ErrorStatistics,
+        ErrorStatistics,
+    )> {
+        self.station_hold_out
+            .iter()
+            .map(|h| {
+                (
+                    h.station.clone(),
+                    h.chosen.clone(),
+                    (&h.before).into(),
+                    (&h.after).into(),
+                )
+            })
+            .collect()
+    }
+
     /// Errors after identification of each station's poses, by station
     /// name (one entry for a set of one station).
     #[getter]
@@ -642,6 +670,11 @@ impl CalibrationResult {
             validation.map(|v| v.report.as_ref()),
         );
         report.selection = self.selection.as_deref().cloned();
+        report.station_hold_out = self
+            .station_hold_out
+            .iter()
+            .map(flexcal::calib::StationHoldOutJson::from)
+            .collect();
         report.to_json_string().map_err(|e| calib_error(&e))
     }
 
@@ -675,12 +708,14 @@ impl CalibrationResult {
 /// the poses), `"bic"` or `"none"` (every group of unknowns the options
 /// allow, the identifiability analysis alone deciding); by default, as on the
 /// command line, `"cv"` from 100 poses and `"none"` below; its report in
-/// `result.selection`.
+/// `result.selection`. `hold_out_stations` (a set of several stations,
+/// `MeasurementSet.pooled`): also each station held out in turn, identified
+/// on the others and validated on it (`result.station_hold_out`).
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -701,6 +736,7 @@ pub fn calibrate<'py>(
     masses: Option<PathBuf>,
     max_iterations: Option<usize>,
     select: Option<&str>,
+    hold_out_stations: bool,
 ) -> PyResult<CalibrationResult> {
     let nominal = Arc::clone(&robot.model);
     let selection = SelectionOptions {
@@ -814,19 +850,26 @@ pub fn calibrate<'py>(
     options.cancel = Some(cancel.clone());
     let set = Arc::clone(&data.set);
     let model = Arc::clone(&nominal);
-    let (calibration, selection, calibrated) = run_cancellable(py, Some(cancel), move || {
-        let (calibration, selection, _) = calibrate_selected(&model, &set, &options, &selection)?;
-        let calibrated = calibration
-            .description(&model)?
-            .build()
-            .map_err(Failure::Kinematics)?;
-        Ok((calibration, selection, calibrated))
-    })?;
+    let (calibration, selection, calibrated, held) =
+        run_cancellable(py, Some(cancel), move || {
+            let (calibration, report, _) = calibrate_selected(&model, &set, &options, &selection)?;
+            let calibrated = calibration
+                .description(&model)?
+                .build()
+                .map_err(Failure::Kinematics)?;
+            let held = if hold_out_stations {
+                flexcal::calib::hold_out_stations(&model, &set, &options, &selection)?
+            } else {
+                Vec::new()
+            };
+            Ok((calibration, report, calibrated, held))
+        })?;
     Ok(CalibrationResult {
         calibration: Arc::new(calibration),
         nominal,
         calibrated: Robot::new(calibrated),
         selection: selection.map(Arc::new),
+        station_hold_out: Arc::new(held),
     })
 }
 

@@ -407,6 +407,11 @@ class CalibrationResult:
     def station_errors(self) -> list[tuple[str, ErrorStatistics]]:
         """(station name, errors of its poses after identification)."""
     @property
+    def station_hold_out(
+        self,
+    ) -> list[tuple[str, Optional[list[str]], ErrorStatistics, ErrorStatistics]]:
+        """(station, chosen groups or None, before, after) per station held out; [] unless asked."""
+    @property
     def target(self) -> FloatArray:
         """(4, 4) identified x_tcp_target, m."""
     def validate(self, other: MeasurementSet, refit_target: bool = False) -> ValidationResult: ...
@@ -435,11 +440,13 @@ def calibrate(
     masses: Optional[StrPath] = None,
     max_iterations: Optional[int] = None,
     select: Literal["cv", "bic", "none"] | None = None,
+    hold_out_stations: bool = False,
 ) -> CalibrationResult:
     """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad.
 
     select: model selection as `flexcal calibrate --select` (report in `.selection`);
-    default as on the command line: "cv" from 100 poses, else "none"."""
+    default as on the command line: "cv" from 100 poses, else "none".
+    hold_out_stations: with several stations, each held out in turn (`.station_hold_out`)."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

@@ -270,7 +270,9 @@ def test_two_stations_are_pooled_with_a_frame_each(ur10):
     assert pooled.station_names == ["station 1", "station 2"]
     assert pooled.station_of == [0] * 80 + [1] * 80
     assert pooled.labels[80] == "s2:#0"
-    result = flexcal.calibrate(ur10, pooled, fixed_target=True, select="none")
+    result = flexcal.calibrate(
+        ur10, pooled, fixed_target=True, select="none", hold_out_stations=True
+    )
     assert result.after.position_rms < 1.5 * np.sqrt(3) * NOISE
     names = [name for name, _ in result.station_frames]
     assert names == ["station 1", "station 2"]
@@ -286,6 +288,15 @@ def test_two_stations_are_pooled_with_a_frame_each(ur10):
     true_motion = frames[1] @ np.linalg.inv(frames[0])
     assert np.abs(identified[:3, 3] - true_motion[:3, 3]).max() < 1e-4
     assert np.abs(identified[:3, :3] - true_motion[:3, :3]).max() < 1e-4
+    # Each station held out: the robot identified on the other predicts it
+    # to the noise.
+    held = result.station_hold_out
+    assert [name for name, *_ in held] == ["station 1", "station 2"]
+    for _, chosen, before, after in held:
+        assert chosen is None
+        assert after.n_poses == 80
+        assert after.position_rms < 2 * np.sqrt(3) * NOISE < before.position_rms
+    assert len(json.loads(result.to_json())["station_hold_out"]) == 2
     # Treated as one station the same poses cannot be fitted.
     one = flexcal.MeasurementSet.from_arrays(pooled.q, pooled.positions)
     wrong = flexcal.calibrate(ur10, one, fixed_target=True, select="none")
