@@ -704,6 +704,21 @@ fn several_stations_pool_end_to_end() {
         stderr.contains("#3") && stderr.contains("s1:#0") && stderr.lines().count() == 1,
         "{stderr}"
     );
+    // Holding out a station of a single one is refused before any fit.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ur10",
+        "--data",
+        &north,
+        "--hold-out-stations",
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("one station") && stderr.lines().count() == 1,
+        "{stderr}"
+    );
     // The same file twice is a slip, not two stations.
     let out = flexcal(&[
         "calibrate",

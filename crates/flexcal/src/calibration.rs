@@ -407,6 +407,15 @@ pub fn run_calibration(
         let pooled = MeasurementSet::pooled(&sets).map_err(step("pooling the stations"))?;
         exclude(pooled, &config.exclude, "--exclude", &mut exclusions)?
     };
+    if config.hold_out_stations && data.n_stations() < 2 {
+        return Err(invalid(
+            "hold_out_stations",
+            format!(
+                "{} holds one station: holding one out needs measurements from at least two (--data A --data B)",
+                data.source
+            ),
+        ));
+    }
     let validation_set = config
         .validate
         .as_deref()
