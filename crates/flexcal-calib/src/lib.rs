@@ -51,6 +51,19 @@
 //! Residuals are `predicted - measured` positions (m) and rotation vectors
 //! `log(R_pred R_meas^T)` (rad), weighted by `1/sigma` per axis.
 //!
+//! ## Several stations
+//! A tracker moved to see another part of the workspace, or a campaign of
+//! another day, sees the same robot and target from another measurement
+//! frame. [`MeasurementSet::pooled`] (or a `station` column) makes each a
+//! station; the model then has one measurement frame per station
+//! (`frame_s2_x..`, [`station_frame_names`]), each started from the
+//! registration of its own poses, with the robot and the target shared:
+//! pose k is predicted as `x_meas_base(s_k) * FK(q_k, xi) *
+//! x_tcp_target`. Folds of the model selection and halves of the
+//! split-half check take every station's poses in turn, validation
+//! re-fits one frame per station, and [`hold_out_stations`] identifies on
+//! all stations but one and validates on it, for each.
+//!
 //! ## Several targets, tree-structured robots
 //! [`TargetMeasurementSet`] holds several targets per pose, each fixed to a
 //! named frame of the robot (markers on the two hands of a two-armed robot,
@@ -211,7 +224,10 @@
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
 //! - Several targets: positions only (orientation columns are read, not
 //!   fitted), geometric model only (no gravity compliance, joint terms or
-//!   Gauss-Newton), no spread ratios or split-half checks.
+//!   Gauss-Newton), no spread ratios or split-half checks, one station.
+//! - Several stations share one target offset: a probe remounted between
+//!   campaigns is refused, not modelled; with the frames fixed
+//!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.
 //! - The spread ratio compares with poses drawn over the joint limits, not
 //!   over a collision-free or task workspace; a robot whose useful workspace
 //!   is a small part of its joint ranges scores high everywhere.
