@@ -71,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
     let part = std::env::args().nth(1);
     if part.as_deref() == Some("pooled") {
-        return pooled_table(&model, &sets, &geometric, &elastic);
+        return pooled_table(&Study::new(&model, &sets, &geometric, &elastic));
     }
     let selected_only = part.as_deref() == Some("selected");
     if std::env::args().nth(2).as_deref() == Some("lateral") {
@@ -83,24 +83,67 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if !selected_only {
         earlier_tables(&model, &sets, geometric.clone(), elastic.clone())?;
     }
-    selected_table(&model, &sets, &geometric, &elastic)?;
+    let study = Study::new(&model, &sets, &geometric, &elastic);
+    selected_table(&study)?;
     if !selected_only {
-        pooled_table(&model, &sets, &geometric, &elastic)?;
+        pooled_table(&study)?;
     }
     Ok(())
+}
+
+/// What the selected and pooled tables share: the robot, the series and
+/// the options of the models compared.
+struct Study<'a> {
+    model: &'a Model,
+    sets: &'a [(&'a str, MeasurementSet)],
+    geometric: &'a CalibrationOptions,
+    elastic: &'a CalibrationOptions,
+    /// The richest model the selection starts from: the compliances of
+    /// `elastic` and the non-linear joint law (the selection adds the
+    /// cyclic errors as a group of their own).
+    richest: CalibrationOptions,
+}
+
+impl<'a> Study<'a> {
+    fn new(
+        model: &'a Model,
+        sets: &'a [(&'a str, MeasurementSet)],
+        geometric: &'a CalibrationOptions,
+        elastic: &'a CalibrationOptions,
+    ) -> Self {
+        let mut richest = elastic.clone();
+        richest.joint_terms.law = Some(JointLaw::default());
+        Self {
+            model,
+            sets,
+            geometric,
+            elastic,
+            richest,
+        }
+    }
+
+    /// The series named `name` (B, C or D).
+    fn set(&self, name: &str) -> &'a MeasurementSet {
+        &self
+            .sets
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("series")
+            .1
+    }
 }
 
 /// Two series pooled as two stations, validated on the third (positions
 /// only, all poses, the model selected by cross-validation on the pooled
 /// poses): what a campaign measured from two tracker placements gives.
-fn pooled_table(
-    model: &Model,
-    sets: &[(&str, MeasurementSet)],
-    geometric: &CalibrationOptions,
-    elastic: &CalibrationOptions,
-) -> Result<(), Box<dyn std::error::Error>> {
-    let set = |name: &str| series(sets, name);
-    let richest = richest_options(elastic);
+fn pooled_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
+    let Study {
+        model,
+        geometric,
+        richest,
+        ..
+    } = study;
+    let set = |name: &str| study.set(name);
     println!(
         "\nTwo series pooled as two stations (one measurement frame each), validated on the third (positions only, all poses):"
     );
@@ -112,7 +155,7 @@ fn pooled_table(
         let validate = set(v);
         let start = Instant::now();
         let (selected, report, chosen) =
-            calibrate_selected(model, &pooled, &richest, &SelectionOptions::default())?;
+            calibrate_selected(model, &pooled, richest, &SelectionOptions::default())?;
         eprintln!(
             "{a} + {b}: selection and identification {:.2} s",
             start.elapsed().as_secs_f64()
@@ -144,14 +187,15 @@ const BASELINES: [(&str, &str, [f64; 4]); 4] = [
 ];
 
 /// Model selection on the training series, positions only, all poses.
-fn selected_table(
-    model: &Model,
-    sets: &[(&str, MeasurementSet)],
-    geometric: &CalibrationOptions,
-    elastic: &CalibrationOptions,
-) -> Result<(), Box<dyn std::error::Error>> {
-    let set = |name: &str| series(sets, name);
-    let richest = richest_options(elastic);
+fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
+    let Study {
+        model,
+        geometric,
+        elastic,
+        richest,
+        ..
+    } = study;
+    let set = |name: &str| study.set(name);
     let selection = SelectionOptions::default();
     println!(
         "\nModel selection by cross-validation on the training series (positions only, all poses):"
@@ -175,7 +219,7 @@ fn selected_table(
             continue;
         }
         let start = Instant::now();
-        let (selected, report, chosen) = calibrate_selected(model, train, &richest, &selection)?;
+        let (selected, report, chosen) = calibrate_selected(model, train, richest, &selection)?;
         eprintln!(
             "{train_name}: selection and identification {:.2} s",
             start.elapsed().as_secs_f64()
@@ -274,7 +318,7 @@ fn selected_table(
         ("D", set("D")),
         ("B + C + D", &all),
     ] {
-        for (label, options) in [("linear", elastic), ("law", &richest)] {
+        for (label, options) in [("linear", *elastic), ("law", richest)] {
             let mut options = options.clone();
             options.joint_terms.cyclic = false;
             let c = calibrate(model, data, &options)?;
@@ -307,20 +351,6 @@ fn bound_cell(map: &flexcal_calib::AccuracyMap) -> String {
         map.mean_bound_95_mm,
         map.inflation
     )
-}
-
-/// The series named `name` (B, C or D).
-fn series<'a>(sets: &'a [(&str, MeasurementSet)], name: &str) -> &'a MeasurementSet {
-    &sets.iter().find(|(n, _)| *n == name).expect("series").1
-}
-
-/// The richest model the selection starts from: the compliances of
-/// `elastic` and the non-linear joint law (the selection adds the cyclic
-/// errors as a group of their own).
-fn richest_options(elastic: &CalibrationOptions) -> CalibrationOptions {
-    let mut richest = elastic.clone();
-    richest.joint_terms.law = Some(JointLaw::default());
-    richest
 }
 
 /// The groups of unknowns a selection chose, as the report names them.

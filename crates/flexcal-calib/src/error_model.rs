@@ -1080,12 +1080,14 @@ pub(crate) fn pose_errors(
     x: &[f64],
 ) -> Result<Vec<PoseError>, CalibError> {
     debug_assert_eq!(x.len(), problem.n_params());
+    // Every station's frame once, not once per pose.
+    let frames = problem.all_frames(x);
     problem
         .measurements()
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let predicted = problem.predict(x, k)?;
+            let predicted = problem.predict_in(&frames, x, k)?;
             let position_vector = m.position - predicted.translation.vector;
             let orientation = if problem.rows_per_pose() == 6 {
                 let measured = rotation_from_vector(&m.orientation.unwrap_or_default());

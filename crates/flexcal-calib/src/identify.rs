@@ -760,19 +760,21 @@ pub fn calibrate(
     // Each station's frame starts from the registration of its own poses
     // (a station that a subset of the set leaves out has nothing to
     // register: its frame has no influence).
-    let register = |s: usize| -> Result<Option<Isometry3<f64>>, CalibError> {
-        match set.station_poses(s) {
-            Some(poses) => Ok(Some(register_measurement_frame(
+    // Each station's poses, once (`None`: none in this set).
+    let stations: Vec<Option<MeasurementSet>> = (0..set.n_stations())
+        .map(|s| set.station_poses(s))
+        .collect();
+    let registered = stations
+        .iter()
+        .map(|poses| match poses {
+            Some(poses) if !frame_fixed => Ok(Some(register_measurement_frame(
                 model,
-                &poses,
+                poses,
                 model.nominal_params(),
                 &x_tcp_target0,
             )?)),
-            None => Ok(None),
-        }
-    };
-    let registered = (0..set.n_stations())
-        .map(|s| if frame_fixed { Ok(None) } else { register(s) })
+            _ => Ok(None),
+        })
         .collect::<Result<Vec<_>, CalibError>>()?;
     let x_meas_base0 = match (frame_fixed, options.measurement_frame_value) {
         (_, Some(x)) => x,
@@ -784,7 +786,7 @@ pub fn calibrate(
         .map(|start| start.unwrap_or(x_meas_base0))
         .collect();
     let empty_stations: Vec<usize> = (0..set.n_stations())
-        .filter(|&s| set.station_poses(s).is_none())
+        .filter(|&s| stations[s].is_none())
         .collect();
     // Measured orientations: the target's orientation starts where the data
     // put it (unless fixed or given), as the measurement frame does; from
@@ -793,16 +795,14 @@ pub fn calibrate(
         && options.target != FrameTreatment::Fixed
         && options.target_value.is_none()
     {
-        let s = (0..set.n_stations())
-            .find(|s| !empty_stations.contains(s))
-            .unwrap_or(0);
+        let s = stations.iter().position(Option::is_some).unwrap_or(0);
         let frame = if s == 0 {
             x_meas_base0
         } else {
             station_frames0[s - 1]
         };
-        let poses = set.station_poses(s).unwrap_or_else(|| set.clone());
-        let rotation = register_target_rotation(model, &poses, model.nominal_params(), &frame)?;
+        let poses = stations[s].as_ref().unwrap_or(set);
+        let rotation = register_target_rotation(model, poses, model.nominal_params(), &frame)?;
         Isometry3::from_parts(x_tcp_target0.translation, rotation)
     } else {
         x_tcp_target0

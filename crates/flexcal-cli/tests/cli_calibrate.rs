@@ -696,43 +696,26 @@ fn several_stations_pool_end_to_end() {
             .get("stations")
             .is_none()
     );
+    // Mistakes fail with one line naming what is wrong.
+    let fails_saying = |out: Output, words: &[&str]| {
+        let (_, stderr) = text(&out);
+        assert!(!out.status.success());
+        assert!(
+            words.iter().all(|w| stderr.contains(w)) && stderr.lines().count() == 1,
+            "{stderr}"
+        );
+    };
     // A label without its station is named with the labels' form.
-    let out = pooled(&["--exclude", "#3"]);
-    let (_, stderr) = text(&out);
-    assert!(!out.status.success());
-    assert!(
-        stderr.contains("#3") && stderr.contains("s1:#0") && stderr.lines().count() == 1,
-        "{stderr}"
-    );
+    fails_saying(pooled(&["--exclude", "#3"]), &["#3", "s1:#0"]);
     // Holding out a station of a single one is refused before any fit.
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ur10",
-        "--data",
-        &north,
-        "--hold-out-stations",
-    ]);
-    let (_, stderr) = text(&out);
-    assert!(!out.status.success());
-    assert!(
-        stderr.contains("one station") && stderr.lines().count() == 1,
-        "{stderr}"
+    let single_station = ["calibrate", "--robot", "ur10", "--data", &north];
+    fails_saying(
+        flexcal(&[&single_station[..], &["--hold-out-stations"]].concat()),
+        &["one station"],
     );
     // The same file twice is a slip, not two stations.
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        "ur10",
-        "--data",
-        &north,
-        "--data",
-        &north,
-    ]);
-    let (_, stderr) = text(&out);
-    assert!(!out.status.success());
-    assert!(
-        stderr.contains("given twice") && stderr.contains(&north) && stderr.lines().count() == 1,
-        "{stderr}"
+    fails_saying(
+        flexcal(&[&single_station[..], &["--data", &north]].concat()),
+        &["given twice", &north],
     );
 }

@@ -400,8 +400,8 @@ pub fn run_calibration(
                 ),
             ));
         }
-        let sets = std::iter::once(&config.data)
-            .chain(&config.station_data)
+        let sets = files
+            .iter()
             .map(|path| config.format.read(path))
             .collect::<Result<Vec<_>>>()?;
         let pooled = MeasurementSet::pooled(&sets).map_err(step("pooling the stations"))?;

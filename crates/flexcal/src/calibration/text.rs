@@ -57,21 +57,17 @@ impl CalibrationRun {
             self.data.len(),
             self.data.source
         );
-        if self.data.n_stations() > 1 {
+        let c = &self.calibration;
+        if c.station_names.len() > 1 {
             // What the `s2:` of the labels and the `frame_s2_*` unknowns mean.
-            for (s, name) in self.data.station_names().iter().enumerate() {
-                let poses = (0..self.data.len())
-                    .filter(|&k| self.data.station_of(k) == s)
-                    .count();
+            for (s, (name, errors)) in c.station_names.iter().zip(&c.station_errors).enumerate() {
+                let [frame_x, ..] = crate::calib::station_frame_names(s);
                 put!(
                     out,
-                    "  station s{}: {name} ({poses} poses, measurement frame {})",
+                    "  station s{}: {name} ({} poses, measurement frame {}*)",
                     s + 1,
-                    if s == 0 {
-                        "frame_*".to_string()
-                    } else {
-                        format!("frame_s{}_*", s + 1)
-                    }
+                    errors.n_poses,
+                    frame_x.trim_end_matches('x')
                 );
             }
         }
