@@ -24,8 +24,9 @@ pub enum CalibError {
         /// What is wrong.
         what: String,
     },
-    /// A measurement file has consistent syntax but unusable contents.
-    #[error("{source_name}:{line}: {what}")]
+    /// A measurement file has consistent syntax but unusable contents
+    /// (`source:line: what`, or `source: what` for the whole set).
+    #[error("{source_name}{}: {what}", if *line > 0 { format!(":{line}") } else { String::new() })]
     BadMeasurement {
         /// File (or other source) of the measurements.
         source_name: String,
