@@ -12,11 +12,12 @@ use nalgebra::{
     DMatrix, Isometry3, Matrix3, Matrix6xX, Point3, Translation3, UnitQuaternion, Vector3,
 };
 
+use crate::elastic_terms::{ElasticTerms, JointState, LateralMotion};
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
-use crate::gravity::{GravityCompliance, GravityTerms, LateralTerms};
-use crate::joint_law::{JointTerms, cyclic_basis, cyclic_joints, joint_deflection};
+use crate::gravity::{Configurations, GravityCompliance};
+use crate::joint_law::JointTerms;
 use crate::metrics::PoseError;
 use crate::{CalibError, MeasurementSet};
 
@@ -54,51 +55,7 @@ pub fn station_frame_names(station: usize) -> [String; 6] {
     })
 }
 
-/// Kind of an unknown of the extended vector `[xi; frame; target]` (and,
-/// elasto-geometric, `[c; m; m c]`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub enum UnknownKind {
-    /// m.
-    Length,
-    /// rad.
-    Angle,
-    /// Joint compliance: rad/N.m (revolute) or m/N (prismatic, screw).
-    Compliance,
-    /// kg.
-    Mass,
-    /// First moment of a mass, mass times centre (kg.m).
-    FirstMoment,
-    /// Hardening of a joint spring (1/rad; [`crate::joint_law`]).
-    Hardening,
-}
-
-impl UnknownKind {
-    /// The SI unit of this kind (`m`, `rad`, `rad/N.m`, `kg`, `kg.m`,
-    /// `1/rad`), in which the values are held.
-    pub fn si_unit(self) -> &'static str {
-        match self {
-            UnknownKind::Length => "m",
-            UnknownKind::Angle => "rad",
-            UnknownKind::Compliance => "rad/N.m",
-            UnknownKind::Mass => "kg",
-            UnknownKind::FirstMoment => "kg.m",
-            UnknownKind::Hardening => "1/rad",
-        }
-    }
-
-    /// The unit in which files and reports show this kind, and the factor
-    /// from SI to it: mm, deg, urad/N.m (um/N for linear joints), kg, kg.m.
-    pub fn display_unit(self) -> (&'static str, f64) {
-        match self {
-            UnknownKind::Length => ("mm", 1e3),
-            UnknownKind::Angle => ("deg", 180.0 / std::f64::consts::PI),
-            UnknownKind::Compliance => ("urad/N.m", 1e6),
-            UnknownKind::Mass => ("kg", 1.0),
-            UnknownKind::FirstMoment => ("kg.m", 1.0),
-            UnknownKind::Hardening => ("1/mrad", 1e-3),
-        }
-    }
-}
+pub use crate::unknown_kind::UnknownKind;
 
 /// The measurement model of one pose k,
 /// `x_meas_target = x_meas_base(tau) * FK(q_k, xi) * x_tcp_target(t)`,
@@ -137,46 +94,10 @@ pub struct GeometricErrorModel<'a> {
     data: RefCell<Data>,
     pose_jacobian: RefCell<DMatrix<f64>>,
     robot_columns: Cell<bool>,
-    gravity: Option<(GravityTerms, Vec<f64>)>,
-    lateral: Option<LateralTerms>,
+    /// The elastic and joint terms (none when geometric).
+    elastic: ElasticTerms,
     joint_jacobian: RefCell<Matrix6xX<f64>>,
     deflection: RefCell<JointState>,
-    joint_terms: JointTerms,
-    cyclic_joints: Vec<usize>,
-    /// [`cyclic_basis`] of each cyclic joint at each pose (pose-major): the
-    /// measured angles do not change between evaluations.
-    cyclic_bases: Vec<[f64; 4]>,
-}
-
-/// The actuated coordinates at which the robot is evaluated for one pose,
-/// and what their derivatives by the elastic and joint unknowns need.
-#[derive(Debug, Clone)]
-struct JointState {
-    /// `q + dq` (rad or m).
-    q: Vec<f64>,
-    /// Generalised gravity forces (N.m or N).
-    tau: Vec<f64>,
-    /// `d dq_i / d tau_i`.
-    by_torque: Vec<f64>,
-    /// `d dq_i / d c_i`.
-    by_compliance: Vec<f64>,
-    /// `d dq_i / d eta_i`.
-    by_hardening: Vec<f64>,
-    /// `d dq_i / d beta_i`.
-    by_lost_motion: Vec<f64>,
-}
-
-impl JointState {
-    fn new(n: usize) -> Self {
-        Self {
-            q: vec![0.0; n],
-            tau: vec![0.0; n],
-            by_torque: vec![0.0; n],
-            by_compliance: vec![0.0; n],
-            by_hardening: vec![0.0; n],
-            by_lost_motion: vec![0.0; n],
-        }
-    }
 }
 
 impl<'a> GeometricErrorModel<'a> {
@@ -227,13 +148,9 @@ impl<'a> GeometricErrorModel<'a> {
             data: RefCell::new(Data::new(model)),
             pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
             robot_columns: Cell::new(true),
-            gravity: None,
-            lateral: None,
+            elastic: ElasticTerms::none(model),
             joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
             deflection: RefCell::new(JointState::new(model.n_actuated())),
-            joint_terms: JointTerms::default(),
-            cyclic_joints: Vec::new(),
-            cyclic_bases: Vec::new(),
         })
     }
 
@@ -248,7 +165,7 @@ impl<'a> GeometricErrorModel<'a> {
     /// stations beyond the first, or after the gravity model or the joint
     /// terms (their unknowns come after the frames).
     pub fn with_station_frames(mut self, frames: &[Isometry3<f64>]) -> Result<Self, CalibError> {
-        if self.gravity.is_some() || self.joint_terms.any() {
+        if self.elastic.len() > 0 {
             return Err(CalibError::InvalidOption {
                 name: "station_frames",
                 reason: "the station frames go before the gravity model and the joint terms".into(),
@@ -303,17 +220,10 @@ impl<'a> GeometricErrorModel<'a> {
     /// [`CalibError::InvalidOption`] for a mass on a missing frame or
     /// non-finite values, [`CalibError::Kinematics`] naming a pose.
     pub fn with_gravity(mut self, gravity: &GravityCompliance) -> Result<Self, CalibError> {
-        if self.joint_terms.any() {
-            return Err(CalibError::InvalidOption {
-                name: "joint_terms",
-                reason: "the gravity model goes before the joint terms".into(),
-            });
-        }
-        let terms = GravityTerms::new(self.model, self.set, gravity)?;
+        let label = |k: usize| self.set.measurements()[k].label(k);
+        let poses = Configurations::of_set(self.set, &label);
+        self.elastic.add_gravity(self.model, &poses, gravity)?;
         self.names.extend(gravity.elastic_unknown_names(self.model));
-        self.gravity = Some((terms, gravity.initial_unknowns(self.model)));
-        let lateral = LateralTerms::new(self.model, self.set, gravity)?;
-        self.lateral = (lateral.len() > 0).then_some(lateral);
         Ok(self)
     }
 
@@ -324,33 +234,10 @@ impl<'a> GeometricErrorModel<'a> {
     /// [`CalibError::InvalidOption`] for the stiffness law without the
     /// gravity model, or a lost-motion torque that is not `> 0`.
     pub fn with_joint_terms(mut self, terms: &JointTerms) -> Result<Self, CalibError> {
-        if let Some(law) = &terms.law {
-            if self.gravity.is_none() {
-                return Err(CalibError::InvalidOption {
-                    name: "joint_law",
-                    reason: "the non-linear joint stiffness law needs the elasto-geometric model (gravity loading)".into(),
-                });
-            }
-            if !(law.lost_motion_torque.is_finite() && law.lost_motion_torque > 0.0) {
-                return Err(CalibError::InvalidOption {
-                    name: "lost_motion_torque",
-                    reason: format!("must be finite and > 0, found {}", law.lost_motion_torque),
-                });
-            }
-        }
+        let label = |k: usize| self.set.measurements()[k].label(k);
+        let poses = Configurations::of_set(self.set, &label);
+        self.elastic.add_joint_terms(self.model, &poses, terms)?;
         self.names.extend(terms.unknown_names(self.model));
-        self.joint_terms = *terms;
-        self.cyclic_joints = if terms.cyclic {
-            cyclic_joints(self.model)
-        } else {
-            Vec::new()
-        };
-        self.cyclic_bases = self
-            .set
-            .measurements()
-            .iter()
-            .flat_map(|m| self.cyclic_joints.iter().map(|&i| cyclic_basis(m.q[i])))
-            .collect();
         Ok(self)
     }
 
@@ -358,144 +245,44 @@ impl<'a> GeometricErrorModel<'a> {
     /// the starting payload (N.m or N;
     /// [`crate::GravityCompliance::joint_torques`]); empty when geometric.
     pub fn torque_ranges(&self) -> Vec<crate::CoordinateCoverage> {
-        let Some((terms, initial)) = &self.gravity else {
-            return Vec::new();
-        };
-        let na = self.model.n_actuated();
-        // The starting elastic unknowns: compliances, then the payload.
-        let payload = &initial[na..na + 4];
-        let mut tau = vec![0.0; na];
-        let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); na];
-        for k in 0..self.set.len() {
-            terms.forces(k, payload, &mut tau);
-            for (r, t) in ranges.iter_mut().zip(&tau) {
-                *r = (r.0.min(*t), r.1.max(*t));
-            }
-        }
-        ranges
-            .into_iter()
-            .map(|(lo, hi)| crate::CoordinateCoverage {
-                lo,
-                hi,
-                period: None,
-            })
-            .collect()
+        self.elastic.torque_ranges(self.set.len())
     }
 
     /// Index of the first unknown of the joint terms (the law's, then the
     /// cyclic ones), when there are any.
     pub fn joint_terms_offset(&self) -> Option<usize> {
-        let na = self.model.n_actuated();
-        self.joint_terms
-            .any()
-            .then(|| self.frames_end() + self.n_elastic_block(na))
-    }
-
-    /// Unknowns of the elastic block: compliances, payload and lateral
-    /// compliances (none when geometric).
-    fn n_elastic_block(&self, na: usize) -> usize {
-        match &self.gravity {
-            Some(_) => na + 4 + self.lateral.as_ref().map_or(0, LateralTerms::len),
-            None => 0,
-        }
+        self.elastic
+            .joint_terms_offset()
+            .map(|o| self.frames_end() + o)
     }
 
     /// Index of the first lateral compliance, when the model has them.
     pub fn lateral_offset(&self) -> Option<usize> {
-        self.lateral
-            .as_ref()
-            .map(|_| self.frames_end() + self.model.n_actuated() + 4)
-    }
-
-    /// The rigid motion `G = (rotation, translation)` of the lateral
-    /// rotations of pose `k` at unknowns `x` ([`crate::gravity`]), with
-    /// `phi = sum_j delta_j x_j` and each joint's rotation `delta_j` (rad)
-    /// and moment `Mx_j` (N.m) in `deltas`; `None` without lateral terms.
-    fn lateral_motion(
-        &self,
-        x: &[f64],
-        k: usize,
-        deltas: &mut Vec<(f64, f64)>,
-    ) -> Option<(UnitQuaternion<f64>, Vector3<f64>, Vector3<f64>)> {
-        let lateral = self.lateral.as_ref()?;
-        let lo = self.lateral_offset()?;
-        let po = self.frames_end() + self.model.n_actuated();
-        let payload = &x[po..po + 4];
-        deltas.clear();
-        let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
-        for s in 0..lateral.len() {
-            let joint = lateral.joint(k, s);
-            let moment = joint.moment(payload);
-            let delta = x[lo + s] * moment;
-            phi += delta * joint.axis;
-            t -= delta * joint.axis.cross(&joint.origin);
-            deltas.push((delta, moment));
-        }
-        Some((rotation_from_vector(&phi), t, phi))
+        self.elastic.lateral_offset().map(|o| self.frames_end() + o)
     }
 
     /// Index of the first elastic unknown (the compliances), when the model
     /// is elasto-geometric.
     pub fn elastic_offset(&self) -> Option<usize> {
-        self.gravity.as_ref().map(|_| self.frames_end())
+        self.elastic.has_gravity().then(|| self.frames_end())
     }
 
-    /// The actuated coordinates at which the robot is evaluated for pose `k`:
-    /// `q_k`, plus the gravity deflection (`c_i tau_i`, or the non-linear
-    /// law of [`crate::joint_law`]) when elasto-geometric, plus the cyclic
-    /// errors when on; with the derivatives the Jacobian needs.
+    /// The rigid motion of the lateral rotations of pose `k` at `x`, which
+    /// moves the TCP ([`ElasticTerms::lateral_motion`]).
+    fn lateral_motion(&self, x: &[f64], k: usize) -> Option<LateralMotion> {
+        self.elastic.lateral_motion(
+            self.model,
+            &x[self.frames_end()..],
+            k,
+            self.model.end_frame(),
+        )
+    }
+
+    /// The actuated coordinates at which the robot is evaluated for pose `k`
+    /// ([`ElasticTerms::deflect`]).
     fn deflect(&self, x: &[f64], k: usize, state: &mut JointState) {
         let q = &self.set.measurements()[k].q;
-        state.q.copy_from_slice(q);
-        let na = self.model.n_actuated();
-        let joint_offset = self.joint_terms_offset();
-        if let Some((terms, _)) = &self.gravity {
-            let eo = self.frames_end();
-            terms.forces(k, &x[eo + na..eo + na + 4], &mut state.tau);
-            match (&self.joint_terms.law, joint_offset) {
-                (Some(law), Some(lo)) => {
-                    for i in 0..na {
-                        let d = joint_deflection(
-                            state.tau[i],
-                            x[eo + i],
-                            x[lo + i],
-                            x[lo + na + i],
-                            law.lost_motion_torque,
-                        );
-                        state.q[i] += d.deflection;
-                        state.by_torque[i] = d.by_torque;
-                        state.by_compliance[i] = d.by_compliance;
-                        state.by_hardening[i] = d.by_hardening;
-                        state.by_lost_motion[i] = d.by_lost_motion;
-                    }
-                }
-                _ => {
-                    for i in 0..na {
-                        state.q[i] += x[eo + i] * state.tau[i];
-                        state.by_torque[i] = x[eo + i];
-                        state.by_compliance[i] = state.tau[i];
-                    }
-                }
-            }
-        }
-        if let (true, Some(lo)) = (self.joint_terms.cyclic, joint_offset) {
-            let co = lo
-                + if self.joint_terms.law.is_some() {
-                    2 * na
-                } else {
-                    0
-                };
-            let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
-            for (s, &i) in self.cyclic_joints.iter().enumerate() {
-                // cyclic_error(q[i], ..) with the basis computed once.
-                let amplitudes = &x[co + 4 * s..co + 4 * s + 4];
-                state.q[i] += bases[s]
-                    .iter()
-                    .zip(amplitudes)
-                    .map(|(b, a)| a * b)
-                    .sum::<f64>();
-            }
-        }
+        self.elastic.deflect(&x[self.frames_end()..], k, q, state);
     }
 
     /// Whether [`Jacobian::jacobian`] computes the robot-parameter columns
@@ -539,27 +326,7 @@ impl<'a> GeometricErrorModel<'a> {
             kinds.extend([UnknownKind::Length; 3]);
             kinds.extend([UnknownKind::Angle; 3]);
         }
-        if self.gravity.is_some() {
-            kinds.extend(std::iter::repeat_n(
-                UnknownKind::Compliance,
-                self.model.n_actuated(),
-            ));
-            kinds.push(UnknownKind::Mass);
-            kinds.extend([UnknownKind::FirstMoment; 3]);
-            kinds.extend(std::iter::repeat_n(
-                UnknownKind::Compliance,
-                self.lateral.as_ref().map_or(0, LateralTerms::len),
-            ));
-        }
-        if self.joint_terms.law.is_some() {
-            let na = self.model.n_actuated();
-            kinds.extend(std::iter::repeat_n(UnknownKind::Hardening, na));
-            kinds.extend(std::iter::repeat_n(UnknownKind::Angle, na));
-        }
-        kinds.extend(std::iter::repeat_n(
-            UnknownKind::Angle,
-            4 * self.cyclic_joints.len(),
-        ));
+        kinds.extend(self.elastic.kinds());
         kinds
     }
     /// The measurements the model predicts.
@@ -575,10 +342,7 @@ impl<'a> GeometricErrorModel<'a> {
     pub fn initial_unknowns(&self) -> Vec<f64> {
         let mut x = self.model.nominal_params().to_vec();
         x.extend(vec![0.0; 12 + 6 * self.station_frames0.len()]);
-        if let Some((_, initial)) = &self.gravity {
-            x.extend(initial);
-        }
-        x.resize(self.names.len(), 0.0);
+        x.extend(self.elastic.initial());
         x
     }
 
@@ -654,10 +418,8 @@ impl<'a> GeometricErrorModel<'a> {
                 pose_id: m.label(k),
                 source,
             })?;
-        let x_base_tcp = match self.lateral_motion(x, k, &mut Vec::new()) {
-            Some((rotation, translation, _)) => {
-                lateral_isometry(&rotation, &translation) * x_base_tcp
-            }
+        let x_base_tcp = match self.lateral_motion(x, k) {
+            Some(motion) => lateral_isometry(&motion.rotation, &motion.translation) * x_base_tcp,
             None => x_base_tcp,
         };
         Ok(x_meas_base * x_base_tcp * x_tcp_target)
@@ -744,28 +506,12 @@ impl GeometricErrorModel<'_> {
         if !robot_columns {
             jac.fill(0.0);
         }
-        let na = self.model.n_actuated();
         let eo = self.frames_end();
         // Elastic and joint-term unknowns: every unknown after the target's.
         let n_elastic = self.names.len() - eo;
-        let law_offset = self
-            .joint_terms
-            .law
-            .and_then(|_| self.joint_terms_offset())
-            .map(|o| o - eo);
-        let cyclic_offset = self.joint_terms_offset().map(|o| {
-            o - eo
-                + if self.joint_terms.law.is_some() {
-                    2 * na
-                } else {
-                    0
-                }
-        });
         // TCP twists of the elastic unknowns, one column each (before the
         // lateral motion G, which the robot's columns share).
         let mut elastic = Matrix6xX::<f64>::zeros(n_elastic);
-        let lateral_column = self.lateral_offset().map(|o| o - eo);
-        let mut deltas = Vec::new();
         let first = poses.start;
         for k in poses {
             let m = &self.set.measurements()[k];
@@ -792,82 +538,27 @@ impl GeometricErrorModel<'_> {
             } else {
                 forward_pose(self.model, &mut data, q, xi).map_err(kinematics_error)?
             };
-            let motion = self.lateral_motion(x, k, &mut deltas);
+            let motion = self.lateral_motion(x, k);
             if robot_columns && n_elastic > 0 {
-                elastic.fill(0.0);
-                if let Some((terms, _)) = &self.gravity {
-                    for i in 0..na {
-                        let column = jq.column(i);
-                        // dq_i = f(tau_i(payload); c_i, ...): by c_i, df/dc_i;
-                        // by the payload, df/dtau_i dtau_i/dpayload.
-                        elastic
-                            .column_mut(i)
-                            .axpy(buffers.by_compliance[i], &column, 0.0);
-                        let d = terms.payload_derivatives(k, i);
-                        for (p, dp) in d.iter().enumerate() {
-                            elastic.column_mut(na + p).axpy(
-                                buffers.by_torque[i] * dp,
-                                &column,
-                                1.0,
-                            );
-                        }
-                        if let Some(lo) = law_offset {
-                            elastic
-                                .column_mut(lo + i)
-                                .axpy(buffers.by_hardening[i], &column, 0.0);
-                            elastic.column_mut(lo + na + i).axpy(
-                                buffers.by_lost_motion[i],
-                                &column,
-                                0.0,
-                            );
-                        }
-                    }
-                }
-                if let (Some((g_rotation, _, phi)), Some(lateral), Some(lc)) =
-                    (&motion, &self.lateral, lateral_column)
-                {
-                    let r_g = g_rotation.to_rotation_matrix().into_inner();
-                    // d G(p) / d delta_j = (Jl(phi) x_j) x (R_G p) - x_j x o_j,
-                    // turning with Jl(phi) x_j; written before G (R_G^T) as
-                    // the other columns are.
-                    let jl = left_jacobian(phi);
-                    let p_tcp = r_g * x_base_tcp.translation.vector;
-                    let r_g_t = r_g.transpose();
-                    let payload_start = na;
-                    for (s, &(_, moment)) in deltas.iter().enumerate() {
-                        let joint = lateral.joint(k, s);
-                        let turn = jl * joint.axis;
-                        let v = r_g_t * (turn.cross(&p_tcp) - joint.axis.cross(&joint.origin));
-                        let w = r_g_t * turn;
-                        let unit = nalgebra::Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z);
-                        elastic.column_mut(lc + s).axpy(moment, &unit, 0.0);
-                        let compliance = x[eo + lc + s];
-                        for (p, dp) in joint.payload_derivatives.iter().enumerate() {
-                            elastic
-                                .column_mut(payload_start + p)
-                                .axpy(compliance * dp, &unit, 1.0);
-                        }
-                    }
-                }
-                if let Some(co) = cyclic_offset {
-                    let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
-                    for (s, &i) in self.cyclic_joints.iter().enumerate() {
-                        let basis = bases[s];
-                        for (h, b) in basis.iter().enumerate() {
-                            elastic
-                                .column_mut(co + 4 * s + h)
-                                .axpy(*b, &jq.column(i), 0.0);
-                        }
-                    }
-                }
+                self.elastic.twists(
+                    self.model,
+                    &x[eo..],
+                    k,
+                    self.model.end_frame(),
+                    &buffers,
+                    &jq,
+                    motion.as_ref(),
+                    &x_base_tcp.translation.vector,
+                    &mut elastic,
+                );
             }
             // Twists before G move the target by R_G times their motion.
             let (x_base_tcp, r_mbg, offset_base) = match &motion {
-                Some((g_rotation, t_g, _)) => {
+                Some(motion) => {
                     let offset = x_base_tcp.rotation * x_tcp_target.translation.vector;
                     (
-                        lateral_isometry(g_rotation, t_g) * x_base_tcp,
-                        r_mb * g_rotation.to_rotation_matrix().into_inner(),
+                        lateral_isometry(&motion.rotation, &motion.translation) * x_base_tcp,
+                        r_mb * motion.rotation.to_rotation_matrix().into_inner(),
                         offset,
                     )
                 }

@@ -325,7 +325,8 @@ impl GravityCompliance {
         model: &Model,
         set: &MeasurementSet,
     ) -> Result<Vec<Vec<f64>>, CalibError> {
-        let terms = GravityTerms::new(model, set, self)?;
+        let label = |k: usize| set.measurements()[k].label(k);
+        let terms = GravityTerms::new(model, &Configurations::of_set(set, &label), self)?;
         let payload = self.payload_unknowns();
         Ok((0..set.len())
             .map(|k| {
@@ -402,31 +403,58 @@ pub(crate) struct GravityTerms {
     terms: Vec<f64>,
 }
 
+/// The commanded configurations of a set of poses, and each pose's label
+/// for errors ([`crate::Measurement::label`]): what the gravity terms are
+/// evaluated on.
+pub(crate) struct Configurations<'a> {
+    /// Actuated coordinates of each pose (rad or m).
+    pub q: Vec<&'a [f64]>,
+    /// The label of pose k.
+    pub label: &'a dyn Fn(usize) -> String,
+}
+
+impl<'a> Configurations<'a> {
+    /// The configurations of a measurement set.
+    pub(crate) fn of_set(set: &'a MeasurementSet, label: &'a dyn Fn(usize) -> String) -> Self {
+        Self {
+            q: set.measurements().iter().map(|m| m.q.as_slice()).collect(),
+            label,
+        }
+    }
+
+    /// The error of the forward model at pose `k`.
+    pub(crate) fn kinematics_error(
+        &self,
+        k: usize,
+    ) -> impl FnOnce(flexcal_kinematics::KinematicsError) -> CalibError + '_ {
+        move |source| CalibError::Kinematics {
+            pose: k,
+            pose_id: (self.label)(k),
+            source,
+        }
+    }
+}
+
 impl GravityTerms {
     pub(crate) fn new(
         model: &Model,
-        set: &MeasurementSet,
+        poses: &Configurations<'_>,
         gravity: &GravityCompliance,
     ) -> Result<Self, CalibError> {
         let loads = gravity.check(model)?;
         let na = model.n_actuated();
         let stride = 5 * na;
-        let mut terms = vec![0.0; set.len() * stride];
+        let mut terms = vec![0.0; poses.q.len() * stride];
         let mut data = Data::new(model);
         let mut jac = Matrix6xX::zeros(na);
         let xi = model.nominal_params();
         let g = gravity.gravity;
-        for (k, m) in set.measurements().iter().enumerate() {
-            let kinematics_error = |source| CalibError::Kinematics {
-                pose: k,
-                pose_id: m.label(k),
-                source,
-            };
+        for (k, q) in poses.q.iter().enumerate() {
             let block = &mut terms[k * stride..(k + 1) * stride];
-            actuated_forces_into(model, &mut data, &m.q, xi, &loads, &mut block[..na])
-                .map_err(kinematics_error)?;
-            let x_base_tcp = joint_jacobian_into(model, &mut data, &m.q, xi, &mut jac)
-                .map_err(kinematics_error)?;
+            actuated_forces_into(model, &mut data, q, xi, &loads, &mut block[..na])
+                .map_err(poses.kinematics_error(k))?;
+            let x_base_tcp = joint_jacobian_into(model, &mut data, q, xi, &mut jac)
+                .map_err(poses.kinematics_error(k))?;
             let r = x_base_tcp.rotation.to_rotation_matrix().into_inner();
             for i in 0..na {
                 let v = Vector3::new(jac[(0, i)], jac[(1, i)], jac[(2, i)]);
@@ -507,13 +535,15 @@ impl LateralJoint {
 pub(crate) struct LateralTerms {
     /// Actuated index of each lateral joint ([`lateral_joints`]).
     joints: Vec<usize>,
+    /// The frame of each lateral joint.
+    frames: Vec<usize>,
     terms: Vec<f64>,
 }
 
 impl LateralTerms {
     pub(crate) fn new(
         model: &Model,
-        set: &MeasurementSet,
+        poses: &Configurations<'_>,
         gravity: &GravityCompliance,
     ) -> Result<Self, CalibError> {
         let loads = gravity.check(model)?;
@@ -526,20 +556,14 @@ impl LateralTerms {
             .filter_map(|&i| model.actuated_frame(i))
             .collect();
         let stride = LATERAL_STRIDE * joints.len();
-        let mut terms = vec![0.0; set.len() * stride];
+        let mut terms = vec![0.0; poses.q.len() * stride];
         let mut data = Data::new(model);
         let xi = model.nominal_params();
         let g = gravity.gravity;
         let end = model.end_frame();
-        for (k, m) in set.measurements().iter().enumerate() {
-            let x_base_tcp =
-                flexcal_kinematics::forward_pose(model, &mut data, &m.q, xi).map_err(|source| {
-                    CalibError::Kinematics {
-                        pose: k,
-                        pose_id: m.label(k),
-                        source,
-                    }
-                })?;
+        for (k, q) in poses.q.iter().enumerate() {
+            let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, q, xi)
+                .map_err(poses.kinematics_error(k))?;
             let p_tcp = x_base_tcp.translation.vector;
             let r_tcp = x_base_tcp.rotation.to_rotation_matrix().into_inner();
             for (s, &frame) in frames.iter().enumerate() {
@@ -568,12 +592,22 @@ impl LateralTerms {
                 block[7..].copy_from_slice(&payload);
             }
         }
-        Ok(Self { joints, terms })
+        Ok(Self {
+            joints,
+            frames,
+            terms,
+        })
     }
 
     /// Number of lateral joints.
     pub(crate) fn len(&self) -> usize {
         self.joints.len()
+    }
+
+    /// Whether lateral joint `s` moves frame `frame` (it is on the path from
+    /// the root to it): a joint of another branch turns nothing there.
+    pub(crate) fn moves(&self, model: &Model, s: usize, frame: usize) -> bool {
+        model.moves_with(frame, self.frames[s])
     }
 
     /// Lateral joint `s` at pose `k`.

@@ -183,7 +183,7 @@ impl Default for CalibrationOptions {
 /// Limit `2 ||a|| / ||v||` of the geodesic acceleration of the
 /// Levenberg-Marquardt steps when the model has the non-linear joint law
 /// ([`LevenbergMarquardt::geodesic_acceleration`]; GSL's default).
-const GEODESIC_ACCELERATION_LIMIT: f64 = 0.75;
+pub(crate) const GEODESIC_ACCELERATION_LIMIT: f64 = 0.75;
 
 /// The paper's non-identifiable set for the IR-663 (section 3.2.3), used as
 /// the default deferred names of that robot.
@@ -201,7 +201,20 @@ impl CalibrationOptions {
         options
     }
 
-    fn check(&self) -> Result<(), CalibError> {
+    /// The standard-error limit of an unknown of kind `kind`
+    /// (`max_standard_error_*`, in the kind's SI unit).
+    pub fn standard_error_limit(&self, kind: UnknownKind) -> f64 {
+        match kind {
+            UnknownKind::Length => self.max_standard_error_length,
+            UnknownKind::Angle => self.max_standard_error_angle,
+            UnknownKind::Compliance => self.max_standard_error_compliance,
+            UnknownKind::Mass => self.max_standard_error_mass,
+            UnknownKind::FirstMoment => self.max_standard_error_first_moment,
+            UnknownKind::Hardening => self.max_standard_error_hardening,
+        }
+    }
+
+    pub(crate) fn check(&self) -> Result<(), CalibError> {
         let positive = |name: &'static str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -981,14 +994,7 @@ pub fn calibrate(
     let mut x_start = x_initial.clone();
     let limits: Vec<f64> = kinds
         .iter()
-        .map(|k| match k {
-            UnknownKind::Length => options.max_standard_error_length,
-            UnknownKind::Angle => options.max_standard_error_angle,
-            UnknownKind::Compliance => options.max_standard_error_compliance,
-            UnknownKind::Mass => options.max_standard_error_mass,
-            UnknownKind::FirstMoment => options.max_standard_error_first_moment,
-            UnknownKind::Hardening => options.max_standard_error_hardening,
-        })
+        .map(|&k| options.standard_error_limit(k))
         .collect();
     let context = AnalysisContext {
         problem: &problem,

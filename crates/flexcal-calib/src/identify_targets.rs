@@ -1,7 +1,8 @@
-//! Geometric identification from several targets on different frames of a
-//! robot (a tree's branches, links of a chain, the tool): one measurement
-//! frame, one offset per target, the robot's parameters, all from the
-//! residuals of every target on every pose stacked together.
+//! Identification from several targets on different frames of a robot (a
+//! tree's branches, links of a chain, the tool): one measurement frame, one
+//! offset per target, the robot's parameters, all from the residuals of
+//! every target on every pose stacked together; with the elasto-geometric
+//! terms of the one-target model when asked.
 //!
 //! For target t on frame f(t) and pose k the model is
 //! `p_M = x_meas_base(tau) * x_base_f(q_k, xi) * x_f_target(o_t)`, the
@@ -21,29 +22,50 @@
 //! whose standard error exceeds the limits of [`CalibrationOptions`] is put
 //! back to its starting value and the rest solved again
 //! ([`UnknownStatus::PoorlyIdentifiable`]).
+//!
+//! ## Elasto-geometric terms
+//! With [`CalibrationOptions::gravity`] (and
+//! [`CalibrationOptions::joint_terms`]) the robot is evaluated at `q_k +
+//! dq_k`, the joint deflections under gravity of [`crate::gravity`] (and
+//! the joint law and cyclic errors of [`crate::joint_law`]), the unknowns
+//! of the one-target model appended after the targets' in its order
+//! (compliances, payload, lateral compliances, then the joint terms). The
+//! torque of each joint comes from every weight it carries, both arms for
+//! a torso; the joint Jacobian of each target's point
+//! ([`flexcal_kinematics::frame_param_and_joint_jacobians_into`]) carries
+//! the deflections to it, so a joint of one branch moves that branch's
+//! targets only. A lateral rotation moves the targets on frames after its
+//! joint: the torso's tilt moves both hands. Cyclic errors of a joint
+//! whose poses cover less than 90 % of their period stay at zero. The
+//! derivatives are exact (checked against central differences in this
+//! module's tests).
 
 use std::cell::RefCell;
 
 use faer::prelude::SolveLstsq;
 use faer::{Mat, MatMut};
 use flexcal_kinematics::{
-    Data, Model, ParamKind, RobotDescription, forward_frame_pose, frame_param_jacobian_into,
+    Data, Model, ParamKind, RobotDescription, forward_frame_pose,
+    frame_param_and_joint_jacobians_into, frame_param_jacobian_into,
 };
 use flexcal_optim::{
     ColumnScaling, Control, Diagnosis, IdentifiabilityOptions, IdentifiabilityReport,
     IterationState, Jacobian, LevenbergMarquardt, ProblemError, ProblemSetup, Residuals,
     SolveReport, analyze_identifiability,
 };
-use nalgebra::{DMatrix, Isometry3, Translation3, Vector3};
+use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, Vector3};
 use serde::Serialize;
 
 use crate::CalibError;
+use crate::elastic_terms::{ElasticTerms, JointState};
 use crate::error_model::{FRAME_PARAMETER_NAMES, UnknownKind};
 use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew};
+use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
-    CalibrationOptions, Combination, FrameTreatment, Method, UnknownEstimate, UnknownStatus,
-    Weighting,
+    CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT, Method,
+    UnknownEstimate, UnknownStatus, Weighting,
 };
+use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet, target_point};
 
@@ -108,6 +130,25 @@ pub struct TargetCalibration {
     pub n_poses: usize,
     /// Number of (pose, target) observations used.
     pub n_observations: usize,
+    /// The gravity loading when the model is elasto-geometric, with the
+    /// identified elastic unknowns (compliances, payload mass, first moment,
+    /// lateral compliances when on; order of
+    /// [`GravityCompliance::elastic_unknown_names`]). Not serialised: the
+    /// values are in `unknowns` by name.
+    #[serde(skip)]
+    pub elastic: Option<(GravityCompliance, Vec<f64>)>,
+    /// The joint error terms of the model ([`crate::joint_law`]).
+    pub joint_terms: JointTerms,
+    /// Their identified values, in the order of
+    /// [`JointTerms::unknown_names`] (1/rad, rad). Not serialised: the
+    /// values are in `unknowns` by name.
+    #[serde(skip)]
+    pub joint_term_values: Vec<f64>,
+    /// Span of each actuated coordinate's gravity torque (N.m, or N for a
+    /// prismatic one) over the identification poses, with the mass table's
+    /// payload: the torques over which the compliances were identified.
+    /// Empty for the geometric model.
+    pub torque_ranges: Vec<crate::CoordinateCoverage>,
 }
 
 impl TargetCalibration {
@@ -275,6 +316,13 @@ struct TargetErrorModel<'a> {
     names: Vec<String>,
     data: RefCell<Data>,
     jacobian: RefCell<DMatrix<f64>>,
+    /// Where the elastic and joint-term unknowns start (after the targets').
+    elastic_offset: usize,
+    /// The elastic and joint terms (none when geometric).
+    elastic: ElasticTerms,
+    joint_jacobian: RefCell<Matrix6xX<f64>>,
+    deflection: RefCell<JointState>,
+    twists: RefCell<Matrix6xX<f64>>,
 }
 
 impl<'a> TargetErrorModel<'a> {
@@ -330,10 +378,73 @@ impl<'a> TargetErrorModel<'a> {
             frames,
             rows,
             x_meas_base0,
+            elastic_offset: names.len(),
             names,
             data: RefCell::new(Data::new(model)),
             jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
+            elastic: ElasticTerms::none(model),
+            joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
+            deflection: RefCell::new(JointState::new(model.n_actuated())),
+            twists: RefCell::new(Matrix6xX::zeros(0)),
         })
+    }
+
+    /// Makes the model elasto-geometric: joint springs under `gravity` and
+    /// the joint terms, their unknowns after the targets' in the order of
+    /// the one-target model ([`crate::GeometricErrorModel::with_gravity`],
+    /// [`crate::GeometricErrorModel::with_joint_terms`]).
+    fn with_elastic(
+        mut self,
+        gravity: Option<&GravityCompliance>,
+        terms: &JointTerms,
+    ) -> Result<Self, CalibError> {
+        let label = |k: usize| self.set.poses()[k].label(k);
+        let poses = Configurations {
+            q: self.set.poses().iter().map(|p| p.q.as_slice()).collect(),
+            label: &label,
+        };
+        if let Some(gravity) = gravity {
+            self.elastic.add_gravity(self.model, &poses, gravity)?;
+            self.names.extend(gravity.elastic_unknown_names(self.model));
+        }
+        if terms.any() {
+            self.elastic.add_joint_terms(self.model, &poses, terms)?;
+            self.names.extend(terms.unknown_names(self.model));
+        }
+        self.twists = RefCell::new(Matrix6xX::zeros(self.elastic.len()));
+        Ok(self)
+    }
+
+    /// The actuated coordinates at which the robot is evaluated for pose
+    /// `k`, with their derivatives, into `state`: the measured ones, moved
+    /// by the joint deflections and errors.
+    fn deflect(&self, x: &[f64], k: usize, state: &mut JointState) {
+        self.elastic
+            .deflect(&x[self.elastic_offset..], k, &self.set.poses()[k].q, state);
+    }
+
+    /// The pose `x_base_point` of target `t` at pose `k` from the robot
+    /// evaluated at `q` (the deflected coordinates), moved by the lateral
+    /// rotations that reach it.
+    fn moved_point(
+        &self,
+        x: &[f64],
+        k: usize,
+        t: usize,
+        x_base_point: Isometry3<f64>,
+    ) -> Isometry3<f64> {
+        match self.elastic.lateral_motion(
+            self.model,
+            &x[self.elastic_offset..],
+            k,
+            self.frames[t].0,
+        ) {
+            Some(motion) => {
+                Isometry3::from_parts(Translation3::from(motion.translation), motion.rotation)
+                    * x_base_point
+            }
+            None => x_base_point,
+        }
     }
 
     fn frame_offset(&self) -> usize {
@@ -352,13 +463,15 @@ impl<'a> TargetErrorModel<'a> {
             .collect();
         kinds.extend([UnknownKind::Length; 3]);
         kinds.extend([UnknownKind::Angle; 3]);
-        kinds.resize(self.names.len(), UnknownKind::Length);
+        kinds.resize(self.elastic_offset, UnknownKind::Length);
+        kinds.extend(self.elastic.kinds());
         kinds
     }
 
     fn initial_unknowns(&self) -> Vec<f64> {
         let mut x = self.model.nominal_params().to_vec();
-        x.resize(self.names.len(), 0.0);
+        x.resize(self.elastic_offset, 0.0);
+        x.extend(self.elastic.initial());
         x
     }
 
@@ -403,19 +516,21 @@ impl<'a> TargetErrorModel<'a> {
         let xi = &x[..self.model.n_params()];
         let x_meas_base = self.x_meas_base(x);
         let mut data = self.data.borrow_mut();
+        let mut state = self.deflection.borrow_mut();
         self.rows
             .iter()
             .map(|&(k, t)| {
-                let q = &self.set.poses()[k].q;
+                self.deflect(x, k, &mut state);
                 let x_base_target = forward_frame_pose(
                     self.model,
                     &mut data,
-                    q,
+                    &state.q,
                     xi,
                     self.frames[t].0,
                     &self.point(x, t),
                 )
                 .map_err(self.kinematics_error(k))?;
+                let x_base_target = self.moved_point(x, k, t, x_base_target);
                 Ok((x_meas_base * x_base_target).translation.vector)
             })
             .collect()
@@ -496,35 +611,74 @@ impl Jacobian for TargetErrorModel<'_> {
         let jl_phi = left_jacobian(&Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]));
         let mut data = self.data.borrow_mut();
         let mut jac = self.jacobian.borrow_mut();
+        let mut jq = self.joint_jacobian.borrow_mut();
+        let mut state = self.deflection.borrow_mut();
+        let mut twists = self.twists.borrow_mut();
+        let eo = self.elastic_offset;
+        let n_elastic = self.elastic.len();
         for j in 0..self.names.len() {
             for i in 0..out.nrows() {
                 out[(i, j)] = 0.0;
             }
         }
         for (row, &(k, t)) in self.rows.iter().enumerate() {
-            let q = &self.set.poses()[k].q;
-            let x_base_target = frame_param_jacobian_into(
-                self.model,
-                &mut data,
-                q,
-                xi,
-                self.frames[t].0,
-                &self.point(x, t),
-                &mut jac,
-            )
+            let frame = self.frames[t].0;
+            let point = self.point(x, t);
+            self.deflect(x, k, &mut state);
+            let q = &state.q;
+            let x_base_target = if n_elastic > 0 {
+                frame_param_and_joint_jacobians_into(
+                    self.model, &mut data, q, xi, frame, &point, &mut jac, &mut jq,
+                )
+            } else {
+                frame_param_jacobian_into(self.model, &mut data, q, xi, frame, &point, &mut jac)
+            }
             .map_err(self.kinematics_error(k))?;
+            let motion = self.elastic.lateral_motion(self.model, &x[eo..], k, frame);
+            if n_elastic > 0 {
+                self.elastic.twists(
+                    self.model,
+                    &x[eo..],
+                    k,
+                    frame,
+                    &state,
+                    &jq,
+                    motion.as_ref(),
+                    &x_base_target.translation.vector,
+                    &mut twists,
+                );
+            }
+            // Motions before the lateral rotation G move the point by R_G
+            // times their motion.
+            let (r_g, p_base) = match &motion {
+                Some(m) => (
+                    m.rotation.to_rotation_matrix().into_inner(),
+                    m.apply(&x_base_target.translation.vector),
+                ),
+                None => (Matrix3::identity(), x_base_target.translation.vector),
+            };
+            let r_mbg = r_mb * r_g;
             let r0 = 3 * row;
             // Robot parameters: the linear rows of the point's Jacobian, into M.
             for j in 0..np {
-                let dp = r_mb * Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
+                let dp = r_mbg * Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
                 for i in 0..3 {
                     out[(r0 + i, j)] = dp[i];
                 }
             }
+            // Elastic and joint terms: the linear rows of their twists at
+            // the point.
+            for e in 0..n_elastic {
+                let c = twists.column(e);
+                let dp = r_mbg * Vector3::new(c[0], c[1], c[2]);
+                for i in 0..3 {
+                    out[(r0 + i, eo + e)] = dp[i];
+                }
+            }
             // Measurement frame: translation, then the left rotation vector.
-            let d_rot = -skew(&(r_mb * x_base_target.translation.vector)) * jl_phi;
+            let d_rot = -skew(&(r_mb * p_base)) * jl_phi;
             // Target offset: along the axes of the target's frame.
-            let d_offset = r_mb * x_base_target.rotation.to_rotation_matrix().into_inner();
+            let d_offset = r_mbg * x_base_target.rotation.to_rotation_matrix().into_inner();
             for i in 0..3 {
                 for c in 0..3 {
                     out[(r0 + i, fo + c)] = if i == c { 1.0 } else { 0.0 };
@@ -551,20 +705,15 @@ fn problem_error(e: ProblemError) -> CalibError {
 }
 
 /// Options of [`CalibrationOptions`] that the multi-target identification
-/// does not take (it fits positions with the geometric model).
+/// does not take (it fits positions only, by Levenberg-Marquardt).
 fn check_supported(options: &CalibrationOptions) -> Result<(), CalibError> {
+    options.check()?;
     let unsupported = |name: &'static str| CalibError::InvalidOption {
         name,
-        reason: "not available with several targets (positions, geometric model only)".into(),
+        reason: "not available with several targets (positions only, Levenberg-Marquardt)".into(),
     };
     if options.use_orientation == Some(true) {
         return Err(unsupported("use_orientation"));
-    }
-    if options.gravity.is_some() {
-        return Err(unsupported("gravity"));
-    }
-    if options.joint_terms.any() {
-        return Err(unsupported("joint_terms"));
     }
     if options.method != Method::LevenbergMarquardt {
         return Err(unsupported("method"));
@@ -580,11 +729,11 @@ fn check_supported(options: &CalibrationOptions) -> Result<(), CalibError> {
 
 /// Identifies the robot parameters, the measurement frame (unless fixed)
 /// and the offsets of the identified targets from every target on every
-/// pose (see the module docs). The options are those of [`crate::calibrate`]:
-/// `fixed` and `deferred` take robot, `frame_*` and `target.<name>.*`
-/// names; orientation, the elasto-geometric model, joint terms and
-/// Gauss-Newton are refused with a named error (positions only, geometric
-/// model).
+/// pose, with the elasto-geometric terms when `options.gravity` (and
+/// `options.joint_terms`) ask for them (see the module docs). The options
+/// are those of [`crate::calibrate`]: `fixed` and `deferred` take robot,
+/// `frame_*`, `target.<name>.*` and elastic names; orientation and
+/// Gauss-Newton are refused with a named error (positions only).
 ///
 /// # Errors
 /// Mismatched coordinates, a target on an unknown frame, unknown names in
@@ -606,33 +755,6 @@ pub fn calibrate_targets(
             found: set.n_actuated(),
         });
     }
-    for (name, v) in [
-        ("default_position_std", options.default_position_std),
-        (
-            "max_standard_error_length",
-            options.max_standard_error_length,
-        ),
-        ("max_standard_error_angle", options.max_standard_error_angle),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(CalibError::InvalidOption {
-                name,
-                reason: format!("must be finite and > 0, found {v}"),
-            });
-        }
-    }
-    if !(options.rank_tolerance > 0.0 && options.rank_tolerance < 1.0) {
-        return Err(CalibError::InvalidOption {
-            name: "rank_tolerance",
-            reason: format!("must be in (0, 1), found {}", options.rank_tolerance),
-        });
-    }
-    if options.max_iterations == 0 {
-        return Err(CalibError::InvalidOption {
-            name: "max_iterations",
-            reason: "must be >= 1".into(),
-        });
-    }
     let frame_fixed = options.measurement_frame == FrameTreatment::Fixed;
     // The measurement frame starts from the registration of the nominal
     // predictions onto the measurements.
@@ -649,12 +771,14 @@ pub fn calibrate_targets(
             register_points(&measured, &predicted)?
         }
     };
-    let problem = TargetErrorModel::new(model, set, x_meas_base0)?;
+    let problem = TargetErrorModel::new(model, set, x_meas_base0)?
+        .with_elastic(options.gravity.as_ref(), &options.joint_terms)?;
     let n = problem.names.len();
     let names = problem.names.clone();
     let kinds = problem.kinds();
     let np = model.n_params();
     let fo = problem.frame_offset();
+    let eo = problem.elastic_offset;
     let index_of = |name: &String| {
         names
             .iter()
@@ -673,7 +797,7 @@ pub fn calibrate_targets(
     }
     let mut priorities = vec![0i32; n];
     priorities[fo..fo + 6].fill(2);
-    priorities[fo + 6..].fill(1);
+    priorities[fo + 6..eo].fill(1);
     for name in &options.deferred {
         priorities[index_of(name)?] = -1;
     }
@@ -712,16 +836,23 @@ pub fn calibrate_targets(
         let mut solver = LevenbergMarquardt::params().max_iterations(options.max_iterations);
         solver.options.max_evaluations = 20 * options.max_iterations;
         solver.options.cost_tolerance = options.cost_tolerance;
+        solver.options.cancel = options.cancel.clone();
+        // The law's hardening trades off against the compliance along a
+        // curved valley of the cost ([`crate::calibrate`]).
+        if options.joint_terms.law.is_some() {
+            solver.geodesic_acceleration = Some(GEODESIC_ACCELERATION_LIMIT);
+        }
         let mut observer = |_: &IterationState| Control::Continue;
         solver
             .solve(&problem, x0, &setup, &mut observer)
             .map_err(CalibError::optim("multi-target identification"))
     };
-    // Frames (measurement frame and offsets) alone first, on the nominal robot.
+    // Frames (measurement frame and offsets) alone first, on the nominal
+    // robot (with the starting compliances when elasto-geometric).
     let x_initial = problem.initial_unknowns();
     let mut x_start = x_initial.clone();
     let mut frames_only = vec![true; n];
-    frames_only[fo..n].copy_from_slice(&fixed[fo..n]);
+    frames_only[fo..eo].copy_from_slice(&fixed[fo..eo]);
     if frames_only.iter().any(|f| !f) {
         // Offsets that the nominal robot's own parameters would take over
         // are still separable here: the robot is held at nominal.
@@ -772,17 +903,22 @@ pub fn calibrate_targets(
     }
     let limits: Vec<f64> = kinds
         .iter()
-        .map(|k| match k {
-            UnknownKind::Angle => options.max_standard_error_angle,
-            _ => options.max_standard_error_length,
-        })
+        .map(|&k| options.standard_error_limit(k))
         .collect();
-    let mut frozen: Vec<bool> = (0..n).map(|j| fixed[j] || exactly_dependent[j]).collect();
+    // Cyclic errors of a joint whose poses do not cover their period stay
+    // at zero ([`crate::calibrate`]).
+    let q: Vec<&[f64]> = set.poses().iter().map(|p| p.q.as_slice()).collect();
+    let mut poorly = crate::joint_law::partial_period_mask_of(model, &q, &names);
+    for j in 0..n {
+        poorly[j] &= !fixed[j] && !exactly_dependent[j];
+    }
+    let mut frozen: Vec<bool> = (0..n)
+        .map(|j| fixed[j] || exactly_dependent[j] || poorly[j])
+        .collect();
     if frozen.iter().all(|f| *f) {
         return Err(CalibError::NothingToIdentify);
     }
     let mut report = solve(&x_start, &frozen)?;
-    let mut poorly = vec![false; n];
     // Unknowns identified beyond their standard-error limit go back to the
     // start and the rest is solved again.
     for _ in 0..3 {
@@ -860,6 +996,11 @@ pub fn calibrate_targets(
         .collect();
     let errors_before = problem.errors(&x_nominal_robot)?;
     let errors_after = problem.errors(&x)?;
+    let joint_start = eo + problem.elastic.joint_terms_offset().unwrap_or(n - eo);
+    let elastic = options
+        .gravity
+        .as_ref()
+        .map(|g| (g.clone(), x[eo..joint_start].to_vec()));
     Ok(TargetCalibration {
         xi: x[..np].to_vec(),
         nominal_xi: model.nominal_params().to_vec(),
@@ -884,6 +1025,10 @@ pub fn calibrate_targets(
         per_target_after: problem.per_target(&errors_after),
         n_poses: set.len(),
         n_observations: problem.rows.len(),
+        elastic,
+        joint_terms: options.joint_terms,
+        joint_term_values: x[joint_start..].to_vec(),
+        torque_ranges: problem.elastic.torque_ranges(set.len()),
     })
 }
 
@@ -979,13 +1124,26 @@ pub fn validate_targets(
     };
     let nominal = set.with_targets(fixed_offsets(&calibration.targets_nominal_robot))?;
     let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
+    let gravity = calibration.elastic.as_ref().map(|(g, _)| g);
+    // The identified elastic and joint unknowns (after), or their starting
+    // values (before: the model the identification started from).
     let evaluate = |set: &TargetMeasurementSet,
                     xi: &[f64],
+                    identified: bool,
                     x_meas_base: Isometry3<f64>|
      -> Result<(ErrorStatistics, Vec<TargetErrors>), CalibError> {
-        let problem = TargetErrorModel::new(model, set, x_meas_base)?;
+        let problem = TargetErrorModel::new(model, set, x_meas_base)?
+            .with_elastic(gravity, &calibration.joint_terms)?;
         let mut x = xi.to_vec();
-        x.resize(problem.names.len(), 0.0);
+        x.resize(problem.elastic_offset, 0.0);
+        if identified {
+            if let Some((_, values)) = &calibration.elastic {
+                x.extend(values);
+            }
+            x.extend(&calibration.joint_term_values);
+        } else {
+            x.extend(problem.elastic.initial());
+        }
         if refit_frame {
             let mut frozen = vec![true; x.len()];
             frozen[model.n_params()..model.n_params() + 6].fill(false);
@@ -1008,10 +1166,11 @@ pub fn validate_targets(
     let (before, per_target_before) = evaluate(
         &nominal,
         &calibration.nominal_xi,
+        false,
         calibration.x_meas_base_nominal_robot,
     )?;
     let (after, per_target_after) =
-        evaluate(&calibrated, &calibration.xi, calibration.x_meas_base)?;
+        evaluate(&calibrated, &calibration.xi, true, calibration.x_meas_base)?;
     Ok(TargetValidation {
         before,
         after,
@@ -1019,4 +1178,139 @@ pub fn validate_targets(
         per_target_after,
         frame_refitted: refit_frame,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gravity::LateralCompliance;
+    use crate::joint_law::JointLaw;
+    use crate::targets::{TargetObservation, TargetPose, read_targets};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn data_file(name: &str) -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data")
+            .join(name)
+    }
+
+    /// Every column of the multi-target model with the elastic and joint
+    /// terms (compliances, payload, lateral compliances of the torso and
+    /// both arms, the joint law, cyclic errors) against central
+    /// differences, on the two-armed tree with a marker on each hand, at
+    /// unknowns away from the start.
+    #[test]
+    fn elastic_columns_of_markers_on_two_branches_match_central_differences() {
+        let model = RobotDescription::from_toml_file(&data_file("two_arms.toml"))
+            .unwrap()
+            .build()
+            .unwrap();
+        let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
+        let mut gravity =
+            GravityCompliance::from_toml_file(&data_file("two_arms_masses.toml")).unwrap();
+        gravity.lateral = LateralCompliance::AboutX;
+        let mut rng = ChaCha8Rng::seed_from_u64(0x6664);
+        let poses: Vec<TargetPose> = (0..6)
+            .map(|k| TargetPose {
+                pose_id: Some(format!("p{k}")),
+                q: (0..model.n_actuated())
+                    .map(|_| rng.random_range(-1.5..1.5))
+                    .collect(),
+                observations: (0..targets.len())
+                    .map(|_| {
+                        Some(TargetObservation::new(Vector3::from_fn(|_, _| {
+                            rng.random_range(-1.0..1.0)
+                        })))
+                    })
+                    .collect(),
+            })
+            .collect();
+        let set = TargetMeasurementSet::new("fd", targets, poses).unwrap();
+        let terms = JointTerms {
+            law: Some(JointLaw::default()),
+            cyclic: true,
+        };
+        let frame = Isometry3::from_parts(
+            Translation3::new(2.0, -0.3, 0.4),
+            rotation_from_vector(&Vector3::new(0.2, -0.1, 1.9)),
+        );
+        let problem = TargetErrorModel::new(&model, &set, frame)
+            .unwrap()
+            .with_elastic(Some(&gravity), &terms)
+            .unwrap();
+        let kinds = problem.kinds();
+        let n = problem.names.len();
+        assert_eq!(kinds.len(), n);
+        assert_eq!(problem.initial_unknowns().len(), n);
+        // Away from the start, by kind.
+        let x: Vec<f64> = problem
+            .initial_unknowns()
+            .iter()
+            .zip(&kinds)
+            .map(|(v, kind)| {
+                v + match kind {
+                    UnknownKind::Length => rng.random_range(-1e-3..1e-3),
+                    UnknownKind::Angle => rng.random_range(-1e-3..1e-3),
+                    UnknownKind::Compliance => rng.random_range(2e-6..20e-6),
+                    UnknownKind::Mass => 0.3,
+                    UnknownKind::FirstMoment => rng.random_range(-0.02..0.02),
+                    UnknownKind::Hardening => rng.random_range(100.0..500.0),
+                }
+            })
+            .collect();
+        let rows = problem.n_residuals();
+        let mut analytic = Mat::<f64>::zeros(rows, n);
+        problem.jacobian(&x, analytic.as_mut()).unwrap();
+        let (mut plus, mut minus) = (vec![0.0; rows], vec![0.0; rows]);
+        let mut lateral_seen = vec![false; 2];
+        for j in 0..n {
+            let h = match kinds[j] {
+                UnknownKind::Compliance => 1e-8,
+                UnknownKind::Hardening => 1e-2,
+                UnknownKind::Mass => 1e-3,
+                UnknownKind::FirstMoment => 1e-4,
+                _ => 1e-7,
+            };
+            let mut xp = x.clone();
+            xp[j] += h;
+            problem.residuals(&xp, &mut plus).unwrap();
+            xp[j] -= 2.0 * h;
+            problem.residuals(&xp, &mut minus).unwrap();
+            let scale = (0..rows)
+                .map(|i| analytic[(i, j)].abs())
+                .fold(1e-12, f64::max);
+            for i in 0..rows {
+                let numeric = (plus[i] - minus[i]) / (2.0 * h);
+                assert!(
+                    (analytic[(i, j)] - numeric).abs() < 1e-6 * scale + 1e-9,
+                    "{}: row {i}, analytic {:e}, central difference {numeric:e}",
+                    problem.names[j],
+                    analytic[(i, j)]
+                );
+            }
+            // The torso's lateral compliance moves both hands; a left-arm
+            // one moves the left marker only.
+            let moves = |target: usize| {
+                problem
+                    .rows
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (_, t))| *t == target)
+                    .any(|(row, _)| (0..3).any(|i| analytic[(3 * row + i, j)] != 0.0))
+            };
+            match problem.names[j].as_str() {
+                "lateral_compliance_theta1_x" => {
+                    assert!(moves(0) && moves(1));
+                    lateral_seen[0] = true;
+                }
+                "lateral_compliance_thetaL2_x" => {
+                    assert!(moves(0) && !moves(1));
+                    lateral_seen[1] = true;
+                }
+                _ => {}
+            }
+        }
+        assert_eq!(lateral_seen, [true, true], "names: {:?}", problem.names);
+    }
 }

@@ -157,12 +157,17 @@ pub fn partial_period_mask(
     set: &crate::MeasurementSet,
     names: &[String],
 ) -> Vec<bool> {
+    let q: Vec<&[f64]> = set.measurements().iter().map(|m| m.q.as_slice()).collect();
+    partial_period_mask_of(model, &q, names)
+}
+
+/// [`partial_period_mask`] over the configurations `q` of any set of poses.
+pub(crate) fn partial_period_mask_of(model: &Model, q: &[&[f64]], names: &[String]) -> Vec<bool> {
     // The arc of the harmonic's period the angles cover (see
     // [`crate::coverage`]): a joint turning more than once may span a
     // period on the line and still leave most of the circle unseen.
     let covered = |i: usize, period: f64| {
-        crate::CoordinateCoverage::of(set.measurements().iter().map(|m| m.q[i]), Some(period))
-            .length()
+        crate::CoordinateCoverage::of(q.iter().map(|q| q[i]), Some(period)).length()
     };
     let turn = 2.0 * std::f64::consts::PI;
     names

@@ -79,6 +79,9 @@
 //! cannot see: the other branch of a tree when its marker is missing, a
 //! marker's offset along its hand's axis against the hand frame's `r`).
 //! Reports give per-target figures ([`TargetErrors`], [`validate_targets`]).
+//! The elasto-geometric terms below work with several targets too: the
+//! joint springs of each target's branch deflect it, and a torso's
+//! lateral tilt under both arms moves both hands.
 //! The one-target [`MeasurementSet`] is the case of one target on the TCP
 //! ([`TargetMeasurementSet::from_measurement_set`]).
 //!
@@ -223,8 +226,9 @@
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
 //! - Several targets: positions only (orientation columns are read, not
-//!   fitted), geometric model only (no gravity compliance, joint terms or
-//!   Gauss-Newton), no spread ratios or split-half checks, one station.
+//!   fitted), Levenberg-Marquardt only, no model selection, spread ratios
+//!   or split-half checks, one station; the standard-error limits decide
+//!   identifiability without the one-target model's noise-aware rank.
 //! - Several stations share one target offset: a probe remounted between
 //!   campaigns is refused, not modelled; with the frames fixed
 //!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.
@@ -242,6 +246,7 @@
 pub mod accuracy;
 pub mod coverage;
 pub mod cross;
+mod elastic_terms;
 mod error;
 pub mod error_model;
 pub mod geometry;
@@ -260,6 +265,7 @@ pub mod selection;
 pub mod split;
 pub mod targets;
 pub mod temperature;
+mod unknown_kind;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy};

@@ -143,6 +143,73 @@ fn two_markers_calibrate_end_to_end() {
     description.build().unwrap();
 }
 
+/// The elasto-geometric model with two markers, from the command line: the
+/// joint springs under both arms' weights (mass table with lateral
+/// compliances) on a robot whose joints are rigid. The compliances come out
+/// at zero (from the table's start of 10 urad/N.m), and the validation is
+/// fitted to round-off.
+#[test]
+fn two_markers_calibrate_the_elasto_geometric_model_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let targets_file = calib_data("two_arms_targets.toml");
+    let targets = read_targets(&targets_file).unwrap();
+    let identification = d.join("markers.csv");
+    let validation = d.join("markers-validation.csv");
+    simulate(&targets, 0, 120)
+        .write_csv(&identification)
+        .unwrap();
+    simulate(&targets, 1000, 30).write_csv(&validation).unwrap();
+    let robot = calib_data("two_arms.toml").display().to_string();
+    let masses = calib_data("two_arms_masses.toml").display().to_string();
+    let report = d.join("report.json");
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        &robot,
+        "--data",
+        &identification.display().to_string(),
+        "--targets",
+        &targets_file.display().to_string(),
+        "--validate",
+        &validation.display().to_string(),
+        "--model",
+        "elasto-geometric",
+        "--masses",
+        &masses,
+        "--report",
+        &report.display().to_string(),
+    ]);
+    let text = stdout(&out);
+    assert!(out.status.success(), "{text}\n{}", stderr(&out));
+    println!("{text}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let unknowns = json["calibration"]["unknowns"].as_array().unwrap();
+    let identified = |name: &str| {
+        unknowns
+            .iter()
+            .find(|u| u["name"] == name)
+            .filter(|u| u["status"] == "Identified")
+            .map(|u| u["value"].as_f64().unwrap())
+    };
+    // The shoulders carry the arms' weight: their compliances are
+    // identified, at zero; so is the torso's tilt under both arms.
+    for name in [
+        "compliance_thetaL1",
+        "compliance_thetaR1",
+        "lateral_compliance_theta1_x",
+    ] {
+        let value = identified(name).unwrap_or_else(|| panic!("{name} not identified: {text}"));
+        assert!(value.abs() < 1e-8, "{name} = {value:e}");
+        assert!(text.contains(name), "{text}");
+    }
+    let after = &json["validation"]["per_target_after"];
+    for target in after.as_array().unwrap() {
+        assert!(target["statistics"]["position_max"].as_f64().unwrap() < 1e-6);
+    }
+}
+
 #[test]
 fn bad_multi_target_input_is_a_named_error() {
     let dir = tempfile::tempdir().unwrap();

@@ -710,26 +710,49 @@ pub fn joint_jacobian_into(
     xi: &[f64],
     out: &mut Matrix6xX<f64>,
 ) -> Result<Isometry3<f64>, KinematicsError> {
-    let na = model.n_actuated();
-    if out.ncols() != na {
-        return Err(KinematicsError::WrongLength {
-            what: "joint Jacobian columns".into(),
-            expected: na,
-            found: out.ncols(),
-        });
-    }
+    check_joint_columns(model, out)?;
     run_forward(model, data, q, xi, true)?;
     joint_jacobian_from_forward(model, data, out);
     Ok(data.tcp.to_isometry())
 }
 
+/// Checks that a joint Jacobian has one column per actuated coordinate.
+fn check_joint_columns(model: &Model, out: &Matrix6xX<f64>) -> Result<(), KinematicsError> {
+    if out.ncols() != model.n_actuated() {
+        return Err(KinematicsError::WrongLength {
+            what: "joint Jacobian columns".into(),
+            expected: model.n_actuated(),
+            found: out.ncols(),
+        });
+    }
+    Ok(())
+}
+
 /// The joint Jacobian from the forward pass (with derivatives) already in
 /// `data`; `out` has `n_actuated` columns.
 fn joint_jacobian_from_forward(model: &Model, data: &Data, out: &mut Matrix6xX<f64>) {
+    joint_columns_at(
+        model,
+        data,
+        model.tcp_path.iter().copied(),
+        &data.tcp.p,
+        out,
+    );
+}
+
+/// The joint Jacobian of `point` (base frame) moved by the joints of
+/// `frames` (the path from the root to the frame carrying the point), from
+/// the forward pass with derivatives in `data`, into `out` (zeroed first).
+fn joint_columns_at(
+    model: &Model,
+    data: &Data,
+    frames: impl Iterator<Item = usize>,
+    point: &Vector3<f64>,
+    out: &mut Matrix6xX<f64>,
+) {
     let na = model.n_actuated();
     out.fill(0.0);
-    let point = data.tcp.p;
-    for &f in &model.tcp_path {
+    for f in frames {
         let Some(k) = model.frames[f].joint_quantity() else {
             continue;
         };
@@ -737,7 +760,7 @@ fn joint_jacobian_from_forward(model: &Model, data: &Data, out: &mut Matrix6xX<f
             continue;
         }
         let (u, o) = data.quantity_axis(model, f, k);
-        let t = twist_at(&u, &o, &point);
+        let t = twist_at(&u, &o, point);
         for c in 0..na {
             let w = data.djoint_dq[f * na + c];
             if w != 0.0 {
@@ -764,14 +787,7 @@ pub fn param_and_joint_jacobians_into(
     params_out: &mut DMatrix<f64>,
     joints_out: &mut Matrix6xX<f64>,
 ) -> Result<Isometry3<f64>, KinematicsError> {
-    let na = model.n_actuated();
-    if joints_out.ncols() != na {
-        return Err(KinematicsError::WrongLength {
-            what: "joint Jacobian columns".into(),
-            expected: na,
-            found: joints_out.ncols(),
-        });
-    }
+    check_joint_columns(model, joints_out)?;
     let x_base_tcp = param_jacobian_into(model, data, q, xi, params_out)?;
     joint_jacobian_from_forward(model, data, joints_out);
     Ok(x_base_tcp)
@@ -1047,6 +1063,42 @@ pub fn frame_param_jacobian_into(
         f = frame_model.parent;
     }
     Ok(x_base_point.to_isometry())
+}
+
+/// [`frame_param_jacobian_into`] and the joint Jacobian of the same point
+/// (6 x n_actuated into `joints_out`: column k = d[p_point; phi]/d q_k, rows
+/// `[linear; angular]` in the base frame, linear part at the point) from one
+/// pass of the forward model: what an elasto-geometric identification with
+/// targets on several frames needs at every observation. Only the actuated
+/// coordinates that move frames on the path from the root to `frame` have
+/// non-zero columns (closed loops and couplings through their ratios, as in
+/// [`joint_jacobian_into`]). Returns `x_base_point`.
+///
+/// # Errors
+/// As [`frame_param_jacobian_into`], and
+/// [`KinematicsError::WrongLength`] for `joints_out`.
+#[allow(clippy::too_many_arguments)]
+pub fn frame_param_and_joint_jacobians_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    frame: usize,
+    x_frame_point: &Isometry3<f64>,
+    params_out: &mut DMatrix<f64>,
+    joints_out: &mut Matrix6xX<f64>,
+) -> Result<Isometry3<f64>, KinematicsError> {
+    check_joint_columns(model, joints_out)?;
+    let x_base_point =
+        frame_param_jacobian_into(model, data, q, xi, frame, x_frame_point, params_out)?;
+    joint_columns_at(
+        model,
+        data,
+        std::iter::successors(Some(frame), |&i| model.frames[i].parent),
+        &x_base_point.translation.vector,
+        joints_out,
+    );
+    Ok(x_base_point)
 }
 
 /// Allocating twin of [`frame_param_jacobian_into`]: the pose `x_base_point`

@@ -5,10 +5,10 @@
 //! joints).
 
 use flexcal_kinematics::{
-    Data, Model, RobotDescription, forward_frame_pose, forward_pose, frame_param_jacobian,
-    param_jacobian,
+    Data, Model, RobotDescription, forward_frame_pose, forward_pose,
+    frame_param_and_joint_jacobians_into, frame_param_jacobian, param_jacobian,
 };
-use nalgebra::{DMatrix, Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{DMatrix, Isometry3, Matrix6xX, Translation3, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -152,6 +152,37 @@ fn check_frame(
             jac.amax() > 0.1,
             "frame {frame}: the Jacobian is (nearly) zero"
         );
+        // The joint Jacobian of the same point from the same pass.
+        let na = model.n_actuated();
+        let (mut params, mut joints) = (DMatrix::zeros(6, model.n_params()), Matrix6xX::zeros(na));
+        let both = frame_param_and_joint_jacobians_into(
+            model,
+            &mut data,
+            q,
+            &xi,
+            f,
+            x_frame_point,
+            &mut params,
+            &mut joints,
+        )
+        .unwrap();
+        assert!((both.translation.vector - pose.translation.vector).norm() < 1e-12);
+        assert!((&params - &jac).amax() < 1e-12);
+        let mut numeric_q = Matrix6xX::zeros(na);
+        for c in 0..na {
+            let mut qc = q.clone();
+            qc[c] += h;
+            let plus = forward_frame_pose(model, &mut data, &qc, &xi, f, x_frame_point).unwrap();
+            qc[c] -= 2.0 * h;
+            let minus = forward_frame_pose(model, &mut data, &qc, &xi, f, x_frame_point).unwrap();
+            numeric_q.set_column(c, &pose_difference(&plus, &minus, h));
+        }
+        let err_q = (&joints - &numeric_q).amax() / joints.amax().max(1.0);
+        assert!(
+            err_q < 1e-6,
+            "{}, frame {frame}: joint Jacobian error {err_q:e} at q = {q:?}",
+            model.name()
+        );
         for (j, moves) in never_moves.iter_mut().enumerate() {
             if jac.column(j).amax() != 0.0 {
                 *moves = false;
@@ -197,6 +228,27 @@ fn hands_of_a_two_armed_tree_match_finite_differences_and_see_only_their_branch(
     assert_eq!(left_blind, of_arm('R'));
     assert_eq!(right_blind, of_arm('L'));
     assert!(left_blind.contains(&"dR3".to_string()));
+    // Nor do the other arm's joints move a hand: their joint columns are
+    // zero, the torso's and the own arm's are not.
+    let mut data = Data::new(&model);
+    let na = model.n_actuated();
+    let (mut params, mut joints) = (DMatrix::zeros(6, model.n_params()), Matrix6xX::zeros(na));
+    let left_hand = model.frame_index("LH").unwrap();
+    frame_param_and_joint_jacobians_into(
+        &model,
+        &mut data,
+        &configurations[1],
+        model.nominal_params(),
+        left_hand,
+        &marker,
+        &mut params,
+        &mut joints,
+    )
+    .unwrap();
+    for (c, name) in model.actuated_names().iter().enumerate() {
+        let moves = joints.column(c).amax() > 0.0;
+        assert_eq!(moves, !name.contains('R'), "joint {name} on the left hand");
+    }
     // An intermediate frame of an arm (the elbow) too.
     check_frame(
         &model,

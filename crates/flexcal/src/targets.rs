@@ -172,7 +172,9 @@ impl TargetCalibrationRun {
         )];
         lines.extend(c.identifiability_notes());
         lines.extend(c.combination_lines.iter().cloned());
-        lines.push("identified (value, standard error):".into());
+        lines.push(
+            "identified (start -> identified, change from the start, standard error):".into(),
+        );
         for u in c
             .unknowns
             .iter()
@@ -180,8 +182,10 @@ impl TargetCalibrationRun {
         {
             let (unit, scale) = u.kind.display_unit();
             lines.push(format!(
-                "  {:<16} {:>12.5} {unit} +- {:.5}",
+                "  {:<28} {:>12.5} -> {:>12.5} {unit}, change {:>10.5} +- {:.5}",
                 u.name,
+                u.initial * scale,
+                u.value * scale,
                 (u.value - u.initial) * scale,
                 u.standard_error.unwrap_or(f64::NAN) * scale
             ));

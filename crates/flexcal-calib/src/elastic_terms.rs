@@ -1,0 +1,436 @@
+//! The terms of the elasto-geometric model beyond geometry, shared by the
+//! one-target model ([`crate::GeometricErrorModel`]) and the multi-target
+//! one ([`crate::calibrate_targets`]): joint springs under gravity
+//! ([`crate::gravity`]), the payload, the lateral compliances, the joint
+//! law and the cyclic joint errors ([`crate::joint_law`]).
+//!
+//! Their unknowns form one block `x_b`, in this order: the compliances
+//! (`n_actuated`), the payload (4), the lateral compliances, then the
+//! law's hardening and lost motion (`n_actuated` each) and the cyclic
+//! amplitudes (4 per cyclic joint). A model puts the block after its
+//! frames; the offsets here are relative to the block's start.
+
+use flexcal_kinematics::Model;
+use nalgebra::{Matrix6xX, UnitQuaternion, Vector3, Vector6};
+
+use crate::CalibError;
+use crate::geometry::{left_jacobian, rotation_from_vector};
+use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTerms};
+use crate::joint_law::{JointTerms, cyclic_basis, cyclic_joints, joint_deflection};
+use crate::unknown_kind::UnknownKind;
+
+/// The actuated coordinates at which the robot is evaluated for one pose,
+/// and what their derivatives by the elastic and joint unknowns need.
+#[derive(Debug, Clone)]
+pub(crate) struct JointState {
+    /// `q + dq` (rad or m).
+    pub q: Vec<f64>,
+    /// Generalised gravity forces (N.m or N).
+    tau: Vec<f64>,
+    /// `d dq_i / d tau_i`.
+    by_torque: Vec<f64>,
+    /// `d dq_i / d c_i`.
+    by_compliance: Vec<f64>,
+    /// `d dq_i / d eta_i`.
+    by_hardening: Vec<f64>,
+    /// `d dq_i / d beta_i`.
+    by_lost_motion: Vec<f64>,
+}
+
+impl JointState {
+    pub(crate) fn new(n: usize) -> Self {
+        Self {
+            q: vec![0.0; n],
+            tau: vec![0.0; n],
+            by_torque: vec![0.0; n],
+            by_compliance: vec![0.0; n],
+            by_hardening: vec![0.0; n],
+            by_lost_motion: vec![0.0; n],
+        }
+    }
+}
+
+/// The rigid motion `G` of the lateral rotations at one pose: its rotation,
+/// its translation (m) and its rotation vector `phi` (rad), with each
+/// lateral joint's rotation `delta_j` (rad) and moment `Mx_j` (N.m), both
+/// zero for a joint that does not move the point.
+pub(crate) struct LateralMotion {
+    pub rotation: UnitQuaternion<f64>,
+    pub translation: Vector3<f64>,
+    phi: Vector3<f64>,
+    deltas: Vec<(f64, f64)>,
+}
+
+impl LateralMotion {
+    /// `G p` for a point `p` of the base frame (m).
+    pub(crate) fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation * p + self.translation
+    }
+}
+
+/// The elastic and joint terms of a model over a set of poses (see the
+/// module docs); empty for the geometric model.
+pub(crate) struct ElasticTerms {
+    na: usize,
+    gravity: Option<(GravityTerms, Vec<f64>)>,
+    lateral: Option<LateralTerms>,
+    joint_terms: JointTerms,
+    cyclic_joints: Vec<usize>,
+    /// [`cyclic_basis`] of each cyclic joint at each pose (pose-major): the
+    /// measured angles do not change between evaluations.
+    cyclic_bases: Vec<[f64; 4]>,
+}
+
+impl ElasticTerms {
+    /// No terms: the geometric model of `model`.
+    pub(crate) fn none(model: &Model) -> Self {
+        Self {
+            na: model.n_actuated(),
+            gravity: None,
+            lateral: None,
+            joint_terms: JointTerms::default(),
+            cyclic_joints: Vec::new(),
+            cyclic_bases: Vec::new(),
+        }
+    }
+
+    /// Adds the joint springs under `gravity` (and the lateral compliances
+    /// when it has them) over `poses`.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] after the joint terms, for a mass on a
+    /// missing frame or non-finite values; [`CalibError::Kinematics`]
+    /// naming a pose.
+    pub(crate) fn add_gravity(
+        &mut self,
+        model: &Model,
+        poses: &Configurations<'_>,
+        gravity: &GravityCompliance,
+    ) -> Result<(), CalibError> {
+        if self.joint_terms.any() {
+            return Err(CalibError::InvalidOption {
+                name: "joint_terms",
+                reason: "the gravity model goes before the joint terms".into(),
+            });
+        }
+        let terms = GravityTerms::new(model, poses, gravity)?;
+        self.gravity = Some((terms, gravity.initial_unknowns(model)));
+        let lateral = LateralTerms::new(model, poses, gravity)?;
+        self.lateral = (lateral.len() > 0).then_some(lateral);
+        Ok(())
+    }
+
+    /// Adds the joint terms of [`crate::joint_law`] over `poses`.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for the stiffness law without the
+    /// gravity model, or a lost-motion torque that is not `> 0`.
+    pub(crate) fn add_joint_terms(
+        &mut self,
+        model: &Model,
+        poses: &Configurations<'_>,
+        terms: &JointTerms,
+    ) -> Result<(), CalibError> {
+        if let Some(law) = &terms.law {
+            if self.gravity.is_none() {
+                return Err(CalibError::InvalidOption {
+                    name: "joint_law",
+                    reason: "the non-linear joint stiffness law needs the elasto-geometric model (gravity loading)".into(),
+                });
+            }
+            if !(law.lost_motion_torque.is_finite() && law.lost_motion_torque > 0.0) {
+                return Err(CalibError::InvalidOption {
+                    name: "lost_motion_torque",
+                    reason: format!("must be finite and > 0, found {}", law.lost_motion_torque),
+                });
+            }
+        }
+        self.joint_terms = *terms;
+        self.cyclic_joints = if terms.cyclic {
+            cyclic_joints(model)
+        } else {
+            Vec::new()
+        };
+        self.cyclic_bases = poses
+            .q
+            .iter()
+            .flat_map(|q| self.cyclic_joints.iter().map(|&i| cyclic_basis(q[i])))
+            .collect();
+        Ok(())
+    }
+
+    /// Whether the model has the joint springs under gravity.
+    pub(crate) fn has_gravity(&self) -> bool {
+        self.gravity.is_some()
+    }
+
+    /// Unknowns of the elastic part: compliances, payload and lateral
+    /// compliances (none when geometric).
+    fn n_elastic(&self) -> usize {
+        match &self.gravity {
+            Some(_) => self.na + 4 + self.lateral.as_ref().map_or(0, LateralTerms::len),
+            None => 0,
+        }
+    }
+
+    /// Number of unknowns of the block.
+    pub(crate) fn len(&self) -> usize {
+        self.n_elastic()
+            + if self.joint_terms.law.is_some() {
+                2 * self.na
+            } else {
+                0
+            }
+            + 4 * self.cyclic_joints.len()
+    }
+
+    /// The kind of each unknown of the block.
+    pub(crate) fn kinds(&self) -> Vec<UnknownKind> {
+        let mut kinds = Vec::with_capacity(self.len());
+        if self.gravity.is_some() {
+            kinds.extend(std::iter::repeat_n(UnknownKind::Compliance, self.na));
+            kinds.push(UnknownKind::Mass);
+            kinds.extend([UnknownKind::FirstMoment; 3]);
+            kinds.extend(std::iter::repeat_n(
+                UnknownKind::Compliance,
+                self.lateral.as_ref().map_or(0, LateralTerms::len),
+            ));
+        }
+        if self.joint_terms.law.is_some() {
+            kinds.extend(std::iter::repeat_n(UnknownKind::Hardening, self.na));
+            kinds.extend(std::iter::repeat_n(UnknownKind::Angle, self.na));
+        }
+        kinds.extend(std::iter::repeat_n(
+            UnknownKind::Angle,
+            4 * self.cyclic_joints.len(),
+        ));
+        kinds
+    }
+
+    /// Starting values of the block: the loading's starting compliances and
+    /// payload, zero for the rest (linear springs, no cyclic error).
+    pub(crate) fn initial(&self) -> Vec<f64> {
+        let mut x = match &self.gravity {
+            Some((_, initial)) => initial.clone(),
+            None => Vec::new(),
+        };
+        x.resize(self.len(), 0.0);
+        x
+    }
+
+    /// Offset of the first lateral compliance in the block.
+    pub(crate) fn lateral_offset(&self) -> Option<usize> {
+        self.lateral.as_ref().map(|_| self.na + 4)
+    }
+
+    /// Offset of the first joint-term unknown in the block.
+    pub(crate) fn joint_terms_offset(&self) -> Option<usize> {
+        self.joint_terms.any().then(|| self.n_elastic())
+    }
+
+    /// Offset of the law's first unknown (the hardening) in the block.
+    fn law_offset(&self) -> Option<usize> {
+        self.joint_terms.law.and_then(|_| self.joint_terms_offset())
+    }
+
+    /// Offset of the first cyclic amplitude in the block.
+    fn cyclic_offset(&self) -> Option<usize> {
+        self.joint_terms_offset().map(|o| {
+            o + if self.joint_terms.law.is_some() {
+                2 * self.na
+            } else {
+                0
+            }
+        })
+    }
+
+    /// Span of each actuated coordinate's gravity torque over the `n_poses`
+    /// poses, with the starting payload (N.m or N); empty when geometric.
+    pub(crate) fn torque_ranges(&self, n_poses: usize) -> Vec<crate::CoordinateCoverage> {
+        let Some((terms, initial)) = &self.gravity else {
+            return Vec::new();
+        };
+        let na = self.na;
+        let payload = &initial[na..na + 4];
+        let mut tau = vec![0.0; na];
+        let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); na];
+        for k in 0..n_poses {
+            terms.forces(k, payload, &mut tau);
+            for (r, t) in ranges.iter_mut().zip(&tau) {
+                *r = (r.0.min(*t), r.1.max(*t));
+            }
+        }
+        ranges
+            .into_iter()
+            .map(|(lo, hi)| crate::CoordinateCoverage {
+                lo,
+                hi,
+                period: None,
+            })
+            .collect()
+    }
+
+    /// The actuated coordinates at which the robot is evaluated for pose
+    /// `k` measured at `q`: `q`, plus the gravity deflection (`c_i tau_i`,
+    /// or the non-linear law of [`crate::joint_law`]) when elasto-geometric,
+    /// plus the cyclic errors when on; with the derivatives the Jacobian
+    /// needs. `xb` is the block of unknowns.
+    pub(crate) fn deflect(&self, xb: &[f64], k: usize, q: &[f64], state: &mut JointState) {
+        state.q.copy_from_slice(q);
+        let na = self.na;
+        if let Some((terms, _)) = &self.gravity {
+            terms.forces(k, &xb[na..na + 4], &mut state.tau);
+            match (&self.joint_terms.law, self.law_offset()) {
+                (Some(law), Some(lo)) => {
+                    for i in 0..na {
+                        let d = joint_deflection(
+                            state.tau[i],
+                            xb[i],
+                            xb[lo + i],
+                            xb[lo + na + i],
+                            law.lost_motion_torque,
+                        );
+                        state.q[i] += d.deflection;
+                        state.by_torque[i] = d.by_torque;
+                        state.by_compliance[i] = d.by_compliance;
+                        state.by_hardening[i] = d.by_hardening;
+                        state.by_lost_motion[i] = d.by_lost_motion;
+                    }
+                }
+                _ => {
+                    for (i, &c) in xb[..na].iter().enumerate() {
+                        state.q[i] += c * state.tau[i];
+                        state.by_torque[i] = c;
+                        state.by_compliance[i] = state.tau[i];
+                    }
+                }
+            }
+        }
+        if let Some(co) = self.cyclic_offset().filter(|_| self.joint_terms.cyclic) {
+            let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
+            for (s, &i) in self.cyclic_joints.iter().enumerate() {
+                // cyclic_error(q[i], ..) with the basis computed once.
+                let amplitudes = &xb[co + 4 * s..co + 4 * s + 4];
+                state.q[i] += bases[s]
+                    .iter()
+                    .zip(amplitudes)
+                    .map(|(b, a)| a * b)
+                    .sum::<f64>();
+            }
+        }
+    }
+
+    /// The rigid motion `G` of the lateral rotations of pose `k` that move
+    /// frame `frame` of `model` ([`crate::gravity`]): `phi = sum_j delta_j
+    /// x_j` over the lateral joints on the path to it. `None` without
+    /// lateral terms.
+    pub(crate) fn lateral_motion(
+        &self,
+        model: &Model,
+        xb: &[f64],
+        k: usize,
+        frame: usize,
+    ) -> Option<LateralMotion> {
+        let lateral = self.lateral.as_ref()?;
+        let lo = self.lateral_offset()?;
+        let payload = &xb[self.na..self.na + 4];
+        let mut deltas = Vec::with_capacity(lateral.len());
+        let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
+        for s in 0..lateral.len() {
+            if !lateral.moves(model, s, frame) {
+                deltas.push((0.0, 0.0));
+                continue;
+            }
+            let joint = lateral.joint(k, s);
+            let moment = joint.moment(payload);
+            let delta = xb[lo + s] * moment;
+            phi += delta * joint.axis;
+            t -= delta * joint.axis.cross(&joint.origin);
+            deltas.push((delta, moment));
+        }
+        Some(LateralMotion {
+            rotation: rotation_from_vector(&phi),
+            translation: t,
+            phi,
+            deltas,
+        })
+    }
+
+    /// The twists `[v; w]` (base frame, `v` at the point `p` of the robot
+    /// evaluated at `q + dq`, before `G`) that each unknown of the block
+    /// gives the point at pose `k`, into `out` (one column per unknown):
+    /// through the joint Jacobian `jq` of the point for the joint
+    /// deflections, and through `G` for the lateral compliances (written
+    /// before `G`, `R_G^T` times their motion, as the other columns are).
+    /// `state` is [`ElasticTerms::deflect`]'s for the pose; `frame` is the
+    /// frame carrying the point.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn twists(
+        &self,
+        model: &Model,
+        xb: &[f64],
+        k: usize,
+        frame: usize,
+        state: &JointState,
+        jq: &Matrix6xX<f64>,
+        motion: Option<&LateralMotion>,
+        p: &Vector3<f64>,
+        out: &mut Matrix6xX<f64>,
+    ) {
+        let na = self.na;
+        out.fill(0.0);
+        if let Some((terms, _)) = &self.gravity {
+            let law_offset = self.law_offset();
+            for i in 0..na {
+                let column = jq.column(i);
+                // dq_i = f(tau_i(payload); c_i, ...): by c_i, df/dc_i; by the
+                // payload, df/dtau_i dtau_i/dpayload.
+                out.column_mut(i).axpy(state.by_compliance[i], &column, 0.0);
+                let d = terms.payload_derivatives(k, i);
+                for (p, dp) in d.iter().enumerate() {
+                    out.column_mut(na + p)
+                        .axpy(state.by_torque[i] * dp, &column, 1.0);
+                }
+                if let Some(lo) = law_offset {
+                    out.column_mut(lo + i)
+                        .axpy(state.by_hardening[i], &column, 0.0);
+                    out.column_mut(lo + na + i)
+                        .axpy(state.by_lost_motion[i], &column, 0.0);
+                }
+            }
+        }
+        if let (Some(motion), Some(lateral), Some(lc)) =
+            (motion, &self.lateral, self.lateral_offset())
+        {
+            let r_g = motion.rotation.to_rotation_matrix().into_inner();
+            // d G(p) / d delta_j = (Jl(phi) x_j) x (R_G p) - x_j x o_j,
+            // turning with Jl(phi) x_j; written before G (R_G^T).
+            let jl = left_jacobian(&motion.phi);
+            let p_turned = r_g * p;
+            let r_g_t = r_g.transpose();
+            for (s, &(_, moment)) in motion.deltas.iter().enumerate() {
+                if !lateral.moves(model, s, frame) {
+                    continue;
+                }
+                let joint = lateral.joint(k, s);
+                let turn = jl * joint.axis;
+                let v = r_g_t * (turn.cross(&p_turned) - joint.axis.cross(&joint.origin));
+                let w = r_g_t * turn;
+                let unit = Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z);
+                out.column_mut(lc + s).axpy(moment, &unit, 0.0);
+                let compliance = xb[lc + s];
+                for (p, dp) in joint.payload_derivatives.iter().enumerate() {
+                    out.column_mut(na + p).axpy(compliance * dp, &unit, 1.0);
+                }
+            }
+        }
+        if let Some(co) = self.cyclic_offset().filter(|_| self.joint_terms.cyclic) {
+            let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
+            for (s, &i) in self.cyclic_joints.iter().enumerate() {
+                for (h, b) in bases[s].iter().enumerate() {
+                    out.column_mut(co + 4 * s + h).axpy(*b, &jq.column(i), 0.0);
+                }
+            }
+        }
+    }
+}
