@@ -1004,17 +1004,7 @@ pub fn calibrate(
         limits: &limits,
         rank_tolerance: options.rank_tolerance,
     };
-    // Noise level in weighted units: 1 with absolute weights, else estimated
-    // from the residual (first at the start, then at each fit).
-    let noise_at = |x: &[f64], free: usize| -> Result<f64, CalibError> {
-        if absolute {
-            return Ok(1.0);
-        }
-        let mut r = vec![0.0; rows];
-        problem.residuals(x, &mut r).map_err(problem_error)?;
-        let ssr: f64 = r.iter().zip(&weights).map(|(r, w)| (r * w).powi(2)).sum();
-        Ok((ssr / (rows.saturating_sub(free).max(1)) as f64).sqrt())
-    };
+    let noise_at = |x: &[f64], free: usize| noise_level(&problem, &weights, absolute, x, free);
     // Frames alone first, from the registration: the robot's linearisation
     // point is then the nominal robot in the right place.
     let frame_unknowns: Vec<usize> = (fo..fe)
@@ -1047,96 +1037,26 @@ pub fn calibrate(
     // frames imitate, and it extrapolates to the rest of the turn without
     // any data; they stay at zero (poorly identifiable).
     let partial_period = crate::joint_law::partial_period_mask(model, set, &names);
-    // Unknowns beyond the numerical rank whatever the noise (exact dependencies).
-    let reduced_start = context.reduced(&x_start)?;
-    let numerical = context.analyse(&reduced_start, None, &excluded)?;
-    let mut exactly_dependent = vec![false; n];
-    for &j in &numerical.non_identifiable {
-        exactly_dependent[analysis_index(&numerical, j, &names)] = true;
-    }
-    let mut sigma = noise_at(&x_start, free_count)?;
-    // Solve, re-estimate the noise from the fit, and solve again only if the
-    // base set then changes (relative weights: the first estimate includes
-    // the model error of the nominal robot).
-    let mut previous: Option<(Vec<usize>, SolveReport, Vec<bool>)> = None;
-    let mut round = 0;
-    let (report, frozen) = loop {
-        round += 1;
-        let analysis = context.analyse(&reduced_start, Some(sigma), &|j| {
-            excluded(j) || exactly_dependent[j] || partial_period[j]
-        })?;
-        let mut base = analysis.base.clone();
-        base.sort_unstable();
-        // A later round starts from the previous fit, its newly frozen
-        // unknowns put back at their starting values: the base set changes
-        // by a few unknowns, so most of the way is already done.
-        let mut warm: Option<(Vec<f64>, Vec<bool>)> = None;
-        if let Some((previous_base, report, frozen)) = previous.take() {
-            if previous_base == base || round > 4 {
-                break (report, frozen);
-            }
-            warm = Some((report.x, frozen));
-        }
-        let mut frozen = vec![true; n];
-        for &b in &analysis.base {
-            frozen[analysis_index(&analysis, b, &names)] = false;
-        }
-        if frozen.iter().all(|f| *f) {
-            return Err(CalibError::NothingToIdentify);
-        }
-        if options.require_full_rank && frozen.iter().enumerate().any(|(j, f)| *f && !excluded(j)) {
-            return Err(CalibError::RankDeficient {
-                rank: analysis.rank,
-                unknowns: free_count,
-                non_identifiable: (0..n)
-                    .filter(|&j| frozen[j] && !excluded(j))
-                    .map(|j| names[j].clone())
-                    .collect(),
-            });
-        }
-        let mut x0 = x_start.clone();
-        if let Some((x_previous, frozen_previous)) = &warm {
-            for j in 0..n {
-                if !frozen[j] && !frozen_previous[j] {
-                    x0[j] = x_previous[j];
-                }
-            }
-        }
-        let report = solve(&x0, &frozen)?;
+    let mut solve_logged = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
+        let report = solve(x0, frozen)?;
         cost_history.extend(&report.cost_history);
-        if absolute {
-            break (report, frozen);
-        }
-        sigma = noise_at(&report.x, analysis.rank)?;
-        previous = Some((base, report, frozen));
+        Ok(report)
     };
-    // The joint terms are non-linear in their unknowns (the law's hardening
-    // trades off against the compliance as it grows): the limits on the
-    // standard errors are checked again at the solution, and a term beyond
-    // them is put back to its starting value and the rest solved again.
-    let (report, frozen) = {
-        let (mut report, mut frozen) = (report, frozen);
-        let joint_start = problem.joint_terms_offset().unwrap_or(n);
-        for _ in 0..3 {
-            let beyond: Vec<usize> = (joint_start..n)
-                .filter(|&j| {
-                    !frozen[j]
-                        && report.standard_errors[j].is_none_or(|se| se.is_nan() || se > limits[j])
-                })
-                .collect();
-            if beyond.is_empty() {
-                break;
-            }
-            let mut x0 = report.x.clone();
-            for &j in &beyond {
-                frozen[j] = true;
-                x0[j] = x_start[j];
-            }
-            report = solve(&x0, &frozen)?;
-            cost_history.extend(&report.cost_history);
-        }
-        (report, frozen)
-    };
+    let reduced_start = context.reduced(&x_start)?;
+    let (report, frozen, exactly_dependent, numerical) = context.identify_in_rounds(
+        &Rounds {
+            reduced_start: &reduced_start,
+            x_start: &x_start,
+            excluded: &excluded,
+            partial_period: &partial_period,
+            absolute,
+            require_full_rank: options.require_full_rank,
+            free_count,
+            joint_start: problem.joint_terms_offset().unwrap_or(n),
+        },
+        &noise_at,
+        &mut solve_logged,
+    )?;
     let x = report.x.clone();
     let identified: Vec<usize> = (0..n).filter(|&j| !frozen[j]).collect();
     let absorbed: Vec<usize> = (0..n).filter(|&j| frozen[j] && !excluded(j)).collect();
@@ -1254,7 +1174,11 @@ pub fn calibrate(
 }
 
 /// Maps an index of an analysis over a subset of unknowns back to the full vector.
-fn analysis_index(analysis: &IdentifiabilityReport, j: usize, names: &[String]) -> usize {
+pub(crate) fn analysis_index(
+    analysis: &IdentifiabilityReport,
+    j: usize,
+    names: &[String],
+) -> usize {
     let name = &analysis.names[j];
     names.iter().position(|n| n == name).unwrap_or(0)
 }
@@ -1302,14 +1226,48 @@ impl Combination {
     }
 }
 
+/// A least-squares problem whose Jacobian comes in blocks of rows (a pose,
+/// an observation of a target): what [`AnalysisContext::reduced`] streams.
+pub(crate) trait StackedJacobian {
+    /// Number of unknowns (columns).
+    fn n_unknowns(&self) -> usize;
+    /// Rows per block.
+    fn rows_per_block(&self) -> usize;
+    /// The Jacobian rows of the blocks `blocks` into `out` (row 0 is the
+    /// first row of block `blocks.start`).
+    fn jacobian_blocks(
+        &self,
+        x: &[f64],
+        blocks: std::ops::Range<usize>,
+        out: faer::MatMut<'_, f64>,
+    ) -> Result<(), flexcal_optim::ProblemError>;
+}
+
+impl StackedJacobian for GeometricErrorModel<'_> {
+    fn n_unknowns(&self) -> usize {
+        GeometricErrorModel::n_unknowns(self)
+    }
+    fn rows_per_block(&self) -> usize {
+        self.rows_per_pose()
+    }
+    fn jacobian_blocks(
+        &self,
+        x: &[f64],
+        blocks: std::ops::Range<usize>,
+        out: faer::MatMut<'_, f64>,
+    ) -> Result<(), flexcal_optim::ProblemError> {
+        self.jacobian_rows(x, blocks, out)
+    }
+}
+
 /// What the identifiability analyses share.
-struct AnalysisContext<'a> {
-    problem: &'a GeometricErrorModel<'a>,
-    weights: &'a [f64],
-    names: &'a [String],
-    priorities: &'a [i32],
-    limits: &'a [f64],
-    rank_tolerance: f64,
+pub(crate) struct AnalysisContext<'a> {
+    pub problem: &'a dyn StackedJacobian,
+    pub weights: &'a [f64],
+    pub names: &'a [String],
+    pub priorities: &'a [i32],
+    pub limits: &'a [f64],
+    pub rank_tolerance: f64,
 }
 
 impl AnalysisContext<'_> {
@@ -1318,9 +1276,9 @@ impl AnalysisContext<'_> {
     /// combinations of any subset of columns are the same on `R` as on `W J`
     /// (they differ by the orthogonal `Q`), at a fraction of the cost for
     /// thousands of poses.
-    fn reduced(&self, x: &[f64]) -> Result<Mat<f64>, CalibError> {
+    pub(crate) fn reduced(&self, x: &[f64]) -> Result<Mat<f64>, CalibError> {
         let n = self.problem.n_unknowns();
-        let rows = self.problem.rows_per_pose();
+        let rows = self.problem.rows_per_block();
         let poses = self.weights.len() / rows;
         // Streamed by blocks of poses: R of [R_so_far; W J_block] (a few
         // hundred rows), so the whole stacked Jacobian is never held.
@@ -1338,7 +1296,7 @@ impl AnalysisContext<'_> {
                 }
             }
             self.problem
-                .jacobian_rows(x, start..end, stacked.as_mut().subrows_mut(top, m_block))
+                .jacobian_blocks(x, start..end, stacked.as_mut().subrows_mut(top, m_block))
                 .map_err(problem_error)?;
             for j in 0..n {
                 for i in 0..m_block {
@@ -1359,7 +1317,7 @@ impl AnalysisContext<'_> {
 
     /// `K` with `J_N = J_B K` (weighted least squares at `x`), so that
     /// `J (xi_B, xi_N) = J_B (xi_B + K xi_N)`.
-    fn combinations(
+    pub(crate) fn combinations(
         &self,
         reduced: &Mat<f64>,
         base: &[usize],
@@ -1408,7 +1366,7 @@ impl AnalysisContext<'_> {
     /// the columns already chosen, `|R_kk| l_j`, exceeds `sigma`: the
     /// identified value would otherwise carry a standard error above `l_j`
     /// (`se_k >= sigma / |R_kk|`).
-    fn analyse(
+    pub(crate) fn analyse(
         &self,
         reduced: &Mat<f64>,
         noise: Option<f64>,
@@ -1435,6 +1393,162 @@ impl AnalysisContext<'_> {
         }
         analyze_identifiability(sub.as_ref(), &sub_names, &options)
             .map_err(CalibError::optim("identifiability analysis"))
+    }
+}
+
+/// Noise level in weighted units at `x` with `free` unknowns identified: 1
+/// with absolute weights, else estimated from the weighted residual
+/// `sqrt(sum (w r)^2 / (m - free))` (first at the start, then at each fit).
+pub(crate) fn noise_level(
+    problem: &impl Residuals,
+    weights: &[f64],
+    absolute: bool,
+    x: &[f64],
+    free: usize,
+) -> Result<f64, CalibError> {
+    if absolute {
+        return Ok(1.0);
+    }
+    let rows = weights.len();
+    let mut r = vec![0.0; rows];
+    problem.residuals(x, &mut r).map_err(problem_error)?;
+    let ssr: f64 = r.iter().zip(weights).map(|(r, w)| (r * w).powi(2)).sum();
+    Ok((ssr / (rows.saturating_sub(free).max(1)) as f64).sqrt())
+}
+
+/// The noise level (weighted units) at unknowns `x` with `free` unknowns
+/// identified.
+pub(crate) type NoiseAt<'a> = dyn Fn(&[f64], usize) -> Result<f64, CalibError> + 'a;
+/// One solve from `x0` with the unknowns `frozen` held.
+pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError> + 'a;
+
+/// What the rounds of a noise-aware identification
+/// ([`AnalysisContext::identify_in_rounds`]) start from.
+pub(crate) struct Rounds<'a> {
+    /// [`AnalysisContext::reduced`] at the start point.
+    pub reduced_start: &'a Mat<f64>,
+    /// The start point: nominal robot, frames fitted.
+    pub x_start: &'a [f64],
+    /// Fixed unknowns and those without influence.
+    pub excluded: &'a dyn Fn(usize) -> bool,
+    /// Cyclic errors over less than their period (left at zero).
+    pub partial_period: &'a [bool],
+    /// Whether the row weights are absolute (the noise level is then 1).
+    pub absolute: bool,
+    /// [`CalibrationOptions::require_full_rank`].
+    pub require_full_rank: bool,
+    /// Number of unknowns not excluded.
+    pub free_count: usize,
+    /// Index of the first joint-term unknown (the number of unknowns
+    /// without joint terms).
+    pub joint_start: usize,
+}
+
+impl AnalysisContext<'_> {
+    /// The identification's rounds: unknowns beyond the numerical rank are
+    /// left out whatever the noise; then the base set at the noise level
+    /// (estimated from the residual unless the weights are absolute) is
+    /// solved, the noise estimated again from the fit, and the base set
+    /// solved again only if it changes (at most 4 rounds). The joint terms
+    /// are non-linear in their unknowns: their standard-error limits are
+    /// checked again at the solution, and a term beyond them is put back
+    /// to its starting value and the rest solved again. Returns the final
+    /// report, the frozen unknowns, those exactly dependent on others and
+    /// the numerical analysis (no noise) that found them.
+    ///
+    /// # Errors
+    /// [`CalibError::NothingToIdentify`], [`CalibError::RankDeficient`]
+    /// (with `require_full_rank`), and what `noise_at` and `solve` return.
+    pub(crate) fn identify_in_rounds(
+        &self,
+        r: &Rounds<'_>,
+        noise_at: &NoiseAt<'_>,
+        solve: &mut Solve<'_>,
+    ) -> Result<(SolveReport, Vec<bool>, Vec<bool>, IdentifiabilityReport), CalibError> {
+        let n = self.names.len();
+        let excluded = r.excluded;
+        // Unknowns beyond the numerical rank whatever the noise (exact
+        // dependencies).
+        let numerical = self.analyse(r.reduced_start, None, excluded)?;
+        let mut exactly_dependent = vec![false; n];
+        for &j in &numerical.non_identifiable {
+            exactly_dependent[analysis_index(&numerical, j, self.names)] = true;
+        }
+        let mut sigma = noise_at(r.x_start, r.free_count)?;
+        // Solve, re-estimate the noise from the fit, and solve again only if
+        // the base set then changes (relative weights: the first estimate
+        // includes the model error of the nominal robot).
+        let mut previous: Option<(Vec<usize>, SolveReport, Vec<bool>)> = None;
+        let mut round = 0;
+        let (report, frozen) = loop {
+            round += 1;
+            let analysis = self.analyse(r.reduced_start, Some(sigma), &|j| {
+                excluded(j) || exactly_dependent[j] || r.partial_period[j]
+            })?;
+            let mut base = analysis.base.clone();
+            base.sort_unstable();
+            // A later round starts from the previous fit, its newly frozen
+            // unknowns put back at their starting values: the base set
+            // changes by a few unknowns, so most of the way is already done.
+            let mut warm: Option<(Vec<f64>, Vec<bool>)> = None;
+            if let Some((previous_base, report, frozen)) = previous.take() {
+                if previous_base == base || round > 4 {
+                    break (report, frozen);
+                }
+                warm = Some((report.x, frozen));
+            }
+            let mut frozen = vec![true; n];
+            for &b in &analysis.base {
+                frozen[analysis_index(&analysis, b, self.names)] = false;
+            }
+            if frozen.iter().all(|f| *f) {
+                return Err(CalibError::NothingToIdentify);
+            }
+            if r.require_full_rank && frozen.iter().enumerate().any(|(j, f)| *f && !excluded(j)) {
+                return Err(CalibError::RankDeficient {
+                    rank: analysis.rank,
+                    unknowns: r.free_count,
+                    non_identifiable: (0..n)
+                        .filter(|&j| frozen[j] && !excluded(j))
+                        .map(|j| self.names[j].clone())
+                        .collect(),
+                });
+            }
+            let mut x0 = r.x_start.to_vec();
+            if let Some((x_previous, frozen_previous)) = &warm {
+                for j in 0..n {
+                    if !frozen[j] && !frozen_previous[j] {
+                        x0[j] = x_previous[j];
+                    }
+                }
+            }
+            let report = solve(&x0, &frozen)?;
+            if r.absolute {
+                break (report, frozen);
+            }
+            sigma = noise_at(&report.x, analysis.rank)?;
+            previous = Some((base, report, frozen));
+        };
+        let (mut report, mut frozen) = (report, frozen);
+        for _ in 0..3 {
+            let beyond: Vec<usize> = (r.joint_start..n)
+                .filter(|&j| {
+                    !frozen[j]
+                        && report.standard_errors[j]
+                            .is_none_or(|se| se.is_nan() || se > self.limits[j])
+                })
+                .collect();
+            if beyond.is_empty() {
+                break;
+            }
+            let mut x0 = report.x.clone();
+            for &j in &beyond {
+                frozen[j] = true;
+                x0[j] = r.x_start[j];
+            }
+            report = solve(&x0, &frozen)?;
+        }
+        Ok((report, frozen, exactly_dependent, numerical))
     }
 }
 
@@ -1537,7 +1651,7 @@ impl SpreadInputs<'_> {
         let Some(training) = unit_covariance_diagonal(reduced, identified) else {
             return Ok(out);
         };
-        let rows = self.context.problem.rows_per_pose();
+        let rows = self.context.problem.rows_per_block();
         let poses = self.set.len();
         // The reference rows weigh what the identification rows weigh on
         // average (RMS per row kind).

@@ -12,16 +12,18 @@
 //! named `target.<name>.x|y|z` (m, added to the nominal offset in the
 //! target's frame). Rows are positions only (m), weighted `1/sigma`.
 //!
-//! Identifiability is decided as for one target
-//! ([`crate::calibrate`]): pivoted QR of the weighted, column-scaled
-//! stacked Jacobian at the nominal robot with its frames fitted (the
-//! measurement frame first, then the target offsets, then the robot's
-//! parameters, names in [`CalibrationOptions::deferred`] last); what lies
-//! beyond the rank stays at its starting value and is named, with the
-//! combinations the identified unknowns stand for. An identified unknown
-//! whose standard error exceeds the limits of [`CalibrationOptions`] is put
-//! back to its starting value and the rest solved again
-//! ([`UnknownStatus::PoorlyIdentifiable`]).
+//! Identifiability is decided as for one target, by the same code
+//! ([`crate::calibrate`]): pivoted QR of the weighted stacked Jacobian at
+//! the nominal robot with its frames fitted (the measurement frame first,
+//! then the target offsets, then the robot's parameters and the elastic
+//! terms, names in [`CalibrationOptions::deferred`] last). Unknowns beyond
+//! the numerical rank are exactly dependent on others
+//! ([`UnknownStatus::NonIdentifiable`]); the base set is then chosen at the
+//! noise level, each column scaled by its standard-error limit, so that an
+//! unknown whose standard error would exceed the limits of
+//! [`CalibrationOptions`] stays at its starting value
+//! ([`UnknownStatus::PoorlyIdentifiable`]); what is left out is named, with
+//! the combinations the identified unknowns stand for.
 //!
 //! ## Elasto-geometric terms
 //! With [`CalibrationOptions::gravity`] (and
@@ -42,16 +44,14 @@
 
 use std::cell::RefCell;
 
-use faer::prelude::SolveLstsq;
-use faer::{Mat, MatMut};
+use faer::MatMut;
 use flexcal_kinematics::{
     Data, Model, ParamKind, RobotDescription, forward_frame_pose,
     frame_param_and_joint_jacobians_into, frame_param_jacobian_into,
 };
 use flexcal_optim::{
-    ColumnScaling, Control, Diagnosis, IdentifiabilityOptions, IdentifiabilityReport,
-    IterationState, Jacobian, LevenbergMarquardt, ProblemError, ProblemSetup, Residuals,
-    SolveReport, analyze_identifiability,
+    ColumnScaling, Control, Diagnosis, IdentifiabilityReport, IterationState, Jacobian,
+    LevenbergMarquardt, ProblemError, ProblemSetup, Residuals, SolveReport,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, Vector3};
 use serde::Serialize;
@@ -62,8 +62,9 @@ use crate::error_model::{FRAME_PARAMETER_NAMES, UnknownKind};
 use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew};
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
-    CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT, Method,
-    UnknownEstimate, UnknownStatus, Weighting,
+    AnalysisContext, CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT,
+    Method, Rounds, StackedJacobian, UnknownEstimate, UnknownStatus, Weighting, analysis_index,
+    noise_level,
 };
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
@@ -602,7 +603,25 @@ impl Residuals for TargetErrorModel<'_> {
 }
 
 impl Jacobian for TargetErrorModel<'_> {
-    fn jacobian(&self, x: &[f64], mut out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+    fn jacobian(&self, x: &[f64], out: MatMut<'_, f64>) -> Result<(), ProblemError> {
+        self.jacobian_blocks(x, 0..self.rows.len(), out)
+    }
+}
+
+impl StackedJacobian for TargetErrorModel<'_> {
+    fn n_unknowns(&self) -> usize {
+        self.names.len()
+    }
+    fn rows_per_block(&self) -> usize {
+        3
+    }
+    /// The rows of the observations `blocks` (three each).
+    fn jacobian_blocks(
+        &self,
+        x: &[f64],
+        blocks: std::ops::Range<usize>,
+        mut out: MatMut<'_, f64>,
+    ) -> Result<(), ProblemError> {
         let np = self.model.n_params();
         let xi = &x[..np];
         let fo = self.frame_offset();
@@ -621,7 +640,9 @@ impl Jacobian for TargetErrorModel<'_> {
                 out[(i, j)] = 0.0;
             }
         }
-        for (row, &(k, t)) in self.rows.iter().enumerate() {
+        let first = blocks.start;
+        for (row, &(k, t)) in self.rows.iter().enumerate().take(blocks.end).skip(first) {
+            let row = row - first;
             let frame = self.frames[t].0;
             let point = self.point(x, t);
             self.deflect(x, k, &mut state);
@@ -693,17 +714,6 @@ impl Jacobian for TargetErrorModel<'_> {
     }
 }
 
-fn problem_error(e: ProblemError) -> CalibError {
-    match e.downcast::<CalibError>() {
-        Ok(calib) => *calib,
-        Err(other) => CalibError::BadMeasurement {
-            source_name: String::new(),
-            line: 0,
-            what: other.to_string(),
-        },
-    }
-}
-
 /// Options of [`CalibrationOptions`] that the multi-target identification
 /// does not take (it fits positions only, by Levenberg-Marquardt).
 fn check_supported(options: &CalibrationOptions) -> Result<(), CalibError> {
@@ -747,14 +757,7 @@ pub fn calibrate_targets(
     options: &CalibrationOptions,
 ) -> Result<TargetCalibration, CalibError> {
     check_supported(options)?;
-    if set.n_actuated() != model.n_actuated() {
-        return Err(CalibError::ActuatedCountMismatch {
-            source_name: set.source.clone(),
-            robot: model.name().to_string(),
-            expected: model.n_actuated(),
-            found: set.n_actuated(),
-        });
-    }
+    check_coordinates(model, set)?;
     let frame_fixed = options.measurement_frame == FrameTreatment::Fixed;
     // The measurement frame starts from the registration of the nominal
     // predictions onto the measurements.
@@ -859,104 +862,68 @@ pub fn calibrate_targets(
         x_start = solve(&x_start, &frames_only)?.x;
     }
     let x_nominal_robot = x_start.clone();
-    // Identifiability of every free unknown at the start point.
-    let weighted = {
-        let mut j = Mat::<f64>::zeros(rows, n);
-        problem
-            .jacobian(&x_start, j.as_mut())
-            .map_err(problem_error)?;
-        for c in 0..n {
-            for (i, w) in weights.iter().enumerate() {
-                j[(i, c)] *= w;
-            }
-        }
-        j
-    };
-    let kept: Vec<usize> = (0..n).filter(|&j| !fixed[j]).collect();
-    let sub = Mat::<f64>::from_fn(rows, kept.len(), |i, c| weighted[(i, kept[c])]);
-    let sub_names: Vec<String> = kept.iter().map(|&j| names[j].clone()).collect();
-    let identifiability = analyze_identifiability(
-        sub.as_ref(),
-        &sub_names,
-        &IdentifiabilityOptions {
-            rank_tolerance: options.rank_tolerance,
-            priorities: kept.iter().map(|&j| priorities[j]).collect(),
-            ..IdentifiabilityOptions::default()
-        },
-    )
-    .map_err(CalibError::optim("identifiability analysis"))?;
-    let mut exactly_dependent = vec![false; n];
-    let mut no_influence = vec![false; n];
-    for &j in &identifiability.non_identifiable {
-        exactly_dependent[kept[j]] = true;
-        no_influence[kept[j]] = identifiability.diagnoses[j] == Diagnosis::NoInfluence;
-    }
-    if options.require_full_rank && exactly_dependent.iter().any(|d| *d) {
-        return Err(CalibError::RankDeficient {
-            rank: identifiability.rank,
-            unknowns: free_count,
-            non_identifiable: (0..n)
-                .filter(|&j| exactly_dependent[j])
-                .map(|j| names[j].clone())
-                .collect(),
-        });
-    }
+    // Identifiability at the start point and the rounds of the
+    // identification, as for one target ([`crate::calibrate`]): unknowns
+    // exactly dependent on others whatever the noise, then the base set at
+    // the noise level (an unknown whose standard error would exceed its
+    // limit stays at its start), the joint terms' limits checked again at
+    // the solution.
     let limits: Vec<f64> = kinds
         .iter()
         .map(|&k| options.standard_error_limit(k))
         .collect();
+    let context = AnalysisContext {
+        problem: &problem,
+        weights: &weights,
+        names: &names,
+        priorities: &priorities,
+        limits: &limits,
+        rank_tolerance: options.rank_tolerance,
+    };
+    let reduced_start = context.reduced(&x_start)?;
     // Cyclic errors of a joint whose poses do not cover their period stay
     // at zero ([`crate::calibrate`]).
     let q: Vec<&[f64]> = set.poses().iter().map(|p| p.q.as_slice()).collect();
-    let mut poorly = crate::joint_law::partial_period_mask_of(model, &q, &names);
-    for j in 0..n {
-        poorly[j] &= !fixed[j] && !exactly_dependent[j];
-    }
-    let mut frozen: Vec<bool> = (0..n)
-        .map(|j| fixed[j] || exactly_dependent[j] || poorly[j])
-        .collect();
-    if frozen.iter().all(|f| *f) {
-        return Err(CalibError::NothingToIdentify);
-    }
-    let mut report = solve(&x_start, &frozen)?;
-    // Unknowns identified beyond their standard-error limit go back to the
-    // start and the rest is solved again.
-    for _ in 0..3 {
-        let beyond: Vec<usize> = (0..n)
-            .filter(|&j| {
-                !frozen[j]
-                    && report.standard_errors[j].is_none_or(|se| !se.is_finite() || se > limits[j])
-            })
-            .collect();
-        if beyond.is_empty() {
-            break;
-        }
-        let mut x0 = report.x.clone();
-        for &j in &beyond {
-            frozen[j] = true;
-            poorly[j] = true;
-            x0[j] = x_start[j];
-        }
-        if frozen.iter().all(|f| *f) {
-            return Err(CalibError::NothingToIdentify);
-        }
-        report = solve(&x0, &frozen)?;
+    let partial_period = crate::joint_law::partial_period_mask_of(model, &q, &names);
+    let noise_at = |x: &[f64], free: usize| noise_level(&problem, &weights, absolute, x, free);
+    let excluded = |j: usize| fixed[j];
+    let mut solve_rounds = |x0: &[f64], frozen: &[bool]| solve(x0, frozen);
+    let (report, frozen, exactly_dependent, identifiability) = context.identify_in_rounds(
+        &Rounds {
+            reduced_start: &reduced_start,
+            x_start: &x_start,
+            excluded: &excluded,
+            partial_period: &partial_period,
+            absolute,
+            require_full_rank: options.require_full_rank,
+            free_count,
+            joint_start: eo + problem.elastic.joint_terms_offset().unwrap_or(n - eo),
+        },
+        &noise_at,
+        &mut solve_rounds,
+    )?;
+    // What no target moves with (a branch without a marker): its columns
+    // are zero.
+    let mut no_influence = vec![false; n];
+    for &j in &identifiability.non_identifiable {
+        no_influence[analysis_index(&identifiability, j, &names)] =
+            identifiability.diagnoses[j] == Diagnosis::NoInfluence;
     }
     let x = report.x.clone();
     let identified: Vec<usize> = (0..n).filter(|&j| !frozen[j]).collect();
     let absorbed: Vec<usize> = (0..n)
         .filter(|&j| frozen[j] && !fixed[j] && !no_influence[j])
         .collect();
-    let combinations = combinations(&weighted, &names, &identified, &absorbed);
+    let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
     let unknowns: Vec<UnknownEstimate> = (0..n)
         .map(|j| {
             let status = if fixed[j] {
                 UnknownStatus::Fixed
             } else if no_influence[j] {
                 UnknownStatus::NoInfluence
-            } else if exactly_dependent[j] {
+            } else if frozen[j] && exactly_dependent[j] {
                 UnknownStatus::NonIdentifiable
-            } else if poorly[j] {
+            } else if frozen[j] {
                 UnknownStatus::PoorlyIdentifiable
             } else {
                 UnknownStatus::Identified
@@ -1032,45 +999,6 @@ pub fn calibrate_targets(
     })
 }
 
-/// `K` with `J_N = J_B K` on the weighted Jacobian: what each identified
-/// unknown stands for.
-fn combinations(
-    weighted: &Mat<f64>,
-    names: &[String],
-    base: &[usize],
-    absorbed: &[usize],
-) -> Vec<Combination> {
-    let m = weighted.nrows();
-    if absorbed.is_empty() || base.is_empty() {
-        return base
-            .iter()
-            .map(|&b| Combination {
-                name: names[b].clone(),
-                terms: Vec::new(),
-            })
-            .collect();
-    }
-    let j_b = Mat::<f64>::from_fn(m, base.len(), |i, c| weighted[(i, base[c])]);
-    let j_n = Mat::<f64>::from_fn(m, absorbed.len(), |i, c| weighted[(i, absorbed[c])]);
-    let k = j_b.qr().solve_lstsq(&j_n);
-    base.iter()
-        .enumerate()
-        .map(|(row, &b)| {
-            let mut terms: Vec<(String, f64)> = absorbed
-                .iter()
-                .enumerate()
-                .map(|(col, &a)| (names[a].clone(), k[(row, col)]))
-                .filter(|(_, v)| v.is_finite() && *v != 0.0)
-                .collect();
-            terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
-            Combination {
-                name: names[b].clone(),
-                terms,
-            }
-        })
-        .collect()
-}
-
 /// Validation of a multi-target calibration on another set of the same
 /// targets: per-target errors of the nominal robot (frames and offsets as
 /// fitted for it) and of the calibrated robot and offsets. With
@@ -1093,6 +1021,86 @@ pub struct TargetValidation {
     pub frame_refitted: bool,
 }
 
+/// The multi-target model of `calibration` on `set` (whose targets carry
+/// the offsets to use), with the unknowns of the robot `xi`, the
+/// measurement frame `x_meas_base` and the identified elastic and joint
+/// unknowns (`identified`), or their starting values (the model the
+/// identification started from).
+fn fitted_model<'a>(
+    model: &'a Model,
+    calibration: &TargetCalibration,
+    set: &'a TargetMeasurementSet,
+    xi: &[f64],
+    identified: bool,
+    x_meas_base: Isometry3<f64>,
+) -> Result<(TargetErrorModel<'a>, Vec<f64>), CalibError> {
+    let gravity = calibration.elastic.as_ref().map(|(g, _)| g);
+    let problem = TargetErrorModel::new(model, set, x_meas_base)?
+        .with_elastic(gravity, &calibration.joint_terms)?;
+    let mut x = xi.to_vec();
+    x.resize(problem.elastic_offset, 0.0);
+    if identified {
+        if let Some((_, values)) = &calibration.elastic {
+            x.extend(values);
+        }
+        x.extend(&calibration.joint_term_values);
+    } else {
+        x.extend(problem.elastic.initial());
+    }
+    Ok((problem, x))
+}
+
+/// The position error (m) of every observation of `set` (same targets by
+/// name as `calibration`'s, in row order: pose by pose, target by target)
+/// predicted by `calibration`: its robot, elastic terms, target offsets and
+/// measurement frame (the same instrument, not fitted again). What model
+/// selection scores a held-out fold by.
+///
+/// # Errors
+/// Targets that differ from the calibration's by name, mismatched
+/// coordinates, a model failure at a pose.
+pub fn target_position_errors(
+    model: &Model,
+    calibration: &TargetCalibration,
+    set: &TargetMeasurementSet,
+) -> Result<Vec<f64>, CalibError> {
+    check_coordinates(model, set)?;
+    let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
+    let (problem, x) = fitted_model(
+        model,
+        calibration,
+        &calibrated,
+        &calibration.xi,
+        true,
+        calibration.x_meas_base,
+    )?;
+    Ok(problem.errors(&x)?.iter().map(|e| e.position).collect())
+}
+
+/// A set with as many coordinates per pose as the robot has actuated.
+fn check_coordinates(model: &Model, set: &TargetMeasurementSet) -> Result<(), CalibError> {
+    if set.n_actuated() != model.n_actuated() {
+        return Err(CalibError::ActuatedCountMismatch {
+            source_name: set.source.clone(),
+            robot: model.name().to_string(),
+            expected: model.n_actuated(),
+            found: set.n_actuated(),
+        });
+    }
+    Ok(())
+}
+
+/// The targets with their offsets fixed at their values.
+fn fixed_offsets(targets: &[Target]) -> Vec<Target> {
+    targets
+        .iter()
+        .map(|t| Target {
+            treatment: FrameTreatment::Fixed,
+            ..t.clone()
+        })
+        .collect()
+}
+
 /// Evaluates `calibration` on `set` (same targets by name; see
 /// [`TargetValidation`]).
 ///
@@ -1105,45 +1113,15 @@ pub fn validate_targets(
     set: &TargetMeasurementSet,
     refit_frame: bool,
 ) -> Result<TargetValidation, CalibError> {
-    if set.n_actuated() != model.n_actuated() {
-        return Err(CalibError::ActuatedCountMismatch {
-            source_name: set.source.clone(),
-            robot: model.name().to_string(),
-            expected: model.n_actuated(),
-            found: set.n_actuated(),
-        });
-    }
-    let fixed_offsets = |targets: &[Target]| -> Vec<Target> {
-        targets
-            .iter()
-            .map(|t| Target {
-                treatment: FrameTreatment::Fixed,
-                ..t.clone()
-            })
-            .collect()
-    };
+    check_coordinates(model, set)?;
     let nominal = set.with_targets(fixed_offsets(&calibration.targets_nominal_robot))?;
     let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
-    let gravity = calibration.elastic.as_ref().map(|(g, _)| g);
-    // The identified elastic and joint unknowns (after), or their starting
-    // values (before: the model the identification started from).
     let evaluate = |set: &TargetMeasurementSet,
                     xi: &[f64],
                     identified: bool,
                     x_meas_base: Isometry3<f64>|
      -> Result<(ErrorStatistics, Vec<TargetErrors>), CalibError> {
-        let problem = TargetErrorModel::new(model, set, x_meas_base)?
-            .with_elastic(gravity, &calibration.joint_terms)?;
-        let mut x = xi.to_vec();
-        x.resize(problem.elastic_offset, 0.0);
-        if identified {
-            if let Some((_, values)) = &calibration.elastic {
-                x.extend(values);
-            }
-            x.extend(&calibration.joint_term_values);
-        } else {
-            x.extend(problem.elastic.initial());
-        }
+        let (problem, mut x) = fitted_model(model, calibration, set, xi, identified, x_meas_base)?;
         if refit_frame {
             let mut frozen = vec![true; x.len()];
             frozen[model.n_params()..model.n_params() + 6].fill(false);
@@ -1186,6 +1164,7 @@ mod tests {
     use crate::gravity::LateralCompliance;
     use crate::joint_law::JointLaw;
     use crate::targets::{TargetObservation, TargetPose, read_targets};
+    use faer::Mat;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

@@ -226,9 +226,8 @@
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
 //! - Several targets: positions only (orientation columns are read, not
-//!   fitted), Levenberg-Marquardt only, no model selection, spread ratios
-//!   or split-half checks, one station; the standard-error limits decide
-//!   identifiability without the one-target model's noise-aware rank.
+//!   fitted), Levenberg-Marquardt only, no spread ratios, split-half
+//!   checks or accuracy maps, one station.
 //! - Several stations share one target offset: a probe remounted between
 //!   campaigns is refused, not modelled; with the frames fixed
 //!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.
@@ -287,8 +286,8 @@ pub use identify::{
     Weighting, calibrate, combination_check,
 };
 pub use identify_targets::{
-    TargetCalibration, TargetErrors, TargetValidation, calibrate_targets, target_unknown_names,
-    validate_targets,
+    TargetCalibration, TargetErrors, TargetValidation, calibrate_targets, target_position_errors,
+    target_unknown_names, validate_targets,
 };
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{
@@ -306,7 +305,8 @@ pub use screen::{
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
     CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectionMethod, SelectionOptions,
-    SelectionReport, TermGroup, calibrate_selected, default_method, select_model,
+    SelectionReport, TermGroup, calibrate_selected, calibrate_targets_selected, default_method,
+    default_method_for, select_model, select_target_model,
 };
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use targets::{

@@ -44,15 +44,134 @@
 //! forward search adds first whatever imitates the largest missing effect,
 //! then cannot take it out (a test on a simulated robot shows it). The [`SelectionReport`] lists every
 //! candidate scored, with its score, and why the chosen model won.
+//!
+//! Measurements of several targets per pose are selected the same way
+//! ([`select_target_model`], [`calibrate_targets_selected`]): the folds
+//! are clusters of poses, every target of a pose in the same fold, and a
+//! fold's score is the mean position error of its observations.
 
 use flexcal_kinematics::{Model, Quantity};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
+use crate::identify::{Calibration, CalibrationOptions, UnknownEstimate, UnknownStatus, calibrate};
+use crate::identify_targets::{TargetCalibration, calibrate_targets, target_position_errors};
 use crate::joint_law::JointLaw;
+use crate::targets::TargetMeasurementSet;
 use crate::validate::FramePolicy;
 use crate::{CalibError, MeasurementSet};
+
+/// What model selection needs of a set of measurements: each pose's
+/// configuration and station (for the folds), subsets of the poses, and
+/// fits scored on held-out poses. One target per pose
+/// ([`MeasurementSet`], [`calibrate`]) and several
+/// ([`TargetMeasurementSet`], [`calibrate_targets`]) are selected alike.
+pub(crate) trait Selectable: Sized + Sync {
+    /// The identification of a candidate.
+    type Fitted;
+    /// Number of poses.
+    fn n_poses(&self) -> usize;
+    /// Actuated coordinates of pose `k` (rad, m).
+    fn configuration(&self, k: usize) -> &[f64];
+    /// Number of stations (measurement frames).
+    fn n_stations(&self) -> usize {
+        1
+    }
+    /// Station of pose `k`.
+    fn station_of(&self, _k: usize) -> usize {
+        0
+    }
+    /// The poses `indices`, in that order.
+    fn subset(&self, indices: &[usize]) -> Result<Self, CalibError>;
+    /// Identifies the candidate `options` on these poses.
+    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Self::Fitted, CalibError>;
+    /// Position errors (m) of `held_out` predicted by `fitted`, its
+    /// measurement frame as identified (same instrument).
+    fn held_out_errors(
+        model: &Model,
+        fitted: &Self::Fitted,
+        held_out: &Self,
+    ) -> Result<Vec<f64>, CalibError>;
+    /// Every unknown of a fit.
+    fn unknowns(fitted: &Self::Fitted) -> &[UnknownEstimate];
+    /// The BIC of a fit.
+    fn bic(fitted: &Self::Fitted) -> f64;
+}
+
+impl Selectable for MeasurementSet {
+    type Fitted = Calibration;
+    fn n_poses(&self) -> usize {
+        self.len()
+    }
+    fn configuration(&self, k: usize) -> &[f64] {
+        &self.measurements()[k].q
+    }
+    fn n_stations(&self) -> usize {
+        MeasurementSet::n_stations(self)
+    }
+    fn station_of(&self, k: usize) -> usize {
+        MeasurementSet::station_of(self, k)
+    }
+    fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
+        MeasurementSet::subset(self, indices)
+    }
+    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Calibration, CalibError> {
+        calibrate(model, self, options)
+    }
+    fn held_out_errors(
+        model: &Model,
+        fitted: &Calibration,
+        held_out: &Self,
+    ) -> Result<Vec<f64>, CalibError> {
+        let (errors, _) =
+            fitted.errors_after(model, held_out, FramePolicy::Fixed(fitted.x_meas_base))?;
+        Ok(errors.iter().map(|e| e.position).collect())
+    }
+    fn unknowns(fitted: &Calibration) -> &[UnknownEstimate] {
+        &fitted.unknowns
+    }
+    fn bic(fitted: &Calibration) -> f64 {
+        let rows = fitted.n_poses * if fitted.use_orientation { 6 } else { 3 };
+        bic(rows, fitted.solve.cost, &fitted.unknowns)
+    }
+}
+
+impl Selectable for TargetMeasurementSet {
+    type Fitted = TargetCalibration;
+    fn n_poses(&self) -> usize {
+        self.len()
+    }
+    fn configuration(&self, k: usize) -> &[f64] {
+        &self.poses()[k].q
+    }
+    fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
+        TargetMeasurementSet::subset(self, indices)
+    }
+    fn fit(
+        &self,
+        model: &Model,
+        options: &CalibrationOptions,
+    ) -> Result<TargetCalibration, CalibError> {
+        calibrate_targets(model, self, options)
+    }
+    fn held_out_errors(
+        model: &Model,
+        fitted: &TargetCalibration,
+        held_out: &Self,
+    ) -> Result<Vec<f64>, CalibError> {
+        target_position_errors(model, fitted, held_out)
+    }
+    fn unknowns(fitted: &TargetCalibration) -> &[UnknownEstimate] {
+        &fitted.unknowns
+    }
+    fn bic(fitted: &TargetCalibration) -> f64 {
+        bic(
+            3 * fitted.n_observations,
+            fitted.solve.cost,
+            &fitted.unknowns,
+        )
+    }
+}
 
 /// Fewest poses for which [`SelectionMethod::CrossValidation`] is the
 /// default of [`default_method`]: with the default 5 folds each held-out
@@ -172,7 +291,13 @@ impl Default for SelectionOptions {
 /// options allow is identified; the identifiability analysis alone
 /// decides, as without selection).
 pub fn default_method(set: &MeasurementSet) -> SelectionMethod {
-    if set.len() >= MIN_POSES_FOR_CROSS_VALIDATION {
+    default_method_for(set.len())
+}
+
+/// [`default_method`] for a set of `poses` poses (of one or several
+/// targets).
+pub fn default_method_for(poses: usize) -> SelectionMethod {
+    if poses >= MIN_POSES_FOR_CROSS_VALIDATION {
         SelectionMethod::CrossValidation
     } else {
         SelectionMethod::None
@@ -417,25 +542,25 @@ fn in_group(model: &Model, group: TermGroup, name: &str) -> bool {
 /// scoring its removal would cost a fit per fold at every step for nothing.
 /// One fit on the whole set; when it fails the search goes on with every
 /// group and reports the failure as it would.
-fn remove_unidentified_groups(
+fn remove_unidentified_groups<D: Selectable>(
     model: &Model,
-    set: &MeasurementSet,
+    set: &D,
     base: &CalibrationOptions,
     groups: &mut Vec<TermGroup>,
     reasons: &mut Vec<String>,
 ) {
     let mut options = candidate_options(model, base, groups);
     options.spread_reference = false;
-    let Ok(full) = calibrate(model, set, &options) else {
+    let Ok(full) = set.fit(model, &options) else {
         return;
     };
-    let identified: Vec<&str> = full
-        .unknowns
+    let unknowns = D::unknowns(&full);
+    let identified: Vec<&str> = unknowns
         .iter()
         .filter(|u| u.status == UnknownStatus::Identified)
         .map(|u| u.name.as_str())
         .collect();
-    let present: Vec<&str> = full.unknowns.iter().map(|u| u.name.as_str()).collect();
+    let present: Vec<&str> = unknowns.iter().map(|u| u.name.as_str()).collect();
     groups.retain(|&g| {
         let has = |names: &[&str]| names.iter().any(|n| in_group(model, g, n));
         // A group without unknowns in this model (none present) is left to
@@ -455,31 +580,40 @@ fn remove_unidentified_groups(
 /// poses are shared out among the folds on their own: every training fold
 /// then holds poses of every station, whose measurement frame it needs to
 /// predict the held-out poses of that station.
-fn fold_assignment(
+fn fold_assignment<D: Selectable>(
     model: &Model,
-    set: &MeasurementSet,
+    set: &D,
     folds: usize,
     scheme: FoldScheme,
     seed: u64,
 ) -> Vec<usize> {
-    let n = set.len();
-    if set.n_stations() > 1 {
-        let mut assignment = vec![0; n];
-        for s in 0..set.n_stations() {
-            let indices: Vec<usize> = (0..n).filter(|&k| set.station_of(k) == s).collect();
-            let station = set.station_poses(s);
-            let within = match station {
-                Some(poses) if poses.len() >= folds => {
-                    fold_assignment(model, &poses, folds, scheme, seed)
-                }
-                _ => (0..indices.len()).map(|k| k % folds).collect(),
-            };
-            for (k, f) in indices.into_iter().zip(within) {
-                assignment[k] = f;
-            }
+    let n = set.n_poses();
+    let mut assignment = vec![0; n];
+    for s in 0..set.n_stations() {
+        let indices: Vec<usize> = (0..n).filter(|&k| set.station_of(k) == s).collect();
+        let within = if indices.len() >= folds {
+            station_folds(model, set, &indices, folds, scheme, seed)
+        } else {
+            (0..indices.len()).map(|k| k % folds).collect()
+        };
+        for (k, f) in indices.into_iter().zip(within) {
+            assignment[k] = f;
         }
-        return assignment;
     }
+    assignment
+}
+
+/// Fold of each pose of `indices` (the poses of one station, at least
+/// `folds` of them), in their order.
+fn station_folds<D: Selectable>(
+    model: &Model,
+    set: &D,
+    indices: &[usize],
+    folds: usize,
+    scheme: FoldScheme,
+    seed: u64,
+) -> Vec<usize> {
+    let n = indices.len();
     match scheme {
         FoldScheme::AcquisitionBlocks => (0..n).map(|k| k * folds / n).collect(),
         FoldScheme::JointClusters => {
@@ -487,22 +621,23 @@ fn fold_assignment(
             // Coordinates scaled by their range over the poses.
             let (lo, hi): (Vec<f64>, Vec<f64>) = (0..na)
                 .map(|i| {
-                    set.measurements()
+                    indices
                         .iter()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
-                            (a.min(m.q[i]), b.max(m.q[i]))
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &k| {
+                            let q = set.configuration(k)[i];
+                            (a.min(q), b.max(q))
                         })
                 })
                 .unzip();
-            let points: Vec<Vec<f64>> = set
-                .measurements()
+            let points: Vec<Vec<f64>> = indices
                 .iter()
-                .map(|m| {
+                .map(|&k| {
+                    let q = set.configuration(k);
                     (0..na)
                         .map(|i| {
                             let span = hi[i] - lo[i];
                             if span > 0.0 {
-                                (m.q[i] - lo[i]) / span
+                                (q[i] - lo[i]) / span
                             } else {
                                 0.0
                             }
@@ -608,11 +743,8 @@ fn balanced_kmeans(points: &[Vec<f64>], k: usize, seed: u64) -> Vec<usize> {
 }
 
 /// The subset of `set` whose poses have `keep(k)`.
-fn subset(
-    set: &MeasurementSet,
-    keep: impl Fn(usize) -> bool,
-) -> Result<MeasurementSet, CalibError> {
-    let indices: Vec<usize> = (0..set.len()).filter(|&k| keep(k)).collect();
+fn subset<D: Selectable>(set: &D, keep: impl Fn(usize) -> bool) -> Result<D, CalibError> {
+    let indices: Vec<usize> = (0..set.n_poses()).filter(|&k| keep(k)).collect();
     set.subset(&indices)
 }
 
@@ -628,32 +760,30 @@ type FitOutcome = (Vec<f64>, usize, f64);
 /// where scoring candidate by candidate waited at each candidate for its
 /// slowest fold. Each fit owns its workspaces (each [`calibrate`] builds
 /// its own). Results come back in the order of `candidates`, then folds.
-fn run_fits(
+fn run_fits<D: Selectable>(
     model: &Model,
-    set: &MeasurementSet,
-    folds: &[(MeasurementSet, MeasurementSet)],
+    set: &D,
+    folds: &[(D, D)],
     candidates: &[CalibrationOptions],
 ) -> Vec<Vec<Result<FitOutcome, CalibError>>> {
     let per_candidate = folds.len().max(1);
     let jobs = candidates.len() * per_candidate;
+    let rank = |fitted: &D::Fitted| {
+        D::unknowns(fitted)
+            .iter()
+            .filter(|u| u.status == UnknownStatus::Identified)
+            .count()
+    };
     let fit = |job: usize| -> Result<FitOutcome, CalibError> {
         let options = &candidates[job / per_candidate];
         if folds.is_empty() {
-            let calibration = calibrate(model, set, options)?;
-            return Ok((Vec::new(), calibration.rank(), bic(&calibration)));
+            let fitted = set.fit(model, options)?;
+            return Ok((Vec::new(), rank(&fitted), D::bic(&fitted)));
         }
         let (train, held_out) = &folds[job % per_candidate];
-        let calibration = calibrate(model, train, options)?;
-        let (errors, _) = calibration.errors_after(
-            model,
-            held_out,
-            FramePolicy::Fixed(calibration.x_meas_base),
-        )?;
-        Ok((
-            errors.iter().map(|e| e.position).collect(),
-            calibration.rank(),
-            f64::NAN,
-        ))
+        let fitted = train.fit(model, options)?;
+        let errors = D::held_out_errors(model, &fitted, held_out)?;
+        Ok((errors, rank(&fitted), f64::NAN))
     };
     // At least one thread per fold, as when the folds of a candidate were
     // fitted each on its thread: on a machine shared with other jobs the
@@ -712,18 +842,15 @@ fn cross_validation_score(
     Ok((per_pose.concat(), fold_means, rank))
 }
 
-/// Scores one candidate by BIC on the full fit.
-fn bic(calibration: &Calibration) -> f64 {
-    let n = (calibration.n_poses * if calibration.use_orientation { 6 } else { 3 }) as f64;
-    let p = calibration
-        .unknowns
+/// BIC of a fit with `rows` residual rows, weighted cost `cost` and
+/// `unknowns`: `n ln(2 cost / n) + p ln n`.
+fn bic(rows: usize, cost: f64, unknowns: &[UnknownEstimate]) -> f64 {
+    let n = rows as f64;
+    let p = unknowns
         .iter()
         .filter(|u| u.status == UnknownStatus::Identified)
         .count() as f64;
-    n * (2.0 * calibration.solve.cost / n)
-        .max(f64::MIN_POSITIVE)
-        .ln()
-        + p * n.ln()
+    n * (2.0 * cost / n).max(f64::MIN_POSITIVE).ln() + p * n.ln()
 }
 
 /// Chooses from `set` alone which groups of unknowns to identify (module
@@ -737,6 +864,32 @@ fn bic(calibration: &Calibration) -> f64 {
 pub fn select_model(
     model: &Model,
     set: &MeasurementSet,
+    base: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
+    select_in(model, set, base, selection)
+}
+
+/// [`select_model`] for measurements of several targets per pose: the
+/// folds are clusters of poses (every target of a pose in the same fold),
+/// the score the mean position error over the held-out observations.
+///
+/// # Errors
+/// As [`select_model`], and a fold that leaves a target unobserved in its
+/// training or held-out part (the candidate fails, named in the report).
+pub fn select_target_model(
+    model: &Model,
+    set: &TargetMeasurementSet,
+    base: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
+    select_in(model, set, base, selection)
+}
+
+/// The search of [`select_model`] over any [`Selectable`] set.
+fn select_in<D: Selectable>(
+    model: &Model,
+    set: &D,
     base: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
@@ -766,12 +919,12 @@ pub fn select_model(
     let cv = selection.method == SelectionMethod::CrossValidation;
     let mut folds = Vec::new();
     if cv {
-        if selection.folds < 2 || selection.folds > set.len() {
+        if selection.folds < 2 || selection.folds > set.n_poses() {
             return Err(CalibError::InvalidOption {
                 name: "folds",
                 reason: format!(
                     "must be between 2 and the number of poses ({}), found {}",
-                    set.len(),
+                    set.n_poses(),
                     selection.folds
                 ),
             });
@@ -786,7 +939,7 @@ pub fn select_model(
         for f in 0..selection.folds {
             let train = subset(set, |k| assignment[k] != f)?;
             let held_out = subset(set, |k| assignment[k] == f)?;
-            report.fold_sizes.push(held_out.len());
+            report.fold_sizes.push(held_out.n_poses());
             folds.push((train, held_out));
         }
     }
@@ -981,17 +1134,48 @@ pub fn calibrate_selected(
     options: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
+    calibrate_selected_in(model, set, options, selection)
+}
+
+/// [`calibrate_selected`] for measurements of several targets per pose
+/// ([`select_target_model`], then [`calibrate_targets`]).
+///
+/// # Errors
+/// As [`select_target_model`] and [`calibrate_targets`].
+pub fn calibrate_targets_selected(
+    model: &Model,
+    set: &TargetMeasurementSet,
+    options: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<
+    (
+        TargetCalibration,
+        Option<SelectionReport>,
+        CalibrationOptions,
+    ),
+    CalibError,
+> {
+    calibrate_selected_in(model, set, options, selection)
+}
+
+/// [`calibrate_selected`] over any [`Selectable`] set.
+fn calibrate_selected_in<D: Selectable>(
+    model: &Model,
+    set: &D,
+    options: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<(D::Fitted, Option<SelectionReport>, CalibrationOptions), CalibError> {
     if selection.method == SelectionMethod::None {
-        return Ok((calibrate(model, set, options)?, None, options.clone()));
+        return Ok((set.fit(model, options)?, None, options.clone()));
     }
-    let (report, chosen) = select_model(model, set, options, selection).map_err(|e| {
+    let (report, chosen) = select_in(model, set, options, selection).map_err(|e| {
         // A fit cancelled during the search fails its candidate: say why.
         match &options.cancel {
             Some(token) if token.is_cancelled() => CalibError::Cancelled,
             _ => e,
         }
     })?;
-    Ok((calibrate(model, set, &chosen)?, Some(report), chosen))
+    Ok((set.fit(model, &chosen)?, Some(report), chosen))
 }
 
 #[cfg(test)]

@@ -329,6 +329,42 @@ impl TargetMeasurementSet {
             .map(|p| p.observations.iter().flatten().count())
             .sum()
     }
+    /// The poses at `indices` with the same targets, for splitting a set
+    /// (model selection's folds). A target that none of the picked poses
+    /// observes stays in the set: its offset then has no influence on a
+    /// fit.
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] when an index is out of range or the
+    /// subset is empty.
+    pub fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
+        let bad = |what: String| CalibError::BadMeasurement {
+            source_name: self.source.clone(),
+            line: 0,
+            what,
+        };
+        if indices.is_empty() {
+            return Err(bad("no measurements".into()));
+        }
+        let poses = indices
+            .iter()
+            .map(|&i| {
+                self.poses.get(i).cloned().ok_or_else(|| {
+                    bad(format!(
+                        "pose index {i} out of range (set has {})",
+                        self.len()
+                    ))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        // The poses were checked when the set was made.
+        Ok(Self {
+            source: self.source.clone(),
+            targets: self.targets.clone(),
+            poses,
+        })
+    }
+
     /// The same poses with other targets (same names and order of
     /// observations): another frame or offset, or a fixed offset.
     ///

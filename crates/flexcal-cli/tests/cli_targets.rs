@@ -163,28 +163,55 @@ fn two_markers_calibrate_the_elasto_geometric_model_end_to_end() {
     let robot = calib_data("two_arms.toml").display().to_string();
     let masses = calib_data("two_arms_masses.toml").display().to_string();
     let report = d.join("report.json");
-    let out = flexcal(&[
-        "calibrate",
-        "--robot",
-        &robot,
-        "--data",
-        &identification.display().to_string(),
-        "--targets",
-        &targets_file.display().to_string(),
-        "--validate",
-        &validation.display().to_string(),
-        "--model",
-        "elasto-geometric",
-        "--masses",
-        &masses,
-        "--report",
-        &report.display().to_string(),
-    ]);
-    let text = stdout(&out);
-    assert!(out.status.success(), "{text}\n{}", stderr(&out));
-    println!("{text}");
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let identification = identification.display().to_string();
+    let targets_file = targets_file.display().to_string();
+    let validation = validation.display().to_string();
+    let report_path = report.display().to_string();
+    let run = |select: &str| {
+        let out = flexcal(&[
+            "calibrate",
+            "--robot",
+            &robot,
+            "--data",
+            &identification,
+            "--targets",
+            &targets_file,
+            "--validate",
+            &validation,
+            "--model",
+            "elasto-geometric",
+            "--masses",
+            &masses,
+            "--select",
+            select,
+            "--report",
+            &report_path,
+        ]);
+        let text = stdout(&out);
+        assert!(out.status.success(), "{text}\n{}", stderr(&out));
+        println!("{text}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (text, json)
+    };
+    // Cross-validation on the 120 poses: the joints are rigid, and the
+    // compliances (with the law and lateral compliances that go with them)
+    // are dropped.
+    let (text, json) = run("cv");
+    assert!(
+        text.contains("Model selection by 5-fold cross-validation"),
+        "{text}"
+    );
+    let chosen = json["selection"]["chosen"].as_array().unwrap();
+    assert!(!chosen.is_empty(), "{json}");
+    assert!(
+        !chosen
+            .iter()
+            .any(|g| g.as_str().unwrap().contains("ompliance")),
+        "{chosen:?}"
+    );
+    // Every group identified: the compliances come out at zero.
+    let (text, json) = run("none");
     let unknowns = json["calibration"]["unknowns"].as_array().unwrap();
     let identified = |name: &str| {
         unknowns

@@ -1,13 +1,14 @@
 //! The calibration workflow with several measured targets per pose (markers
 //! on the hands of a two-armed robot, reflectors on a tool): read the
-//! targets description and the measurements, identify
-//! ([`calib::calibrate_targets`]), validate on a second set, in one call
-//! that returns typed, serialisable results.
+//! targets description and the measurements, select the model and
+//! identify it ([`calib::calibrate_targets_selected`]), validate on a
+//! second set, in one call that returns typed, serialisable results.
 
 use serde::Serialize;
 
 use crate::calib::{
-    self, TargetCalibration, TargetErrors, TargetMeasurementSet, TargetValidation, UnknownStatus,
+    self, SelectionReport, TargetCalibration, TargetErrors, TargetMeasurementSet, TargetValidation,
+    UnknownStatus,
 };
 use crate::calibration::{CalibrationConfig, CalibrationOutputs, MeasurementFormat};
 use crate::{Error, Result};
@@ -19,7 +20,11 @@ pub struct TargetCalibrationRun {
     pub data: TargetMeasurementSet,
     /// The validation set.
     pub validation_set: Option<TargetMeasurementSet>,
-    /// The identification.
+    /// The model selection, when one ran (`config.selection`; by default
+    /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
+    /// poses, as for one target).
+    pub selection: Option<SelectionReport>,
+    /// The identification (of the selected model).
     pub calibration: TargetCalibration,
     /// The validation (the measurement frame fitted again on the validation
     /// set, as for one target: the instrument may have moved).
@@ -35,7 +40,7 @@ pub struct TargetCalibrationRun {
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
 /// meaning with several targets (another file format, pose exclusions, a
 /// target start, the split-half, cross-series and residual-model checks,
-/// model selection, an accuracy map), and the errors of reading,
+/// an accuracy map), and the errors of reading, model selection,
 /// identification and validation, each naming its step.
 pub fn run_target_calibration(
     robot: &crate::kinematics::Model,
@@ -62,12 +67,6 @@ pub fn run_target_calibration(
         ("split_check", config.split_check),
         ("cross_check", config.cross_check),
         ("residual_inputs", !config.residual_inputs.is_empty()),
-        (
-            "selection",
-            config
-                .selection
-                .is_some_and(|m| m != calib::SelectionMethod::None),
-        ),
         ("accuracy_grid", config.accuracy_grid.is_some()),
     ];
     if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
@@ -83,8 +82,15 @@ pub fn run_target_calibration(
         .map(|p| TargetMeasurementSet::read_csv(p, &targets))
         .transpose()
         .map_err(step("validation measurements"))?;
-    let calibration =
-        calib::calibrate_targets(robot, &data, &config.options).map_err(step("identification"))?;
+    let selection_options = calib::SelectionOptions {
+        method: config
+            .selection
+            .unwrap_or_else(|| calib::default_method_for(data.len())),
+        ..Default::default()
+    };
+    let (calibration, selection, _) =
+        calib::calibrate_targets_selected(robot, &data, &config.options, &selection_options)
+            .map_err(step("identification"))?;
     let validation = validation_set
         .as_ref()
         .map(|set| calib::validate_targets(robot, &calibration, set, true))
@@ -93,6 +99,7 @@ pub fn run_target_calibration(
     Ok(TargetCalibrationRun {
         data,
         validation_set,
+        selection,
         calibration,
         validation,
     })
@@ -170,6 +177,9 @@ impl TargetCalibrationRun {
             c.solve.termination,
             c.solve.iterations
         )];
+        if let Some(selection) = &self.selection {
+            lines.extend(selection.lines());
+        }
         lines.extend(c.identifiability_notes());
         lines.extend(c.combination_lines.iter().cloned());
         lines.push(
