@@ -51,7 +51,7 @@ use flexcal_kinematics::{
 };
 use flexcal_optim::{
     ColumnScaling, Control, Diagnosis, IdentifiabilityReport, IterationState, Jacobian,
-    LevenbergMarquardt, ProblemError, ProblemSetup, Residuals, SolveReport,
+    LevenbergMarquardt, ProblemError, ProblemSetup, Residuals, SolveReport, Termination,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, Vector3};
 use serde::Serialize;
@@ -846,9 +846,13 @@ pub fn calibrate_targets(
             solver.geodesic_acceleration = Some(GEODESIC_ACCELERATION_LIMIT);
         }
         let mut observer = |_: &IterationState| Control::Continue;
-        solver
+        let report = solver
             .solve(&problem, x0, &setup, &mut observer)
-            .map_err(CalibError::optim("multi-target identification"))
+            .map_err(CalibError::optim("multi-target identification"))?;
+        if report.termination == Termination::Cancelled {
+            return Err(CalibError::Cancelled);
+        }
+        Ok(report)
     };
     // Frames (measurement frame and offsets) alone first, on the nominal
     // robot (with the starting compliances when elasto-geometric).

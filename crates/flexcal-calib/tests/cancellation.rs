@@ -1,5 +1,5 @@
 //! Cancellation of an identification through `CalibrationOptions::cancel`:
-//! a cancelled token ends `calibrate` and `calibrate_selected` with the
+//! a cancelled token ends `calibrate`, `calibrate_selected` and `calibrate_targets` with the
 //! named error instead of a result. (That the solver stops within the
 //! iteration under way is tested where the check lives, in flexcal-optim's
 //! `a_cancelled_token_ends_the_solve_within_the_iteration_under_way`.)
@@ -66,4 +66,19 @@ fn model_selection_passes_the_token_to_its_fits() {
         let e = calibrate_selected(&model, &set, &options, &selection).unwrap_err();
         assert!(matches!(e, CalibError::Cancelled), "{method:?}: {e}");
     }
+}
+
+#[test]
+fn a_cancelled_multi_target_identification_returns_the_named_error() {
+    // The same campaign as one target on the TCP.
+    let (model, set) = campaign(60);
+    let targets = flexcal_calib::TargetMeasurementSet::from_measurement_set(&set, "probe").unwrap();
+    let token = CancelToken::new();
+    let mut options = CalibrationOptions::for_model(&model);
+    options.cancel = Some(token.clone());
+    let finished = flexcal_calib::calibrate_targets(&model, &targets, &options).unwrap();
+    assert!(finished.solve.termination.is_converged());
+    token.cancel();
+    let e = flexcal_calib::calibrate_targets(&model, &targets, &options).unwrap_err();
+    assert!(matches!(e, CalibError::Cancelled), "{e}");
 }
