@@ -7,7 +7,7 @@ use std::sync::Arc;
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, ErrorStatistics as Stats,
     FrameTreatment, GravityCompliance, Method, SelectionMethod, SelectionOptions, SelectionReport,
-    UnknownStatus, ValidationReport, Weighting, calibrate_selected, default_method,
+    UnknownStatus, ValidationReport, Weighting, calibrate_selected,
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -103,6 +103,25 @@ impl UnknownEstimate {
     }
 }
 
+/// The Python view of the library's unknowns.
+pub(crate) fn unknown_estimates(
+    unknowns: &[flexcal::calib::UnknownEstimate],
+) -> Vec<UnknownEstimate> {
+    unknowns
+        .iter()
+        .map(|u| UnknownEstimate {
+            name: u.name.clone(),
+            unit: u.kind.si_unit(),
+            nominal: u.initial,
+            identified: u.value,
+            delta: u.value - u.initial,
+            standard_error: u.standard_error,
+            spread_ratio: u.spread_ratio,
+            status: status_name(u.status),
+        })
+        .collect()
+}
+
 fn status_name(s: UnknownStatus) -> &'static str {
     match s {
         UnknownStatus::Identified => "identified",
@@ -122,7 +141,7 @@ fn position_norms<'py>(
     to_numpy(py, e, &[errors.len()])
 }
 
-fn matrix<'py>(py: Python<'py>, x: &Isometry3<f64>) -> Bound<'py, PyArrayDyn<f64>> {
+pub(crate) fn matrix<'py>(py: Python<'py>, x: &Isometry3<f64>) -> Bound<'py, PyArrayDyn<f64>> {
     let m = x.to_homogeneous().transpose();
     to_numpy(py, m.as_slice().to_vec(), &[4, 4])
 }
@@ -241,7 +260,7 @@ impl SelectionCandidate {
 #[pyclass(frozen, module = "flexcal", name = "SelectionResult")]
 #[derive(Debug, Clone)]
 pub struct SelectionResult {
-    report: Arc<SelectionReport>,
+    pub(crate) report: Arc<SelectionReport>,
 }
 
 #[pymethods]
@@ -358,20 +377,7 @@ impl CalibrationResult {
     /// the elasto-geometric model compliances and payload).
     #[getter]
     fn parameters(&self) -> Vec<UnknownEstimate> {
-        self.calibration
-            .unknowns
-            .iter()
-            .map(|u| UnknownEstimate {
-                name: u.name.clone(),
-                unit: u.kind.si_unit(),
-                nominal: u.initial,
-                identified: u.value,
-                delta: u.value - u.initial,
-                standard_error: u.standard_error,
-                spread_ratio: u.spread_ratio,
-                status: status_name(u.status),
-            })
-            .collect()
+        unknown_estimates(&self.calibration.unknowns)
     }
 
     /// Identified value of every unknown by name (SI units).
@@ -739,20 +745,7 @@ pub fn calibrate<'py>(
     hold_out_stations: bool,
 ) -> PyResult<CalibrationResult> {
     let nominal = Arc::clone(&robot.model);
-    let selection = SelectionOptions {
-        method: match select {
-            None => default_method(&data.set),
-            Some("cv") => SelectionMethod::CrossValidation,
-            Some("bic") => SelectionMethod::Bic,
-            Some("none") => SelectionMethod::None,
-            Some(other) => {
-                return Err(InputError::new_err(format!(
-                    "select: expected \"cv\", \"bic\" or \"none\", got {other:?}"
-                )));
-            }
-        },
-        ..SelectionOptions::default()
-    };
+    let selection = selection_options(select, data.set.len())?;
     let mut options = CalibrationOptions::for_model(&nominal);
     options.method = match method {
         "lm" => Method::LevenbergMarquardt,
@@ -825,27 +818,7 @@ pub fn calibrate<'py>(
         options.max_iterations = n;
     }
     options.require_full_rank = strict;
-    match (model, masses) {
-        ("geometric", None) => {}
-        ("geometric", Some(_)) => {
-            return Err(InputError::new_err(
-                "masses: only for model=\"elasto-geometric\"",
-            ));
-        }
-        ("elasto-geometric", Some(path)) => {
-            options.gravity =
-                Some(GravityCompliance::from_toml_file(&path).map_err(|e| calib_error(&e))?);
-        }
-        ("elasto-geometric", None) => {
-            options.gravity =
-                Some(GravityCompliance::builtin(&nominal).map_err(|e| calib_error(&e))?);
-        }
-        (other, _) => {
-            return Err(InputError::new_err(format!(
-                "model: expected \"geometric\" or \"elasto-geometric\", got {other:?}"
-            )));
-        }
-    }
+    options.gravity = gravity_option(model, masses, &nominal)?;
     let cancel = CancelToken::new();
     options.cancel = Some(cancel.clone());
     let set = Arc::clone(&data.set);
@@ -871,6 +844,51 @@ pub fn calibrate<'py>(
         selection: selection.map(Arc::new),
         station_hold_out: Arc::new(held),
     })
+}
+
+/// The model selection of `select` (`"cv"`, `"bic"`, `"none"`; by
+/// default, as on the command line, cross-validation from
+/// [`flexcal::calib::MIN_POSES_FOR_CROSS_VALIDATION`] poses).
+pub(crate) fn selection_options(select: Option<&str>, poses: usize) -> PyResult<SelectionOptions> {
+    Ok(SelectionOptions {
+        method: match select {
+            None => flexcal::calib::default_method_for(poses),
+            Some("cv") => SelectionMethod::CrossValidation,
+            Some("bic") => SelectionMethod::Bic,
+            Some("none") => SelectionMethod::None,
+            Some(other) => {
+                return Err(InputError::new_err(format!(
+                    "select: expected \"cv\", \"bic\" or \"none\", got {other:?}"
+                )));
+            }
+        },
+        ..SelectionOptions::default()
+    })
+}
+
+/// The gravity loading of `model` (`"geometric"`: none;
+/// `"elasto-geometric"`: the mass table `masses`, else the robot's built-in
+/// one).
+pub(crate) fn gravity_option(
+    model: &str,
+    masses: Option<PathBuf>,
+    robot: &Model,
+) -> PyResult<Option<GravityCompliance>> {
+    match (model, masses) {
+        ("geometric", None) => Ok(None),
+        ("geometric", Some(_)) => Err(InputError::new_err(
+            "masses: only for model=\"elasto-geometric\"",
+        )),
+        ("elasto-geometric", Some(path)) => Ok(Some(
+            GravityCompliance::from_toml_file(&path).map_err(|e| calib_error(&e))?,
+        )),
+        ("elasto-geometric", None) => Ok(Some(
+            GravityCompliance::builtin(robot).map_err(|e| calib_error(&e))?,
+        )),
+        (other, _) => Err(InputError::new_err(format!(
+            "model: expected \"geometric\" or \"elasto-geometric\", got {other:?}"
+        ))),
+    }
 }
 
 /// `{coordinate name: (lo, hi)}` of per-coordinate coverages of a calibration

@@ -32,6 +32,7 @@ mod fuzzy;
 pub mod interrupt;
 mod measurement;
 mod robot;
+mod targets;
 
 use pyo3::prelude::*;
 
@@ -53,6 +54,10 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
+    m.add_class::<targets::TargetMeasurementSet>()?;
+    m.add_class::<targets::TargetCalibrationResult>()?;
+    m.add_class::<targets::TargetValidationResult>()?;
+    m.add_function(wrap_pyfunction!(targets::calibrate_targets, m)?)?;
     m.add_class::<compensation::CommandedPath>()?;
     m.add_function(wrap_pyfunction!(compensation::compensate_path, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

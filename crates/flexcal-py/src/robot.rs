@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use flexcal::kinematics::{
     Data, InverseOptions, InverseTarget, KinematicsError as KinError, Model, ParamKind,
-    RobotDescription, SerialChain, builtin_robot_names, forward_pose, inverse_pose,
-    joint_jacobian_into, param_jacobian_into,
+    RobotDescription, SerialChain, builtin_robot_names, forward_frame_pose, forward_pose,
+    inverse_pose, joint_jacobian_into, param_jacobian_into,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
 use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn, PyArrayMethods};
@@ -413,10 +413,12 @@ impl Robot {
     /// `output="matrix"` returns homogeneous matrices, shape (4, 4) or
     /// (n, 4, 4), translation in m; `output="pose"` returns a tuple
     /// (positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w]).
-    /// `xi` (n_params,) replaces the nominal parameters (m, rad). Batches run
+    /// `xi` (n_params,) replaces the nominal parameters (m, rad). `frame`
+    /// names a frame of the robot (a hand of a two-armed robot, a link) whose
+    /// pose is returned instead of the TCP's (no tool transform). Batches run
     /// without the GIL on up to `threads` threads (default: all cores),
     /// and Ctrl-C interrupts them between batches of 16 384.
-    #[pyo3(signature = (q, xi = None, output = "matrix", threads = None))]
+    #[pyo3(signature = (q, xi = None, output = "matrix", threads = None, frame = None))]
     fn fk<'py>(
         &self,
         py: Python<'py>,
@@ -424,15 +426,32 @@ impl Robot {
         xi: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
         output: &str,
         threads: Option<usize>,
+        frame: Option<&str>,
     ) -> PyResult<Py<PyAny>> {
         let q = self.configurations(&q)?;
         let xi = self.xi(xi)?;
-        // A serial chain takes the precomputed path; other robots (closed
-        // loops, couplings on the TCP path) the general forward model.
-        let chain = SerialChain::new(&self.model, &xi).ok();
-        let pose_at = |m: &Model, d: &mut Data, q: &[f64]| match &chain {
-            Some(chain) => chain.pose(q),
-            None => forward_pose(m, d, q, &xi),
+        let frame = frame
+            .map(|name| {
+                self.model.frame_index(name).ok_or_else(|| {
+                    InputError::new_err(format!(
+                        "frame: robot `{}` has no frame `{name}` (frames: {})",
+                        self.model.name(),
+                        self.model.frame_names().join(", ")
+                    ))
+                })
+            })
+            .transpose()?;
+        // A serial chain takes the precomputed path to the TCP; other robots
+        // (closed loops, couplings on the TCP path) and other frames the
+        // general forward model.
+        let chain = match frame {
+            Some(_) => None,
+            None => SerialChain::new(&self.model, &xi).ok(),
+        };
+        let pose_at = |m: &Model, d: &mut Data, q: &[f64]| match (&chain, frame) {
+            (Some(chain), _) => chain.pose(q),
+            (None, Some(f)) => forward_frame_pose(m, d, q, &xi, f, &Isometry3::identity()),
+            (None, None) => forward_pose(m, d, q, &xi),
         };
         match output {
             "matrix" if chain.is_some() => {
@@ -455,7 +474,7 @@ impl Robot {
             }
             "matrix" => {
                 let out = batched(py, &self.model, &q, 16, threads, |m, d, q, out| {
-                    let x = forward_pose(m, d, q, &xi)?.to_homogeneous();
+                    let x = pose_at(m, d, q)?.to_homogeneous();
                     // nalgebra stores column-major; NumPy wants rows.
                     out.copy_from_slice(x.transpose().as_slice());
                     Ok(())

@@ -39,6 +39,9 @@ from ._flexcal import (
     ShapeError,
     Structure,
     StructureError,
+    TargetCalibrationResult,
+    TargetMeasurementSet,
+    TargetValidationResult,
     UnknownEstimate,
     UnknownParameterError,
     UnknownRobotError,
@@ -46,6 +49,7 @@ from ._flexcal import (
     ValidationResult,
     __version__,
     calibrate,
+    calibrate_targets,
     compensate_path,
 )
 
@@ -73,6 +77,9 @@ __all__ = [
     "ShapeError",
     "Structure",
     "StructureError",
+    "TargetCalibrationResult",
+    "TargetMeasurementSet",
+    "TargetValidationResult",
     "UnknownEstimate",
     "UnknownParameterError",
     "UnknownRobotError",
@@ -80,5 +87,6 @@ __all__ = [
     "ValidationResult",
     "__version__",
     "calibrate",
+    "calibrate_targets",
     "compensate_path",
 ]

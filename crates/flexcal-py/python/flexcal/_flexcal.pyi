@@ -126,8 +126,11 @@ class Robot:
         xi: Optional[ArrayLike] = None,
         output: Literal["matrix"] = "matrix",
         threads: Optional[int] = None,
+        frame: Optional[str] = None,
     ) -> FloatArray:
-        """TCP pose in the base frame: (4, 4) for q (dof,), (n, 4, 4) for q (n, dof); m."""
+        """TCP pose in the base frame: (4, 4) for q (dof,), (n, 4, 4) for q (n, dof); m.
+
+        frame: the pose of that frame of the robot instead (no tool transform)."""
     @overload
     def fk(
         self,
@@ -135,6 +138,7 @@ class Robot:
         xi: Optional[ArrayLike] = None,
         output: Literal["pose"] = ...,
         threads: Optional[int] = None,
+        frame: Optional[str] = None,
     ) -> tuple[FloatArray, FloatArray]:
         """(positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w])."""
     def jacobian(
@@ -447,6 +451,110 @@ def calibrate(
     select: model selection as `flexcal calibrate --select` (report in `.selection`);
     default as on the command line: "cv" from 100 poses, else "none".
     hold_out_stations: with several stations, each held out in turn (`.station_hold_out`)."""
+
+class TargetMeasurementSet:
+    """Measured poses of several targets: q (rad, m) and, per target, its position (m)
+    in the measurement frame, NaN where it was not seen."""
+
+    @staticmethod
+    def from_arrays(
+        targets: Sequence[tuple[str, str, ArrayLike]],
+        q: ArrayLike,
+        positions: ArrayLike,
+        fixed: Sequence[str] = (),
+        pose_ids: Optional[Sequence[str]] = None,
+        source: str = "arrays",
+    ) -> TargetMeasurementSet:
+        """targets (name, frame, nominal offset (3,) m in that frame), q (n, dof) rad/m,
+        positions (n, n_targets, 3) m with NaN for a target not seen; fixed: targets whose offset is known."""
+    @staticmethod
+    def read_csv(path: StrPath, targets: StrPath) -> TargetMeasurementSet:
+        """flexcal's CSV with per-target columns (mm), the targets described by a TOML file."""
+    def write_csv(self, path: StrPath) -> None:
+        """Writes flexcal's CSV with per-target columns (mm)."""
+    @property
+    def target_names(self) -> list[str]: ...
+    @property
+    def target_frames(self) -> list[str]: ...
+    @property
+    def q(self) -> FloatArray:
+        """(n, dof), rad or m."""
+    @property
+    def positions(self) -> FloatArray:
+        """(n, n_targets, 3), m; NaN where a target was not seen."""
+    @property
+    def n_observations(self) -> int: ...
+    @property
+    def source(self) -> str: ...
+    def __len__(self) -> int: ...
+
+class TargetValidationResult:
+    """Errors of a multi-target calibration on another set of the same targets."""
+
+    @property
+    def before(self) -> ErrorStatistics: ...
+    @property
+    def after(self) -> ErrorStatistics: ...
+    @property
+    def per_target_before(self) -> dict[str, ErrorStatistics]: ...
+    @property
+    def per_target_after(self) -> dict[str, ErrorStatistics]: ...
+    @property
+    def frame_refitted(self) -> bool: ...
+
+class TargetCalibrationResult:
+    """The identification from several targets per pose (SI units)."""
+
+    @property
+    def robot(self) -> Robot:
+        """The calibrated robot."""
+    @property
+    def selection(self) -> Optional[SelectionResult]: ...
+    @property
+    def model(self) -> Literal["geometric", "elasto-geometric"]: ...
+    @property
+    def parameters(self) -> list[UnknownEstimate]:
+        """Robot parameters, frame_*, target.<name>.x|y|z, then the elastic and joint terms."""
+    @property
+    def identified(self) -> dict[str, float]: ...
+    @property
+    def standard_errors(self) -> dict[str, float]: ...
+    @property
+    def rank(self) -> int: ...
+    @property
+    def combination_terms(self) -> dict[str, list[tuple[str, float]]]: ...
+    @property
+    def notes(self) -> list[str]: ...
+    @property
+    def before(self) -> ErrorStatistics: ...
+    @property
+    def after(self) -> ErrorStatistics: ...
+    @property
+    def per_target_before(self) -> dict[str, ErrorStatistics]: ...
+    @property
+    def per_target_after(self) -> dict[str, ErrorStatistics]: ...
+    @property
+    def target_offsets(self) -> dict[str, FloatArray]:
+        """(3,) per target, m, in its frame."""
+    @property
+    def measurement_frame(self) -> FloatArray:
+        """x_meas_base (4, 4), m."""
+    def validate(self, other: TargetMeasurementSet, refit_frame: bool = True) -> TargetValidationResult: ...
+    def to_json(self, validation: Optional[TargetValidationResult] = None) -> str:
+        """The JSON report of `flexcal calibrate --targets --report` (SI units)."""
+
+def calibrate_targets(
+    robot: Robot,
+    data: TargetMeasurementSet,
+    model: Literal["geometric", "elasto-geometric"] = "geometric",
+    fix: Sequence[str] = (),
+    masses: Optional[StrPath] = None,
+    select: Literal["cv", "bic", "none"] | None = None,
+    max_iterations: Optional[int] = None,
+) -> TargetCalibrationResult:
+    """Identifies the robot, the measurement frame and the targets' offsets from every target on
+    every pose (positions only); elasto-geometric: joint springs of every branch under gravity.
+    select: as `flexcal calibrate --select`; default "cv" from 100 poses, else "none"."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

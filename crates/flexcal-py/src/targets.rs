@@ -1,0 +1,500 @@
+//! Several measured targets per pose (markers on the hands of a two-armed
+//! robot, reflectors on a tool): `flexcal.TargetMeasurementSet`,
+//! `flexcal.calibrate_targets` and their results.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use flexcal::calib::{
+    CalibrationOptions, CancelToken, FrameTreatment, Target, TargetMeasurementSet as Set,
+    TargetObservation, TargetPose, TargetValidation, calibrate_targets_selected, read_targets,
+    validate_targets,
+};
+use flexcal::kinematics::Model;
+use flexcal::targets::TargetCalibrationRun;
+use nalgebra::Vector3;
+use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::{exact, to_numpy};
+use crate::calibration::{
+    ErrorStatistics, SelectionResult, UnknownEstimate, gravity_option, matrix, selection_options,
+    unknown_estimates,
+};
+use crate::errors::{Failure, InputError, NotFiniteError, ShapeError, calib_error};
+use crate::interrupt::{run_cancellable, run_interruptible};
+use crate::robot::Robot;
+
+/// Measured poses of several targets: actuated coordinates q (rad, m) and,
+/// per target, its position (m) in the measurement frame, or nothing where
+/// it was occluded.
+#[pyclass(frozen, module = "flexcal", name = "TargetMeasurementSet")]
+#[derive(Debug, Clone)]
+pub struct TargetMeasurementSet {
+    pub(crate) set: Arc<Set>,
+}
+
+#[pymethods]
+impl TargetMeasurementSet {
+    /// A set from arrays: `targets` a list of `(name, frame, offset)` (the
+    /// frame a frame of the robot or `"tcp"`, the nominal offset (3,) in it,
+    /// m), `q` (n, dof) in rad or m, `positions` (n, n_targets, 3) in m with
+    /// NaN for a target not seen on a pose; `fixed` the names of targets
+    /// whose offset is known (not identified); `pose_ids` n labels.
+    #[staticmethod]
+    #[pyo3(signature = (targets, q, positions, fixed = Vec::new(), pose_ids = None, source = "arrays"))]
+    fn from_arrays<'py>(
+        targets: Vec<(String, String, PyArrayLikeDyn<'py, f64, AllowTypeChange>)>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        positions: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        fixed: Vec<String>,
+        pose_ids: Option<Vec<String>>,
+        source: &str,
+    ) -> PyResult<Self> {
+        let mut described = Vec::with_capacity(targets.len());
+        for (name, frame, offset) in &targets {
+            let (o, _) = exact(&format!("offset of target `{name}`"), offset, &[Some(3)])?;
+            let mut target = Target::new(name, frame, Vector3::new(o[0], o[1], o[2]));
+            if fixed.contains(name) {
+                target.treatment = FrameTreatment::Fixed;
+            }
+            described.push(target);
+        }
+        if let Some(unknown) = fixed
+            .iter()
+            .find(|f| !described.iter().any(|t| &t.name == *f))
+        {
+            return Err(InputError::new_err(format!(
+                "fixed: no target named `{unknown}`"
+            )));
+        }
+        let (q, q_shape) = exact("q", &q, &[None, None])?;
+        let (n, dof) = (q_shape[0], q_shape[1]);
+        if n == 0 || dof == 0 {
+            return Err(ShapeError::new_err(format!(
+                "q: expected shape (n, dof) with n, dof > 0, got ({n}, {dof})"
+            )));
+        }
+        let view = positions.as_array();
+        let t = described.len();
+        if view.shape() != [n, t, 3] {
+            return Err(ShapeError::new_err(format!(
+                "positions: expected shape ({n}, {t}, 3) (poses, targets, xyz), got {:?}",
+                view.shape()
+            )));
+        }
+        if let Some(ids) = &pose_ids {
+            if ids.len() != n {
+                return Err(ShapeError::new_err(format!(
+                    "pose_ids: expected {n} labels (one per pose), got {}",
+                    ids.len()
+                )));
+            }
+        }
+        let mut poses = Vec::with_capacity(n);
+        for k in 0..n {
+            let mut observations = Vec::with_capacity(t);
+            for (j, target) in described.iter().enumerate() {
+                let p = Vector3::new(view[[k, j, 0]], view[[k, j, 1]], view[[k, j, 2]]);
+                let observation = if p.iter().all(|v| v.is_nan()) {
+                    None
+                } else if p.iter().all(|v| v.is_finite()) {
+                    Some(TargetObservation::new(p))
+                } else {
+                    return Err(NotFiniteError::new_err(format!(
+                        "positions[{k}, {j}] (target `{}`): all three NaN (not seen) or all finite, got {:?}",
+                        target.name,
+                        p.as_slice()
+                    )));
+                };
+                observations.push(observation);
+            }
+            poses.push(TargetPose {
+                pose_id: pose_ids.as_ref().map(|ids| ids[k].clone()),
+                q: q[k * dof..(k + 1) * dof].to_vec(),
+                observations,
+            });
+        }
+        Ok(Self {
+            set: Arc::new(Set::new(source, described, poses).map_err(|e| calib_error(&e))?),
+        })
+    }
+
+    /// flexcal's CSV with per-target columns (mm), the targets described by
+    /// the TOML file `targets` (docs/file-formats.md).
+    #[staticmethod]
+    fn read_csv(path: PathBuf, targets: PathBuf) -> PyResult<Self> {
+        let targets = read_targets(&targets).map_err(|e| calib_error(&e))?;
+        Ok(Self {
+            set: Arc::new(Set::read_csv(&path, &targets).map_err(|e| calib_error(&e))?),
+        })
+    }
+
+    /// Writes the set in flexcal's CSV (mm), atomically.
+    fn write_csv(&self, path: PathBuf) -> PyResult<()> {
+        self.set.write_csv(&path).map_err(|e| calib_error(&e))
+    }
+
+    /// Names of the targets, in the order of `positions`.
+    #[getter]
+    fn target_names(&self) -> Vec<String> {
+        self.set.targets().iter().map(|t| t.name.clone()).collect()
+    }
+
+    /// The frame each target is fixed to, in the order of `target_names`.
+    #[getter]
+    fn target_frames(&self) -> Vec<String> {
+        self.set.targets().iter().map(|t| t.frame.clone()).collect()
+    }
+
+    /// Actuated coordinates, shape (n, dof), rad or m.
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let poses = self.set.poses();
+        let dof = self.set.n_actuated();
+        let q = poses.iter().flat_map(|p| p.q.iter().copied()).collect();
+        to_numpy(py, q, &[poses.len(), dof])
+    }
+
+    /// Positions, shape (n, n_targets, 3), m; NaN where a target was not seen.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let poses = self.set.poses();
+        let t = self.set.targets().len();
+        let values = poses
+            .iter()
+            .flat_map(|p| {
+                p.observations.iter().flat_map(|o| match o {
+                    Some(o) => [o.position.x, o.position.y, o.position.z],
+                    None => [f64::NAN; 3],
+                })
+            })
+            .collect();
+        to_numpy(py, values, &[poses.len(), t, 3])
+    }
+
+    /// Number of (pose, target) observations.
+    #[getter]
+    fn n_observations(&self) -> usize {
+        self.set.n_observations()
+    }
+
+    /// Name of the set in messages (its file).
+    #[getter]
+    fn source(&self) -> String {
+        self.set.source.clone()
+    }
+
+    fn __len__(&self) -> usize {
+        self.set.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "TargetMeasurementSet({:?}, {} poses, targets {:?})",
+            self.set.source,
+            self.set.len(),
+            self.target_names()
+        )
+    }
+}
+
+/// `{target name: ErrorStatistics}`.
+fn per_target<'py>(
+    py: Python<'py>,
+    errors: &[flexcal::calib::TargetErrors],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for e in errors {
+        d.set_item(&e.target, ErrorStatistics::from(&e.statistics))?;
+    }
+    Ok(d)
+}
+
+/// Errors of a multi-target calibration on another set of the same targets.
+#[pyclass(frozen, module = "flexcal", name = "TargetValidationResult")]
+#[derive(Debug, Clone)]
+pub struct TargetValidationResult {
+    validation: Arc<TargetValidation>,
+}
+
+#[pymethods]
+impl TargetValidationResult {
+    /// Errors of every observation with the nominal robot (before).
+    #[getter]
+    fn before(&self) -> ErrorStatistics {
+        ErrorStatistics::from(&self.validation.before)
+    }
+
+    /// Errors of every observation with the calibrated robot (after).
+    #[getter]
+    fn after(&self) -> ErrorStatistics {
+        ErrorStatistics::from(&self.validation.after)
+    }
+
+    /// `{target: ErrorStatistics}` before.
+    #[getter]
+    fn per_target_before<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        per_target(py, &self.validation.per_target_before)
+    }
+
+    /// `{target: ErrorStatistics}` after.
+    #[getter]
+    fn per_target_after<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        per_target(py, &self.validation.per_target_after)
+    }
+
+    /// Whether the measurement frame was fitted again on the set.
+    #[getter]
+    fn frame_refitted(&self) -> bool {
+        self.validation.frame_refitted
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "TargetValidationResult(mean {:.4} mm after, {:.4} mm before)",
+            self.validation.after.position_mean * 1e3,
+            self.validation.before.position_mean * 1e3
+        )
+    }
+}
+
+/// The result of `calibrate_targets`: the identified unknowns, what the
+/// targets could identify, per-target errors, the calibrated robot,
+/// validation on another set and the JSON report.
+#[pyclass(frozen, module = "flexcal", name = "TargetCalibrationResult")]
+#[derive(Debug)]
+pub struct TargetCalibrationResult {
+    run: Arc<TargetCalibrationRun>,
+    nominal: Arc<Model>,
+    calibrated: Robot,
+}
+
+#[pymethods]
+impl TargetCalibrationResult {
+    /// The calibrated robot (its nominal values are the identified ones).
+    #[getter]
+    fn robot(&self) -> Robot {
+        self.calibrated.clone()
+    }
+
+    /// The model selection (`select="cv"` or `"bic"`), or None.
+    #[getter]
+    fn selection(&self) -> Option<SelectionResult> {
+        self.run.selection.as_ref().map(|report| SelectionResult {
+            report: Arc::new(report.clone()),
+        })
+    }
+
+    /// `"geometric"` or `"elasto-geometric"`.
+    #[getter]
+    fn model(&self) -> &'static str {
+        if self.run.calibration.elastic.is_some() {
+            "elasto-geometric"
+        } else {
+            "geometric"
+        }
+    }
+
+    /// Every unknown: robot parameters, `frame_*`, `target.<name>.x|y|z`,
+    /// then the elastic and joint terms of the elasto-geometric model.
+    #[getter]
+    fn parameters(&self) -> Vec<UnknownEstimate> {
+        unknown_estimates(&self.run.calibration.unknowns)
+    }
+
+    /// Identified value of every unknown by name (SI units).
+    #[getter]
+    fn identified<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for u in &self.run.calibration.unknowns {
+            d.set_item(&u.name, u.value)?;
+        }
+        Ok(d)
+    }
+
+    /// Standard error of every identified unknown by name (SI units).
+    #[getter]
+    fn standard_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for u in &self.run.calibration.unknowns {
+            if let Some(s) = u.standard_error {
+                d.set_item(&u.name, s)?;
+            }
+        }
+        Ok(d)
+    }
+
+    /// Number of identified unknowns.
+    #[getter]
+    fn rank(&self) -> usize {
+        self.run.calibration.rank()
+    }
+
+    /// What each identified unknown stands for: identified name ->
+    /// [(absorbed name, coefficient)], coefficients in SI units.
+    #[getter]
+    fn combination_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for c in &self.run.calibration.combinations {
+            d.set_item(&c.name, c.terms.clone())?;
+        }
+        Ok(d)
+    }
+
+    /// What the targets could not identify, in sentences.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.run.calibration.identifiability_notes()
+    }
+
+    /// Errors of every observation before (nominal robot, frame and
+    /// offsets fitted) and after identification.
+    #[getter]
+    fn before(&self) -> ErrorStatistics {
+        ErrorStatistics::from(&self.run.calibration.training_before)
+    }
+
+    /// Errors of every observation after identification.
+    #[getter]
+    fn after(&self) -> ErrorStatistics {
+        ErrorStatistics::from(&self.run.calibration.training_after)
+    }
+
+    /// `{target: ErrorStatistics}` before identification.
+    #[getter]
+    fn per_target_before<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        per_target(py, &self.run.calibration.per_target_before)
+    }
+
+    /// `{target: ErrorStatistics}` after identification.
+    #[getter]
+    fn per_target_after<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        per_target(py, &self.run.calibration.per_target_after)
+    }
+
+    /// `{target: offset (3,)}` in its frame, m: identified or fixed.
+    #[getter]
+    fn target_offsets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for t in &self.run.calibration.targets {
+            d.set_item(&t.name, to_numpy(py, t.offset.as_slice().to_vec(), &[3]))?;
+        }
+        Ok(d)
+    }
+
+    /// The identified measurement frame x_meas_base (4 x 4, m).
+    #[getter]
+    fn measurement_frame<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        matrix(py, &self.run.calibration.x_meas_base)
+    }
+
+    /// Errors of the calibrated robot on another set of the same targets;
+    /// with `refit_frame` (default) the measurement frame is fitted again
+    /// on it (the instrument was moved). Releases the GIL; Ctrl-C
+    /// interrupts the wait.
+    #[pyo3(signature = (other, refit_frame = true))]
+    fn validate(
+        &self,
+        py: Python<'_>,
+        other: &TargetMeasurementSet,
+        refit_frame: bool,
+    ) -> PyResult<TargetValidationResult> {
+        let run = Arc::clone(&self.run);
+        let model = Arc::clone(&self.nominal);
+        let set = Arc::clone(&other.set);
+        let validation = run_interruptible(py, move || {
+            Ok(validate_targets(
+                &model,
+                &run.calibration,
+                &set,
+                refit_frame,
+            )?)
+        })?;
+        Ok(TargetValidationResult {
+            validation: Arc::new(validation),
+        })
+    }
+
+    /// The JSON report, as `flexcal calibrate --targets --report` writes it
+    /// (SI units), with the validation when given.
+    #[pyo3(signature = (validation = None))]
+    fn to_json(&self, validation: Option<&TargetValidationResult>) -> PyResult<String> {
+        let mut run = (*self.run).clone();
+        run.validation = validation.map(|v| (*v.validation).clone());
+        run.to_json_string().map_err(|e| Failure::from(e).into())
+    }
+
+    fn __repr__(&self) -> String {
+        let c = &self.run.calibration;
+        format!(
+            "TargetCalibrationResult(robot={:?}, {} targets, rank {} of {}, mean {:.4} mm after, {:.4} mm before)",
+            self.nominal.name(),
+            c.targets.len(),
+            c.rank(),
+            c.unknowns.len(),
+            c.training_after.position_mean * 1e3,
+            c.training_before.position_mean * 1e3
+        )
+    }
+}
+
+/// Identifies the robot's parameters, the measurement frame and the offsets
+/// of the targets (those not fixed) from every target on every pose; with
+/// `model="elasto-geometric"` the joint compliances under gravity of every
+/// branch (mass table built in for the UR10, else `masses`, a TOML file;
+/// its `lateral = "about-x"` adds the lateral compliances). `fix` names
+/// kept at their start; `select` the model selection (`"cv"`, `"bic"`,
+/// `"none"`; by default `"cv"` from 100 poses), its report in
+/// `result.selection`; `max_iterations`. Positions only.
+///
+/// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
+/// and stops the identification within one solver iteration.
+#[pyfunction]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn calibrate_targets(
+    py: Python<'_>,
+    robot: &Robot,
+    data: &TargetMeasurementSet,
+    model: &str,
+    fix: Vec<String>,
+    masses: Option<PathBuf>,
+    select: Option<&str>,
+    max_iterations: Option<usize>,
+) -> PyResult<TargetCalibrationResult> {
+    let nominal = Arc::clone(&robot.model);
+    let selection = selection_options(select, data.set.len())?;
+    let mut options = CalibrationOptions::for_model(&nominal);
+    options.fixed = fix;
+    options.gravity = gravity_option(model, masses, &nominal)?;
+    if let Some(n) = max_iterations {
+        options.max_iterations = n;
+    }
+    let cancel = CancelToken::new();
+    options.cancel = Some(cancel.clone());
+    let set = Arc::clone(&data.set);
+    let model = Arc::clone(&nominal);
+    let (run, calibrated) = run_cancellable(py, Some(cancel), move || {
+        let (calibration, report, _) =
+            calibrate_targets_selected(&model, &set, &options, &selection)?;
+        let calibrated = calibration
+            .description(&model)?
+            .build()
+            .map_err(Failure::Kinematics)?;
+        let run = TargetCalibrationRun {
+            data: (*set).clone(),
+            validation_set: None,
+            selection: report,
+            calibration,
+            validation: None,
+        };
+        Ok((run, calibrated))
+    })?;
+    Ok(TargetCalibrationResult {
+        run: Arc::new(run),
+        nominal,
+        calibrated: Robot::new(calibrated),
+    })
+}

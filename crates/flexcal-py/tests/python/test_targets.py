@@ -1,0 +1,200 @@
+"""Several targets per pose from Python: a two-armed tree robot (a torso
+joint carrying two four-joint arms) with a marker on each hand, simulated
+with a known truth through `Robot.fk(..., frame=...)`, calibrated by
+`flexcal.calibrate_targets`, validated, written and read back."""
+
+import json
+
+import numpy as np
+import pytest
+from conftest import REPOSITORY, configurations
+
+import flexcal
+
+DATA = REPOSITORY / "crates" / "flexcal-calib" / "tests" / "data"
+# Error terms of the simulated robot and instrument, as in the Rust
+# multi-target tests (tests/multi_target.rs): geometric errors of 0.3 mm and
+# 0.03 deg (standard deviations here), markers within 1 mm of their nominal
+# offsets, 20 um of noise per axis (a laser tracker at a few metres).
+LENGTH_ERROR = 0.3e-3
+ANGLE_ERROR = np.radians(0.03)
+NOISE = 20e-6
+OFFSET = np.array([0.030, 0.0, 0.040])
+TARGETS = [("left", "LH", OFFSET), ("right", "RH", OFFSET)]
+
+
+@pytest.fixture(scope="module")
+def two_arms():
+    return flexcal.Robot.from_toml(DATA / "two_arms.toml")
+
+
+def rotation(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+class Truth:
+    def __init__(self, robot, seed):
+        self.rng = np.random.default_rng(seed)
+        sigma = np.array(
+            [LENGTH_ERROR if p.unit == "m" else ANGLE_ERROR for p in robot.parameters]
+        )
+        self.xi = robot.nominal + self.rng.normal(0.0, sigma)
+        self.offsets = [OFFSET + self.rng.uniform(-1e-3, 1e-3, 3) for _ in TARGETS]
+        self.frame_rotation = rotation([0.1, -0.2, 1.0], 2.4)
+        self.frame_translation = np.array([2.5, -0.4, -0.9])
+
+    def measure(self, robot, q, occlude=0.1):
+        """Positions (n, 2, 3) in the tracker's frame; each marker hidden
+        on about `occlude` of the poses (never both)."""
+        n = len(q)
+        positions = np.empty((n, len(TARGETS), 3))
+        for t, (_, frame, _) in enumerate(TARGETS):
+            hand = robot.fk(q, xi=self.xi, frame=frame)
+            point = hand[:, :3, :3] @ self.offsets[t] + hand[:, :3, 3]
+            positions[:, t] = point @ self.frame_rotation.T + self.frame_translation
+        positions += self.rng.normal(0.0, NOISE, positions.shape)
+        hidden = self.rng.random(n) < occlude
+        which = self.rng.integers(0, len(TARGETS), n)
+        positions[hidden, which[hidden]] = np.nan
+        return positions
+
+
+def test_fk_of_a_named_frame(two_arms):
+    q = configurations(two_arms, 5, seed=1)
+    end = two_arms.fk(q, frame="LH")
+    # LH is the end frame and the robot has no tool: its pose is the TCP's.
+    np.testing.assert_allclose(end, two_arms.fk(q), atol=1e-12)
+    right = two_arms.fk(q, frame="RH", output="pose")
+    np.testing.assert_allclose(right[0], two_arms.fk(q, frame="RH")[:, :3, 3], atol=1e-12)
+    with pytest.raises(flexcal.InputError, match="no frame `XX`"):
+        two_arms.fk(q, frame="XX")
+
+
+def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
+    truth = Truth(two_arms, seed=11)
+    q = configurations(two_arms, 120, seed=12)
+    positions = truth.measure(two_arms, q)
+    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, source="two arms")
+    assert len(data) == 120 and data.target_names == ["left", "right"]
+    assert data.n_observations == int(np.sum(~np.isnan(positions[:, :, 0])))
+    result = flexcal.calibrate_targets(two_arms, data, select="none")
+    assert result.model == "geometric" and result.selection is None
+    # At the noise: three axes of 20 um give a mean error norm of 32 um.
+    assert result.after.position_mean < 1.3 * 1.6 * NOISE, result.after
+    assert result.before.position_mean > 5 * result.after.position_mean
+    assert set(result.per_target_after) == {"left", "right"}
+    # Every identified robot parameter within 4 standard errors of what it
+    # stands for (its truth plus the absorbed parameters' errors).
+    names = two_arms.parameter_names
+    delta = dict(zip(names, truth.xi - two_arms.nominal))
+    terms = result.combination_terms
+    checked = 0
+    for u in result.parameters:
+        if u.status == "identified" and u.name in names:
+            stands_for = truth.xi[names.index(u.name)] + sum(
+                k * delta.get(other, 0.0) for other, k in terms.get(u.name, [])
+            )
+            assert abs(u.identified - stands_for) < 4 * u.standard_error, u
+            checked += 1
+    assert checked > 20
+    # What two markers cannot see is named.
+    assert any("cannot be told apart" in note for note in result.notes), result.notes
+    # The markers' offsets: within 4 standard errors of the truth where
+    # identified.
+    offsets = result.target_offsets
+    sigma = result.standard_errors
+    for t, (name, _, _) in enumerate(TARGETS):
+        for a, axis in enumerate("xyz"):
+            key = f"target.{name}.{axis}"
+            if key in sigma and not terms.get(key):
+                assert abs(offsets[name][a] - truth.offsets[t][a]) < 4 * sigma[key], key
+
+    # Validation on other poses, the tracker's frame fitted again.
+    q_other = configurations(two_arms, 40, seed=13)
+    other = flexcal.TargetMeasurementSet.from_arrays(
+        TARGETS, q_other, truth.measure(two_arms, q_other)
+    )
+    validation = result.validate(other)
+    assert validation.frame_refitted
+    assert validation.after.position_mean < 1.3 * 1.6 * NOISE, validation.after
+    assert validation.before.position_mean > 5 * validation.after.position_mean
+    report = json.loads(result.to_json(validation))
+    assert report["calibration"]["n_poses"] == 120
+    assert report["validation"]["after"]["position_mean"] == pytest.approx(
+        validation.after.position_mean
+    )
+
+    # Written and read back with a targets description: the same poses.
+    description = tmp_path / "targets.toml"
+    description.write_text(
+        "".join(
+            f'[[target]]\nname = "{name}"\nframe = "{frame}"\noffset_mm = [30.0, 0.0, 40.0]\n\n'
+            for name, frame, _ in TARGETS
+        )
+    )
+    path = tmp_path / "markers.csv"
+    data.write_csv(path)
+    back = flexcal.TargetMeasurementSet.read_csv(path, description)
+    np.testing.assert_allclose(back.q, data.q, atol=1e-9)
+    np.testing.assert_array_equal(np.isnan(back.positions), np.isnan(data.positions))
+    np.testing.assert_allclose(back.positions, data.positions, atol=1e-9, equal_nan=True)
+
+
+def test_the_elasto_geometric_model_with_two_markers(two_arms):
+    # The joints of the simulated robot are rigid: every identified
+    # compliance comes out at zero within 4 standard errors.
+    truth = Truth(two_arms, seed=21)
+    q = configurations(two_arms, 150, seed=22)
+    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    result = flexcal.calibrate_targets(
+        two_arms,
+        data,
+        model="elasto-geometric",
+        masses=DATA / "two_arms_masses.toml",
+        select="none",
+    )
+    assert result.model == "elasto-geometric"
+    compliances = [
+        u
+        for u in result.parameters
+        if u.name.startswith(("compliance_", "lateral_compliance_")) and u.status == "identified"
+    ]
+    assert {"compliance_thetaL1", "compliance_thetaR1"} <= {u.name for u in compliances}
+    for u in compliances:
+        assert u.unit == "rad/N.m"
+        assert abs(u.identified) < 4 * u.standard_error, u
+    # The torso turns about the vertical: gravity does not load it.
+    torso = next(u for u in result.parameters if u.name == "compliance_theta1")
+    assert torso.status != "identified"
+    # Cross-validation on the same poses drops the compliances.
+    selected = flexcal.calibrate_targets(
+        two_arms, data, model="elasto-geometric", masses=DATA / "two_arms_masses.toml"
+    )
+    assert selected.selection is not None and selected.selection.method == "cv"
+    assert "compliances" not in selected.selection.chosen, selected.selection.lines()
+
+
+def test_bad_multi_target_input_is_a_named_error(two_arms):
+    q = configurations(two_arms, 4, seed=31)
+    good = np.zeros((4, 2, 3))
+    with pytest.raises(flexcal.ShapeError, match=r"positions: expected shape \(4, 2, 3\)"):
+        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, np.zeros((4, 3)))
+    partly = good.copy()
+    partly[1, 0, 2] = np.nan
+    with pytest.raises(flexcal.NotFiniteError, match=r"positions\[1, 0\] \(target `left`\)"):
+        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, partly)
+    with pytest.raises(flexcal.InputError, match="no target named `middle`"):
+        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, good, fixed=["middle"])
+    never = good.copy()
+    never[:, 1] = np.nan
+    with pytest.raises(flexcal.MeasurementError, match="target `right` is observed on no pose"):
+        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, never)
+    data = flexcal.TargetMeasurementSet.from_arrays(
+        [("left", "LH", OFFSET), ("right", "XX", OFFSET)], q, good
+    )
+    with pytest.raises(flexcal.MeasurementError, match="no frame `XX`"):
+        flexcal.calibrate_targets(two_arms, data, select="none")
+    with pytest.raises(flexcal.InputError, match="select"):
+        flexcal.calibrate_targets(two_arms, data, select="maybe")
