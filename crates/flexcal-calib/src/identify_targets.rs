@@ -87,6 +87,38 @@ pub struct TargetErrors {
     pub statistics: ErrorStatistics,
 }
 
+/// The error of one observation: a target at a pose.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ObservationError {
+    /// The pose's label (`pose_id`, or `#k` from its index).
+    pub pose: String,
+    /// The target's name.
+    pub target: String,
+    /// Measured minus predicted position, in the measurement frame (m).
+    pub error: Vector3<f64>,
+}
+
+/// `pose,target,position_error_mm,dx_mm,dy_mm,dz_mm`, one row per
+/// observation (mm; a comma in a pose label written as `;`): the
+/// per-observation error file of `flexcal calibrate --targets --residuals`,
+/// as [`crate::temperature::pose_errors_csv`] is for one target.
+pub fn observation_errors_csv(errors: &[ObservationError]) -> String {
+    let mut out = String::from("pose,target,position_error_mm,dx_mm,dy_mm,dz_mm\n");
+    for e in errors {
+        let mm = e.error * 1e3;
+        out.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            e.pose.replace(',', ";"),
+            e.target,
+            mm.norm(),
+            mm.x,
+            mm.y,
+            mm.z
+        ));
+    }
+    out
+}
+
 /// A fitted multi-target calibration.
 #[derive(Debug, Clone, Serialize)]
 pub struct TargetCalibration {
@@ -131,6 +163,8 @@ pub struct TargetCalibration {
     pub n_poses: usize,
     /// Number of (pose, target) observations used.
     pub n_observations: usize,
+    /// The error of every observation after identification, pose by pose.
+    pub observation_errors: Vec<ObservationError>,
     /// The gravity loading when the model is elasto-geometric, with the
     /// identified elastic unknowns (compliances, payload mass, first moment,
     /// lateral compliances when on; order of
@@ -558,6 +592,19 @@ impl<'a> TargetErrorModel<'a> {
                 }
             })
             .collect())
+    }
+
+    /// `errors` (in row order) labelled by pose and target.
+    fn observation_errors(&self, errors: &[PoseError]) -> Vec<ObservationError> {
+        self.rows
+            .iter()
+            .zip(errors)
+            .map(|(&(k, t), e)| ObservationError {
+                pose: self.set.poses()[k].label(k),
+                target: self.set.targets()[t].name.clone(),
+                error: e.position_vector,
+            })
+            .collect()
     }
 
     fn per_target(&self, errors: &[PoseError]) -> Vec<TargetErrors> {
@@ -996,6 +1043,7 @@ pub fn calibrate_targets(
         per_target_after: problem.per_target(&errors_after),
         n_poses: set.len(),
         n_observations: problem.rows.len(),
+        observation_errors: problem.observation_errors(&errors_after),
         elastic,
         joint_terms: options.joint_terms,
         joint_term_values: x[joint_start..].to_vec(),
@@ -1023,6 +1071,8 @@ pub struct TargetValidation {
     pub per_target_after: Vec<TargetErrors>,
     /// Whether the measurement frame was fitted again on this set.
     pub frame_refitted: bool,
+    /// The error of every observation after calibration, pose by pose.
+    pub observation_errors: Vec<ObservationError>,
 }
 
 /// The multi-target model of `calibration` on `set` (whose targets carry
@@ -1124,7 +1174,10 @@ pub fn validate_targets(
                     xi: &[f64],
                     identified: bool,
                     x_meas_base: Isometry3<f64>|
-     -> Result<(ErrorStatistics, Vec<TargetErrors>), CalibError> {
+     -> Result<
+        (ErrorStatistics, Vec<TargetErrors>, Vec<ObservationError>),
+        CalibError,
+    > {
         let (problem, mut x) = fitted_model(model, calibration, set, xi, identified, x_meas_base)?;
         if refit_frame {
             let mut frozen = vec![true; x.len()];
@@ -1143,15 +1196,19 @@ pub fn validate_targets(
                 .x;
         }
         let errors = problem.errors(&x)?;
-        Ok((error_statistics(&errors), problem.per_target(&errors)))
+        Ok((
+            error_statistics(&errors),
+            problem.per_target(&errors),
+            problem.observation_errors(&errors),
+        ))
     };
-    let (before, per_target_before) = evaluate(
+    let (before, per_target_before, _) = evaluate(
         &nominal,
         &calibration.nominal_xi,
         false,
         calibration.x_meas_base_nominal_robot,
     )?;
-    let (after, per_target_after) =
+    let (after, per_target_after, observation_errors) =
         evaluate(&calibrated, &calibration.xi, true, calibration.x_meas_base)?;
     Ok(TargetValidation {
         before,
@@ -1159,6 +1216,7 @@ pub fn validate_targets(
         per_target_before,
         per_target_after,
         frame_refitted: refit_frame,
+        observation_errors,
     })
 }
 

@@ -286,8 +286,8 @@ pub use identify::{
     Weighting, calibrate, combination_check,
 };
 pub use identify_targets::{
-    TargetCalibration, TargetErrors, TargetValidation, calibrate_targets, target_position_errors,
-    target_unknown_names, validate_targets,
+    ObservationError, TargetCalibration, TargetErrors, TargetValidation, calibrate_targets,
+    observation_errors_csv, target_position_errors, target_unknown_names, validate_targets,
 };
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{

@@ -202,8 +202,8 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         html: args.html,
     };
     let written = if config.targets.is_some() {
-        if outputs.residuals.is_some() || outputs.html.is_some() {
-            crate::usage_bail!("--residuals and --html are not available with --targets");
+        if outputs.html.is_some() {
+            crate::usage_bail!("--html is not available with --targets");
         }
         let run = run_target_calibration(&model, &config)?;
         print!("{}", run.summary_text(&model));

@@ -91,6 +91,7 @@ fn two_markers_calibrate_end_to_end() {
     let robot = calib_data("two_arms.toml").display().to_string();
     let report = d.join("report.json");
     let calibrated = d.join("calibrated.toml");
+    let residuals = d.join("errors.csv");
     let args = [
         "calibrate",
         "--robot",
@@ -105,6 +106,8 @@ fn two_markers_calibrate_end_to_end() {
         &calibrated.display().to_string(),
         "--report",
         &report.display().to_string(),
+        "--residuals",
+        &residuals.display().to_string(),
     ];
     let out = flexcal(&args);
     let text = stdout(&out);
@@ -141,6 +144,37 @@ fn two_markers_calibrate_end_to_end() {
     let description = RobotDescription::from_toml_file(&calibrated).unwrap();
     assert!(description.notes.contains("of 2 targets"));
     description.build().unwrap();
+    // The error of every validation observation: 30 poses, two markers.
+    assert!(
+        text.contains("error of every validation observation written to"),
+        "{text}"
+    );
+    let csv = std::fs::read_to_string(&residuals).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("pose,target,position_error_mm,dx_mm,dy_mm,dz_mm")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 60);
+    assert_eq!(rows[0][..2], ["p1000", "left"]);
+    assert_eq!(rows[1][..2], ["p1000", "right"]);
+    let largest = rows
+        .iter()
+        .map(|r| r[2].parse::<f64>().unwrap())
+        .fold(0.0, f64::max);
+    let reported = after
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["statistics"]["position_max"].as_f64().unwrap() * 1e3)
+        .fold(0.0, f64::max);
+    assert!((largest - reported).abs() < 1e-9, "{largest} {reported}");
+    // Each row's norm is that of its components.
+    for r in &rows {
+        let v: Vec<f64> = r[2..].iter().map(|x| x.parse().unwrap()).collect();
+        assert!((v[0] - (v[1] * v[1] + v[2] * v[2] + v[3] * v[3]).sqrt()).abs() < 1e-9);
+    }
 }
 
 /// The elasto-geometric model with two markers, from the command line: the

@@ -212,6 +212,23 @@ fn per_target<'py>(
     Ok(d)
 }
 
+/// `([(pose, target)], errors (n_observations, 3) in m)`: measured minus
+/// predicted position of every observation, in the measurement frame.
+fn observation_errors<'py>(
+    py: Python<'py>,
+    errors: &[flexcal::calib::ObservationError],
+) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
+    let labels = errors
+        .iter()
+        .map(|e| (e.pose.clone(), e.target.clone()))
+        .collect();
+    let values = errors
+        .iter()
+        .flat_map(|e| e.error.iter().copied())
+        .collect();
+    (labels, to_numpy(py, values, &[errors.len(), 3]))
+}
+
 /// Errors of a multi-target calibration on another set of the same targets.
 #[pyclass(frozen, module = "flexcal", name = "TargetValidationResult")]
 #[derive(Debug, Clone)]
@@ -249,6 +266,16 @@ impl TargetValidationResult {
     #[getter]
     fn frame_refitted(&self) -> bool {
         self.validation.frame_refitted
+    }
+
+    /// `([(pose, target)], errors (n_observations, 3) in m)` after
+    /// calibration: measured minus predicted, in the measurement frame.
+    #[getter]
+    fn observation_errors<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
+        observation_errors(py, &self.validation.observation_errors)
     }
 
     fn __repr__(&self) -> String {
@@ -372,6 +399,17 @@ impl TargetCalibrationResult {
     #[getter]
     fn per_target_after<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         per_target(py, &self.run.calibration.per_target_after)
+    }
+
+    /// `([(pose, target)], errors (n_observations, 3) in m)` of the
+    /// identification set after identification: measured minus predicted,
+    /// in the measurement frame.
+    #[getter]
+    fn observation_errors<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
+        observation_errors(py, &self.run.calibration.observation_errors)
     }
 
     /// `{target: offset (3,)}` in its frame, m: identified or fixed.

@@ -124,21 +124,22 @@ impl TargetCalibrationRun {
     }
 
     /// Writes the files `outputs` names, each atomically: the calibrated
-    /// robot description (TOML) and the JSON report
-    /// ([`TargetCalibrationRun::to_json_string`]); returns one line per file
-    /// written saying what it holds.
+    /// robot description (TOML), the JSON report
+    /// ([`TargetCalibrationRun::to_json_string`]) and the error of every
+    /// observation ([`calib::observation_errors_csv`]: of the validation set
+    /// when there is one, else of the identification set); returns one line
+    /// per file written saying what it holds.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] for the outputs a multi-target run does
-    /// not have (per-pose residuals, an accuracy map, the HTML page); the file that could
-    /// not be written; a calibrated description that cannot be built.
+    /// not have (an accuracy map, the HTML page); the file that could not
+    /// be written; a calibrated description that cannot be built.
     pub fn write_outputs(
         &self,
         robot: &crate::kinematics::Model,
         outputs: &CalibrationOutputs,
     ) -> Result<Vec<String>> {
         for (parameter, set) in [
-            ("residuals", outputs.residuals.is_some()),
             ("accuracy_grid", outputs.accuracy_grid.is_some()),
             ("html", outputs.html.is_some()),
         ] {
@@ -158,6 +159,17 @@ impl TargetCalibrationRun {
         if let Some(path) = &outputs.report {
             flexcal_io::write_atomic(path, self.to_json_string()?)?;
             written.push(format!("report written to {}", path.display()));
+        }
+        if let Some(path) = &outputs.residuals {
+            let (errors, which) = match &self.validation {
+                Some(v) => (&v.observation_errors, "validation"),
+                None => (&self.calibration.observation_errors, "identification"),
+            };
+            flexcal_io::write_atomic(path, calib::observation_errors_csv(errors))?;
+            written.push(format!(
+                "error of every {which} observation written to {}",
+                path.display()
+            ));
         }
         Ok(written)
     }

@@ -501,6 +501,9 @@ class TargetValidationResult:
     def per_target_after(self) -> dict[str, ErrorStatistics]: ...
     @property
     def frame_refitted(self) -> bool: ...
+    @property
+    def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
+        """([(pose, target)], (n_observations, 3) measured minus predicted, m)."""
 
 class TargetCalibrationResult:
     """The identification from several targets per pose (SI units)."""
@@ -533,6 +536,9 @@ class TargetCalibrationResult:
     def per_target_before(self) -> dict[str, ErrorStatistics]: ...
     @property
     def per_target_after(self) -> dict[str, ErrorStatistics]: ...
+    @property
+    def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
+        """([(pose, target)], (n_observations, 3) measured minus predicted, m), identification set."""
     @property
     def target_offsets(self) -> dict[str, FloatArray]:
         """(3,) per target, m, in its frame."""

@@ -118,6 +118,13 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     )
     validation = result.validate(other)
     assert validation.frame_refitted
+    labels, errors = validation.observation_errors
+    assert len(labels) == other.n_observations and errors.shape == (other.n_observations, 3)
+    assert labels[0][1] in ("left", "right")
+    np.testing.assert_allclose(
+        np.linalg.norm(errors, axis=1).max(), validation.after.position_max, rtol=1e-12
+    )
+    assert result.observation_errors[1].shape == (data.n_observations, 3)
     assert validation.after.position_mean < 1.3 * 1.6 * NOISE, validation.after
     assert validation.before.position_mean > 5 * validation.after.position_mean
     report = json.loads(result.to_json(validation))
