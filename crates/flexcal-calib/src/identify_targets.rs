@@ -46,8 +46,7 @@ use std::cell::RefCell;
 
 use faer::MatMut;
 use flexcal_kinematics::{
-    Data, Model, ParamKind, RobotDescription, forward_frame_pose,
-    frame_param_and_joint_jacobians_into, frame_param_jacobian_into,
+    Data, Model, ParamKind, RobotDescription, forward_frames, frame_points_jacobians_into,
 };
 use flexcal_optim::{
     ColumnScaling, Control, Diagnosis, IdentifiabilityReport, IterationState, Jacobian,
@@ -339,6 +338,24 @@ impl TargetCalibration {
     }
 }
 
+/// The Jacobians of the targets of one pose
+/// ([`frame_points_jacobians_into`]), one entry per target of the set.
+struct PointJacobians {
+    params: Vec<DMatrix<f64>>,
+    joints: Vec<Matrix6xX<f64>>,
+    poses: Vec<Isometry3<f64>>,
+}
+
+impl PointJacobians {
+    fn new(model: &Model, targets: usize) -> Self {
+        Self {
+            params: vec![DMatrix::zeros(6, model.n_params()); targets],
+            joints: vec![Matrix6xX::zeros(model.n_actuated()); targets],
+            poses: vec![Isometry3::identity(); targets],
+        }
+    }
+}
+
 /// The stacked position residuals of every observation.
 struct TargetErrorModel<'a> {
     model: &'a Model,
@@ -350,12 +367,12 @@ struct TargetErrorModel<'a> {
     x_meas_base0: Isometry3<f64>,
     names: Vec<String>,
     data: RefCell<Data>,
-    jacobian: RefCell<DMatrix<f64>>,
+    /// Per target of a pose: parameter and joint Jacobians, pose.
+    jacobians: RefCell<PointJacobians>,
     /// Where the elastic and joint-term unknowns start (after the targets').
     elastic_offset: usize,
     /// The elastic and joint terms (none when geometric).
     elastic: ElasticTerms,
-    joint_jacobian: RefCell<Matrix6xX<f64>>,
     deflection: RefCell<JointState>,
     twists: RefCell<Matrix6xX<f64>>,
 }
@@ -416,9 +433,8 @@ impl<'a> TargetErrorModel<'a> {
             elastic_offset: names.len(),
             names,
             data: RefCell::new(Data::new(model)),
-            jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
+            jacobians: RefCell::new(PointJacobians::new(model, set.targets().len())),
             elastic: ElasticTerms::none(model),
-            joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
             deflection: RefCell::new(JointState::new(model.n_actuated())),
             twists: RefCell::new(Matrix6xX::zeros(0)),
         })
@@ -552,19 +568,19 @@ impl<'a> TargetErrorModel<'a> {
         let x_meas_base = self.x_meas_base(x);
         let mut data = self.data.borrow_mut();
         let mut state = self.deflection.borrow_mut();
+        let mut evaluated = None;
         self.rows
             .iter()
             .map(|&(k, t)| {
-                self.deflect(x, k, &mut state);
-                let x_base_target = forward_frame_pose(
-                    self.model,
-                    &mut data,
-                    &state.q,
-                    xi,
-                    self.frames[t].0,
-                    &self.point(x, t),
-                )
-                .map_err(self.kinematics_error(k))?;
+                // One pass of the forward model per pose, for all its targets.
+                if evaluated != Some(k) {
+                    self.deflect(x, k, &mut state);
+                    forward_frames(self.model, &mut data, &state.q, xi)
+                        .map_err(self.kinematics_error(k))?;
+                    evaluated = Some(k);
+                }
+                let x_base_target =
+                    data.frame_pose(self.frames[t].0).expect("a checked frame") * self.point(x, t);
                 let x_base_target = self.moved_point(x, k, t, x_base_target);
                 Ok((x_meas_base * x_base_target).translation.vector)
             })
@@ -676,8 +692,12 @@ impl StackedJacobian for TargetErrorModel<'_> {
         let r_mb = x_meas_base.rotation.to_rotation_matrix().into_inner();
         let jl_phi = left_jacobian(&Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]));
         let mut data = self.data.borrow_mut();
-        let mut jac = self.jacobian.borrow_mut();
-        let mut jq = self.joint_jacobian.borrow_mut();
+        let mut jacobians = self.jacobians.borrow_mut();
+        let PointJacobians {
+            params: jacs,
+            joints: jqs,
+            poses,
+        } = &mut *jacobians;
         let mut state = self.deflection.borrow_mut();
         let mut twists = self.twists.borrow_mut();
         let eo = self.elastic_offset;
@@ -688,74 +708,87 @@ impl StackedJacobian for TargetErrorModel<'_> {
             }
         }
         let first = blocks.start;
-        for (row, &(k, t)) in self.rows.iter().enumerate().take(blocks.end).skip(first) {
-            let row = row - first;
-            let frame = self.frames[t].0;
-            let point = self.point(x, t);
+        let mut points: Vec<(usize, Isometry3<f64>)> = Vec::with_capacity(jacs.len());
+        let mut start = first;
+        // The rows come pose by pose: one pass of the forward model for all
+        // the targets of a pose.
+        while start < blocks.end {
+            let k = self.rows[start].0;
+            let end = (start..blocks.end)
+                .find(|&r| self.rows[r].0 != k)
+                .unwrap_or(blocks.end);
             self.deflect(x, k, &mut state);
-            let q = &state.q;
-            let x_base_target = if n_elastic > 0 {
-                frame_param_and_joint_jacobians_into(
-                    self.model, &mut data, q, xi, frame, &point, &mut jac, &mut jq,
-                )
-            } else {
-                frame_param_jacobian_into(self.model, &mut data, q, xi, frame, &point, &mut jac)
-            }
+            points.clear();
+            points.extend(
+                self.rows[start..end]
+                    .iter()
+                    .map(|&(_, t)| (self.frames[t].0, self.point(x, t))),
+            );
+            frame_points_jacobians_into(
+                self.model, &mut data, &state.q, xi, &points, jacs, jqs, poses,
+            )
             .map_err(self.kinematics_error(k))?;
-            let motion = self.elastic.lateral_motion(self.model, &x[eo..], k, frame);
-            if n_elastic > 0 {
-                self.elastic.twists(
-                    self.model,
-                    &x[eo..],
-                    k,
-                    frame,
-                    &state,
-                    &jq,
-                    motion.as_ref(),
-                    &x_base_target.translation.vector,
-                    &mut twists,
-                );
-            }
-            // Motions before the lateral rotation G move the point by R_G
-            // times their motion.
-            let (r_g, p_base) = match &motion {
-                Some(m) => (
-                    m.rotation.to_rotation_matrix().into_inner(),
-                    m.apply(&x_base_target.translation.vector),
-                ),
-                None => (Matrix3::identity(), x_base_target.translation.vector),
-            };
-            let r_mbg = r_mb * r_g;
-            let r0 = 3 * row;
-            // Robot parameters: the linear rows of the point's Jacobian, into M.
-            for j in 0..np {
-                let dp = r_mbg * Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
-                for i in 0..3 {
-                    out[(r0 + i, j)] = dp[i];
+            for (i, row) in (start..end).enumerate() {
+                let t = self.rows[row].1;
+                let row = row - first;
+                let frame = points[i].0;
+                let (jac, jq, x_base_target) = (&jacs[i], &jqs[i], poses[i]);
+                let motion = self.elastic.lateral_motion(self.model, &x[eo..], k, frame);
+                if n_elastic > 0 {
+                    self.elastic.twists(
+                        self.model,
+                        &x[eo..],
+                        k,
+                        frame,
+                        &state,
+                        jq,
+                        motion.as_ref(),
+                        &x_base_target.translation.vector,
+                        &mut twists,
+                    );
                 }
-            }
-            // Elastic and joint terms: the linear rows of their twists at
-            // the point.
-            for e in 0..n_elastic {
-                let c = twists.column(e);
-                let dp = r_mbg * Vector3::new(c[0], c[1], c[2]);
-                for i in 0..3 {
-                    out[(r0 + i, eo + e)] = dp[i];
+                // Motions before the lateral rotation G move the point by R_G
+                // times their motion.
+                let (r_g, p_base) = match &motion {
+                    Some(m) => (
+                        m.rotation.to_rotation_matrix().into_inner(),
+                        m.apply(&x_base_target.translation.vector),
+                    ),
+                    None => (Matrix3::identity(), x_base_target.translation.vector),
+                };
+                let r_mbg = r_mb * r_g;
+                let r0 = 3 * row;
+                // Robot parameters: the linear rows of the point's Jacobian, into M.
+                for j in 0..np {
+                    let dp = r_mbg * Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
+                    for i in 0..3 {
+                        out[(r0 + i, j)] = dp[i];
+                    }
                 }
-            }
-            // Measurement frame: translation, then the left rotation vector.
-            let d_rot = -skew(&(r_mb * p_base)) * jl_phi;
-            // Target offset: along the axes of the target's frame.
-            let d_offset = r_mbg * x_base_target.rotation.to_rotation_matrix().into_inner();
-            for i in 0..3 {
-                for c in 0..3 {
-                    out[(r0 + i, fo + c)] = if i == c { 1.0 } else { 0.0 };
-                    out[(r0 + i, fo + 3 + c)] = d_rot[(i, c)];
-                    if let Some(o) = self.frames[t].2 {
-                        out[(r0 + i, o + c)] = d_offset[(i, c)];
+                // Elastic and joint terms: the linear rows of their twists at
+                // the point.
+                for e in 0..n_elastic {
+                    let c = twists.column(e);
+                    let dp = r_mbg * Vector3::new(c[0], c[1], c[2]);
+                    for i in 0..3 {
+                        out[(r0 + i, eo + e)] = dp[i];
+                    }
+                }
+                // Measurement frame: translation, then the left rotation vector.
+                let d_rot = -skew(&(r_mb * p_base)) * jl_phi;
+                // Target offset: along the axes of the target's frame.
+                let d_offset = r_mbg * x_base_target.rotation.to_rotation_matrix().into_inner();
+                for i in 0..3 {
+                    for c in 0..3 {
+                        out[(r0 + i, fo + c)] = if i == c { 1.0 } else { 0.0 };
+                        out[(r0 + i, fo + 3 + c)] = d_rot[(i, c)];
+                        if let Some(o) = self.frames[t].2 {
+                            out[(r0 + i, o + c)] = d_offset[(i, c)];
+                        }
                     }
                 }
             }
+            start = end;
         }
         Ok(())
     }

@@ -1026,6 +1026,20 @@ pub fn frame_param_jacobian_into(
         });
     }
     run_forward(model, data, q, xi, true)?;
+    Ok(frame_param_columns(model, data, frame, x_frame_point, out))
+}
+
+/// The parameter Jacobian of a point on `frame` from the forward pass with
+/// derivatives already in `data` (`out` checked 6 x n_params); returns the
+/// point's pose.
+fn frame_param_columns(
+    model: &Model,
+    data: &Data,
+    frame: usize,
+    x_frame_point: &Isometry3<f64>,
+    out: &mut DMatrix<f64>,
+) -> Isometry3<f64> {
+    let np = model.n_params();
     let x_base_point = data.poses[frame].compose(&Pose::from_isometry(x_frame_point));
     let point = x_base_point.p;
     let jac = out.as_mut_slice();
@@ -1062,7 +1076,7 @@ pub fn frame_param_jacobian_into(
         }
         f = frame_model.parent;
     }
-    Ok(x_base_point.to_isometry())
+    x_base_point.to_isometry()
 }
 
 /// [`frame_param_jacobian_into`] and the joint Jacobian of the same point
@@ -1088,17 +1102,78 @@ pub fn frame_param_and_joint_jacobians_into(
     params_out: &mut DMatrix<f64>,
     joints_out: &mut Matrix6xX<f64>,
 ) -> Result<Isometry3<f64>, KinematicsError> {
-    check_joint_columns(model, joints_out)?;
-    let x_base_point =
-        frame_param_jacobian_into(model, data, q, xi, frame, x_frame_point, params_out)?;
-    joint_columns_at(
+    let mut pose = [Isometry3::identity()];
+    frame_points_jacobians_into(
         model,
         data,
-        std::iter::successors(Some(frame), |&i| model.frames[i].parent),
-        &x_base_point.translation.vector,
-        joints_out,
-    );
-    Ok(x_base_point)
+        q,
+        xi,
+        &[(frame, *x_frame_point)],
+        std::slice::from_mut(params_out),
+        std::slice::from_mut(joints_out),
+        &mut pose,
+    )?;
+    Ok(pose[0])
+}
+
+/// [`frame_param_and_joint_jacobians_into`] for several points at the same
+/// configuration from one pass of the forward model (the pass is most of
+/// the cost): point i is fixed to frame `points[i].0` at `points[i].1` in
+/// it; its parameter Jacobian goes to `params_out[i]` (6 x n_params), its
+/// joint Jacobian to `joints_out[i]` (6 x n_actuated) and its pose
+/// `x_base_point` to `poses_out[i]`. The markers on both hands of a
+/// two-armed robot at one pose.
+///
+/// # Errors
+/// [`KinematicsError::WrongLength`] for a frame index out of range, output
+/// slices shorter than `points` or matrices of the wrong size, and the
+/// errors of the forward model.
+#[allow(clippy::too_many_arguments)]
+pub fn frame_points_jacobians_into(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    xi: &[f64],
+    points: &[(usize, Isometry3<f64>)],
+    params_out: &mut [DMatrix<f64>],
+    joints_out: &mut [Matrix6xX<f64>],
+    poses_out: &mut [Isometry3<f64>],
+) -> Result<(), KinematicsError> {
+    let np = model.n_params();
+    let shortest = params_out.len().min(joints_out.len()).min(poses_out.len());
+    if shortest < points.len() {
+        return Err(KinematicsError::WrongLength {
+            what: "outputs of the points' Jacobians (one per point)".into(),
+            expected: points.len(),
+            found: shortest,
+        });
+    }
+    for (i, (frame, _)) in points.iter().enumerate() {
+        check_frame(model, *frame)?;
+        check_joint_columns(model, &joints_out[i])?;
+        let params = &params_out[i];
+        if params.nrows() != 6 || params.ncols() != np {
+            return Err(KinematicsError::WrongLength {
+                what: "parameter Jacobian (6 x n_params) columns".into(),
+                expected: np,
+                found: params.ncols(),
+            });
+        }
+    }
+    run_forward(model, data, q, xi, true)?;
+    for (i, (frame, x_frame_point)) in points.iter().enumerate() {
+        let x_base_point =
+            frame_param_columns(model, data, *frame, x_frame_point, &mut params_out[i]);
+        joint_columns_at(
+            model,
+            data,
+            std::iter::successors(Some(*frame), |&f| model.frames[f].parent),
+            &x_base_point.translation.vector,
+            &mut joints_out[i],
+        );
+        poses_out[i] = x_base_point;
+    }
+    Ok(())
 }
 
 /// Allocating twin of [`frame_param_jacobian_into`]: the pose `x_base_point`

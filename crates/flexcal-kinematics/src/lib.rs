@@ -171,8 +171,8 @@ pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, exp
 pub use forward::{
     Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_pose,
     frame_param_and_joint_jacobians_into, frame_param_jacobian, frame_param_jacobian_into,
-    joint_jacobian, joint_jacobian_into, param_and_joint_jacobians_into, param_jacobian,
-    param_jacobian_into,
+    frame_points_jacobians_into, joint_jacobian, joint_jacobian_into,
+    param_and_joint_jacobians_into, param_jacobian, param_jacobian_into,
 };
 pub use import::{ImportOptions, ImportedRobot, LinkMass};
 pub use inverse::{InverseOptions, InverseSolution, InverseTarget, inverse_pose};

@@ -6,7 +6,8 @@
 
 use flexcal_kinematics::{
     Data, Model, RobotDescription, forward_frame_pose, forward_pose,
-    frame_param_and_joint_jacobians_into, frame_param_jacobian, param_jacobian,
+    frame_param_and_joint_jacobians_into, frame_param_jacobian, frame_points_jacobians_into,
+    param_jacobian,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix6xX, Translation3, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
@@ -249,6 +250,55 @@ fn hands_of_a_two_armed_tree_match_finite_differences_and_see_only_their_branch(
         let moves = joints.column(c).amax() > 0.0;
         assert_eq!(moves, !name.contains('R'), "joint {name} on the left hand");
     }
+    // Several points from one pass equal the calls point by point.
+    let points: Vec<(usize, Isometry3<f64>)> = ["LH", "RH", "L3"]
+        .iter()
+        .map(|f| (model.frame_index(f).unwrap(), marker))
+        .collect();
+    let mut params_all = vec![DMatrix::zeros(6, model.n_params()); 3];
+    let mut joints_all = vec![Matrix6xX::zeros(na); 3];
+    let mut poses = vec![Isometry3::identity(); 3];
+    let q = &configurations[2];
+    frame_points_jacobians_into(
+        &model,
+        &mut data,
+        q,
+        model.nominal_params(),
+        &points,
+        &mut params_all,
+        &mut joints_all,
+        &mut poses,
+    )
+    .unwrap();
+    for (i, (frame, point)) in points.iter().enumerate() {
+        let pose = frame_param_and_joint_jacobians_into(
+            &model,
+            &mut data,
+            q,
+            model.nominal_params(),
+            *frame,
+            point,
+            &mut params,
+            &mut joints,
+        )
+        .unwrap();
+        assert!((pose.translation.vector - poses[i].translation.vector).norm() < 1e-14);
+        assert!((&params - &params_all[i]).amax() < 1e-14);
+        assert!((&joints - &joints_all[i]).amax() < 1e-14);
+    }
+    // Too few outputs is a named error.
+    let err = frame_points_jacobians_into(
+        &model,
+        &mut data,
+        q,
+        model.nominal_params(),
+        &points,
+        &mut params_all[..2],
+        &mut joints_all,
+        &mut poses,
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("one per point"), "{err}");
     // An intermediate frame of an arm (the elbow) too.
     check_frame(
         &model,
