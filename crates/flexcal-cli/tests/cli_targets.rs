@@ -20,7 +20,8 @@ fn calib_data(name: &str) -> PathBuf {
 }
 
 /// Noise-free measurements of `poses` quasi-random configurations (a
-/// Weyl sequence within the joint limits), starting at `first`, of the
+/// Weyl sequence within the joint limits, one prime's square root per
+/// coordinate), starting at `first`, of the
 /// robot with every parameter off by up to 0.2 mm or 0.2 mrad.
 fn simulate(targets: &[Target], first: usize, poses: usize) -> TargetMeasurementSet {
     let model = RobotDescription::from_toml_file(&calib_data("two_arms.toml"))
@@ -50,7 +51,10 @@ fn simulate(targets: &[Target], first: usize, poses: usize) -> TargetMeasurement
                 .iter()
                 .enumerate()
                 .map(|(i, &(lo, hi))| {
-                    let u = ((k as f64 + 1.0) * (2.0f64 + i as f64).sqrt()).fract();
+                    // Square roots of distinct primes: irrational and
+                    // independent, so that no coordinate repeats.
+                    const PRIMES: [f64; 9] = [2.0, 3.0, 5.0, 7.0, 11.0, 13.0, 17.0, 19.0, 23.0];
+                    let u = ((k as f64 + 1.0) * PRIMES[i].sqrt()).fract();
                     lo + u * (hi - lo)
                 })
                 .collect();
