@@ -347,13 +347,28 @@ mod tests {
         assert_eq!(written.len(), 2, "{written:?}");
         assert!(dir.path().join("calibrated.toml").exists());
         assert!(dir.path().join("report.json").exists());
+        // The error of every identification observation (no validation
+        // set): a header and 80 rows.
         let residuals = CalibrationOutputs {
             residuals: Some(dir.path().join("residuals.csv")),
+            ..outputs.clone()
+        };
+        let written = run.write_outputs(&robot, &residuals).unwrap();
+        assert!(
+            written[2].starts_with("error of every identification observation"),
+            "{written:?}"
+        );
+        let csv = std::fs::read_to_string(dir.path().join("residuals.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 81, "{csv}");
+        // The HTML page is refused by name.
+        let html = CalibrationOutputs {
+            html: Some(dir.path().join("report.html")),
             ..outputs
         };
         assert!(matches!(
-            run.write_outputs(&robot, &residuals),
+            run.write_outputs(&robot, &html),
             Err(Error::InvalidParameter { .. })
         ));
+        assert!(!dir.path().join("report.html").exists());
     }
 }
