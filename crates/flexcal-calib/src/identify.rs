@@ -531,82 +531,12 @@ impl Calibration {
             ));
         }
         if self.elastic.is_some() {
-            let identified: Vec<&str> = self
-                .unknowns
-                .iter()
-                .filter(|u| {
-                    u.name.starts_with("compliance_") && u.status == UnknownStatus::Identified
-                })
-                .map(|u| u.name.as_str())
-                .collect();
-            let not = names("compliance_");
-            // Each identified compliance with the torques it was identified
-            // over: beyond them the spring law is extrapolated.
-            let identified: Vec<String> = identified
-                .iter()
-                .map(|name| {
-                    let span = self
-                        .actuated_names
-                        .iter()
-                        .position(|a| name.strip_prefix("compliance_") == Some(a.as_str()))
-                        .and_then(|i| self.torque_ranges.get(i));
-                    // One decimal, without a negative zero.
-                    let round = |v: f64| (v * 10.0).round() / 10.0 + 0.0;
-                    match span {
-                        Some(r) => format!(
-                            "{name} (torque {:.1} to {:.1} N.m)",
-                            round(r.lo),
-                            round(r.hi)
-                        ),
-                        None => name.to_string(),
-                    }
-                })
-                .collect();
-            notes.push(format!(
-                "joint compliances identified from gravity loading: {}; not identifiable from gravity alone (too little or no gravity torque, kept at the starting value): {}",
-                if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
-                if not.is_empty() { "none".to_string() } else { not.join(", ") }
+            notes.extend(elastic_notes(
+                &self.unknowns,
+                &self.actuated_names,
+                &self.torque_ranges,
+                self.joint_terms.law.is_some(),
             ));
-            if self.joint_terms.law.is_some() {
-                for (prefix, what) in [("hardening_", "hardening"), ("lost_motion_", "lost motion")]
-                {
-                    let identified: Vec<&str> = self
-                        .unknowns
-                        .iter()
-                        .filter(|u| {
-                            u.name.starts_with(prefix) && u.status == UnknownStatus::Identified
-                        })
-                        .map(|u| u.name.as_str())
-                        .collect();
-                    notes.push(format!(
-                        "non-linear joint law, {what} identified: {}; the others stay at zero (not separable from the compliances and offsets, or too weakly seen, with these torques)",
-                        if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
-                    ));
-                }
-            }
-            let lateral: Vec<&UnknownEstimate> = self
-                .unknowns
-                .iter()
-                .filter(|u| u.name.starts_with("lateral_compliance_"))
-                .collect();
-            if !lateral.is_empty() {
-                let identified: Vec<&str> = lateral
-                    .iter()
-                    .filter(|u| u.status == UnknownStatus::Identified)
-                    .map(|u| u.name.as_str())
-                    .collect();
-                notes.push(format!(
-                    "lateral joint compliances identified from the gravity moments: {}; the others stay at zero (too little moment about their axes, or not separable from the geometry and the joint compliances)",
-                    if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
-                ));
-            }
-            let payload = names("payload_");
-            if !payload.is_empty() {
-                notes.push(format!(
-                    "payload not identified ({}): its mass and centre stay at their starting values",
-                    payload.join(", ")
-                ));
-            }
         }
         notes
     }
@@ -640,6 +570,118 @@ impl Calibration {
         };
         Ok(d)
     }
+}
+
+/// Whether `name` is an unknown of the elastic and joint terms (the
+/// compliances, payload, lateral compliances, joint law, cyclic errors).
+pub(crate) fn is_elastic_unknown(name: &str) -> bool {
+    [
+        "compliance_",
+        "payload_",
+        "lateral_compliance_",
+        "hardening_",
+        "lost_motion_",
+        "cyclic_",
+    ]
+    .iter()
+    .any(|p| name.starts_with(p))
+}
+
+/// The sentences on the elastic and joint terms of an elasto-geometric
+/// identification (one or several targets): which joint compliances
+/// gravity loads enough to be identified, with the torques they were
+/// identified over, and, with the joint `law`, the hardening and lost
+/// motion identified; the lateral compliances and the payload.
+pub(crate) fn elastic_notes(
+    unknowns: &[UnknownEstimate],
+    actuated_names: &[String],
+    torque_ranges: &[CoordinateCoverage],
+    law: bool,
+) -> Vec<String> {
+    let names = |prefix: &str| -> Vec<&str> {
+        unknowns
+            .iter()
+            .filter(|u| u.name.starts_with(prefix))
+            .filter(|u| {
+                matches!(
+                    u.status,
+                    UnknownStatus::NonIdentifiable
+                        | UnknownStatus::PoorlyIdentifiable
+                        | UnknownStatus::NoInfluence
+                )
+            })
+            .map(|u| u.name.as_str())
+            .collect()
+    };
+    let mut notes = Vec::new();
+    let identified: Vec<&str> = unknowns
+        .iter()
+        .filter(|u| u.name.starts_with("compliance_") && u.status == UnknownStatus::Identified)
+        .map(|u| u.name.as_str())
+        .collect();
+    let not = names("compliance_");
+    // Each identified compliance with the torques it was identified
+    // over: beyond them the spring law is extrapolated.
+    let identified: Vec<String> = identified
+        .iter()
+        .map(|name| {
+            let span = actuated_names
+                .iter()
+                .position(|a| name.strip_prefix("compliance_") == Some(a.as_str()))
+                .and_then(|i| torque_ranges.get(i));
+            // One decimal, without a negative zero.
+            let round = |v: f64| (v * 10.0).round() / 10.0 + 0.0;
+            match span {
+                Some(r) => format!(
+                    "{name} (torque {:.1} to {:.1} N.m)",
+                    round(r.lo),
+                    round(r.hi)
+                ),
+                None => name.to_string(),
+            }
+        })
+        .collect();
+    notes.push(format!(
+            "joint compliances identified from gravity loading: {}; not identifiable from gravity alone (too little or no gravity torque, kept at the starting value): {}",
+            if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
+            if not.is_empty() { "none".to_string() } else { not.join(", ") }
+        ));
+    if law {
+        for (prefix, what) in [("hardening_", "hardening"), ("lost_motion_", "lost motion")] {
+            let identified: Vec<&str> = unknowns
+                .iter()
+                .filter(|u| u.name.starts_with(prefix) && u.status == UnknownStatus::Identified)
+                .map(|u| u.name.as_str())
+                .collect();
+            notes.push(format!(
+                    "non-linear joint law, {what} identified: {}; the others stay at zero (not separable from the compliances and offsets, or too weakly seen, with these torques)",
+                    if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
+                ));
+        }
+    }
+    let lateral: Vec<&UnknownEstimate> = unknowns
+        .iter()
+        .filter(|u| u.name.starts_with("lateral_compliance_"))
+        .collect();
+    if !lateral.is_empty() {
+        let identified: Vec<&str> = lateral
+            .iter()
+            .filter(|u| u.status == UnknownStatus::Identified)
+            .map(|u| u.name.as_str())
+            .collect();
+        notes.push(format!(
+                "lateral joint compliances identified from the gravity moments: {}; the others stay at zero (too little moment about their axes, or not separable from the geometry and the joint compliances)",
+                if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
+            ));
+    }
+    let payload = names("payload_");
+    if !payload.is_empty() {
+        notes.push(format!(
+            "payload not identified ({}): its mass and centre stay at their starting values",
+            payload.join(", ")
+        ));
+    }
+    notes
 }
 
 /// Per-row weights `1/sigma` and whether they are absolute.

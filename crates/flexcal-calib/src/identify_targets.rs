@@ -63,7 +63,7 @@ use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
     AnalysisContext, CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT,
     Method, Rounds, StackedJacobian, UnknownEstimate, UnknownStatus, Weighting, analysis_index,
-    noise_level,
+    elastic_notes, is_elastic_unknown, noise_level,
 };
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
@@ -183,6 +183,9 @@ pub struct TargetCalibration {
     /// payload: the torques over which the compliances were identified.
     /// Empty for the geometric model.
     pub torque_ranges: Vec<crate::CoordinateCoverage>,
+    /// Names of the actuated coordinates, in the order of q and of
+    /// `torque_ranges`.
+    pub actuated_names: Vec<String>,
 }
 
 impl TargetCalibration {
@@ -209,7 +212,7 @@ impl TargetCalibration {
     /// What the targets could not identify, in sentences for a report:
     /// robot parameters and target offsets left at their starting values,
     /// each with the identified unknowns that absorb it.
-    pub fn identifiability_notes(&self) -> Vec<String> {
+    pub fn identifiability_notes<'a>(&'a self) -> Vec<String> {
         let mut notes = Vec::new();
         let absorbed_by = |name: &str| -> Vec<String> {
             self.combinations
@@ -263,14 +266,21 @@ impl TargetCalibration {
                 ));
             }
         }
-        let unseen = self.with_status(UnknownStatus::NoInfluence);
+        // The elastic and joint terms have their own sentences below.
+        let geometric = |names: Vec<&'a str>| -> Vec<&'a str> {
+            names
+                .into_iter()
+                .filter(|n| !is_elastic_unknown(n))
+                .collect()
+        };
+        let unseen = geometric(self.with_status(UnknownStatus::NoInfluence));
         if !unseen.is_empty() {
             notes.push(format!(
                 "no measured target moves with these, they stay at nominal: {}",
                 unseen.join(", ")
             ));
         }
-        let poor = self.poorly_identifiable();
+        let poor = geometric(self.poorly_identifiable());
         if !poor.is_empty() {
             notes.push(format!(
                 "seen too weakly by these poses (standard error beyond its limit), kept at the starting value: {}",
@@ -286,6 +296,14 @@ impl TargetCalibration {
             notes.push(format!(
                 "measurement frame components absorbed by the robot's base parameters: {}",
                 frame.join(", ")
+            ));
+        }
+        if self.elastic.is_some() {
+            notes.extend(elastic_notes(
+                &self.unknowns,
+                &self.actuated_names,
+                &self.torque_ranges,
+                self.joint_terms.law.is_some(),
             ));
         }
         notes
@@ -1081,6 +1099,7 @@ pub fn calibrate_targets(
         joint_terms: options.joint_terms,
         joint_term_values: x[joint_start..].to_vec(),
         torque_ranges: problem.elastic.torque_ranges(set.len()),
+        actuated_names: model.actuated_names().to_vec(),
     })
 }
 

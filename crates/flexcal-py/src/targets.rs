@@ -353,6 +353,19 @@ impl TargetCalibrationResult {
         Ok(d)
     }
 
+    /// Span `(lo, hi)` of each actuated coordinate's gravity torque over the
+    /// identification poses (N.m, or N), by name: the torques the joint
+    /// compliances were identified over. Empty for the geometric model.
+    #[getter]
+    fn torque_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = &self.run.calibration;
+        let d = PyDict::new(py);
+        for (name, r) in c.actuated_names.iter().zip(&c.torque_ranges) {
+            d.set_item(name, (r.lo, r.hi))?;
+        }
+        Ok(d)
+    }
+
     /// Number of identified unknowns.
     #[getter]
     fn rank(&self) -> usize {

@@ -525,6 +525,9 @@ class TargetCalibrationResult:
     @property
     def rank(self) -> int: ...
     @property
+    def torque_ranges(self) -> dict[str, tuple[float, float]]:
+        """(lo, hi) gravity torque per actuated coordinate over the poses, N.m (elasto-geometric)."""
+    @property
     def combination_terms(self) -> dict[str, list[tuple[str, float]]]: ...
     @property
     def notes(self) -> list[str]: ...

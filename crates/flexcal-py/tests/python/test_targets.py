@@ -175,6 +175,10 @@ def test_the_elasto_geometric_model_with_two_markers(two_arms):
     # The torso turns about the vertical: gravity does not load it.
     torso = next(u for u in result.parameters if u.name == "compliance_theta1")
     assert torso.status != "identified"
+    assert result.torque_ranges["theta1"] == pytest.approx((0.0, 0.0), abs=1e-9)
+    low, high = result.torque_ranges["thetaL1"]
+    assert low < -10 and high > 10, (low, high)  # N.m, both signs
+    assert any("compliance_theta1" in n and "gravity alone" in n for n in result.notes)
     # Cross-validation on the same poses drops the compliances.
     selected = flexcal.calibrate_targets(
         two_arms, data, model="elasto-geometric", masses=DATA / "two_arms_masses.toml"
