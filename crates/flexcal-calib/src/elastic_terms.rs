@@ -320,24 +320,35 @@ impl ElasticTerms {
         }
     }
 
+    /// Which lateral joints move frame `frame` of `model` (those on the
+    /// path to it; a joint of another branch turns nothing there): the
+    /// `carried` mask of [`ElasticTerms::lateral_motion`] and
+    /// [`ElasticTerms::twists`] for points on that frame, computed once.
+    pub(crate) fn lateral_mask(&self, model: &Model, frame: usize) -> Vec<bool> {
+        self.lateral.as_ref().map_or_else(Vec::new, |lateral| {
+            (0..lateral.len())
+                .map(|s| lateral.moves(model, s, frame))
+                .collect()
+        })
+    }
+
     /// The rigid motion `G` of the lateral rotations of pose `k` that move
-    /// frame `frame` of `model` ([`crate::gravity`]): `phi = sum_j delta_j
-    /// x_j` over the lateral joints on the path to it. `None` without
-    /// lateral terms.
+    /// a point ([`crate::gravity`]): `phi = sum_j delta_j x_j` over the
+    /// lateral joints `carried` marks ([`ElasticTerms::lateral_mask`] of the
+    /// point's frame). `None` without lateral terms.
     pub(crate) fn lateral_motion(
         &self,
-        model: &Model,
         xb: &[f64],
         k: usize,
-        frame: usize,
+        carried: &[bool],
     ) -> Option<LateralMotion> {
         let lateral = self.lateral.as_ref()?;
         let lo = self.lateral_offset()?;
         let payload = &xb[self.na..self.na + 4];
         let mut deltas = Vec::with_capacity(lateral.len());
         let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
-        for s in 0..lateral.len() {
-            if !lateral.moves(model, s, frame) {
+        for (s, &moves) in carried.iter().enumerate().take(lateral.len()) {
+            if !moves {
                 deltas.push((0.0, 0.0));
                 continue;
             }
@@ -362,15 +373,14 @@ impl ElasticTerms {
     /// through the joint Jacobian `jq` of the point for the joint
     /// deflections, and through `G` for the lateral compliances (written
     /// before `G`, `R_G^T` times their motion, as the other columns are).
-    /// `state` is [`ElasticTerms::deflect`]'s for the pose; `frame` is the
-    /// frame carrying the point.
+    /// `state` is [`ElasticTerms::deflect`]'s for the pose; `carried` the
+    /// lateral joints that move the point ([`ElasticTerms::lateral_mask`]).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn twists(
         &self,
-        model: &Model,
         xb: &[f64],
         k: usize,
-        frame: usize,
+        carried: &[bool],
         state: &JointState,
         jq: &Matrix6xX<f64>,
         motion: Option<&LateralMotion>,
@@ -409,7 +419,7 @@ impl ElasticTerms {
             let p_turned = r_g * p;
             let r_g_t = r_g.transpose();
             for (s, &(_, moment)) in motion.deltas.iter().enumerate() {
-                if !lateral.moves(model, s, frame) {
+                if !carried[s] {
                     continue;
                 }
                 let joint = lateral.joint(k, s);

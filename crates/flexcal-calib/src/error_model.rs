@@ -96,6 +96,8 @@ pub struct GeometricErrorModel<'a> {
     robot_columns: Cell<bool>,
     /// The elastic and joint terms (none when geometric).
     elastic: ElasticTerms,
+    /// The lateral joints that move the TCP ([`ElasticTerms::lateral_mask`]).
+    lateral_mask: Vec<bool>,
     joint_jacobian: RefCell<Matrix6xX<f64>>,
     deflection: RefCell<JointState>,
 }
@@ -149,6 +151,7 @@ impl<'a> GeometricErrorModel<'a> {
             pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
             robot_columns: Cell::new(true),
             elastic: ElasticTerms::none(model),
+            lateral_mask: Vec::new(),
             joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
             deflection: RefCell::new(JointState::new(model.n_actuated())),
         })
@@ -223,6 +226,9 @@ impl<'a> GeometricErrorModel<'a> {
         let label = |k: usize| self.set.measurements()[k].label(k);
         let poses = Configurations::of_set(self.set, &label);
         self.elastic.add_gravity(self.model, &poses, gravity)?;
+        self.lateral_mask = self
+            .elastic
+            .lateral_mask(self.model, self.model.end_frame());
         self.names.extend(gravity.elastic_unknown_names(self.model));
         Ok(self)
     }
@@ -270,12 +276,8 @@ impl<'a> GeometricErrorModel<'a> {
     /// The rigid motion of the lateral rotations of pose `k` at `x`, which
     /// moves the TCP ([`ElasticTerms::lateral_motion`]).
     fn lateral_motion(&self, x: &[f64], k: usize) -> Option<LateralMotion> {
-        self.elastic.lateral_motion(
-            self.model,
-            &x[self.frames_end()..],
-            k,
-            self.model.end_frame(),
-        )
+        self.elastic
+            .lateral_motion(&x[self.frames_end()..], k, &self.lateral_mask)
     }
 
     /// The actuated coordinates at which the robot is evaluated for pose `k`
@@ -541,10 +543,9 @@ impl GeometricErrorModel<'_> {
             let motion = self.lateral_motion(x, k);
             if robot_columns && n_elastic > 0 {
                 self.elastic.twists(
-                    self.model,
                     &x[eo..],
                     k,
-                    self.model.end_frame(),
+                    &self.lateral_mask,
                     &buffers,
                     &jq,
                     motion.as_ref(),

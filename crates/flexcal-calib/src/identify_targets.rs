@@ -391,6 +391,9 @@ struct TargetErrorModel<'a> {
     elastic_offset: usize,
     /// The elastic and joint terms (none when geometric).
     elastic: ElasticTerms,
+    /// Per target, the lateral joints that move it
+    /// ([`ElasticTerms::lateral_mask`] of its frame).
+    lateral_masks: Vec<Vec<bool>>,
     deflection: RefCell<JointState>,
     twists: RefCell<Matrix6xX<f64>>,
 }
@@ -453,6 +456,7 @@ impl<'a> TargetErrorModel<'a> {
             data: RefCell::new(Data::new(model)),
             jacobians: RefCell::new(PointJacobians::new(model, set.targets().len())),
             elastic: ElasticTerms::none(model),
+            lateral_masks: Vec::new(),
             deflection: RefCell::new(JointState::new(model.n_actuated())),
             twists: RefCell::new(Matrix6xX::zeros(0)),
         })
@@ -474,6 +478,11 @@ impl<'a> TargetErrorModel<'a> {
         };
         if let Some(gravity) = gravity {
             self.elastic.add_gravity(self.model, &poses, gravity)?;
+            self.lateral_masks = self
+                .frames
+                .iter()
+                .map(|&(frame, _, _)| self.elastic.lateral_mask(self.model, frame))
+                .collect();
             self.names.extend(gravity.elastic_unknown_names(self.model));
         }
         if terms.any() {
@@ -482,6 +491,12 @@ impl<'a> TargetErrorModel<'a> {
         }
         self.twists = RefCell::new(Matrix6xX::zeros(self.elastic.len()));
         Ok(self)
+    }
+
+    /// The lateral joints that move target `t` (empty without lateral
+    /// terms).
+    fn lateral_mask(&self, t: usize) -> &[bool] {
+        self.lateral_masks.get(t).map_or(&[], Vec::as_slice)
     }
 
     /// The actuated coordinates at which the robot is evaluated for pose
@@ -502,12 +517,10 @@ impl<'a> TargetErrorModel<'a> {
         t: usize,
         x_base_point: Isometry3<f64>,
     ) -> Isometry3<f64> {
-        match self.elastic.lateral_motion(
-            self.model,
-            &x[self.elastic_offset..],
-            k,
-            self.frames[t].0,
-        ) {
+        match self
+            .elastic
+            .lateral_motion(&x[self.elastic_offset..], k, self.lateral_mask(t))
+        {
             Some(motion) => {
                 Isometry3::from_parts(Translation3::from(motion.translation), motion.rotation)
                     * x_base_point
@@ -749,15 +762,15 @@ impl StackedJacobian for TargetErrorModel<'_> {
             for (i, row) in (start..end).enumerate() {
                 let t = self.rows[row].1;
                 let row = row - first;
-                let frame = points[i].0;
                 let (jac, jq, x_base_target) = (&jacs[i], &jqs[i], poses[i]);
-                let motion = self.elastic.lateral_motion(self.model, &x[eo..], k, frame);
+                let motion = self
+                    .elastic
+                    .lateral_motion(&x[eo..], k, self.lateral_mask(t));
                 if n_elastic > 0 {
                     self.elastic.twists(
-                        self.model,
                         &x[eo..],
                         k,
-                        frame,
+                        self.lateral_mask(t),
                         &state,
                         jq,
                         motion.as_ref(),

@@ -22,7 +22,7 @@ use flexcal_kinematics::{
     Data, ImportOptions, ImportedRobot, Model, PointLoad, RobotDescription, actuated_forces_into,
     forward_pose,
 };
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -160,30 +160,15 @@ fn simulate(
             // Lateral rotations on the deflected true robot: inserting
             // Rx(delta_j) after frame j is x = prod_j (T_j Rx(delta_j) T_j^-1) x,
             // joint 1 leftmost, every T_j of the robot without them.
-            let payload_point = (x * nalgebra::Point3::from(gravity.payload_center)).coords;
+            // The payload is a load on the end frame (its point there is
+            // the tool transform's, the same on the deflected robot).
             let mut moved = x;
             for j in (0..6).rev() {
                 if joints.lateral[j] == 0.0 {
                     continue;
                 }
                 let f = model.actuated_frame(j).unwrap();
-                let t_j = data.frame_pose(f).unwrap();
-                let axis = t_j.rotation * Vector3::x();
-                let origin = t_j.translation.vector;
-                let mut moment = 0.0;
-                for load in links.iter().filter(|l| model.moves_with(l.frame, f)) {
-                    let at = data.frame_pose(load.frame).unwrap();
-                    let p = (at * nalgebra::Point3::from(load.point)).coords;
-                    moment += axis.dot(&(p - origin).cross(&load.force));
-                }
-                if model.moves_with(end, f) {
-                    moment += axis.dot(&(payload_point - origin).cross(&payload_force));
-                }
-                let turn = Isometry3::from_parts(
-                    Translation3::identity(),
-                    UnitQuaternion::from_axis_angle(&Vector3::x_axis(), joints.lateral[j] * moment),
-                );
-                moved = t_j * turn * t_j.inverse() * moved;
+                moved = common::lateral_turn(model, &data, &loads, f, joints.lateral[j]) * moved;
             }
             let p = (frame * moved).translation.vector
                 + Vector3::from_fn(|_, _| {

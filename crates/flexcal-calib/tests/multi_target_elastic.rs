@@ -36,7 +36,7 @@ use flexcal_calib::{
     validate_targets, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, PointLoad, RobotDescription, actuated_forces_into};
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -164,23 +164,8 @@ fn measure(
                 .filter(|&j| truth.lateral[j] != 0.0)
                 .map(|j| {
                     let f = model.actuated_frame(j).unwrap();
-                    let t_j = data.frame_pose(f).unwrap();
-                    let axis = t_j.rotation * Vector3::x();
-                    let origin = t_j.translation.vector;
-                    let mut moment = 0.0;
-                    for load in loads.iter().filter(|l| model.moves_with(l.frame, f)) {
-                        let at = data.frame_pose(load.frame).unwrap();
-                        let p = (at * Point3::from(load.point)).coords;
-                        moment += axis.dot(&(p - origin).cross(&load.force));
-                    }
-                    let turn = Isometry3::from_parts(
-                        Translation3::identity(),
-                        UnitQuaternion::from_axis_angle(
-                            &Vector3::x_axis(),
-                            truth.lateral[j] * moment,
-                        ),
-                    );
-                    (f, t_j * turn * t_j.inverse())
+                    let turn = common::lateral_turn(model, &data, &loads, f, truth.lateral[j]);
+                    (f, turn)
                 })
                 .collect();
             let observations = (0..targets.len())

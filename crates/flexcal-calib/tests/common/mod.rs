@@ -271,3 +271,36 @@ pub fn link_loads(model: &Model, gravity: &GravityCompliance) -> Vec<PointLoad> 
         })
         .collect()
 }
+
+/// The lateral rotation of the structure outboard of frame `f`: a turn
+/// about the frame's x axis by `compliance` (rad/N.m) times the moment about
+/// that axis of every load that moves with the frame, all on the geometry
+/// the last forward pass left in `data`. Inserting `Rx` after the frame
+/// moves every point after it by `x' = T_f Rx T_f^-1 x`; this returns
+/// `T_f Rx T_f^-1`. The truth of the simulated lateral compliances, written
+/// apart from the library.
+pub fn lateral_turn(
+    model: &Model,
+    data: &Data,
+    loads: &[PointLoad],
+    f: usize,
+    compliance: f64,
+) -> Isometry3<f64> {
+    let t_f = data.frame_pose(f).unwrap();
+    let axis = t_f.rotation * Vector3::x();
+    let origin = t_f.translation.vector;
+    let moment: f64 = loads
+        .iter()
+        .filter(|l| model.moves_with(l.frame, f))
+        .map(|load| {
+            let at = data.frame_pose(load.frame).unwrap();
+            let p = (at * nalgebra::Point3::from(load.point)).coords;
+            axis.dot(&(p - origin).cross(&load.force))
+        })
+        .sum();
+    let turn = Isometry3::from_parts(
+        Translation3::identity(),
+        nalgebra::UnitQuaternion::from_axis_angle(&Vector3::x_axis(), compliance * moment),
+    );
+    t_f * turn * t_f.inverse()
+}
