@@ -34,17 +34,23 @@
 //! where the other series' poses see effects the training poses did not
 //! (extrapolation, another day's temperature), which no statistic of the
 //! training data can know.
+//!
+//! With several targets per pose ([`crate::TargetCalibration`]) the same
+//! holds for each target: `J_S` holds the position rows of that target's
+//! point (its offset's columns among them), N counts observations, and the
+//! map has one entry per pose and target ([`PoseAccuracy::target`]).
 
 use flexcal_kinematics::Model;
 use nalgebra::{DMatrix, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use crate::error_model::GeometricErrorModel;
 use crate::identify::{Calibration, UnknownStatus};
+use crate::identify_targets::{TargetCalibration, validate_targets};
+use crate::prediction::{Predicting, covariance_of, covariance_size};
 use crate::split::SplitCheck;
+use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
 use crate::{CalibError, Measurement, MeasurementSet};
-use flexcal_optim::{Jacobian, Residuals};
 
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
@@ -54,6 +60,11 @@ pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
 pub struct PoseAccuracy {
     /// Pose label (`line N`, the pose id, or the row of a grid file).
     pub pose: String,
+    /// The target this entry predicts, with several targets per pose
+    /// ([`crate::TargetCalibration::predicted_accuracy`]: one entry per
+    /// pose and target); `None` for the one target of a [`Calibration`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<String>,
     /// Actuated coordinates (rad or m).
     pub q: Vec<f64>,
     /// RMS over the axes of the identification's own uncertainty times
@@ -75,10 +86,11 @@ pub struct PoseAccuracy {
 }
 
 /// Predicted accuracy over a set of poses (a workspace grid or a
-/// validation series).
+/// validation series): one entry per pose, or with several targets one per
+/// pose and target.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AccuracyMap {
-    /// Per pose.
+    /// Per pose (per pose and target with several targets).
     pub poses: Vec<PoseAccuracy>,
     /// Per-axis scatter of the training residuals, `s` (mm).
     pub residual_scatter_mm: f64,
@@ -86,13 +98,14 @@ pub struct AccuracyMap {
     /// split-half check ([`SplitCheck::prediction_ratio`], at least 1; 1
     /// without the check).
     pub inflation: f64,
-    /// Share of the measured poses whose error lies within the bound
-    /// (validation series only).
+    /// Share of the measured entries (poses, or observations of a target)
+    /// whose error lies within the bound (validation series only).
     pub coverage: Option<f64>,
     /// Mean of the bounds (mm).
     pub mean_bound_95_mm: f64,
-    /// Number of poses outside the identification poses' range of at least
-    /// one actuated coordinate ([`PoseAccuracy::outside_training_range`]).
+    /// Number of entries whose pose lies outside the identification poses'
+    /// range of at least one actuated coordinate
+    /// ([`PoseAccuracy::outside_training_range`]).
     #[serde(default)]
     pub extrapolated_poses: usize,
 }
@@ -113,9 +126,11 @@ impl AccuracyMap {
     /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm,outside_training_range`
     /// (`x_mm,y_mm,z_mm`: [`PoseAccuracy::position_mm`]; the last column:
     /// [`PoseAccuracy::outside_training_range`], names separated by `;`).
+    /// With several targets a `target` column follows `pose`.
     pub fn to_csv_string(&self) -> String {
         let n = self.poses.first().map_or(0, |p| p.q.len());
-        let mut out = String::from("pose");
+        let with_targets = self.poses.iter().any(|p| p.target.is_some());
+        let mut out = String::from(if with_targets { "pose,target" } else { "pose" });
         for i in 1..=n {
             out.push_str(&format!(",q{i}"));
         }
@@ -124,6 +139,10 @@ impl AccuracyMap {
         );
         for p in &self.poses {
             out.push_str(&p.pose.replace(',', ";"));
+            if with_targets {
+                out.push(',');
+                out.push_str(&p.target.as_deref().unwrap_or("").replace(',', ";"));
+            }
             for q in &p.q {
                 out.push_str(&format!(",{q:.9}"));
             }
@@ -171,8 +190,7 @@ impl Calibration {
             .map(|q| Measurement::new(q.clone(), Vector3::zeros()))
             .collect();
         let set = MeasurementSet::new("accuracy grid", measurements)?;
-        let labels: Vec<String> = (0..set.len()).map(|k| format!("row {}", k + 1)).collect();
-        self.accuracy_at(model, &set, labels, None, split)
+        accuracy_at(self, model, &set, &grid_row, None, split)
     }
 
     /// Predicted accuracy at the poses of the measured set `validation`,
@@ -190,242 +208,166 @@ impl Calibration {
     ) -> Result<AccuracyMap, CalibError> {
         let report = self.validate(model, validation, false)?;
         let actual: Vec<f64> = report.after_per_pose.iter().map(|e| e.position).collect();
-        let labels = validation
-            .measurements()
-            .iter()
-            .enumerate()
-            .map(|(k, m)| m.label(k))
-            .collect();
-        self.accuracy_at(model, validation, labels, Some(&actual), split)
+        let label = |k: usize| validation.measurements()[k].label(k);
+        accuracy_at(self, model, validation, &label, Some(&actual), split)
     }
+}
 
-    /// The identification's covariance (m, rad).
-    fn covariance(&self) -> Result<&DMatrix<f64>, CalibError> {
-        self.solve
-            .covariance
-            .as_ref()
-            .ok_or(CalibError::InvalidOption {
-                name: "accuracy",
-                reason: "the identification has no covariance (no more equations than unknowns)"
-                    .into(),
-            })
-    }
-
-    /// The error model at the identified unknowns (frames at their
-    /// identified values, zero increments; positions only) and those
-    /// unknowns.
-    fn error_model_at<'a>(
-        &self,
-        model: &'a Model,
-        set: &'a MeasurementSet,
-    ) -> Result<(GeometricErrorModel<'a>, Vec<f64>), CalibError> {
-        // The later stations' frames are unknowns of the identification
-        // (their covariance is part of it), with no pose of `set`.
-        let mut problem =
-            GeometricErrorModel::new(model, set, false, self.x_meas_base, self.x_tcp_target)?
-                .with_station_frames(&self.station_frames)?;
-        if let Some((gravity, _)) = &self.elastic {
-            problem = problem.with_gravity(gravity)?;
-        }
-        if self.joint_terms.any() {
-            problem = problem.with_joint_terms(&self.joint_terms)?;
-        }
-        let n = problem.n_unknowns();
-        if n != self.unknowns.len() {
-            return Err(CalibError::InvalidOption {
-                name: "accuracy",
-                reason: format!(
-                    "the error model has {n} unknowns, the identification {}",
-                    self.unknowns.len()
-                ),
-            });
-        }
-        let mut x = problem.initial_unknowns();
-        let np = model.n_params();
-        x[..np].copy_from_slice(&self.xi);
-        if let (Some((_, values)), Some(eo)) = (&self.elastic, problem.elastic_offset()) {
-            x[eo..eo + values.len()].copy_from_slice(values);
-        }
-        if let Some(jo) = problem.joint_terms_offset() {
-            x[jo..].copy_from_slice(&self.joint_term_values);
-        }
-        Ok((problem, x))
-    }
-
-    /// The variance of the calibrated model's target position at each pose
-    /// of `set` under the identification's covariance, every identified
-    /// unknown with the frame's: `tr(J_k Sigma J_k^T)` (m^2, measurement
-    /// frame). What the split-half check compares in the prediction space.
-    pub(crate) fn prediction_variances(
+impl TargetCalibration {
+    /// Predicted accuracy of every target at the configurations
+    /// `configurations` (rad or m): one entry per configuration and
+    /// target, in that order, the covariance raised by `split`'s
+    /// prediction ratio where it understates (module docs).
+    ///
+    /// # Errors
+    /// As [`Calibration::predicted_accuracy`].
+    pub fn predicted_accuracy(
         &self,
         model: &Model,
-        set: &MeasurementSet,
-    ) -> Result<Vec<f64>, CalibError> {
-        let covariance = self.covariance()?;
-        let (problem, x) = self.error_model_at(model, set)?;
-        if covariance.nrows() != x.len() {
-            return Err(covariance_size(covariance, x.len()));
-        }
-        let columns: Vec<usize> = (0..x.len())
-            .filter(|&j| self.unknowns[j].status == UnknownStatus::Identified)
-            .collect();
-        let sigma = DMatrix::<f64>::from_fn(columns.len(), columns.len(), |a, b| {
-            covariance[(columns[a], columns[b])]
-        });
-        let (jac, _) = jacobian_and_residuals(&problem, &x)?;
-        Ok((0..set.len())
-            .map(|k| {
-                let rows =
-                    DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
-                (&rows * &sigma * rows.transpose()).trace().max(0.0)
-            })
-            .collect())
-    }
-
-    /// The calibrated model's target positions at the poses of `set`, in
-    /// the measurement frame (m).
-    pub(crate) fn predicted_positions(
-        &self,
-        model: &Model,
-        set: &MeasurementSet,
-    ) -> Result<Vec<Vector3<f64>>, CalibError> {
-        let (problem, x) = self.error_model_at(model, set)?;
-        let mut residuals = vec![0.0; problem.n_residuals()];
-        problem
-            .residuals(&x, &mut residuals)
-            .map_err(model_failure)?;
-        Ok(set
-            .measurements()
-            .iter()
-            .enumerate()
-            .map(|(k, m)| m.position + Vector3::from_fn(|i, _| residuals[3 * k + i]))
-            .collect())
-    }
-
-    fn accuracy_at(
-        &self,
-        model: &Model,
-        set: &MeasurementSet,
-        labels: Vec<String>,
-        actual: Option<&[f64]>,
+        configurations: &[Vec<f64>],
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        let covariance = self.covariance()?;
-        let (problem, x) = self.error_model_at(model, set)?;
-        let n = x.len();
-        if covariance.nrows() != n {
-            return Err(covariance_size(covariance, n));
-        }
-        // The split-half check's inflation, one factor on every standard
-        // deviation: scaling unknowns apart would break the correlations
-        // that make combinations of them well known.
-        let inflation = split
-            .and_then(|s| s.prediction_ratio)
-            .map_or(1.0, |r| r.max(1.0));
-        // The identified unknowns, the measurement frame's apart: the robot's
-        // accuracy is its uncertainty with the frame known (conditioned on it).
-        let identified = |j: &usize| self.unknowns[*j].status == UnknownStatus::Identified;
-        let is_frame = |j: &usize| self.unknowns[*j].name.starts_with("frame_");
-        let columns: Vec<usize> = (0..n).filter(|j| identified(j) && !is_frame(j)).collect();
-        let frame_columns: Vec<usize> = (0..n).filter(|j| identified(j) && is_frame(j)).collect();
-        let block = |rows: &[usize], cols: &[usize]| {
-            DMatrix::<f64>::from_fn(rows.len(), cols.len(), |a, b| {
-                let (ja, jb) = (rows[a], cols[b]);
-                covariance[(ja, jb)] * inflation * inflation
+        let poses = configurations
+            .iter()
+            .map(|q| TargetPose {
+                pose_id: None,
+                q: q.clone(),
+                observations: vec![
+                    Some(TargetObservation::new(Vector3::zeros()));
+                    self.targets.len()
+                ],
             })
-        };
-        let sigma = conditioned_on(
-            block(&columns, &columns),
-            &block(&columns, &frame_columns),
-            &block(&frame_columns, &frame_columns),
-        );
-        let (jac, predicted) = jacobian_and_residuals(&problem, &x)?;
-        let base_from_meas = self.x_meas_base.inverse();
-        // Residual scatter per axis, positions, with the degrees of freedom.
-        let rows = 3 * self.n_poses;
-        let p = self.rank();
-        let ssr = self.training_after.position_rms.powi(2) * self.n_poses as f64;
-        let s2 = ssr / (rows.saturating_sub(p).max(1)) as f64;
-        let mut poses = Vec::with_capacity(set.len());
-        let mut within = 0usize;
-        let mut extrapolated_poses = 0usize;
-        for (k, label) in labels.into_iter().enumerate() {
-            let rows_k =
-                DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
-            let pred = &rows_k * &sigma * rows_k.transpose();
-            let trace = pred.trace().max(0.0);
-            let bound = (CHI2_3_95 * (trace / 3.0 + s2)).sqrt();
-            let actual_error = actual.map(|a| a[k]);
-            let measured = set.measurements()[k].position;
-            let in_meas = Point3::new(
-                measured.x + predicted[3 * k],
-                measured.y + predicted[3 * k + 1],
-                measured.z + predicted[3 * k + 2],
-            );
-            let position = base_from_meas * in_meas;
-            if actual_error.is_some_and(|e| e <= bound) {
-                within += 1;
-            }
-            let q = &set.measurements()[k].q;
-            let outside_training_range: Vec<String> = self
-                .outside_training_range(q)
+            .collect();
+        let set = TargetMeasurementSet::new("accuracy grid", self.targets.clone(), poses)?;
+        accuracy_at(self, model, &set, &grid_row, None, split)
+    }
+
+    /// Predicted accuracy at the observations of the measured set
+    /// `validation` (same targets by name), with their measured errors
+    /// after calibration (the measurement frame fitted again, as
+    /// [`validate_targets`] with `refit_frame`) and the share within the
+    /// bound.
+    ///
+    /// # Errors
+    /// As [`TargetCalibration::predicted_accuracy`] and [`validate_targets`].
+    pub fn accuracy_coverage(
+        &self,
+        model: &Model,
+        validation: &TargetMeasurementSet,
+        split: Option<&SplitCheck>,
+    ) -> Result<AccuracyMap, CalibError> {
+        let report = validate_targets(model, self, validation, true)?;
+        let actual: Vec<f64> = report
+            .observation_errors
+            .iter()
+            .map(|e| e.error.norm())
+            .collect();
+        let label = |k: usize| validation.poses()[k].label(k);
+        accuracy_at(self, model, validation, &label, Some(&actual), split)
+    }
+}
+
+/// The label of row `k` of an accuracy grid.
+pub(crate) fn grid_row(k: usize) -> String {
+    format!("row {}", k + 1)
+}
+
+/// The accuracy map of `calibration` at the observations of `set`, pose `k`
+/// labelled `label(k)`, with the measured errors `actual` (m, one per
+/// observation) when `set` is measured.
+pub(crate) fn accuracy_at<P: Predicting>(
+    calibration: &P,
+    model: &Model,
+    set: &P::Set,
+    label: &dyn Fn(usize) -> String,
+    actual: Option<&[f64]>,
+    split: Option<&SplitCheck>,
+) -> Result<AccuracyMap, CalibError> {
+    let covariance = covariance_of(calibration)?;
+    let linearised = calibration.linearise(model, set)?;
+    let jac = &linearised.jacobian;
+    let n = jac.ncols();
+    if covariance.nrows() != n {
+        return Err(covariance_size(covariance, n));
+    }
+    if let Some(actual) = actual
+        && actual.len() != linearised.observed.len()
+    {
+        return Err(CalibError::InvalidOption {
+            name: "accuracy",
+            reason: format!(
+                "{} measured errors for {} observations",
+                actual.len(),
+                linearised.observed.len()
+            ),
+        });
+    }
+    // The split-half check's inflation, one factor on every standard
+    // deviation: scaling unknowns apart would break the correlations
+    // that make combinations of them well known.
+    let inflation = split
+        .and_then(|s| s.prediction_ratio)
+        .map_or(1.0, |r| r.max(1.0));
+    // The identified unknowns, the measurement frame's apart: the robot's
+    // accuracy is its uncertainty with the frame known (conditioned on it).
+    let unknowns = calibration.estimates();
+    let identified = |j: &usize| unknowns[*j].status == UnknownStatus::Identified;
+    let is_frame = |j: &usize| unknowns[*j].name.starts_with("frame_");
+    let columns: Vec<usize> = (0..n).filter(|j| identified(j) && !is_frame(j)).collect();
+    let frame_columns: Vec<usize> = (0..n).filter(|j| identified(j) && is_frame(j)).collect();
+    let block = |rows: &[usize], cols: &[usize]| {
+        DMatrix::<f64>::from_fn(rows.len(), cols.len(), |a, b| {
+            let (ja, jb) = (rows[a], cols[b]);
+            covariance[(ja, jb)] * inflation * inflation
+        })
+    };
+    let sigma = conditioned_on(
+        block(&columns, &columns),
+        &block(&columns, &frame_columns),
+        &block(&frame_columns, &frame_columns),
+    );
+    let base_from_meas = calibration.measurement_frame().inverse();
+    let s2 = calibration.residual_variance();
+    let mut poses = Vec::with_capacity(linearised.observed.len());
+    let mut within = 0usize;
+    let mut extrapolated_poses = 0usize;
+    for (k, observed) in linearised.observed.into_iter().enumerate() {
+        let rows_k = DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
+        let pred = &rows_k * &sigma * rows_k.transpose();
+        let trace = pred.trace().max(0.0);
+        let bound = (CHI2_3_95 * (trace / 3.0 + s2)).sqrt();
+        let actual_error = actual.map(|a| a[k]);
+        let position = base_from_meas * Point3::from(linearised.predicted[k]);
+        if actual_error.is_some_and(|e| e <= bound) {
+            within += 1;
+        }
+        let q = P::configuration(set, observed.pose);
+        let outside_training_range: Vec<String> =
+            crate::coverage::outside(calibration.training_ranges(), q)
                 .map(|i| model.actuated_names()[i].clone())
                 .collect();
-            extrapolated_poses += usize::from(!outside_training_range.is_empty());
-            poses.push(PoseAccuracy {
-                outside_training_range,
-                pose: label,
-                q: q.clone(),
-                model_uncertainty_mm: trace.sqrt() * 1e3,
-                bound_95_mm: bound * 1e3,
-                actual_error_mm: actual_error.map(|e| e * 1e3),
-                position_mm: [position.x * 1e3, position.y * 1e3, position.z * 1e3],
-            });
-        }
-        let mean_bound_95_mm =
-            poses.iter().map(|p| p.bound_95_mm).sum::<f64>() / poses.len().max(1) as f64;
-        Ok(AccuracyMap {
-            coverage: actual.map(|_| within as f64 / set.len().max(1) as f64),
-            poses,
-            residual_scatter_mm: s2.sqrt() * 1e3,
-            inflation,
-            mean_bound_95_mm,
-            extrapolated_poses,
-        })
+        extrapolated_poses += usize::from(!outside_training_range.is_empty());
+        poses.push(PoseAccuracy {
+            outside_training_range,
+            pose: label(observed.pose),
+            target: observed.target,
+            q: q.to_vec(),
+            model_uncertainty_mm: trace.sqrt() * 1e3,
+            bound_95_mm: bound * 1e3,
+            actual_error_mm: actual_error.map(|e| e * 1e3),
+            position_mm: [position.x * 1e3, position.y * 1e3, position.z * 1e3],
+        });
     }
-}
-
-/// The covariance does not match the error model's unknowns.
-fn covariance_size(covariance: &DMatrix<f64>, n: usize) -> CalibError {
-    CalibError::InvalidOption {
-        name: "accuracy",
-        reason: format!(
-            "the error model has {n} unknowns, the identification's covariance {}",
-            covariance.nrows()
-        ),
-    }
-}
-
-/// A model failure at a pose, as the accuracy's error.
-fn model_failure(e: flexcal_optim::ProblemError) -> CalibError {
-    CalibError::InvalidOption {
-        name: "accuracy",
-        reason: e.to_string(),
-    }
-}
-
-/// The error model's Jacobian and residuals at `x`.
-fn jacobian_and_residuals(
-    problem: &GeometricErrorModel<'_>,
-    x: &[f64],
-) -> Result<(faer::Mat<f64>, Vec<f64>), CalibError> {
-    let mut jac = faer::Mat::<f64>::zeros(problem.n_residuals(), x.len());
-    problem.jacobian(x, jac.as_mut()).map_err(model_failure)?;
-    let mut residuals = vec![0.0; problem.n_residuals()];
-    problem
-        .residuals(x, &mut residuals)
-        .map_err(model_failure)?;
-    Ok((jac, residuals))
+    let mean_bound_95_mm =
+        poses.iter().map(|p| p.bound_95_mm).sum::<f64>() / poses.len().max(1) as f64;
+    Ok(AccuracyMap {
+        coverage: actual.map(|_| within as f64 / poses.len().max(1) as f64),
+        poses,
+        residual_scatter_mm: s2.sqrt() * 1e3,
+        inflation,
+        mean_bound_95_mm,
+        extrapolated_poses,
+    })
 }
 
 /// The covariance of the robot's unknowns with the measurement frame known:

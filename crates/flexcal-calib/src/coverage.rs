@@ -96,13 +96,21 @@ impl CoordinateCoverage {
     /// `set`: an arc of the circle for a revolute coordinate, an interval
     /// for a prismatic or screw one.
     pub fn of_actuated(model: &Model, set: &MeasurementSet) -> Vec<Self> {
+        let q: Vec<&[f64]> = set.measurements().iter().map(|m| m.q.as_slice()).collect();
+        Self::of_configurations(model, &q)
+    }
+
+    /// Coverage of each actuated coordinate of `model` over the
+    /// configurations `q` (rad or m, each of `model`'s actuated count), as
+    /// [`CoordinateCoverage::of_actuated`].
+    pub fn of_configurations(model: &Model, q: &[&[f64]]) -> Vec<Self> {
         model
             .actuated_kinds()
             .iter()
             .enumerate()
             .map(|(i, kind)| {
                 let period = (*kind == ActuatedKind::Revolute).then_some(std::f64::consts::TAU);
-                Self::of(set.measurements().iter().map(|m| m.q[i]), period)
+                Self::of(q.iter().map(|q| q[i]), period)
             })
             .collect()
     }
@@ -128,6 +136,23 @@ impl CoordinateCoverage {
             }
         }
     }
+}
+
+/// Indices of the coordinates at which `q` (rad or m) lies outside
+/// `ranges` (by more than 1e-9; a revolute coordinate a whole number of
+/// turns away from a covered angle is inside): where a prediction is an
+/// extrapolation from the poses that `ranges` cover.
+pub(crate) fn outside<'a>(
+    ranges: &'a [CoordinateCoverage],
+    q: &'a [f64],
+) -> impl Iterator<Item = usize> + 'a {
+    const MARGIN: f64 = 1e-9;
+    ranges
+        .iter()
+        .zip(q)
+        .enumerate()
+        .filter(|(_, (range, q))| !range.contains(**q, MARGIN))
+        .map(|(i, _)| i)
 }
 
 #[cfg(test)]

@@ -107,7 +107,7 @@ impl CrossCheck {
         calibration: &Calibration,
         split: Option<&SplitCheck>,
     ) -> Result<Self, CalibError> {
-        let other_options = reidentification_options(options, calibration);
+        let other_options = reidentification_options(options, &calibration.unknowns);
         let refit = calibrate(model, other, &other_options)?;
         // A set too small to halve gets no split check: z alone, and a note.
         let (other_split, other_split_failure) =
@@ -122,7 +122,7 @@ impl CrossCheck {
                 .and_then(|c| c.unknowns.iter().find(|u| u.name == name))
                 .and_then(|u| u.split_error)
         };
-        let unknowns = compared_unknowns(calibration)
+        let unknowns = compared_unknowns(&calibration.unknowns)
             .map(|(_, u)| {
                 let (unit, scale) = u.kind.display_unit();
                 // The same unknowns in the same order; found by name all the same.

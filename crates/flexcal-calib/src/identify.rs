@@ -430,13 +430,7 @@ impl Calibration {
     /// angle is inside): where a prediction is an extrapolation from the
     /// identification poses.
     pub fn outside_training_range<'a>(&'a self, q: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
-        const MARGIN: f64 = 1e-9;
-        self.actuated_ranges
-            .iter()
-            .zip(q)
-            .enumerate()
-            .filter(|(_, (range, q))| !range.contains(**q, MARGIN))
-            .map(|(i, _)| i)
+        crate::coverage::outside(&self.actuated_ranges, q)
     }
 
     /// Names of the non-identifiable unknowns.

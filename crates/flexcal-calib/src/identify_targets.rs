@@ -56,6 +56,7 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, Vector3};
 use serde::Serialize;
 
 use crate::CalibError;
+use crate::coverage::CoordinateCoverage;
 use crate::elastic_terms::{ElasticTerms, JointState};
 use crate::error_model::{FRAME_PARAMETER_NAMES, UnknownKind};
 use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew};
@@ -67,6 +68,9 @@ use crate::identify::{
 };
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::prediction::{
+    Linearised, Observed, Predicting, jacobian_and_residuals, residual_variance,
+};
 use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet, target_point};
 
 /// Names of the three unknowns of a target's offset: `target.<name>.x`,
@@ -182,10 +186,14 @@ pub struct TargetCalibration {
     /// prismatic one) over the identification poses, with the mass table's
     /// payload: the torques over which the compliances were identified.
     /// Empty for the geometric model.
-    pub torque_ranges: Vec<crate::CoordinateCoverage>,
-    /// Names of the actuated coordinates, in the order of q and of
-    /// `torque_ranges`.
+    pub torque_ranges: Vec<CoordinateCoverage>,
+    /// Names of the actuated coordinates, in the order of q, of
+    /// `torque_ranges` and of `actuated_ranges`.
     pub actuated_names: Vec<String>,
+    /// What the identification poses cover of each actuated coordinate
+    /// (rad or m; [`crate::Calibration::actuated_ranges`]): poses outside
+    /// it are extrapolations.
+    pub actuated_ranges: Vec<CoordinateCoverage>,
 }
 
 impl TargetCalibration {
@@ -207,6 +215,13 @@ impl TargetCalibration {
     /// Number of identified unknowns.
     pub fn rank(&self) -> usize {
         self.with_status(UnknownStatus::Identified).len()
+    }
+
+    /// Indices of the actuated coordinates at which `q` (rad or m) lies
+    /// outside [`TargetCalibration::actuated_ranges`], as
+    /// [`crate::Calibration::outside_training_range`].
+    pub fn outside_training_range<'a>(&'a self, q: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
+        crate::coverage::outside(&self.actuated_ranges, q)
     }
 
     /// What the targets could not identify, in sentences for a report:
@@ -1113,6 +1128,7 @@ pub fn calibrate_targets(
         joint_term_values: x[joint_start..].to_vec(),
         torque_ranges: problem.elastic.torque_ranges(set.len()),
         actuated_names: model.actuated_names().to_vec(),
+        actuated_ranges: CoordinateCoverage::of_configurations(model, &q),
     })
 }
 
@@ -1197,7 +1213,10 @@ pub fn target_position_errors(
 }
 
 /// A set with as many coordinates per pose as the robot has actuated.
-fn check_coordinates(model: &Model, set: &TargetMeasurementSet) -> Result<(), CalibError> {
+pub(crate) fn check_coordinates(
+    model: &Model,
+    set: &TargetMeasurementSet,
+) -> Result<(), CalibError> {
     if set.n_actuated() != model.n_actuated() {
         return Err(CalibError::ActuatedCountMismatch {
             source_name: set.source.clone(),
@@ -1283,6 +1302,76 @@ pub fn validate_targets(
         frame_refitted: refit_frame,
         observation_errors,
     })
+}
+
+impl Predicting for TargetCalibration {
+    type Set = TargetMeasurementSet;
+    fn configuration(set: &TargetMeasurementSet, k: usize) -> &[f64] {
+        &set.poses()[k].q
+    }
+    fn estimates(&self) -> &[UnknownEstimate] {
+        &self.unknowns
+    }
+    fn covariance(&self) -> Option<&DMatrix<f64>> {
+        self.solve.covariance.as_ref()
+    }
+    /// The model of the identification (the targets' offsets unknowns as
+    /// they were, at zero increments from the identified offsets; the
+    /// measurement frame at zero increments from the identified one) on
+    /// `set`'s observations.
+    fn linearise(
+        &self,
+        model: &Model,
+        set: &TargetMeasurementSet,
+    ) -> Result<Linearised, CalibError> {
+        check_coordinates(model, set)?;
+        let calibrated = set.with_targets(self.targets.clone())?;
+        let gravity = self.elastic.as_ref().map(|(g, _)| g);
+        let problem = TargetErrorModel::new(model, &calibrated, self.x_meas_base)?
+            .with_elastic(gravity, &self.joint_terms)?;
+        let mut x = self.xi.clone();
+        x.resize(problem.elastic_offset, 0.0);
+        if let Some((_, values)) = &self.elastic {
+            x.extend(values);
+        }
+        x.extend(&self.joint_term_values);
+        if x.len() != self.unknowns.len() {
+            return Err(CalibError::InvalidOption {
+                name: "accuracy",
+                reason: format!(
+                    "the error model has {} unknowns, the identification {}",
+                    x.len(),
+                    self.unknowns.len()
+                ),
+            });
+        }
+        let (jacobian, _) = jacobian_and_residuals(&problem, &x)?;
+        Ok(Linearised {
+            jacobian,
+            predicted: problem.predict(&x)?,
+            observed: problem
+                .rows
+                .iter()
+                .map(|&(pose, t)| Observed {
+                    pose,
+                    target: Some(calibrated.targets()[t].name.clone()),
+                })
+                .collect(),
+        })
+    }
+    fn residual_variance(&self) -> f64 {
+        residual_variance(
+            self.training_after.position_rms,
+            self.n_observations,
+            self.rank(),
+        )
+    }
+    fn measurement_frame(&self) -> Isometry3<f64> {
+        self.x_meas_base
+    }
+    fn training_ranges(&self) -> &[CoordinateCoverage] {
+        &self.actuated_ranges
+    }
 }
 
 #[cfg(test)]

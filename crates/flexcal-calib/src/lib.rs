@@ -256,6 +256,7 @@ pub mod identify_targets;
 pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
+mod prediction;
 pub mod report;
 pub mod residual;
 pub mod screen;

@@ -21,8 +21,12 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{Calibration, CalibrationOptions, UnknownEstimate, UnknownStatus, calibrate};
-use crate::{CalibError, MeasurementSet};
+use crate::identify::{CalibrationOptions, UnknownEstimate, UnknownStatus};
+use crate::identify_targets::TargetCalibration;
+use crate::prediction::{Predicting, predicted_positions, prediction_variances};
+use crate::selection::Selectable;
+use crate::targets::TargetMeasurementSet;
+use crate::{CalibError, Calibration, MeasurementSet};
 
 /// A split error above this many standard errors is named in
 /// [`SplitCheck::notes`]: with two splits and independent errors, the
@@ -36,11 +40,10 @@ pub const SPLIT_RATIO_WARNING: f64 = 2.5;
 /// poses may come from another tracker position).
 pub(crate) fn reidentification_options(
     options: &CalibrationOptions,
-    calibration: &Calibration,
+    unknowns: &[UnknownEstimate],
 ) -> CalibrationOptions {
     let mut reidentify = options.clone();
-    reidentify.fixed = calibration
-        .unknowns
+    reidentify.fixed = unknowns
         .iter()
         .filter(|u| u.status != UnknownStatus::Identified && !u.name.starts_with("frame_"))
         .filter(|u| u.status != UnknownStatus::NoInfluence)
@@ -52,10 +55,9 @@ pub(crate) fn reidentification_options(
 /// The unknowns a re-identification compares, with their index: those
 /// `calibration` identified, the measurement frame's excepted.
 pub(crate) fn compared_unknowns(
-    calibration: &Calibration,
+    unknowns: &[UnknownEstimate],
 ) -> impl Iterator<Item = (usize, &UnknownEstimate)> {
-    calibration
-        .unknowns
+    unknowns
         .iter()
         .enumerate()
         .filter(|(_, u)| u.status == UnknownStatus::Identified && !u.name.starts_with("frame_"))
@@ -123,74 +125,30 @@ impl SplitCheck {
     ///
     /// # Errors
     /// [`CalibError::TooFewPoses`] when a half has too few poses, or what
-    /// [`calibrate`] returns on a half.
+    /// [`crate::calibrate`] returns on a half.
     pub fn new(
         model: &Model,
         set: &MeasurementSet,
         options: &CalibrationOptions,
         calibration: &Calibration,
     ) -> Result<Self, CalibError> {
-        let half_options = reidentification_options(options, calibration);
-        // Odd, even, first-half and second-half poses; with several
-        // stations, the halves of each station's poses (every half fit
-        // then places every station).
-        let n = set.len();
-        let mut station_sizes = vec![0usize; set.n_stations()];
-        let rank_in_station: Vec<usize> = (0..n)
-            .map(|k| {
-                let size = &mut station_sizes[set.station_of(k)];
-                *size += 1;
-                *size - 1
-            })
-            .collect();
-        let in_half = |h: usize, k: usize| {
-            let (r, size) = (rank_in_station[k], station_sizes[set.station_of(k)]);
-            match h {
-                0 => r % 2 == 1,
-                1 => r % 2 == 0,
-                2 => r < size / 2,
-                _ => r >= size / 2,
-            }
-        };
-        let fits = (0..4)
-            .map(|h| {
-                let poses: Vec<usize> = (0..n).filter(|&k| in_half(h, k)).collect();
-                calibrate(model, &set.subset(&poses)?, &half_options)
-            })
-            .collect::<Result<Vec<_>, CalibError>>()?;
-        let unknowns = compared_unknowns(calibration)
-            .map(|(j, u)| {
-                let (unit, scale) = u.kind.display_unit();
-                let half_values = [0, 1, 2, 3].map(|h| {
-                    let v = &fits[h].unknowns[j];
-                    debug_assert_eq!(v.name, u.name);
-                    (v.status == UnknownStatus::Identified).then_some(v.value * scale)
-                });
-                let split_error = match half_values {
-                    [Some(a), Some(b), Some(c), Some(d)] => Some(
-                        (((a - b) / 2.0).powi(2) + ((c - d) / 2.0).powi(2)).sqrt() / 2f64.sqrt(),
-                    ),
-                    _ => None,
-                };
-                let standard_error = u.standard_error.unwrap_or(f64::NAN) * scale;
-                SplitEstimate {
-                    name: u.name.clone(),
-                    unit,
-                    standard_error,
-                    half_values,
-                    split_error,
-                    // No ratio against a zero standard error (noise-free data).
-                    ratio: split_error
-                        .filter(|_| standard_error > 0.0)
-                        .map(|s| s / standard_error),
-                }
-            })
-            .collect();
-        let prediction_ratio = prediction_ratio(model, set, calibration, &fits)?;
-        Ok(Self {
-            unknowns,
-            prediction_ratio,
-        })
+        split_check(model, set, options, calibration)
+    }
+
+    /// The check of a multi-target identification: as [`SplitCheck::new`],
+    /// the halves made of whole poses (every target seen at a pose goes
+    /// with it), the prediction space that of every observation.
+    ///
+    /// # Errors
+    /// [`CalibError::TooFewPoses`] when a half has too few observations, or
+    /// what [`crate::calibrate_targets`] returns on a half.
+    pub fn for_targets(
+        model: &Model,
+        set: &TargetMeasurementSet,
+        options: &CalibrationOptions,
+        calibration: &TargetCalibration,
+    ) -> Result<Self, CalibError> {
+        split_check(model, set, options, calibration)
     }
 
     /// What the check found, in sentences.
@@ -232,22 +190,96 @@ impl SplitCheck {
     }
 }
 
+/// [`SplitCheck::new`] and [`SplitCheck::for_targets`].
+fn split_check<S>(
+    model: &Model,
+    set: &S,
+    options: &CalibrationOptions,
+    calibration: &S::Fitted,
+) -> Result<SplitCheck, CalibError>
+where
+    S: Selectable,
+    S::Fitted: Predicting<Set = S>,
+{
+    let half_options = reidentification_options(options, calibration.estimates());
+    // Odd, even, first-half and second-half poses; with several
+    // stations, the halves of each station's poses (every half fit
+    // then places every station).
+    let n = set.n_poses();
+    let mut station_sizes = vec![0usize; set.n_stations()];
+    let rank_in_station: Vec<usize> = (0..n)
+        .map(|k| {
+            let size = &mut station_sizes[set.station_of(k)];
+            *size += 1;
+            *size - 1
+        })
+        .collect();
+    let in_half = |h: usize, k: usize| {
+        let (r, size) = (rank_in_station[k], station_sizes[set.station_of(k)]);
+        match h {
+            0 => r % 2 == 1,
+            1 => r % 2 == 0,
+            2 => r < size / 2,
+            _ => r >= size / 2,
+        }
+    };
+    let fits = (0..4)
+        .map(|h| {
+            let poses: Vec<usize> = (0..n).filter(|&k| in_half(h, k)).collect();
+            set.subset(&poses)?.fit(model, &half_options)
+        })
+        .collect::<Result<Vec<_>, CalibError>>()?;
+    let unknowns = compared_unknowns(calibration.estimates())
+        .map(|(j, u)| {
+            let (unit, scale) = u.kind.display_unit();
+            let half_values = [0, 1, 2, 3].map(|h| {
+                let v = &fits[h].estimates()[j];
+                debug_assert_eq!(v.name, u.name);
+                (v.status == UnknownStatus::Identified).then_some(v.value * scale)
+            });
+            let split_error = match half_values {
+                [Some(a), Some(b), Some(c), Some(d)] => {
+                    Some((((a - b) / 2.0).powi(2) + ((c - d) / 2.0).powi(2)).sqrt() / 2f64.sqrt())
+                }
+                _ => None,
+            };
+            let standard_error = u.standard_error.unwrap_or(f64::NAN) * scale;
+            SplitEstimate {
+                name: u.name.clone(),
+                unit,
+                standard_error,
+                half_values,
+                split_error,
+                // No ratio against a zero standard error (noise-free data).
+                ratio: split_error
+                    .filter(|_| standard_error > 0.0)
+                    .map(|s| s / standard_error),
+            }
+        })
+        .collect();
+    let prediction_ratio = prediction_ratio(model, set, calibration, &fits)?;
+    Ok(SplitCheck {
+        unknowns,
+        prediction_ratio,
+    })
+}
+
 /// [`SplitCheck::prediction_ratio`] from the four half fits (odd, even,
 /// first half, second half).
-fn prediction_ratio(
+fn prediction_ratio<P: Predicting>(
     model: &Model,
-    set: &MeasurementSet,
-    calibration: &Calibration,
-    fits: &[Calibration],
+    set: &P::Set,
+    calibration: &P,
+    fits: &[P],
 ) -> Result<Option<f64>, CalibError> {
-    if calibration.solve.covariance.is_none() {
+    if calibration.covariance().is_none() {
         return Ok(None);
     }
-    let variances = calibration.prediction_variances(model, set)?;
+    let variances = prediction_variances(calibration, model, set)?;
     let mut squared_half_differences = 0.0;
     for pair in fits.chunks(2) {
-        let a = pair[0].predicted_positions(model, set)?;
-        let b = pair[1].predicted_positions(model, set)?;
+        let a = predicted_positions(&pair[0], model, set)?;
+        let b = predicted_positions(&pair[1], model, set)?;
         squared_half_differences += a
             .iter()
             .zip(&b)

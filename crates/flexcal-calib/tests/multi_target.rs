@@ -11,9 +11,9 @@
 //! a laser tracker's repeatability at a few metres.
 
 use flexcal_calib::{
-    CalibrationOptions, FrameTreatment, TargetCalibration, TargetMeasurementSet, TargetObservation,
-    TargetPose, UnknownStatus, calibrate_targets, read_targets, rotation_from_vector,
-    validate_targets, vector_from_rotation,
+    CHI2_3_95, CalibrationOptions, FrameTreatment, TargetCalibration, TargetMeasurementSet,
+    TargetObservation, TargetPose, UnknownStatus, calibrate_targets, read_targets,
+    rotation_from_vector, validate_targets, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, RobotDescription, forward_frame_pose};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -378,4 +378,121 @@ fn one_target_on_the_tcp_matches_the_one_target_identification() {
         (multi_point - single_point).norm() < 0.02e-3,
         "{multi_point:?} vs {single_point:?}"
     );
+    // The same predicted accuracy: at configurations spread over the
+    // joints, the identification's uncertainty of the predicted position
+    // and the 95 % bound agree pose by pose (the two fits leave different
+    // exactly dependent unknowns at nominal, which changes no prediction).
+    let grid: Vec<Vec<f64>> = (0..25)
+        .map(|_| (0..6).map(|_| rng.random_range(-2.5..2.5)).collect())
+        .collect();
+    let one = single.predicted_accuracy(&model, &grid, None).unwrap();
+    let several = multi.predicted_accuracy(&model, &grid, None).unwrap();
+    assert_eq!(several.poses.len(), grid.len());
+    let mut worst = (0.0f64, 0.0f64);
+    for (a, b) in one.poses.iter().zip(&several.poses) {
+        assert_eq!(
+            (a.pose.as_str(), b.target.as_deref()),
+            (b.pose.as_str(), Some("probe"))
+        );
+        let relative = |x: f64, y: f64| (x - y).abs() / x;
+        worst.0 = worst
+            .0
+            .max(relative(a.model_uncertainty_mm, b.model_uncertainty_mm));
+        worst.1 = worst.1.max(relative(a.bound_95_mm, b.bound_95_mm));
+        for i in 0..3 {
+            assert!(
+                (a.position_mm[i] - b.position_mm[i]).abs() < 0.01,
+                "{a:?}\n{b:?}"
+            );
+        }
+    }
+    println!(
+        "one target: mean 95 % bound {:.5} mm; as a target set: {:.5} mm; largest relative difference, model uncertainty {:.3}, bound {:.3}",
+        one.mean_bound_95_mm, several.mean_bound_95_mm, worst.0, worst.1
+    );
+    assert!(worst.0 < 0.05 && worst.1 < 0.02, "{worst:?}");
+}
+
+/// Predicted accuracy with two markers, where the model is the truth's
+/// (geometry only, Gaussian noise): the split-half check of the predicted
+/// positions finds the covariance right (ratio near 1), and the validation
+/// observations' errors lie within their predicted 95 % bounds about 95 %
+/// of the time. On a grid each configuration has one entry per marker, in
+/// the file's order, and the CSV names the marker.
+#[test]
+fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
+    use flexcal_calib::SplitCheck;
+    let model = robot();
+    let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6163_6375);
+    let nominal: Vec<Vector3<f64>> = targets.iter().map(|t| t.offset).collect();
+    let truth = truth(&model, &nominal, &mut rng);
+    let set = measure(&model, &truth, &targets, 160, &mut rng);
+    let validation = measure(&model, &truth, &targets, 400, &mut rng);
+    let options = CalibrationOptions::default();
+    let calibration = calibrate_targets(&model, &set, &options).unwrap();
+    let split = SplitCheck::for_targets(&model, &set, &options, &calibration).unwrap();
+    let ratio = split.prediction_ratio.unwrap();
+    let map = calibration
+        .accuracy_coverage(&model, &validation, Some(&split))
+        .unwrap();
+    let coverage = map.coverage.unwrap();
+    println!(
+        "split-half ratio of the predicted positions {ratio:.3} (median over unknowns {:?}); {} observations, {:.1} % within their 95 % bound (mean bound {:.4} mm, residual scatter {:.4} mm per axis)",
+        split.notes().first(),
+        map.poses.len(),
+        100.0 * coverage,
+        map.mean_bound_95_mm,
+        map.residual_scatter_mm
+    );
+    // Every observation once, labelled by pose and marker.
+    assert_eq!(map.poses.len(), validation.n_observations());
+    assert!(map.poses.iter().all(|p| p.actual_error_mm.is_some()));
+    assert!(map.poses.iter().all(|p| {
+        targets
+            .iter()
+            .any(|t| Some(t.name.as_str()) == p.target.as_deref())
+    }));
+    // Independent errors and the truth's model: the halves differ as the
+    // covariance says. With two splits of some sixty unknowns the ratio
+    // stays within 0.5 - 2 by chance; a covariance off by its scale would
+    // not.
+    assert!((0.5..2.0).contains(&ratio), "{ratio}");
+    // 95 % bounds: the share of 700-odd observations within them has a
+    // binomial spread of 0.8 %; the frame fitted again on the validation
+    // set takes a little of each error, so the share may sit above 95 %.
+    assert!((0.92..0.985).contains(&coverage), "{coverage}");
+    // The residual scatter is the noise's (0.02 mm per axis).
+    assert!(
+        (map.residual_scatter_mm - NOISE * 1e3).abs() < 0.1 * NOISE * 1e3,
+        "{}",
+        map.residual_scatter_mm
+    );
+
+    // A grid: one entry per configuration and marker.
+    let grid: Vec<Vec<f64>> = set.poses()[..5].iter().map(|p| p.q.clone()).collect();
+    let grid_map = calibration
+        .predicted_accuracy(&model, &grid, Some(&split))
+        .unwrap();
+    assert_eq!(grid_map.poses.len(), 2 * grid.len());
+    assert_eq!(grid_map.extrapolated_poses, 0);
+    for (k, entry) in grid_map.poses.iter().enumerate() {
+        assert_eq!(entry.pose, format!("row {}", k / 2 + 1));
+        assert_eq!(entry.target.as_deref(), Some(targets[k % 2].name.as_str()));
+        assert!(entry.actual_error_mm.is_none());
+        assert!(entry.bound_95_mm >= CHI2_3_95.sqrt() * grid_map.residual_scatter_mm);
+    }
+    let csv = grid_map.to_csv_string();
+    let mut lines = csv.lines();
+    assert!(
+        lines.next().unwrap().starts_with("pose,target,q1,"),
+        "{csv}"
+    );
+    assert!(
+        lines
+            .next()
+            .unwrap()
+            .starts_with(&format!("row 1,{},", targets[0].name))
+    );
+    assert_eq!(csv.lines().count(), 1 + 2 * grid.len());
 }

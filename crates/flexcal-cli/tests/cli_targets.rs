@@ -96,6 +96,15 @@ fn two_markers_calibrate_end_to_end() {
     let report = d.join("report.json");
     let calibrated = d.join("calibrated.toml");
     let residuals = d.join("errors.csv");
+    // A grid of seven configurations: the first poses of a third set.
+    let grid = d.join("grid.csv");
+    let mut grid_text = String::from("q1,q2,q3,q4,q5,q6,q7,q8,q9\n");
+    for pose in simulate(&targets, 2000, 7).poses() {
+        let q: Vec<String> = pose.q.iter().map(|v| format!("{v:.6}")).collect();
+        grid_text.push_str(&q.join(","));
+        grid_text.push('\n');
+    }
+    std::fs::write(&grid, grid_text).unwrap();
     let args = [
         "calibrate",
         "--robot",
@@ -112,6 +121,9 @@ fn two_markers_calibrate_end_to_end() {
         &report.display().to_string(),
         "--residuals",
         &residuals.display().to_string(),
+        "--split-check",
+        "--accuracy-map",
+        &grid.display().to_string(),
     ];
     let out = flexcal(&args);
     let text = stdout(&out);
@@ -178,6 +190,36 @@ fn two_markers_calibrate_end_to_end() {
     for r in &rows {
         let v: Vec<f64> = r[2..].iter().map(|x| x.parse().unwrap()).collect();
         assert!((v[0] - (v[1] * v[1] + v[2] * v[2] + v[3] * v[3]).sqrt()).abs() < 1e-9);
+    }
+    // The split-half check, the validation observations against their
+    // bounds, and the accuracy map: one row per configuration and marker.
+    assert!(
+        text.contains("Split-half check (identified again"),
+        "{text}"
+    );
+    assert!(text.contains("% of the validation observations"), "{text}");
+    assert_eq!(json["coverage"]["poses"].as_array().unwrap().len(), 60);
+    assert!(json["split"]["unknowns"].as_array().unwrap().len() > 20);
+    assert!(
+        text.contains("predicted accuracy of 2 targets at 7 configurations written to"),
+        "{text}"
+    );
+    let map = std::fs::read_to_string(d.join("grid.accuracy.csv")).unwrap();
+    let mut lines = map.lines();
+    assert!(
+        lines
+            .next()
+            .unwrap()
+            .starts_with("pose,target,q1,q2,q3,q4,q5,q6,q7,q8,q9,model_uncertainty_mm,bound_95_mm"),
+        "{map}"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 14);
+    assert_eq!(rows[0][..2], ["row 1", "left"]);
+    assert_eq!(rows[13][..2], ["row 7", "right"]);
+    for r in &rows {
+        let bound: f64 = r[12].parse().unwrap();
+        assert!(bound.is_finite() && bound >= 0.0, "{r:?}");
     }
 }
 
@@ -314,11 +356,14 @@ fn bad_multi_target_input_is_a_named_error() {
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("no frame `RX`"), "{err}");
-    // An option that has no meaning with several targets.
-    let out = run(&targets_file, &["--split-check"]);
+    // An option not built for several targets.
+    let out = run(&targets_file, &["--exclude", "2"]);
     assert!(!out.status.success());
     let err = stderr(&out);
-    assert!(err.contains("split_check"), "{err}");
+    assert!(
+        err.contains("exclude") && err.contains("several targets"),
+        "{err}"
+    );
     // A malformed targets description names its line.
     let broken = d.join("broken.toml");
     std::fs::write(&broken, "[[target]]\nname = \"left\"\nframe = 3\n").unwrap();

@@ -14,11 +14,20 @@ use numpy::PyArrayDyn;
 
 /// Predicted 95 % bounds of the position error at a set of configurations
 /// (`CalibrationResult.predicted_accuracy`) or at the poses of a measured
-/// set with their actual errors (`CalibrationResult.accuracy_coverage`).
+/// set with their actual errors (`CalibrationResult.accuracy_coverage`);
+/// with several targets (`TargetCalibrationResult`) one entry per pose and
+/// target.
 #[pyclass(frozen, module = "flexcal", name = "AccuracyResult")]
 #[derive(Debug)]
 pub struct AccuracyResult {
     map: Arc<AccuracyMap>,
+}
+
+impl AccuracyResult {
+    /// The map for Python.
+    pub(crate) fn new(map: AccuracyMap) -> Self {
+        Self { map: Arc::new(map) }
+    }
 }
 
 fn column<'py>(
@@ -99,6 +108,19 @@ impl AccuracyResult {
         self.map.residual_scatter_mm * 1e-3
     }
 
+    /// The target of each entry, with several targets (one entry per pose
+    /// and target, pose by pose); None for the one target of a
+    /// `CalibrationResult`.
+    #[getter]
+    fn targets(&self) -> Option<Vec<String>> {
+        self.map
+            .poses
+            .iter()
+            .map(|p| p.target.clone())
+            .collect::<Option<Vec<String>>>()
+            .filter(|_| !self.map.poses.is_empty())
+    }
+
     /// Factor on every standard deviation from the split-half check (1:
     /// none).
     #[getter]
@@ -138,7 +160,7 @@ pub(crate) fn predicted(
     let map = calibration
         .predicted_accuracy(model, &configurations, None)
         .map_err(|e| calib_error(&e))?;
-    Ok(AccuracyResult { map: Arc::new(map) })
+    Ok(AccuracyResult::new(map))
 }
 
 /// `CalibrationResult.accuracy_coverage`: the bounds at the poses of `set`
@@ -149,5 +171,5 @@ pub(crate) fn coverage(
     set: &Set,
 ) -> Result<AccuracyResult, flexcal::calib::CalibError> {
     let map = calibration.accuracy_coverage(model, set, None)?;
-    Ok(AccuracyResult { map: Arc::new(map) })
+    Ok(AccuracyResult::new(map))
 }

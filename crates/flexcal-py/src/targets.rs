@@ -17,6 +17,7 @@ use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::accuracy::AccuracyResult;
 use crate::arrays::{exact, to_numpy};
 use crate::calibration::{
     ErrorStatistics, SelectionResult, UnknownEstimate, gravity_option, matrix, selection_options,
@@ -468,6 +469,46 @@ impl TargetCalibrationResult {
         })
     }
 
+    /// Predicted 95 % bound of each target's position error at each
+    /// configuration of `q` (rad or m; shape (dof,) or (n, dof)): one entry
+    /// per configuration and target, pose by pose (`AccuracyResult.targets`
+    /// names them). The identification's covariance, conditioned on the
+    /// measurement frame, carried to each target's position, with the
+    /// training residuals' scatter.
+    fn predicted_accuracy(
+        &self,
+        q: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    ) -> PyResult<AccuracyResult> {
+        let q = crate::arrays::rows("q", &q, self.nominal.n_actuated())?;
+        let configurations: Vec<Vec<f64>> = (0..q.n).map(|k| q.row(k).to_vec()).collect();
+        let map = self
+            .run
+            .calibration
+            .predicted_accuracy(&self.nominal, &configurations, None)
+            .map_err(|e| calib_error(&e))?;
+        Ok(AccuracyResult::new(map))
+    }
+
+    /// The predicted 95 % bounds at the observations of `other` (same
+    /// targets) with their measured errors after calibration (the
+    /// measurement frame fitted again, as `validate` does by default) and
+    /// the share within the bound. Releases the GIL; Ctrl-C interrupts the
+    /// wait.
+    fn accuracy_coverage(
+        &self,
+        py: Python<'_>,
+        other: &TargetMeasurementSet,
+    ) -> PyResult<AccuracyResult> {
+        let run = Arc::clone(&self.run);
+        let model = Arc::clone(&self.nominal);
+        let set = Arc::clone(&other.set);
+        run_interruptible(py, move || {
+            Ok(AccuracyResult::new(
+                run.calibration.accuracy_coverage(&model, &set, None)?,
+            ))
+        })
+    }
+
     /// The JSON report, as `flexcal calibrate --targets --report` writes it
     /// (SI units), with the validation when given.
     #[pyo3(signature = (validation = None))]
@@ -540,6 +581,9 @@ pub fn calibrate_targets(
             selection: report,
             calibration,
             validation: None,
+            split: None,
+            coverage: None,
+            accuracy_map: None,
         };
         Ok((run, calibrated))
     })?;

@@ -308,6 +308,22 @@ fn step(step: &'static str) -> impl FnOnce(calib::CalibError) -> Error {
     move |source| Error::CalibrationStep { step, source }
 }
 
+/// The accuracy map at the configurations of
+/// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
+/// `predict`.
+pub(crate) fn grid_accuracy(
+    config: &CalibrationConfig,
+    predict: impl FnOnce(&[Vec<f64>]) -> std::result::Result<calib::AccuracyMap, calib::CalibError>,
+) -> Result<Option<calib::AccuracyMap>> {
+    let Some(grid) = &config.accuracy_grid else {
+        return Ok(None);
+    };
+    let configurations = calib::read_configurations(grid).map_err(step("--accuracy-map"))?;
+    predict(&configurations)
+        .map(Some)
+        .map_err(step("--accuracy-map"))
+}
+
 fn read_excluding(
     path: &Path,
     format: MeasurementFormat,
@@ -473,18 +489,9 @@ pub fn run_calibration(
         .map(|set| calibration.accuracy_coverage(robot, set, split.as_ref()))
         .transpose()
         .map_err(step("predicted accuracy at the validation poses"))?;
-    let accuracy_map = match &config.accuracy_grid {
-        Some(grid) => {
-            let configurations =
-                calib::read_configurations(grid).map_err(step("--accuracy-map"))?;
-            Some(
-                calibration
-                    .predicted_accuracy(robot, &configurations, split.as_ref())
-                    .map_err(step("--accuracy-map"))?,
-            )
-        }
-        None => None,
-    };
+    let accuracy_map = grid_accuracy(config, |configurations| {
+        calibration.predicted_accuracy(robot, configurations, split.as_ref())
+    })?;
     let station_hold_out = if config.hold_out_stations {
         calib::hold_out_stations(robot, &data, &base_options, &selection_options)
             .map_err(step("each station held out"))?

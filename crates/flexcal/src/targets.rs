@@ -1,16 +1,22 @@
 //! The calibration workflow with several measured targets per pose (markers
 //! on the hands of a two-armed robot, reflectors on a tool): read the
 //! targets description and the measurements, select the model and
-//! identify it ([`calib::calibrate_targets_selected`]), validate on a
-//! second set, in one call that returns typed, serialisable results.
+//! identify it ([`calib::calibrate_targets_selected`]), check the standard
+//! errors on halves of the poses, validate on a second set with the
+//! predicted 95 % bounds of every observation, predict the accuracy of
+//! every target over a grid, in one call that returns typed, serialisable
+//! results.
 
 use serde::Serialize;
 
 use crate::calib::{
-    self, SelectionReport, TargetCalibration, TargetErrors, TargetMeasurementSet, TargetValidation,
-    UnknownStatus,
+    self, AccuracyMap, SelectionReport, SplitCheck, TargetCalibration, TargetErrors,
+    TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
-use crate::calibration::{CalibrationConfig, CalibrationOutputs, MeasurementFormat};
+use crate::calibration::text::{coverage_line, split_check_text};
+use crate::calibration::{
+    CalibrationConfig, CalibrationOutputs, MeasurementFormat, extrapolation_note, grid_accuracy,
+};
 use crate::{Error, Result};
 
 /// Every result of a multi-target calibration run.
@@ -29,6 +35,15 @@ pub struct TargetCalibrationRun {
     /// The validation (the measurement frame fitted again on the validation
     /// set, as for one target: the instrument may have moved).
     pub validation: Option<TargetValidation>,
+    /// The split-half check, when asked for ([`CalibrationConfig::split_check`];
+    /// [`SplitCheck::for_targets`]).
+    pub split: Option<SplitCheck>,
+    /// Predicted 95 % bounds at the validation observations and the share
+    /// of them that the measured errors respect, with a validation set.
+    pub coverage: Option<AccuracyMap>,
+    /// Predicted accuracy of every target at the configurations of
+    /// [`CalibrationConfig::accuracy_grid`].
+    pub accuracy_map: Option<AccuracyMap>,
 }
 
 /// Runs a multi-target calibration: `config.targets` names the targets
@@ -38,10 +53,11 @@ pub struct TargetCalibrationRun {
 ///
 /// # Errors
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
-/// meaning with several targets (another file format, pose exclusions, a
-/// target start, the split-half, cross-series and residual-model checks,
-/// an accuracy map), and the errors of reading, model selection,
-/// identification and validation, each naming its step.
+/// meaning with several targets or is not built for them (another file
+/// format, stations, pose exclusions, a target start, the cross-series
+/// and residual-model checks), and the errors of reading, model selection,
+/// identification, the split-half check, validation and the accuracy map,
+/// each naming its step.
 pub fn run_target_calibration(
     robot: &crate::kinematics::Model,
     config: &CalibrationConfig,
@@ -64,10 +80,8 @@ pub fn run_target_calibration(
         ("exclude_validation", !config.exclude_validation.is_empty()),
         ("target_mm", config.target_mm.is_some()),
         ("refit_target", config.refit_target),
-        ("split_check", config.split_check),
         ("cross_check", config.cross_check),
         ("residual_inputs", !config.residual_inputs.is_empty()),
-        ("accuracy_grid", config.accuracy_grid.is_some()),
     ];
     if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
         return Err(invalid(name));
@@ -88,20 +102,36 @@ pub fn run_target_calibration(
             .unwrap_or_else(|| calib::default_method_for(data.len())),
         ..Default::default()
     };
-    let (calibration, selection, _) =
+    let (calibration, selection, options) =
         calib::calibrate_targets_selected(robot, &data, &config.options, &selection_options)
             .map_err(step("identification"))?;
+    let split = config
+        .split_check
+        .then(|| SplitCheck::for_targets(robot, &data, &options, &calibration))
+        .transpose()
+        .map_err(step("split-half check on halves of the poses"))?;
     let validation = validation_set
         .as_ref()
         .map(|set| calib::validate_targets(robot, &calibration, set, true))
         .transpose()
         .map_err(step("validation"))?;
+    let coverage = validation_set
+        .as_ref()
+        .map(|set| calibration.accuracy_coverage(robot, set, split.as_ref()))
+        .transpose()
+        .map_err(step("predicted accuracy at the validation observations"))?;
+    let accuracy_map = grid_accuracy(config, |configurations| {
+        calibration.predicted_accuracy(robot, configurations, split.as_ref())
+    })?;
     Ok(TargetCalibrationRun {
         data,
         validation_set,
         selection,
         calibration,
         validation,
+        split,
+        coverage,
+        accuracy_map,
     })
 }
 
@@ -125,30 +155,27 @@ impl TargetCalibrationRun {
 
     /// Writes the files `outputs` names, each atomically: the calibrated
     /// robot description (TOML), the JSON report
-    /// ([`TargetCalibrationRun::to_json_string`]) and the error of every
+    /// ([`TargetCalibrationRun::to_json_string`]), the error of every
     /// observation ([`calib::observation_errors_csv`]: of the validation set
-    /// when there is one, else of the identification set); returns one line
-    /// per file written saying what it holds.
+    /// when there is one, else of the identification set) and the accuracy
+    /// map beside its grid (`<grid>.accuracy.csv`, one row per
+    /// configuration and target); returns one line per file written saying
+    /// what it holds.
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] for the outputs a multi-target run does
-    /// not have (an accuracy map, the HTML page); the file that could not
-    /// be written; a calibrated description that cannot be built.
+    /// [`Error::InvalidParameter`] for the output a multi-target run does
+    /// not have (the HTML page); the file that could not be written; a
+    /// calibrated description that cannot be built.
     pub fn write_outputs(
         &self,
         robot: &crate::kinematics::Model,
         outputs: &CalibrationOutputs,
     ) -> Result<Vec<String>> {
-        for (parameter, set) in [
-            ("accuracy_grid", outputs.accuracy_grid.is_some()),
-            ("html", outputs.html.is_some()),
-        ] {
-            if set {
-                return Err(Error::InvalidParameter {
-                    parameter: parameter.into(),
-                    message: "not available with several targets per pose (--targets)".into(),
-                });
-            }
+        if outputs.html.is_some() {
+            return Err(Error::InvalidParameter {
+                parameter: "html".into(),
+                message: "not available with several targets per pose (--targets)".into(),
+            });
         }
         let mut written = Vec::new();
         if let Some(path) = &outputs.description {
@@ -171,12 +198,25 @@ impl TargetCalibrationRun {
                 path.display()
             ));
         }
+        if let (Some(grid), Some(map)) = (&outputs.accuracy_grid, &self.accuracy_map) {
+            let path = grid.with_extension("accuracy.csv");
+            map.write_csv(&path)?;
+            written.push(format!(
+                "predicted accuracy of {} targets at {} configurations written to {}{}",
+                self.calibration.targets.len(),
+                map.poses.len() / self.calibration.targets.len().max(1),
+                path.display(),
+                extrapolation_note(map)
+            ));
+        }
         Ok(written)
     }
 
     /// The run as text for a terminal: the identification (rank, what the
-    /// targets cannot see, identified unknowns with their standard errors)
-    /// and per-target errors before and after (mm).
+    /// targets cannot see, identified unknowns with their standard errors),
+    /// the split-half check, per-target errors before and after (mm) and
+    /// the share of the validation observations within their predicted
+    /// 95 % bounds.
     pub fn lines(&self) -> Vec<String> {
         let c = &self.calibration;
         let mut lines = vec![format!(
@@ -235,12 +275,18 @@ impl TargetCalibrationRun {
             &c.per_target_before,
             &c.per_target_after,
         ));
+        if let Some(split) = &self.split {
+            lines.extend(split_check_text(split).lines().map(str::to_string));
+        }
         if let Some(v) = &self.validation {
             lines.extend(table(
                 "validation",
                 &v.per_target_before,
                 &v.per_target_after,
             ));
+        }
+        if let Some(map) = &self.coverage {
+            lines.push(coverage_line(map, "observations"));
         }
         lines
     }

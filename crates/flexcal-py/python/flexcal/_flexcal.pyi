@@ -292,6 +292,9 @@ class AccuracyResult:
     @property
     def inflation(self) -> float:
         """Factor on every standard deviation from the split-half check (1: none)."""
+    @property
+    def targets(self) -> Optional[list[str]]:
+        """The target of each entry with several targets (one entry per pose and target); None for one target."""
     def to_csv(self) -> str:
         """The CSV of `flexcal calibrate --accuracy-map` (mm)."""
 
@@ -549,6 +552,10 @@ class TargetCalibrationResult:
     def measurement_frame(self) -> FloatArray:
         """x_meas_base (4, 4), m."""
     def validate(self, other: TargetMeasurementSet, refit_frame: bool = True) -> TargetValidationResult: ...
+    def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
+        """95 % bound of each target's position error at each configuration (one entry per configuration and target)."""
+    def accuracy_coverage(self, other: TargetMeasurementSet) -> AccuracyResult:
+        """The bounds at the observations of `other` with their measured errors and the share within."""
     def to_json(self, validation: Optional[TargetValidationResult] = None) -> str:
         """The JSON report of `flexcal calibrate --targets --report` (SI units)."""
 

@@ -127,6 +127,19 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     assert result.observation_errors[1].shape == (data.n_observations, 3)
     assert validation.after.position_mean < 1.3 * 1.6 * NOISE, validation.after
     assert validation.before.position_mean > 5 * validation.after.position_mean
+    # Predicted 95 % bounds: the truth's model and Gaussian noise, so the
+    # validation errors lie within them about 95 % of the time (72-odd
+    # observations: a binomial spread of 2.6 %).
+    accuracy = result.accuracy_coverage(other)
+    assert accuracy.targets == [name for _, name in labels]
+    np.testing.assert_allclose(accuracy.actual_error, np.linalg.norm(errors, axis=1), rtol=1e-12)
+    assert 0.85 <= accuracy.coverage <= 1.0, accuracy
+    # At configurations: one entry per configuration and marker.
+    grid = result.predicted_accuracy(q_other[:4])
+    assert grid.targets == ["left", "right"] * 4
+    assert np.all(np.isnan(grid.actual_error))
+    assert np.all(grid.bound_95 >= np.sqrt(7.8147) * grid.residual_scatter * (1 - 1e-12))
+    assert grid.to_csv().startswith("pose,target,q1,")
     report = json.loads(result.to_json(validation))
     assert report["calibration"]["n_poses"] == 120
     assert report["validation"]["after"]["position_mean"] == pytest.approx(

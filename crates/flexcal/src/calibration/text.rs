@@ -82,14 +82,7 @@ impl CalibrationRun {
         }
         out += &errors_text(&self.calibration, self.validation.as_ref());
         if let Some(map) = &self.coverage {
-            put!(
-                out,
-                "predicted 95 % bounds (mean {:.3} mm{}) cover {:.1} % of the validation poses",
-                map.mean_bound_95_mm,
-                map.inflation_note()
-                    .map_or(String::new(), |note| format!(", {note}")),
-                100.0 * map.coverage.unwrap_or(f64::NAN)
-            );
+            put!(out, "{}", coverage_line(map, "poses"));
         }
         if let Some(cross) = &self.cross {
             out += &cross_check_text(cross);
@@ -309,6 +302,20 @@ pub fn temperature_text(name: &str, set: &MeasurementSet, errors: &[PoseError]) 
 /// `v` with `digits` decimals, or `-` when there is none.
 fn dash_or(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+}
+
+/// `predicted 95 % bounds (mean ... mm) cover ... % of the validation
+/// <entries>`: the share of a validation set's measured errors within their
+/// predicted bounds (`entries`: `poses`, or `observations` with several
+/// targets).
+pub fn coverage_line(map: &crate::calib::AccuracyMap, entries: &str) -> String {
+    format!(
+        "predicted 95 % bounds (mean {:.3} mm{}) cover {:.1} % of the validation {entries}",
+        map.mean_bound_95_mm,
+        map.inflation_note()
+            .map_or(String::new(), |note| format!(", {note}")),
+        100.0 * map.coverage.unwrap_or(f64::NAN)
+    )
 }
 
 /// The split-half check: each unknown identified again on odd / even and
