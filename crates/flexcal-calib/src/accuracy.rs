@@ -103,9 +103,9 @@ pub struct AccuracyMap {
     pub coverage: Option<f64>,
     /// Mean of the bounds (mm).
     pub mean_bound_95_mm: f64,
-    /// Number of entries whose pose lies outside the identification poses'
-    /// range of at least one actuated coordinate
-    /// ([`PoseAccuracy::outside_training_range`]).
+    /// Number of poses outside the identification poses' range of at least
+    /// one actuated coordinate ([`PoseAccuracy::outside_training_range`];
+    /// with several targets, each pose counted once).
     #[serde(default)]
     pub extrapolated_poses: usize,
 }
@@ -330,7 +330,9 @@ pub(crate) fn accuracy_at<P: Predicting>(
     let s2 = calibration.residual_variance();
     let mut poses = Vec::with_capacity(linearised.observed.len());
     let mut within = 0usize;
-    let mut extrapolated_poses = 0usize;
+    // Poses outside the training range (with several targets, each pose
+    // counted once).
+    let mut extrapolated = std::collections::BTreeSet::new();
     for (k, observed) in linearised.observed.into_iter().enumerate() {
         let rows_k = DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
         let pred = &rows_k * &sigma * rows_k.transpose();
@@ -346,7 +348,9 @@ pub(crate) fn accuracy_at<P: Predicting>(
             crate::coverage::outside(calibration.training_ranges(), q)
                 .map(|i| model.actuated_names()[i].clone())
                 .collect();
-        extrapolated_poses += usize::from(!outside_training_range.is_empty());
+        if !outside_training_range.is_empty() {
+            extrapolated.insert(observed.pose);
+        }
         poses.push(PoseAccuracy {
             outside_training_range,
             pose: label(observed.pose),
@@ -366,7 +370,7 @@ pub(crate) fn accuracy_at<P: Predicting>(
         residual_scatter_mm: s2.sqrt() * 1e3,
         inflation,
         mean_bound_95_mm,
-        extrapolated_poses,
+        extrapolated_poses: extrapolated.len(),
     })
 }
 

@@ -202,9 +202,6 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         html: args.html,
     };
     let written = if config.targets.is_some() {
-        if outputs.html.is_some() {
-            crate::usage_bail!("--html is not available with --targets");
-        }
         let run = run_target_calibration(&model, &config)?;
         print!("{}", run.summary_text(&model));
         run.write_outputs(&model, &outputs)?

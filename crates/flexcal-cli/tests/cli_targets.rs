@@ -96,6 +96,7 @@ fn two_markers_calibrate_end_to_end() {
     let report = d.join("report.json");
     let calibrated = d.join("calibrated.toml");
     let residuals = d.join("errors.csv");
+    let page = d.join("report.html");
     // A grid of seven configurations: the first poses of a third set.
     let grid = d.join("grid.csv");
     let mut grid_text = String::from("q1,q2,q3,q4,q5,q6,q7,q8,q9\n");
@@ -124,6 +125,8 @@ fn two_markers_calibrate_end_to_end() {
         "--split-check",
         "--accuracy-map",
         &grid.display().to_string(),
+        "--html",
+        &page.display().to_string(),
     ];
     let out = flexcal(&args);
     let text = stdout(&out);
@@ -220,6 +223,16 @@ fn two_markers_calibrate_end_to_end() {
     for r in &rows {
         let bound: f64 = r[12].parse().unwrap();
         assert!(bound.is_finite() && bound >= 0.0, "{r:?}");
+    }
+    // The HTML page: the validation observations against their bounds and
+    // the map of both markers.
+    let html = std::fs::read_to_string(&page).unwrap();
+    for expected in [
+        "Predicted accuracy on the validation observations",
+        "at 14 configurations and targets",
+        "validation, right on RH, calibrated",
+    ] {
+        assert!(html.contains(expected), "{expected} missing");
     }
 }
 

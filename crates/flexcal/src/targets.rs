@@ -13,10 +13,13 @@ use crate::calib::{
     self, AccuracyMap, SelectionReport, SplitCheck, TargetCalibration, TargetErrors,
     TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
+use crate::calibration::html::{calibration_page, errors_chart, statistics_row, unknowns_section};
 use crate::calibration::text::{coverage_line, split_check_text};
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, MeasurementFormat, extrapolation_note, grid_accuracy,
 };
+use crate::report::svg::Series;
+use crate::report::{Report, Section};
 use crate::{Error, Result};
 
 /// Every result of a multi-target calibration run.
@@ -155,7 +158,8 @@ impl TargetCalibrationRun {
 
     /// Writes the files `outputs` names, each atomically: the calibrated
     /// robot description (TOML), the JSON report
-    /// ([`TargetCalibrationRun::to_json_string`]), the error of every
+    /// ([`TargetCalibrationRun::to_json_string`]), the HTML page
+    /// ([`TargetCalibrationRun::html_report`]), the error of every
     /// observation ([`calib::observation_errors_csv`]: of the validation set
     /// when there is one, else of the identification set) and the accuracy
     /// map beside its grid (`<grid>.accuracy.csv`, one row per
@@ -163,20 +167,13 @@ impl TargetCalibrationRun {
     /// what it holds.
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] for the output a multi-target run does
-    /// not have (the HTML page); the file that could not be written; a
-    /// calibrated description that cannot be built.
+    /// The file that could not be written; a calibrated description that
+    /// cannot be built.
     pub fn write_outputs(
         &self,
         robot: &crate::kinematics::Model,
         outputs: &CalibrationOutputs,
     ) -> Result<Vec<String>> {
-        if outputs.html.is_some() {
-            return Err(Error::InvalidParameter {
-                parameter: "html".into(),
-                message: "not available with several targets per pose (--targets)".into(),
-            });
-        }
         let mut written = Vec::new();
         if let Some(path) = &outputs.description {
             let description = self.calibration.description(robot)?;
@@ -197,6 +194,10 @@ impl TargetCalibrationRun {
                 "error of every {which} observation written to {}",
                 path.display()
             ));
+        }
+        if let Some(path) = &outputs.html {
+            flexcal_io::write_atomic(path, self.html_report(robot).to_html())?;
+            written.push(format!("HTML report written to {}", path.display()));
         }
         if let (Some(grid), Some(map)) = (&outputs.accuracy_grid, &self.accuracy_map) {
             let path = grid.with_extension("accuracy.csv");
@@ -289,6 +290,95 @@ impl TargetCalibrationRun {
             lines.push(coverage_line(map, "observations"));
         }
         lines
+    }
+
+    /// The run as a report page (write it with [`Report::to_html`]): the
+    /// errors of each target before and after, the model selection, every
+    /// unknown, the validation observations against their predicted
+    /// bounds, and the accuracy map with each target drawn where it is.
+    pub fn html_report(&self, robot: &crate::kinematics::Model) -> Report {
+        let c = &self.calibration;
+        let model = if c.elastic.is_some() {
+            "elasto-geometric"
+        } else {
+            "geometric"
+        };
+        let names: Vec<&str> = c.targets.iter().map(|t| t.name.as_str()).collect();
+        calibration_page(
+            robot,
+            format!(
+                "{model} model identified from {} poses of {} ({} observations of {} targets: {})",
+                c.n_poses,
+                self.data.source,
+                c.n_observations,
+                names.len(),
+                names.join(", ")
+            ),
+            self.errors_section(),
+            self.selection.as_ref(),
+            unknowns_section(&c.unknowns, c.rank(), &c.solve),
+            self.coverage.as_ref().map(|m| (m, "observations")),
+            self.accuracy_map.as_ref(),
+        )
+    }
+
+    /// Per-target errors before and after, and each observation's error
+    /// after calibration pose by pose, one series per target.
+    fn errors_section(&self) -> Section {
+        let c = &self.calibration;
+        let mut section = Section::new("Position errors");
+        let mut rows = Vec::new();
+        let mut push = |set: &str, before: &[TargetErrors], after: &[TargetErrors]| {
+            for (b, a) in before.iter().zip(after) {
+                rows.push(statistics_row(
+                    &format!("{set}, {} on {}, nominal", b.target, b.frame),
+                    &b.statistics,
+                ));
+                rows.push(statistics_row(
+                    &format!("{set}, {} on {}, calibrated", a.target, a.frame),
+                    &a.statistics,
+                ));
+            }
+        };
+        push("identification", &c.per_target_before, &c.per_target_after);
+        if let Some(v) = &self.validation {
+            push("validation", &v.per_target_before, &v.per_target_after);
+        }
+        section.table(
+            "Position error of each target (mm), measurement frame fitted for the nominal robot",
+            &["set, target, robot", "count", "mean", "RMS", "max"],
+            rows,
+        );
+        let (name, set, errors) = match (&self.validation, &self.validation_set) {
+            (Some(v), Some(set)) => ("validation", set, &v.observation_errors),
+            _ => ("identification", &self.data, &c.observation_errors),
+        };
+        // The pose of each observation by its label, in the set's order.
+        let index: std::collections::HashMap<String, usize> = set
+            .poses()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (p.label(k), k + 1))
+            .collect();
+        let series: Vec<Series> = c
+            .targets
+            .iter()
+            .map(|t| {
+                let points = errors
+                    .iter()
+                    .filter(|e| e.target == t.name)
+                    .filter_map(|e| Some((*index.get(&e.pose)? as f64, e.error.norm() * 1e3)))
+                    .collect();
+                Series::new(t.name.clone(), points)
+            })
+            .collect();
+        section.figure(
+            errors_chart(name, &series),
+            format!(
+                "Each target's position error with the calibrated robot at each {name} pose that sees it, in the order of the file."
+            ),
+        );
+        section
     }
 
     /// The run as JSON (SI units, as in the types).
@@ -406,15 +496,29 @@ mod tests {
         );
         let csv = std::fs::read_to_string(dir.path().join("residuals.csv")).unwrap();
         assert_eq!(csv.lines().count(), 81, "{csv}");
-        // The HTML page is refused by name.
+        // The HTML page: each target's errors, every unknown, one series
+        // per target in the chart.
         let html = CalibrationOutputs {
             html: Some(dir.path().join("report.html")),
             ..outputs
         };
-        assert!(matches!(
-            run.write_outputs(&robot, &html),
-            Err(Error::InvalidParameter { .. })
-        ));
-        assert!(!dir.path().join("report.html").exists());
+        let written = run.write_outputs(&robot, &html).unwrap();
+        assert!(
+            written
+                .iter()
+                .any(|l| l.starts_with("HTML report written to")),
+            "{written:?}"
+        );
+        let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+        for expected in [
+            "80 observations of 2 targets: left, right",
+            "identification, left on LH, calibrated",
+            "identification, right on RH, nominal",
+            "Identified unknowns",
+            "target.left.x",
+            "<svg",
+        ] {
+            assert!(page.contains(expected), "{expected} missing");
+        }
     }
 }

@@ -9,8 +9,9 @@
 //! Units: positions and errors in mm, unknowns in the display unit of their
 //! kind ([`crate::calib::error_model::UnknownKind::display_unit`]).
 
-use crate::calib::{AccuracyMap, ErrorStatistics, SelectionReport};
+use crate::calib::{AccuracyMap, ErrorStatistics, SelectionReport, UnknownEstimate};
 use crate::kinematics::Model;
+use crate::optim::SolveReport;
 use crate::report::svg::{self, Series, YScale};
 use crate::report::{Report, Section};
 
@@ -25,26 +26,23 @@ impl CalibrationRun {
         } else {
             "geometric"
         };
-        let mut report = Report::new(
-            format!("Calibration of {}", robot.name()),
+        calibration_page(
+            robot,
             format!(
                 "{model} model identified from {} poses of {}",
                 self.data.len(),
                 self.data.source
             ),
-        );
-        report.push(self.errors_section());
-        if let Some(selection) = &self.selection {
-            report.push(selection_section(selection));
-        }
-        report.push(self.unknowns_section());
-        if let Some(coverage) = &self.coverage {
-            report.push(coverage_section(coverage));
-        }
-        if let Some(map) = &self.accuracy_map {
-            report.push(map_section(map));
-        }
-        report
+            self.errors_section(),
+            self.selection.as_ref(),
+            unknowns_section(
+                &self.calibration.unknowns,
+                self.calibration.rank(),
+                &self.calibration.solve,
+            ),
+            self.coverage.as_ref().map(|c| (c, "poses")),
+            self.accuracy_map.as_ref(),
+        )
     }
 
     fn errors_section(&self) -> Section {
@@ -80,63 +78,101 @@ impl CalibrationRun {
             .map(|(k, e)| ((k + 1) as f64, e.position * 1e3))
             .collect();
         section.figure(
-            svg::line_chart(
-                &format!("Position error after calibration, {name} poses"),
-                "pose (file order)",
-                "error [mm]",
-                &[Series::new("calibrated", points)],
-                YScale::Linear,
-            ),
+            errors_chart(name, &[Series::new("calibrated", points)]),
             format!(
                 "Each {name} pose's position error with the calibrated robot, in the order of the file."
             ),
         );
         section
     }
-
-    fn unknowns_section(&self) -> Section {
-        let mut section = Section::new("Identified unknowns");
-        let rows = self
-            .calibration
-            .unknowns
-            .iter()
-            .map(|u| {
-                let (unit, factor) = u.kind.display_unit();
-                vec![
-                    u.name.clone(),
-                    unit.to_string(),
-                    format!("{:.6}", u.initial * factor),
-                    format!("{:.6}", u.value * factor),
-                    u.standard_error
-                        .map_or(String::new(), |s| format!("{:.6}", s * factor)),
-                    status_word(u.status).to_string(),
-                ]
-            })
-            .collect();
-        section.paragraph(format!(
-            "{} of {} unknowns identified; termination: {:?} after {} iterations.",
-            self.calibration.rank(),
-            self.calibration.unknowns.len(),
-            self.calibration.solve.termination,
-            self.calibration.solve.iterations
-        ));
-        section.table(
-            "Every unknown: starting and identified value, standard error",
-            &[
-                "unknown",
-                "unit",
-                "start",
-                "identified",
-                "std error",
-                "status",
-            ],
-            rows,
-        );
-        section
-    }
 }
 
-fn statistics_row(label: &str, s: &ErrorStatistics) -> Vec<String> {
+/// The chart of the position errors after calibration of the `name` set's
+/// poses (mm, against the pose's place in the file).
+pub(crate) fn errors_chart(name: &str, series: &[Series]) -> String {
+    svg::line_chart(
+        &format!("Position error after calibration, {name} poses"),
+        "pose (file order)",
+        "error [mm]",
+        series,
+        YScale::Linear,
+    )
+}
+
+/// The page of a calibration run: its errors section, then the model
+/// selection, every unknown, the validation `entries` (`poses` or
+/// `observations`) against their bounds and the accuracy map, as far as the
+/// run has them.
+pub(crate) fn calibration_page(
+    robot: &Model,
+    subtitle: String,
+    errors: Section,
+    selection: Option<&SelectionReport>,
+    unknowns: Section,
+    coverage: Option<(&AccuracyMap, &str)>,
+    map: Option<&AccuracyMap>,
+) -> Report {
+    let mut report = Report::new(format!("Calibration of {}", robot.name()), subtitle);
+    report.push(errors);
+    if let Some(selection) = selection {
+        report.push(selection_section(selection));
+    }
+    report.push(unknowns);
+    if let Some((coverage, entries)) = coverage {
+        report.push(coverage_section(coverage, entries));
+    }
+    if let Some(map) = map {
+        report.push(map_section(map));
+    }
+    report
+}
+
+/// Every unknown: its start, identified value, standard error and status.
+pub(crate) fn unknowns_section(
+    unknowns: &[UnknownEstimate],
+    rank: usize,
+    solve: &SolveReport,
+) -> Section {
+    let mut section = Section::new("Identified unknowns");
+    let rows = unknowns
+        .iter()
+        .map(|u| {
+            let (unit, factor) = u.kind.display_unit();
+            vec![
+                u.name.clone(),
+                unit.to_string(),
+                format!("{:.6}", u.initial * factor),
+                format!("{:.6}", u.value * factor),
+                u.standard_error
+                    .map_or(String::new(), |s| format!("{:.6}", s * factor)),
+                status_word(u.status).to_string(),
+            ]
+        })
+        .collect();
+    section.paragraph(format!(
+        "{} of {} unknowns identified; termination: {:?} after {} iterations.",
+        rank,
+        unknowns.len(),
+        solve.termination,
+        solve.iterations
+    ));
+    section.table(
+        "Every unknown: starting and identified value, standard error",
+        &[
+            "unknown",
+            "unit",
+            "start",
+            "identified",
+            "std error",
+            "status",
+        ],
+        rows,
+    );
+    section
+}
+
+/// A row of an errors table: count, mean, RMS and max (mm).
+pub(crate) fn statistics_row(label: &str, s: &ErrorStatistics) -> Vec<String> {
     vec![
         label.to_string(),
         s.n_poses.to_string(),
@@ -146,6 +182,7 @@ fn statistics_row(label: &str, s: &ErrorStatistics) -> Vec<String> {
     ]
 }
 
+/// The candidates of the model selection and the reasons of its steps.
 fn selection_section(selection: &SelectionReport) -> Section {
     let mut section = Section::new("Model selection");
     let chosen = selection.chosen.clone();
@@ -188,8 +225,10 @@ fn selection_section(selection: &SelectionReport) -> Section {
     section
 }
 
-fn coverage_section(map: &AccuracyMap) -> Section {
-    let mut section = Section::new("Predicted accuracy on the validation poses");
+/// The measured errors of the validation `entries` (`poses`, or
+/// `observations` with several targets) against their predicted bounds.
+fn coverage_section(map: &AccuracyMap, entries: &str) -> Section {
+    let mut section = Section::new(format!("Predicted accuracy on the validation {entries}"));
     let mut order: Vec<usize> = (0..map.poses.len()).collect();
     order.sort_by(|&a, &b| {
         map.poses[a]
@@ -209,7 +248,7 @@ fn coverage_section(map: &AccuracyMap) -> Section {
     section.figure(
         svg::line_chart(
             "Measured error against the predicted 95 % bound",
-            "validation pose (ordered by bound)",
+            &format!("validation {} (ordered by bound)", entries.trim_end_matches('s')),
             "position error [mm]",
             &[
                 Series::new("measured", actual),
@@ -218,7 +257,7 @@ fn coverage_section(map: &AccuracyMap) -> Section {
             YScale::Linear,
         ),
         format!(
-            "The measured errors lie within their bound at {:.1} % of the validation poses (95 % expected where the validation poses see what the training poses saw); mean bound {:.3} mm, training residual scatter {:.4} mm per axis.",
+            "The measured errors lie within their bound at {:.1} % of the validation {entries} (95 % expected where the validation poses see what the training poses saw); mean bound {:.3} mm, training residual scatter {:.4} mm per axis.",
             100.0 * map.coverage.unwrap_or(f64::NAN),
             map.mean_bound_95_mm,
             map.residual_scatter_mm
@@ -227,6 +266,7 @@ fn coverage_section(map: &AccuracyMap) -> Section {
     section
 }
 
+/// The accuracy map drawn where each target is.
 fn map_section(map: &AccuracyMap) -> Section {
     let mut section = Section::new("Accuracy map");
     let view = |a: usize, b: usize| -> Vec<(f64, f64, f64)> {
@@ -235,8 +275,14 @@ fn map_section(map: &AccuracyMap) -> Section {
             .map(|p| (p.position_mm[a], p.position_mm[b], p.bound_95_mm))
             .collect()
     };
+    let with_targets = map.poses.iter().any(|p| p.target.is_some());
+    let entries = if with_targets {
+        "configurations and targets"
+    } else {
+        "configurations"
+    };
     section.paragraph(format!(
-        "Predicted 95 % bound of the position error at {} configurations: mean {:.3} mm, from {:.3} to {:.3} mm; training residual scatter {:.4} mm per axis{}{}.",
+        "Predicted 95 % bound of the position error at {} {entries}: mean {:.3} mm, from {:.3} to {:.3} mm; training residual scatter {:.4} mm per axis{}{}.",
         map.poses.len(),
         map.mean_bound_95_mm,
         map.poses.iter().map(|p| p.bound_95_mm).fold(f64::INFINITY, f64::min),
@@ -256,7 +302,12 @@ fn map_section(map: &AccuracyMap) -> Section {
                 "mm",
             ),
             format!(
-                "Each configuration of the grid drawn at the calibrated target position, projected on the {plane} plane, coloured by its predicted 95 % bound."
+                "Each {} drawn at the calibrated target position, projected on the {plane} plane, coloured by its predicted 95 % bound.",
+                if with_targets {
+                    "target at each configuration of the grid"
+                } else {
+                    "configuration of the grid"
+                }
             ),
         );
     }
