@@ -27,10 +27,14 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{Calibration, CalibrationOptions, UnknownStatus, calibrate};
+use crate::identify::{Calibration, CalibrationOptions, UnknownStatus};
+use crate::identify_targets::TargetCalibration;
+use crate::prediction::Predicting;
+use crate::selection::Selectable;
 use crate::split::{
-    SplitCheck, compared_unknowns, median, not_compared_note, reidentification_options,
+    SplitCheck, compared_unknowns, median, not_compared_note, reidentification_options, split_check,
 };
+use crate::targets::TargetMeasurementSet;
 use crate::{CalibError, MeasurementSet};
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard
@@ -96,9 +100,9 @@ impl CrossCheck {
     /// split check of its own and the estimates their `z_split`.
     ///
     /// # Errors
-    /// What [`calibrate`] returns on `other` (too few poses, a kinematic
-    /// failure naming the pose) or on its halves (but too few poses there,
-    /// which leaves `z_split` unknown and says why in
+    /// What [`crate::calibrate`] returns on `other` (too few poses, a
+    /// kinematic failure naming the pose) or on its halves (but too few
+    /// poses there, which leaves `z_split` unknown and says why in
     /// [`CrossCheck::other_split_failure`]).
     pub fn new(
         model: &Model,
@@ -107,66 +111,23 @@ impl CrossCheck {
         calibration: &Calibration,
         split: Option<&SplitCheck>,
     ) -> Result<Self, CalibError> {
-        let other_options = reidentification_options(options, &calibration.unknowns);
-        let refit = calibrate(model, other, &other_options)?;
-        // A set too small to halve gets no split check: z alone, and a note.
-        let (other_split, other_split_failure) =
-            match split.map(|_| SplitCheck::new(model, other, &other_options, &refit)) {
-                Some(Ok(check)) => (Some(check), None),
-                Some(Err(e @ CalibError::TooFewPoses { .. })) => (None, Some(e.to_string())),
-                Some(Err(e)) => return Err(e),
-                None => (None, None),
-            };
-        let split_error = |check: Option<&SplitCheck>, name: &str| {
-            check
-                .and_then(|c| c.unknowns.iter().find(|u| u.name == name))
-                .and_then(|u| u.split_error)
-        };
-        let unknowns = compared_unknowns(&calibration.unknowns)
-            .map(|(_, u)| {
-                let (unit, scale) = u.kind.display_unit();
-                // The same unknowns in the same order; found by name all the same.
-                let other = refit
-                    .unknowns
-                    .iter()
-                    .find(|o| o.name == u.name && o.status == UnknownStatus::Identified);
-                let value = u.value * scale;
-                let standard_error = u.standard_error.unwrap_or(f64::NAN) * scale;
-                let other_value = other.map(|o| o.value * scale);
-                let other_standard_error = other.and_then(|o| o.standard_error).map(|s| s * scale);
-                let z = |se: f64, other_se: f64| {
-                    let combined = se.hypot(other_se);
-                    other_value
-                        .filter(|_| combined > 0.0)
-                        .map(|v| (v - value) / combined)
-                };
-                let (first_split, second_split) = (
-                    split_error(split, &u.name),
-                    split_error(other_split.as_ref(), &u.name),
-                );
-                CrossEstimate {
-                    name: u.name.clone(),
-                    unit,
-                    value,
-                    standard_error,
-                    other_value,
-                    other_standard_error,
-                    z: other_standard_error.and_then(|s| z(standard_error, s)),
-                    split_error: first_split,
-                    other_split_error: second_split,
-                    z_split: match (first_split, second_split, other_standard_error) {
-                        (Some(a), Some(b), Some(s)) => z(standard_error.max(a), s.max(b)),
-                        _ => None,
-                    },
-                }
-            })
-            .collect();
-        Ok(Self {
-            other_set: other.source.clone(),
-            other_poses: other.len(),
-            unknowns,
-            other_split_failure,
-        })
+        cross_check(model, other, options, calibration, split)
+    }
+
+    /// The check of a multi-target identification against another set of
+    /// the same targets: as [`CrossCheck::new`], with
+    /// [`SplitCheck::for_targets`] on the other set when `split` is given.
+    ///
+    /// # Errors
+    /// As [`CrossCheck::new`], from [`crate::calibrate_targets`].
+    pub fn for_targets(
+        model: &Model,
+        other: &TargetMeasurementSet,
+        options: &CalibrationOptions,
+        calibration: &TargetCalibration,
+        split: Option<&SplitCheck>,
+    ) -> Result<Self, CalibError> {
+        cross_check(model, other, options, calibration, split)
     }
 
     /// The unknowns whose `|z|` exceeds [`CROSS_Z_WARNING`].
@@ -231,4 +192,78 @@ impl CrossCheck {
         }
         notes
     }
+}
+
+/// [`CrossCheck::new`] and [`CrossCheck::for_targets`].
+fn cross_check<S>(
+    model: &Model,
+    other: &S,
+    options: &CalibrationOptions,
+    calibration: &S::Fitted,
+    split: Option<&SplitCheck>,
+) -> Result<CrossCheck, CalibError>
+where
+    S: Selectable,
+    S::Fitted: Predicting<Set = S>,
+{
+    let other_options = reidentification_options(options, calibration.estimates());
+    let refit = other.fit(model, &other_options)?;
+    // A set too small to halve gets no split check: z alone, and a note.
+    let (other_split, other_split_failure) =
+        match split.map(|_| split_check(model, other, &other_options, &refit)) {
+            Some(Ok(check)) => (Some(check), None),
+            Some(Err(e @ CalibError::TooFewPoses { .. })) => (None, Some(e.to_string())),
+            Some(Err(e)) => return Err(e),
+            None => (None, None),
+        };
+    let split_error = |check: Option<&SplitCheck>, name: &str| {
+        check
+            .and_then(|c| c.unknowns.iter().find(|u| u.name == name))
+            .and_then(|u| u.split_error)
+    };
+    let unknowns = compared_unknowns(calibration.estimates())
+        .map(|(_, u)| {
+            let (unit, scale) = u.kind.display_unit();
+            // The same unknowns in the same order; found by name all the same.
+            let other = refit
+                .estimates()
+                .iter()
+                .find(|o| o.name == u.name && o.status == UnknownStatus::Identified);
+            let value = u.value * scale;
+            let standard_error = u.standard_error.unwrap_or(f64::NAN) * scale;
+            let other_value = other.map(|o| o.value * scale);
+            let other_standard_error = other.and_then(|o| o.standard_error).map(|s| s * scale);
+            let z = |se: f64, other_se: f64| {
+                let combined = se.hypot(other_se);
+                other_value
+                    .filter(|_| combined > 0.0)
+                    .map(|v| (v - value) / combined)
+            };
+            let (first_split, second_split) = (
+                split_error(split, &u.name),
+                split_error(other_split.as_ref(), &u.name),
+            );
+            CrossEstimate {
+                name: u.name.clone(),
+                unit,
+                value,
+                standard_error,
+                other_value,
+                other_standard_error,
+                z: other_standard_error.and_then(|s| z(standard_error, s)),
+                split_error: first_split,
+                other_split_error: second_split,
+                z_split: match (first_split, second_split, other_standard_error) {
+                    (Some(a), Some(b), Some(s)) => z(standard_error.max(a), s.max(b)),
+                    _ => None,
+                },
+            }
+        })
+        .collect();
+    Ok(CrossCheck {
+        other_set: other.source().to_string(),
+        other_poses: other.n_poses(),
+        unknowns,
+        other_split_failure,
+    })
 }

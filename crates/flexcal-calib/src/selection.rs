@@ -71,6 +71,8 @@ pub(crate) trait Selectable: Sized + Sync {
     type Fitted;
     /// Number of poses.
     fn n_poses(&self) -> usize;
+    /// Where the poses come from (a file name).
+    fn source(&self) -> &str;
     /// Actuated coordinates of pose `k` (rad, m).
     fn configuration(&self, k: usize) -> &[f64];
     /// Number of stations (measurement frames).
@@ -102,6 +104,9 @@ impl Selectable for MeasurementSet {
     type Fitted = Calibration;
     fn n_poses(&self) -> usize {
         self.len()
+    }
+    fn source(&self) -> &str {
+        &self.source
     }
     fn configuration(&self, k: usize) -> &[f64] {
         &self.measurements()[k].q
@@ -140,6 +145,9 @@ impl Selectable for TargetMeasurementSet {
     type Fitted = TargetCalibration;
     fn n_poses(&self) -> usize {
         self.len()
+    }
+    fn source(&self) -> &str {
+        &self.source
     }
     fn configuration(&self, k: usize) -> &[f64] {
         &self.poses()[k].q

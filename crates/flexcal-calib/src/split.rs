@@ -191,7 +191,7 @@ impl SplitCheck {
 }
 
 /// [`SplitCheck::new`] and [`SplitCheck::for_targets`].
-fn split_check<S>(
+pub(crate) fn split_check<S>(
     model: &Model,
     set: &S,
     options: &CalibrationOptions,

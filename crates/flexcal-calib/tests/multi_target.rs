@@ -37,6 +37,7 @@ fn robot() -> Model {
 }
 
 /// The simulated truth: robot parameters, tracker placement, marker offsets.
+#[derive(Clone)]
 struct Truth {
     xi: Vec<f64>,
     x_meas_base: Isometry3<f64>,
@@ -421,7 +422,7 @@ fn one_target_on_the_tcp_matches_the_one_target_identification() {
 /// the file's order, and the CSV names the marker.
 #[test]
 fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
-    use flexcal_calib::SplitCheck;
+    use flexcal_calib::{CrossCheck, SplitCheck};
     let model = robot();
     let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0x6163_6375);
@@ -468,6 +469,35 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
         "{}",
         map.residual_scatter_mm
     );
+
+    // The cross-series check: another campaign of the same robot agrees on
+    // every unknown (|z| of a standard normal: median 0.67); a campaign of
+    // a robot whose left forearm is 0.3 mm longer (about 100 standard
+    // errors) is named for that length.
+    let cross =
+        CrossCheck::for_targets(&model, &validation, &options, &calibration, Some(&split)).unwrap();
+    let mut z: Vec<f64> = cross
+        .unknowns
+        .iter()
+        .filter_map(|u| u.judged_z().map(f64::abs))
+        .collect();
+    z.sort_by(f64::total_cmp);
+    println!(
+        "cross-series check, same robot: median |z| {:.2}, largest {:.2}, over {} unknowns",
+        z[z.len() / 2],
+        z[z.len() - 1],
+        z.len()
+    );
+    assert!(z.len() > 30 && z[z.len() / 2] < 1.2, "{z:?}");
+    assert!(cross.disagreeing().count() <= 1, "{:?}", cross.notes());
+    let mut changed = truth.clone();
+    changed.xi[model.param_index("dL3").unwrap()] += 0.3e-3;
+    let other = measure(&model, &changed, &targets, 200, &mut rng);
+    let cross =
+        CrossCheck::for_targets(&model, &other, &options, &calibration, Some(&split)).unwrap();
+    let named: Vec<&str> = cross.disagreeing().map(|u| u.name.as_str()).collect();
+    println!("cross-series check, left forearm 0.3 mm longer: {named:?}");
+    assert!(named.contains(&"dL3"), "{:?}", cross.notes());
 
     // A grid: one entry per configuration and marker.
     let grid: Vec<Vec<f64>> = set.poses()[..5].iter().map(|p| p.q.clone()).collect();

@@ -123,6 +123,7 @@ fn two_markers_calibrate_end_to_end() {
         "--residuals",
         &residuals.display().to_string(),
         "--split-check",
+        "--cross-check",
         "--accuracy-map",
         &grid.display().to_string(),
         "--html",
@@ -202,6 +203,13 @@ fn two_markers_calibrate_end_to_end() {
     );
     assert!(text.contains("% of the validation observations"), "{text}");
     assert_eq!(json["coverage"]["poses"].as_array().unwrap().len(), 60);
+    assert!(text.contains("Cross-series check"), "{text}");
+    assert_eq!(
+        json["cross"]["other_poses"].as_u64(),
+        Some(30),
+        "{}",
+        json["cross"]
+    );
     assert!(json["split"]["unknowns"].as_array().unwrap().len() > 20);
     assert!(
         text.contains("predicted accuracy of 2 targets at 7 configurations written to"),

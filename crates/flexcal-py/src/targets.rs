@@ -584,6 +584,7 @@ pub fn calibrate_targets(
             split: None,
             coverage: None,
             accuracy_map: None,
+            cross: None,
         };
         Ok((run, calibrated))
     })?;

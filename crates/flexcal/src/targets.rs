@@ -10,11 +10,11 @@
 use serde::Serialize;
 
 use crate::calib::{
-    self, AccuracyMap, SelectionReport, SplitCheck, TargetCalibration, TargetErrors,
+    self, AccuracyMap, CrossCheck, SelectionReport, SplitCheck, TargetCalibration, TargetErrors,
     TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
 use crate::calibration::html::{calibration_page, errors_chart, statistics_row, unknowns_section};
-use crate::calibration::text::{coverage_line, split_check_text};
+use crate::calibration::text::{coverage_line, cross_check_text, split_check_text};
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, MeasurementFormat, extrapolation_note, grid_accuracy,
 };
@@ -47,6 +47,9 @@ pub struct TargetCalibrationRun {
     /// Predicted accuracy of every target at the configurations of
     /// [`CalibrationConfig::accuracy_grid`].
     pub accuracy_map: Option<AccuracyMap>,
+    /// The cross-series check on the validation set, when asked for
+    /// ([`CalibrationConfig::cross_check`]; [`CrossCheck::for_targets`]).
+    pub cross: Option<CrossCheck>,
 }
 
 /// Runs a multi-target calibration: `config.targets` names the targets
@@ -57,10 +60,10 @@ pub struct TargetCalibrationRun {
 /// # Errors
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
 /// meaning with several targets or is not built for them (another file
-/// format, stations, pose exclusions, a target start, the cross-series
-/// and residual-model checks), and the errors of reading, model selection,
-/// identification, the split-half check, validation and the accuracy map,
-/// each naming its step.
+/// format, stations, pose exclusions, a target start, the residual
+/// model), and the errors of reading, model selection, identification,
+/// the split-half and cross-series checks, validation and the accuracy
+/// map, each naming its step.
 pub fn run_target_calibration(
     robot: &crate::kinematics::Model,
     config: &CalibrationConfig,
@@ -83,11 +86,16 @@ pub fn run_target_calibration(
         ("exclude_validation", !config.exclude_validation.is_empty()),
         ("target_mm", config.target_mm.is_some()),
         ("refit_target", config.refit_target),
-        ("cross_check", config.cross_check),
         ("residual_inputs", !config.residual_inputs.is_empty()),
     ];
     if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
         return Err(invalid(name));
+    }
+    if config.cross_check && config.validate.is_none() {
+        return Err(Error::InvalidParameter {
+            parameter: "cross_check".into(),
+            message: "needs a validation set".into(),
+        });
     }
     let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
     let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
@@ -126,6 +134,13 @@ pub fn run_target_calibration(
     let accuracy_map = grid_accuracy(config, |configurations| {
         calibration.predicted_accuracy(robot, configurations, split.as_ref())
     })?;
+    let cross = match (&validation_set, config.cross_check) {
+        (Some(set), true) => Some(
+            CrossCheck::for_targets(robot, set, &options, &calibration, split.as_ref())
+                .map_err(step("cross-series check on the validation poses"))?,
+        ),
+        _ => None,
+    };
     Ok(TargetCalibrationRun {
         data,
         validation_set,
@@ -135,6 +150,7 @@ pub fn run_target_calibration(
         split,
         coverage,
         accuracy_map,
+        cross,
     })
 }
 
@@ -288,6 +304,9 @@ impl TargetCalibrationRun {
         }
         if let Some(map) = &self.coverage {
             lines.push(coverage_line(map, "observations"));
+        }
+        if let Some(cross) = &self.cross {
+            lines.extend(cross_check_text(cross).lines().map(str::to_string));
         }
         lines
     }
