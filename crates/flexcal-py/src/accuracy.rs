@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use flexcal::calib::{AccuracyMap, Calibration, MeasurementSet as Set};
+use flexcal::calib::{AccuracyMap, Calibration, MeasurementSet as Set, SplitCheck};
 use flexcal::kinematics::Model;
 use pyo3::prelude::*;
 
@@ -150,15 +150,21 @@ impl AccuracyResult {
     }
 }
 
-/// `CalibrationResult.predicted_accuracy`: the bounds at the rows of `q`.
+/// The rows of `q` as configurations.
+pub(crate) fn configurations(q: &Rows) -> Vec<Vec<f64>> {
+    (0..q.n).map(|k| q.row(k).to_vec()).collect()
+}
+
+/// `CalibrationResult.predicted_accuracy`: the bounds at the rows of `q`,
+/// raised by `split` where it finds the covariance understated.
 pub(crate) fn predicted(
     calibration: &Calibration,
     model: &Model,
     q: &Rows,
+    split: Option<&SplitCheck>,
 ) -> PyResult<AccuracyResult> {
-    let configurations: Vec<Vec<f64>> = (0..q.n).map(|k| q.row(k).to_vec()).collect();
     let map = calibration
-        .predicted_accuracy(model, &configurations, None)
+        .predicted_accuracy(model, &configurations(q), split)
         .map_err(|e| calib_error(&e))?;
     Ok(AccuracyResult::new(map))
 }
@@ -169,7 +175,8 @@ pub(crate) fn coverage(
     calibration: &Calibration,
     model: &Model,
     set: &Set,
+    split: Option<&SplitCheck>,
 ) -> Result<AccuracyResult, flexcal::calib::CalibError> {
-    let map = calibration.accuracy_coverage(model, set, None)?;
+    let map = calibration.accuracy_coverage(model, set, split)?;
     Ok(AccuracyResult::new(map))
 }

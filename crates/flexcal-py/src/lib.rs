@@ -32,6 +32,7 @@ mod fuzzy;
 pub mod interrupt;
 mod measurement;
 mod robot;
+mod split;
 mod targets;
 
 use pyo3::prelude::*;
@@ -51,6 +52,7 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<calibration::SelectionResult>()?;
     m.add_class::<calibration::SelectionCandidate>()?;
     m.add_class::<accuracy::AccuracyResult>()?;
+    m.add_class::<split::SplitCheckResult>()?;
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::calib::{
-    CalibrationOptions, CancelToken, FrameTreatment, Target, TargetMeasurementSet as Set,
-    TargetObservation, TargetPose, TargetValidation, calibrate_targets_selected, read_targets,
-    validate_targets,
+    CalibrationOptions, CancelToken, FrameTreatment, SplitCheck, Target,
+    TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
+    calibrate_targets_selected, read_targets, validate_targets,
 };
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
@@ -26,6 +26,7 @@ use crate::calibration::{
 use crate::errors::{Failure, InputError, NotFiniteError, ShapeError, calib_error};
 use crate::interrupt::{run_cancellable, run_interruptible};
 use crate::robot::Robot;
+use crate::split::SplitCheckResult;
 
 /// Measured poses of several targets: actuated coordinates q (rad, m) and,
 /// per target, its position (m) in the measurement frame, or nothing where
@@ -294,6 +295,7 @@ impl TargetValidationResult {
 #[pyclass(frozen, module = "flexcal", name = "TargetCalibrationResult")]
 #[derive(Debug)]
 pub struct TargetCalibrationResult {
+    /// The run; its `split` raises the predicted bounds.
     run: Arc<TargetCalibrationRun>,
     nominal: Arc<Model>,
     calibrated: Robot,
@@ -480,11 +482,14 @@ impl TargetCalibrationResult {
         q: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
     ) -> PyResult<AccuracyResult> {
         let q = crate::arrays::rows("q", &q, self.nominal.n_actuated())?;
-        let configurations: Vec<Vec<f64>> = (0..q.n).map(|k| q.row(k).to_vec()).collect();
         let map = self
             .run
             .calibration
-            .predicted_accuracy(&self.nominal, &configurations, None)
+            .predicted_accuracy(
+                &self.nominal,
+                &crate::accuracy::configurations(&q),
+                self.run.split.as_ref(),
+            )
             .map_err(|e| calib_error(&e))?;
         Ok(AccuracyResult::new(map))
     }
@@ -503,9 +508,21 @@ impl TargetCalibrationResult {
         let model = Arc::clone(&self.nominal);
         let set = Arc::clone(&other.set);
         run_interruptible(py, move || {
-            Ok(AccuracyResult::new(
-                run.calibration.accuracy_coverage(&model, &set, None)?,
-            ))
+            Ok(AccuracyResult::new(run.calibration.accuracy_coverage(
+                &model,
+                &set,
+                run.split.as_ref(),
+            )?))
+        })
+    }
+
+    /// The split-half check (`split_check=True`), or None. Its prediction
+    /// ratio raises the bounds of `predicted_accuracy` and
+    /// `accuracy_coverage` where it is above 1.
+    #[getter]
+    fn split_check(&self) -> Option<SplitCheckResult> {
+        self.run.split.as_ref().map(|check| {
+            SplitCheckResult::new(Arc::new(check.clone()), &self.run.calibration.unknowns)
         })
     }
 
@@ -539,12 +556,15 @@ impl TargetCalibrationResult {
 /// its `lateral = "about-x"` adds the lateral compliances). `fix` names
 /// kept at their start; `select` the model selection (`"cv"`, `"bic"`,
 /// `"none"`; by default `"cv"` from 100 poses), its report in
-/// `result.selection`; `max_iterations`. Positions only.
+/// `result.selection`; `max_iterations`; `split_check`: identify again on
+/// halves of the poses (four more identifications; `result.split_check`),
+/// which raises the predicted 95 % bounds where the standard errors
+/// understate. Positions only.
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None, split_check = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate_targets(
     py: Python<'_>,
@@ -555,6 +575,7 @@ pub fn calibrate_targets(
     masses: Option<PathBuf>,
     select: Option<&str>,
     max_iterations: Option<usize>,
+    split_check: bool,
 ) -> PyResult<TargetCalibrationResult> {
     let nominal = Arc::clone(&robot.model);
     let selection = selection_options(select, data.set.len())?;
@@ -569,8 +590,11 @@ pub fn calibrate_targets(
     let set = Arc::clone(&data.set);
     let model = Arc::clone(&nominal);
     let (run, calibrated) = run_cancellable(py, Some(cancel), move || {
-        let (calibration, report, _) =
+        let (calibration, report, chosen) =
             calibrate_targets_selected(&model, &set, &options, &selection)?;
+        let split = split_check
+            .then(|| SplitCheck::for_targets(&model, &set, &chosen, &calibration))
+            .transpose()?;
         let calibrated = calibration
             .description(&model)?
             .build()
@@ -581,7 +605,7 @@ pub fn calibrate_targets(
             selection: report,
             calibration,
             validation: None,
-            split: None,
+            split,
             coverage: None,
             accuracy_map: None,
             cross: None,

@@ -336,12 +336,33 @@ class SelectionResult:
     def lines(self) -> list[str]:
         """The report `flexcal calibrate --select` prints."""
 
+class SplitCheckResult:
+    """The split-half check (`split_check=True`), SI units."""
+
+    @property
+    def prediction_ratio(self) -> Optional[float]:
+        """Halves' predicted positions against the covariance: ~1 when the standard errors hold."""
+    @property
+    def split_errors(self) -> dict[str, float]:
+        """Name -> split error (SI units of the unknown)."""
+    @property
+    def standard_errors(self) -> dict[str, float]:
+        """Name -> standard error of the full identification (SI units)."""
+    @property
+    def ratios(self) -> dict[str, float]:
+        """Name -> split error / standard error (above 2.5: understated)."""
+    @property
+    def notes(self) -> list[str]: ...
+
 class CalibrationResult:
     """The result of `calibrate`: the JSON report's fields in SI units."""
 
     @property
     def selection(self) -> Optional[SelectionResult]:
         """The model selection (select="cv" or "bic"), else None."""
+    @property
+    def split_check(self) -> Optional[SplitCheckResult]:
+        """The split-half check (split_check=True); raises the predicted bounds."""
 
     @property
     def robot(self) -> Robot:
@@ -448,12 +469,14 @@ def calibrate(
     max_iterations: Optional[int] = None,
     select: Literal["cv", "bic", "none"] | None = None,
     hold_out_stations: bool = False,
+    split_check: bool = False,
 ) -> CalibrationResult:
     """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad.
 
     select: model selection as `flexcal calibrate --select` (report in `.selection`);
     default as on the command line: "cv" from 100 poses, else "none".
-    hold_out_stations: with several stations, each held out in turn (`.station_hold_out`)."""
+    hold_out_stations: with several stations, each held out in turn (`.station_hold_out`).
+    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds."""
 
 class TargetMeasurementSet:
     """Measured poses of several targets: q (rad, m) and, per target, its position (m)
@@ -512,6 +535,9 @@ class TargetCalibrationResult:
     """The identification from several targets per pose (SI units)."""
 
     @property
+    def split_check(self) -> Optional[SplitCheckResult]:
+        """The split-half check (split_check=True); raises the predicted bounds."""
+    @property
     def robot(self) -> Robot:
         """The calibrated robot."""
     @property
@@ -567,10 +593,12 @@ def calibrate_targets(
     masses: Optional[StrPath] = None,
     select: Literal["cv", "bic", "none"] | None = None,
     max_iterations: Optional[int] = None,
+    split_check: bool = False,
 ) -> TargetCalibrationResult:
     """Identifies the robot, the measurement frame and the targets' offsets from every target on
     every pose (positions only); elasto-geometric: joint springs of every branch under gravity.
-    select: as `flexcal calibrate --select`; default "cv" from 100 poses, else "none"."""
+    select: as `flexcal calibrate --select`; default "cv" from 100 poses, else "none".
+    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

@@ -247,6 +247,42 @@ def test_predicted_accuracy_covers_new_poses_and_names_extrapolation(ur10):
         result.predicted_accuracy(np.zeros((3, 5)))
 
 
+def test_the_split_half_check_raises_the_bounds_where_the_arm_drifts(ur10):
+    """A campaign during which the upper arm grows by 0.1 mm (0.6 m of
+    aluminium warming by 7 K, at 23e-6 1/K), which the model lacks: the
+    halves in file order disagree beyond the standard errors, and every
+    predicted bound grows by the check's prediction ratio in its model
+    part (bound^2 = 7.815 (ratio^2 tr/3 + s^2))."""
+    truth, rng = simulated_ur10(ur10, seed=31)
+    q = configurations(ur10, 200, seed=32)
+    d3 = ur10.parameter_names.index("d3")
+    positions = np.empty((len(q), 3))
+    for chunk in np.array_split(np.arange(len(q)), 10):
+        warm = truth.copy()
+        warm[d3] -= 0.1e-3 * chunk[0] / len(q)
+        positions[chunk] = measure(ur10, warm, q[chunk], rng)
+    data = flexcal.MeasurementSet.from_arrays(q, positions)
+    plain = flexcal.calibrate(ur10, data, select="none")
+    checked = flexcal.calibrate(ur10, data, select="none", split_check=True)
+    assert plain.split_check is None
+    split = checked.split_check
+    # Independent errors give about 1 (two splits: within 0.5 - 1.5 by chance).
+    assert split.prediction_ratio > 1.5, split.notes
+    assert split.ratios["d3"] > 2.5, split.ratios
+    assert split.split_errors["d3"] > 10e-6, split.split_errors
+    assert set(split.standard_errors) == set(split.ratios)
+    assert any("understated" in note for note in split.notes), split.notes
+    q2 = configurations(ur10, 50, seed=33)
+    before = plain.predicted_accuracy(q2)
+    after = checked.predicted_accuracy(q2)
+    assert after.inflation == pytest.approx(split.prediction_ratio)
+    np.testing.assert_allclose(
+        after.bound_95**2 - before.bound_95**2,
+        7.814727903 * (split.prediction_ratio**2 - 1) * before.model_uncertainty**2 / 3,
+        rtol=1e-6,
+    )
+
+
 def test_two_stations_are_pooled_with_a_frame_each(ur10):
     """A robot seen from two tracker placements: the pooled calibration
     finds both frames, and the motion between the placements exactly."""

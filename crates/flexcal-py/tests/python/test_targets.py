@@ -79,8 +79,11 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, source="two arms")
     assert len(data) == 120 and data.target_names == ["left", "right"]
     assert data.n_observations == int(np.sum(~np.isnan(positions[:, :, 0])))
-    result = flexcal.calibrate_targets(two_arms, data, select="none")
+    result = flexcal.calibrate_targets(two_arms, data, select="none", split_check=True)
     assert result.model == "geometric" and result.selection is None
+    # Independent noise and the truth's model: the halves differ as the
+    # covariance says (two splits of some sixty unknowns: within 0.5 - 2).
+    assert 0.5 < result.split_check.prediction_ratio < 2.0, result.split_check.notes
     # At the noise: three axes of 20 um give a mean error norm of 32 um.
     assert result.after.position_mean < 1.3 * 1.6 * NOISE, result.after
     assert result.before.position_mean > 5 * result.after.position_mean
@@ -131,6 +134,7 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     # validation errors lie within them about 95 % of the time (72-odd
     # observations: a binomial spread of 2.6 %).
     accuracy = result.accuracy_coverage(other)
+    assert accuracy.inflation == max(1.0, result.split_check.prediction_ratio)
     assert accuracy.targets == [name for _, name in labels]
     np.testing.assert_allclose(accuracy.actual_error, np.linalg.norm(errors, axis=1), rtol=1e-12)
     assert 0.85 <= accuracy.coverage <= 1.0, accuracy

@@ -1,0 +1,114 @@
+//! The split-half check of an identification from Python
+//! (`calibrate(..., split_check=True)`): each identified unknown again on
+//! odd / even and first / second halves of the poses, and the check in the
+//! prediction space that raises the predicted 95 % bounds
+//! (`flexcal::calib::SplitCheck`), in SI units.
+
+use std::sync::Arc;
+
+use flexcal::calib::{SplitCheck, UnknownEstimate};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// What `calibrate(..., split_check=True)` (or `calibrate_targets`) found
+/// on halves of the poses: the spread of each identified unknown against
+/// its standard error, and the factor by which the predicted positions'
+/// covariance understates (`prediction_ratio`), which raises every
+/// predicted 95 % bound of the result.
+#[pyclass(frozen, module = "flexcal", name = "SplitCheckResult")]
+#[derive(Debug, Clone)]
+pub struct SplitCheckResult {
+    check: Arc<SplitCheck>,
+    /// SI value of one display unit, per compared unknown.
+    scales: Arc<Vec<f64>>,
+}
+
+impl SplitCheckResult {
+    /// The check of an identification whose unknowns are `unknowns`.
+    pub(crate) fn new(check: Arc<SplitCheck>, unknowns: &[UnknownEstimate]) -> Self {
+        let scales = check
+            .unknowns
+            .iter()
+            .map(|s| {
+                unknowns
+                    .iter()
+                    .find(|u| u.name == s.name)
+                    .map_or(f64::NAN, |u| 1.0 / u.kind.display_unit().1)
+            })
+            .collect();
+        Self {
+            check,
+            scales: Arc::new(scales),
+        }
+    }
+
+    /// Name -> value of each compared unknown, SI.
+    fn by_name<'py>(
+        &self,
+        py: Python<'py>,
+        value: impl Fn(&flexcal::calib::SplitEstimate) -> Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let dict = PyDict::new(py);
+        for (s, scale) in self.check.unknowns.iter().zip(self.scales.iter()) {
+            if let Some(v) = value(s) {
+                dict.set_item(&s.name, v * scale)?;
+            }
+        }
+        Ok(dict)
+    }
+}
+
+#[pymethods]
+impl SplitCheckResult {
+    /// `sqrt(sum |d_k|^2 / 4 / sum tr(J_k Sigma J_k^T))` over the poses and
+    /// the two splits: about 1 when the standard errors hold, above 1 the
+    /// factor by which they understate the predicted positions'
+    /// uncertainty (None without a covariance).
+    #[getter]
+    fn prediction_ratio(&self) -> Option<f64> {
+        self.check.prediction_ratio
+    }
+
+    /// Name -> split error (RMS of half the differences of the two
+    /// complementary pairs), SI units of the unknown; unknowns that some
+    /// half did not identify are left out.
+    #[getter]
+    fn split_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.by_name(py, |s| s.split_error)
+    }
+
+    /// Name -> standard error of the full identification, SI units.
+    #[getter]
+    fn standard_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.by_name(py, |s| Some(s.standard_error))
+    }
+
+    /// Name -> split error / standard error (dimensionless; above 2.5 the
+    /// standard error understates).
+    #[getter]
+    fn ratios<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let dict = PyDict::new(py);
+        for s in &self.check.unknowns {
+            if let Some(r) = s.ratio {
+                dict.set_item(&s.name, r)?;
+            }
+        }
+        Ok(dict)
+    }
+
+    /// What the check found, in sentences.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.check.notes()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "SplitCheckResult({} unknowns compared, prediction ratio {})",
+            self.check.unknowns.len(),
+            self.check
+                .prediction_ratio
+                .map_or("none".to_string(), |r| format!("{r:.2}"))
+        )
+    }
+}
