@@ -493,23 +493,13 @@ impl Calibration {
                 poor.join(", ")
             ));
         }
-        let weak: Vec<String> = self
-            .unknowns
-            .iter()
-            .enumerate()
-            .filter(|(j, u)| *j < np || u.name.starts_with("target_"))
-            .filter_map(|(_, u)| {
-                u.spread_ratio
-                    .filter(|r| *r > WEAK_SPREAD_RATIO)
-                    .map(|r| format!("{} x{r:.0}", u.name))
-            })
-            .collect();
-        if !weak.is_empty() {
-            notes.push(format!(
-                "determined more than {WEAK_SPREAD_RATIO:.0} times less precisely than by as many poses spread over the joint ranges (standard error ratio): {}; these poses see them mostly in combinations that hold near them, so predictions for poses unlike them (other joint ranges) are extrapolations",
-                weak.join(", ")
-            ));
-        }
+        notes.extend(weak_spread_note(
+            self.unknowns
+                .iter()
+                .enumerate()
+                .filter(|(j, u)| *j < np || u.name.starts_with("target_"))
+                .map(|(_, u)| u),
+        ));
         let target = names("target_");
         if !target.is_empty() {
             notes.push(format!(
@@ -1614,6 +1604,26 @@ pub fn combination_check(
         .collect()
 }
 
+/// The sentence naming the unknowns of `unknowns` whose
+/// [`UnknownEstimate::spread_ratio`] exceeds [`WEAK_SPREAD_RATIO`], if any.
+pub(crate) fn weak_spread_note<'a>(
+    unknowns: impl Iterator<Item = &'a UnknownEstimate>,
+) -> Option<String> {
+    let weak: Vec<String> = unknowns
+        .filter_map(|u| {
+            u.spread_ratio
+                .filter(|r| *r > WEAK_SPREAD_RATIO)
+                .map(|r| format!("{} x{r:.0}", u.name))
+        })
+        .collect();
+    (!weak.is_empty()).then(|| {
+        format!(
+            "determined more than {WEAK_SPREAD_RATIO:.0} times less precisely than by as many poses spread over the joint ranges (standard error ratio): {}; these poses see them mostly in combinations that hold near them, so predictions for poses unlike them (other joint ranges) are extrapolations",
+            weak.join(", ")
+        )
+    })
+}
+
 /// Most poses drawn for the spread reference of
 /// [`UnknownEstimate::spread_ratio`] (its standard errors are rescaled to the
 /// number of identification poses).
@@ -1626,7 +1636,7 @@ pub const WEAK_SPREAD_RATIO: f64 = 10.0;
 
 /// Diagonal of `(S^T S)^-1` for the columns `cols` of `s` (the unit-noise
 /// covariance of those unknowns), or `None` when they are not independent.
-fn unit_covariance_diagonal(s: &Mat<f64>, cols: &[usize]) -> Option<Vec<f64>> {
+pub(crate) fn unit_covariance_diagonal(s: &Mat<f64>, cols: &[usize]) -> Option<Vec<f64>> {
     let k = cols.len();
     let norms: Vec<f64> = cols.iter().map(|&j| s.col(j).norm_l2()).collect();
     if norms.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
@@ -1681,74 +1691,30 @@ impl SpreadInputs<'_> {
         x: &[f64],
         identified: &[usize],
     ) -> Result<Vec<Option<f64>>, CalibError> {
-        use rand::{Rng, SeedableRng};
         let n = reduced.ncols();
-        let mut out = vec![None; n];
+        let out = vec![None; n];
         let Some(training) = unit_covariance_diagonal(reduced, identified) else {
             return Ok(out);
         };
         let rows = self.context.problem.rows_per_block();
         let poses = self.set.len();
-        // The reference rows weigh what the identification rows weigh on
-        // average (RMS per row kind).
-        let mut weight = vec![0.0; rows];
-        for pose in self.context.weights.chunks(rows) {
-            for (w, v) in weight.iter_mut().zip(pose) {
-                *w += v * v / poses as f64;
-            }
-        }
-        weight.iter_mut().for_each(|w| *w = w.sqrt());
-        // Revolute coordinates over their limits; prismatic ones (whose
-        // default limits are not a workspace) over the identification range.
-        let ranges: Vec<(f64, f64)> = self
-            .model
-            .actuated_limits()
-            .iter()
-            .zip(self.model.actuated_kinds())
-            .zip(self.actuated_ranges)
-            .map(|((&limits, kind), &seen)| match kind {
-                flexcal_kinematics::ActuatedKind::Revolute => limits,
-                _ => (seen.lo, seen.hi),
+        let weight = rms_row_weights(self.context.weights, rows);
+        let count = poses.min(SPREAD_REFERENCE_POSES);
+        let Some(configurations) =
+            spread_configurations(self.model, self.actuated_ranges, count, x)
+        else {
+            return Ok(out);
+        };
+        let drawn: Vec<crate::Measurement> = configurations
+            .into_iter()
+            .map(|q| {
+                let mut m = crate::Measurement::new(q, nalgebra::Vector3::zeros());
+                if self.use_orientation {
+                    m.orientation = Some(nalgebra::Vector3::zeros());
+                }
+                m
             })
             .collect();
-        let count = poses.min(SPREAD_REFERENCE_POSES);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SPREAD_REFERENCE_SEED);
-        let mut data = flexcal_kinematics::Data::new(self.model);
-        let mut drawn = Vec::with_capacity(count);
-        let mut tries = 0;
-        while drawn.len() < count && tries < 50 * count {
-            tries += 1;
-            let q: Vec<f64> = ranges
-                .iter()
-                .map(|&(lo, hi)| {
-                    if lo < hi {
-                        rng.random_range(lo..hi)
-                    } else {
-                        lo
-                    }
-                })
-                .collect();
-            // A closed loop that cannot close at q: draw again.
-            if !self.model.is_serial()
-                && flexcal_kinematics::forward_pose(
-                    self.model,
-                    &mut data,
-                    &q,
-                    &x[..self.model.n_params()],
-                )
-                .is_err()
-            {
-                continue;
-            }
-            let mut m = crate::Measurement::new(q, nalgebra::Vector3::zeros());
-            if self.use_orientation {
-                m.orientation = Some(nalgebra::Vector3::zeros());
-            }
-            drawn.push(m);
-        }
-        if drawn.len() < count {
-            return Ok(out);
-        }
         // The spread poses are shared out among the stations, each of
         // which then sees as many as its frame needs.
         let stations = self.set.n_stations();
@@ -1779,14 +1745,96 @@ impl SpreadInputs<'_> {
             weights: &weights,
             ..*self.context
         };
-        let Some(spread) = unit_covariance_diagonal(&context.reduced(x)?, identified) else {
-            return Ok(out);
-        };
-        // Covariances scale as 1 / poses: compare at the same number.
-        let scale = count as f64 / poses as f64;
-        for (c, &j) in identified.iter().enumerate() {
-            out[j] = Some((training[c] / (spread[c] * scale)).sqrt());
-        }
-        Ok(out)
+        Ok(spread_ratio_values(
+            &training,
+            &context.reduced(x)?,
+            identified,
+            count as f64 / poses as f64,
+        ))
     }
+}
+
+/// The RMS weight of each row kind (`rows` rows per block) over the blocks
+/// of `weights`: what a reference row weighs.
+pub(crate) fn rms_row_weights(weights: &[f64], rows: usize) -> Vec<f64> {
+    let blocks = (weights.len() / rows).max(1) as f64;
+    let mut weight = vec![0.0; rows];
+    for block in weights.chunks(rows) {
+        for (w, v) in weight.iter_mut().zip(block) {
+            *w += v * v / blocks;
+        }
+    }
+    weight.iter_mut().for_each(|w| *w = w.sqrt());
+    weight
+}
+
+/// `count` configurations of the spread reference, drawn with a fixed seed:
+/// revolute coordinates over their limits, prismatic ones (whose default
+/// limits are not a workspace) over `actuated_ranges`, a closed loop's
+/// drawn again where it cannot close at the robot parameters of `x`.
+/// `None` when a loop rarely closes.
+pub(crate) fn spread_configurations(
+    model: &Model,
+    actuated_ranges: &[CoordinateCoverage],
+    count: usize,
+    x: &[f64],
+) -> Option<Vec<Vec<f64>>> {
+    use rand::{Rng, SeedableRng};
+    let ranges: Vec<(f64, f64)> = model
+        .actuated_limits()
+        .iter()
+        .zip(model.actuated_kinds())
+        .zip(actuated_ranges)
+        .map(|((&limits, kind), &seen)| match kind {
+            flexcal_kinematics::ActuatedKind::Revolute => limits,
+            _ => (seen.lo, seen.hi),
+        })
+        .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SPREAD_REFERENCE_SEED);
+    let mut data = flexcal_kinematics::Data::new(model);
+    let mut drawn = Vec::with_capacity(count);
+    let mut tries = 0;
+    while drawn.len() < count && tries < 50 * count {
+        tries += 1;
+        let q: Vec<f64> = ranges
+            .iter()
+            .map(|&(lo, hi)| {
+                if lo < hi {
+                    rng.random_range(lo..hi)
+                } else {
+                    lo
+                }
+            })
+            .collect();
+        // A closed loop that cannot close at q: draw again.
+        if !model.is_serial()
+            && flexcal_kinematics::forward_pose(model, &mut data, &q, &x[..model.n_params()])
+                .is_err()
+        {
+            continue;
+        }
+        drawn.push(q);
+    }
+    (drawn.len() == count).then_some(drawn)
+}
+
+/// [`UnknownEstimate::spread_ratio`] of each unknown of `identified`: the
+/// square root of its unit-noise variance `training` over the one of the
+/// reference's reduced factor `spread`, the reference's scaled by `scale`
+/// (its poses over the identification's: covariances go as 1 / poses).
+/// `None` everywhere when the reference cannot separate them.
+pub(crate) fn spread_ratio_values(
+    training: &[f64],
+    spread: &Mat<f64>,
+    identified: &[usize],
+    scale: f64,
+) -> Vec<Option<f64>> {
+    let mut out = vec![None; spread.ncols()];
+    let Some(spread) = unit_covariance_diagonal(spread, identified) else {
+        return out;
+    };
+    for (c, &j) in identified.iter().enumerate() {
+        out[j] = Some((training[c] / (spread[c] * scale)).sqrt());
+    }
+    out
 }

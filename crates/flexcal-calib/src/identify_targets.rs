@@ -63,15 +63,18 @@ use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
     AnalysisContext, CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT,
-    Method, Rounds, StackedJacobian, UnknownEstimate, UnknownStatus, Weighting, analysis_index,
-    elastic_notes, is_elastic_unknown, noise_level,
+    Method, Rounds, SPREAD_REFERENCE_POSES, StackedJacobian, UnknownEstimate, UnknownStatus,
+    Weighting, analysis_index, elastic_notes, is_elastic_unknown, noise_level, rms_row_weights,
+    spread_configurations, spread_ratio_values, unit_covariance_diagonal, weak_spread_note,
 };
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::prediction::{
     Linearised, Observed, Predicting, jacobian_and_residuals, residual_variance,
 };
-use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet, target_point};
+use crate::targets::{
+    TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, target_point,
+};
 
 /// Names of the three unknowns of a target's offset: `target.<name>.x`,
 /// `.y`, `.z` (m, in the target's frame).
@@ -302,6 +305,13 @@ impl TargetCalibration {
                 poor.join(", ")
             ));
         }
+        notes.extend(weak_spread_note(
+            self.unknowns
+                .iter()
+                .enumerate()
+                .filter(|(j, u)| *j < np || u.name.starts_with("target."))
+                .map(|(_, u)| u),
+        ));
         let frame: Vec<&str> = self.unknowns[np..np + 6]
             .iter()
             .filter(|u| u.status == UnknownStatus::NonIdentifiable)
@@ -840,6 +850,71 @@ impl StackedJacobian for TargetErrorModel<'_> {
     }
 }
 
+/// What the spread reference of a multi-target identification needs.
+struct SpreadReference<'a> {
+    model: &'a Model,
+    set: &'a TargetMeasurementSet,
+    options: &'a CalibrationOptions,
+    /// What the identification poses cover of each actuated coordinate.
+    actuated_ranges: &'a [CoordinateCoverage],
+    x_meas_base0: Isometry3<f64>,
+    context: &'a AnalysisContext<'a>,
+}
+
+/// [`UnknownEstimate::spread_ratio`] of each unknown of `identified`, as
+/// for one target ([`crate::calibrate`]): its standard error with these
+/// observations over the one that as many poses spread over the joint
+/// ranges, every target seen at each, would give with the same noise
+/// (`reduced`: the identification's factor at `x`). `None` everywhere when
+/// no reference can be drawn or it cannot separate them either.
+fn spread_ratios(
+    reference: &SpreadReference<'_>,
+    reduced: &faer::Mat<f64>,
+    x: &[f64],
+    identified: &[usize],
+) -> Result<Vec<Option<f64>>, CalibError> {
+    let SpreadReference {
+        model,
+        set,
+        options,
+        actuated_ranges,
+        x_meas_base0,
+        context,
+    } = *reference;
+    let none = vec![None; reduced.ncols()];
+    let Some(training) = unit_covariance_diagonal(reduced, identified) else {
+        return Ok(none);
+    };
+    let weight = rms_row_weights(context.weights, 3);
+    let count = set.len().min(SPREAD_REFERENCE_POSES);
+    let Some(configurations) = spread_configurations(model, actuated_ranges, count, x) else {
+        return Ok(none);
+    };
+    let poses = configurations
+        .into_iter()
+        .map(|q| TargetPose {
+            pose_id: None,
+            q,
+            observations: vec![Some(TargetObservation::new(Vector3::zeros())); set.targets().len()],
+        })
+        .collect();
+    let spread = TargetMeasurementSet::new("spread reference", set.targets().to_vec(), poses)?;
+    let problem = TargetErrorModel::new(model, &spread, x_meas_base0)?
+        .with_elastic(options.gravity.as_ref(), &options.joint_terms)?;
+    let weights: Vec<f64> = (0..problem.n_residuals()).map(|i| weight[i % 3]).collect();
+    let spread_context = AnalysisContext {
+        problem: &problem,
+        weights: &weights,
+        ..*context
+    };
+    Ok(spread_ratio_values(
+        &training,
+        &spread_context.reduced(x)?,
+        identified,
+        count as f64 / set.len() as f64,
+    ))
+}
+
 /// Options of [`CalibrationOptions`] that the multi-target identification
 /// does not take (it fits positions only, by Levenberg-Marquardt).
 fn check_supported(options: &CalibrationOptions) -> Result<(), CalibError> {
@@ -1045,6 +1120,24 @@ pub fn calibrate_targets(
         .filter(|&j| frozen[j] && !fixed[j] && !no_influence[j])
         .collect();
     let combinations = context.combinations(&reduced_start, &identified, &absorbed)?;
+    let actuated_ranges = CoordinateCoverage::of_configurations(model, &q);
+    let spread_ratios = if options.spread_reference {
+        spread_ratios(
+            &SpreadReference {
+                model,
+                set,
+                options,
+                actuated_ranges: &actuated_ranges,
+                x_meas_base0,
+                context: &context,
+            },
+            &reduced_start,
+            &x_start,
+            &identified,
+        )?
+    } else {
+        vec![None; n]
+    };
     let unknowns: Vec<UnknownEstimate> = (0..n)
         .map(|j| {
             let status = if fixed[j] {
@@ -1068,7 +1161,7 @@ pub fn calibrate_targets(
                 } else {
                     None
                 },
-                spread_ratio: None,
+                spread_ratio: spread_ratios[j],
                 status,
             }
         })
@@ -1128,7 +1221,7 @@ pub fn calibrate_targets(
         joint_term_values: x[joint_start..].to_vec(),
         torque_ranges: problem.elastic.torque_ranges(set.len()),
         actuated_names: model.actuated_names().to_vec(),
-        actuated_ranges: CoordinateCoverage::of_configurations(model, &q),
+        actuated_ranges,
     })
 }
 

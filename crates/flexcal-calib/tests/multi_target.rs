@@ -78,19 +78,36 @@ fn measure(
     poses: usize,
     rng: &mut ChaCha8Rng,
 ) -> TargetMeasurementSet {
+    let configurations: Vec<Vec<f64>> = (0..poses)
+        .map(|_| {
+            model
+                .actuated_limits()
+                .iter()
+                .map(|&(lo, hi)| rng.random_range(lo..hi))
+                .collect()
+        })
+        .collect();
+    measure_at(model, truth, targets, configurations, rng)
+}
+
+/// The markers measured at `configurations`, occluded as in [`measure`].
+fn measure_at(
+    model: &Model,
+    truth: &Truth,
+    targets: &[flexcal_calib::Target],
+    configurations: Vec<Vec<f64>>,
+    rng: &mut ChaCha8Rng,
+) -> TargetMeasurementSet {
     let noise = Normal::new(0.0, NOISE).unwrap();
     let mut data = Data::new(model);
     let frames: Vec<usize> = targets
         .iter()
         .map(|t| model.frame_index(&t.frame).unwrap())
         .collect();
-    let poses = (0..poses)
-        .map(|k| {
-            let q: Vec<f64> = model
-                .actuated_limits()
-                .iter()
-                .map(|&(lo, hi)| rng.random_range(lo..hi))
-                .collect();
+    let poses = configurations
+        .into_iter()
+        .enumerate()
+        .map(|(k, q)| {
             let hidden = if rng.random_range(0.0..1.0) < 0.2 {
                 Some(rng.random_range(0..targets.len()))
             } else {
@@ -525,4 +542,82 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
             .starts_with(&format!("row 1,{},", targets[0].name))
     );
     assert_eq!(csv.lines().count(), 1 + 2 * grid.len());
+}
+
+/// The spread reference with two markers: poses spread over every joint's
+/// range determine each identified robot parameter about as well as the
+/// reference does (ratio below 10); poses that hold the left elbow within
+/// +-0.05 rad see some of the left arm's parameters only in combinations
+/// that hold near that elbow angle, and the notes name them, while the
+/// right arm stays determined.
+#[test]
+fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
+    let model = robot();
+    let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(0x7370_7264);
+    let nominal: Vec<Vector3<f64>> = targets.iter().map(|t| t.offset).collect();
+    let truth = truth(&model, &nominal, &mut rng);
+    let options = CalibrationOptions::default();
+    let ratios = |calibration: &TargetCalibration, prefix: &str| -> Vec<(String, f64)> {
+        calibration
+            .unknowns
+            .iter()
+            .take(model.n_params())
+            .filter(|u| u.name.contains(prefix))
+            .filter_map(|u| u.spread_ratio.map(|r| (u.name.clone(), r)))
+            .collect()
+    };
+    let spread = calibrate_targets(
+        &model,
+        &measure(&model, &truth, &targets, 120, &mut rng),
+        &options,
+    )
+    .unwrap();
+    let all = ratios(&spread, "");
+    assert!(all.len() > 20, "{all:?}");
+    let largest = all.iter().map(|(_, r)| *r).fold(0.0, f64::max);
+    println!(
+        "spread poses: largest spread ratio {largest:.1} over {} parameters",
+        all.len()
+    );
+    assert!(largest < 10.0, "{all:?}");
+    // The left elbow (the left arm's third joint) held within +-0.05 rad.
+    let elbow = model
+        .actuated_names()
+        .iter()
+        .position(|n| n == "thetaL3")
+        .unwrap();
+    let configurations: Vec<Vec<f64>> = (0..120)
+        .map(|_| {
+            model
+                .actuated_limits()
+                .iter()
+                .enumerate()
+                .map(|(i, &(lo, hi))| {
+                    if i == elbow {
+                        rng.random_range(-0.05..0.05)
+                    } else {
+                        rng.random_range(lo..hi)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let held = calibrate_targets(
+        &model,
+        &measure_at(&model, &truth, &targets, configurations, &mut rng),
+        &options,
+    )
+    .unwrap();
+    let left = ratios(&held, "L");
+    let right = ratios(&held, "R");
+    println!("left elbow held: left arm {left:?}; right arm {right:?}");
+    assert!(left.iter().any(|(_, r)| *r > 10.0), "{left:?}");
+    assert!(right.iter().all(|(_, r)| *r < 10.0), "{right:?}");
+    let notes = held.identifiability_notes();
+    let note = notes
+        .iter()
+        .find(|n| n.starts_with("determined more than 10 times less precisely"))
+        .unwrap_or_else(|| panic!("{notes:#?}"));
+    assert!(note.contains("L"), "{note}");
 }
