@@ -81,7 +81,12 @@
 //! Reports give per-target figures ([`TargetErrors`], [`validate_targets`]).
 //! The elasto-geometric terms below work with several targets too: the
 //! joint springs of each target's branch deflect it, and a torso's
-//! lateral tilt under both arms moves both hands.
+//! lateral tilt under both arms moves both hands. The checks and the
+//! predicted accuracy are those of one target, target by target: spread
+//! ratios, [`SplitCheck::for_targets`], [`CrossCheck::for_targets`],
+//! [`TargetCalibration::predicted_accuracy`] and
+//! [`TargetCalibration::accuracy_coverage`] (one entry per pose and
+//! target).
 //! The one-target [`MeasurementSet`] is the case of one target on the TCP
 //! ([`TargetMeasurementSet::from_measurement_set`]).
 //!
@@ -226,8 +231,7 @@
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
 //! - Several targets: positions only (orientation columns are read, not
-//!   fitted), Levenberg-Marquardt only, no spread ratios, split-half
-//!   checks or accuracy maps, one station.
+//!   fitted), Levenberg-Marquardt only, one station.
 //! - Several stations share one target offset: a probe remounted between
 //!   campaigns is refused, not modelled; with the frames fixed
 //!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.
