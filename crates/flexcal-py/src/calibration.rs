@@ -5,9 +5,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::calib::{
-    Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, ErrorStatistics as Stats,
-    FrameTreatment, GravityCompliance, Method, SelectionMethod, SelectionOptions, SelectionReport,
-    SplitCheck, UnknownStatus, ValidationReport, Weighting, calibrate_selected,
+    Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, CrossCheck,
+    ErrorStatistics as Stats, FrameTreatment, GravityCompliance, Method, SelectionMethod,
+    SelectionOptions, SelectionReport, SplitCheck, UnknownStatus, ValidationReport, Weighting,
+    calibrate_selected,
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -345,6 +346,9 @@ pub struct CalibrationResult {
     selection: Option<Arc<SelectionReport>>,
     station_hold_out: Arc<Vec<flexcal::calib::StationHoldOut>>,
     split: Option<Arc<SplitCheck>>,
+    /// The options of the identified (selected) model, for the checks that
+    /// identify it again.
+    options: Arc<CalibrationOptions>,
 }
 
 #[pymethods]
@@ -359,9 +363,9 @@ impl CalibrationResult {
     /// ratio raises the bounds of `predicted_accuracy` and
     /// `accuracy_coverage` where it is above 1.
     #[getter]
-    fn split_check(&self) -> Option<crate::split::SplitCheckResult> {
+    fn split_check(&self) -> Option<crate::checks::SplitCheckResult> {
         self.split.as_ref().map(|check| {
-            crate::split::SplitCheckResult::new(Arc::clone(check), &self.calibration.unknowns)
+            crate::checks::SplitCheckResult::new(Arc::clone(check), &self.calibration.unknowns)
         })
     }
 
@@ -648,6 +652,37 @@ impl CalibrationResult {
         })
     }
 
+    /// The cross-series check on `other`: the unknowns this identification
+    /// identified, identified again on `other` (its measurement frame
+    /// registered anew, everything else at its start) and compared in
+    /// combined standard errors; with this result's split-half check, the
+    /// other set gets one too (`z_split`). Runs without the GIL; Ctrl-C
+    /// stops it within one solver iteration.
+    fn cross_check(
+        &self,
+        py: Python<'_>,
+        other: &MeasurementSet,
+    ) -> PyResult<crate::checks::CrossCheckResult> {
+        let calibration = Arc::clone(&self.calibration);
+        let model = Arc::clone(&self.nominal);
+        let set = Arc::clone(&other.set);
+        let split = self.split.clone();
+        let (options, cancel) = cancellable(&self.options);
+        let check = run_cancellable(py, Some(cancel), move || {
+            Ok(CrossCheck::new(
+                &model,
+                &set,
+                &options,
+                &calibration,
+                split.as_deref(),
+            )?)
+        })?;
+        Ok(crate::checks::CrossCheckResult::new(
+            check,
+            &self.calibration.unknowns,
+        ))
+    }
+
     /// Predicted 95 % bound of the position error at each configuration of
     /// `q` (rad or m; shape (dof,) or (n, dof)): the identification's
     /// covariance, conditioned on the measurement frame, carried to the
@@ -844,7 +879,7 @@ pub fn calibrate<'py>(
     options.cancel = Some(cancel.clone());
     let set = Arc::clone(&data.set);
     let model = Arc::clone(&nominal);
-    let (calibration, selection, calibrated, held, split) =
+    let (calibration, selection, calibrated, held, split, chosen) =
         run_cancellable(py, Some(cancel), move || {
             let (calibration, report, chosen) =
                 calibrate_selected(&model, &set, &options, &selection)?;
@@ -860,7 +895,7 @@ pub fn calibrate<'py>(
             } else {
                 Vec::new()
             };
-            Ok((calibration, report, calibrated, held, split))
+            Ok((calibration, report, calibrated, held, split, chosen))
         })?;
     Ok(CalibrationResult {
         calibration: Arc::new(calibration),
@@ -869,7 +904,19 @@ pub fn calibrate<'py>(
         selection: selection.map(Arc::new),
         station_hold_out: Arc::new(held),
         split: split.map(Arc::new),
+        options: Arc::new(chosen),
     })
+}
+
+/// `options` with a fresh cancellation token, and the token: an
+/// identification that Ctrl-C stops within one solver iteration.
+pub(crate) fn cancellable(options: &CalibrationOptions) -> (CalibrationOptions, CancelToken) {
+    let cancel = CancelToken::new();
+    let options = CalibrationOptions {
+        cancel: Some(cancel.clone()),
+        ..options.clone()
+    };
+    (options, cancel)
 }
 
 /// The model selection of `select` (`"cv"`, `"bic"`, `"none"`; by

@@ -25,6 +25,7 @@
 mod accuracy;
 mod arrays;
 mod calibration;
+mod checks;
 mod compensation;
 pub mod errors;
 mod fem;
@@ -32,7 +33,6 @@ mod fuzzy;
 pub mod interrupt;
 mod measurement;
 mod robot;
-mod split;
 mod targets;
 
 use pyo3::prelude::*;
@@ -52,7 +52,8 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<calibration::SelectionResult>()?;
     m.add_class::<calibration::SelectionCandidate>()?;
     m.add_class::<accuracy::AccuracyResult>()?;
-    m.add_class::<split::SplitCheckResult>()?;
+    m.add_class::<checks::SplitCheckResult>()?;
+    m.add_class::<checks::CrossCheckResult>()?;
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::calib::{
-    CalibrationOptions, CancelToken, FrameTreatment, SplitCheck, Target,
+    CalibrationOptions, CancelToken, CrossCheck, FrameTreatment, SplitCheck, Target,
     TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
     calibrate_targets_selected, read_targets, validate_targets,
 };
@@ -20,13 +20,13 @@ use pyo3::types::PyDict;
 use crate::accuracy::AccuracyResult;
 use crate::arrays::{exact, to_numpy};
 use crate::calibration::{
-    ErrorStatistics, SelectionResult, UnknownEstimate, gravity_option, matrix, selection_options,
-    unknown_estimates,
+    ErrorStatistics, SelectionResult, UnknownEstimate, cancellable, gravity_option, matrix,
+    selection_options, unknown_estimates,
 };
+use crate::checks::{CrossCheckResult, SplitCheckResult};
 use crate::errors::{Failure, InputError, NotFiniteError, ShapeError, calib_error};
 use crate::interrupt::{run_cancellable, run_interruptible};
 use crate::robot::Robot;
-use crate::split::SplitCheckResult;
 
 /// Measured poses of several targets: actuated coordinates q (rad, m) and,
 /// per target, its position (m) in the measurement frame, or nothing where
@@ -297,6 +297,9 @@ impl TargetValidationResult {
 pub struct TargetCalibrationResult {
     /// The run; its `split` raises the predicted bounds.
     run: Arc<TargetCalibrationRun>,
+    /// The options of the identified (selected) model, for the checks that
+    /// identify it again.
+    options: Arc<CalibrationOptions>,
     nominal: Arc<Model>,
     calibrated: Robot,
 }
@@ -516,6 +519,30 @@ impl TargetCalibrationResult {
         })
     }
 
+    /// The cross-series check on `other` (same targets), as
+    /// `CalibrationResult.cross_check`. Runs without the GIL; Ctrl-C stops
+    /// it within one solver iteration.
+    fn cross_check(
+        &self,
+        py: Python<'_>,
+        other: &TargetMeasurementSet,
+    ) -> PyResult<CrossCheckResult> {
+        let run = Arc::clone(&self.run);
+        let model = Arc::clone(&self.nominal);
+        let set = Arc::clone(&other.set);
+        let (options, cancel) = cancellable(&self.options);
+        let check = run_cancellable(py, Some(cancel), move || {
+            Ok(CrossCheck::for_targets(
+                &model,
+                &set,
+                &options,
+                &run.calibration,
+                run.split.as_ref(),
+            )?)
+        })?;
+        Ok(CrossCheckResult::new(check, &self.run.calibration.unknowns))
+    }
+
     /// The split-half check (`split_check=True`), or None. Its prediction
     /// ratio raises the bounds of `predicted_accuracy` and
     /// `accuracy_coverage` where it is above 1.
@@ -589,7 +616,7 @@ pub fn calibrate_targets(
     options.cancel = Some(cancel.clone());
     let set = Arc::clone(&data.set);
     let model = Arc::clone(&nominal);
-    let (run, calibrated) = run_cancellable(py, Some(cancel), move || {
+    let (run, calibrated, chosen) = run_cancellable(py, Some(cancel), move || {
         let (calibration, report, chosen) =
             calibrate_targets_selected(&model, &set, &options, &selection)?;
         let split = split_check
@@ -610,10 +637,11 @@ pub fn calibrate_targets(
             accuracy_map: None,
             cross: None,
         };
-        Ok((run, calibrated))
+        Ok((run, calibrated, chosen))
     })?;
     Ok(TargetCalibrationResult {
         run: Arc::new(run),
+        options: Arc::new(chosen),
         nominal,
         calibrated: Robot::new(calibrated),
     })

@@ -354,8 +354,34 @@ class SplitCheckResult:
     @property
     def notes(self) -> list[str]: ...
 
+class CrossCheckResult:
+    """The cross-series check (`result.cross_check(other)`), SI units."""
+
+    @property
+    def values(self) -> dict[str, float]:
+        """Name -> value identified on the identification set."""
+    @property
+    def other_values(self) -> dict[str, float]:
+        """Name -> value identified on the other set (where it identifies it)."""
+    @property
+    def z(self) -> dict[str, float]:
+        """Name -> (other - value) / sqrt(se^2 + se_other^2)."""
+    @property
+    def z_split(self) -> dict[str, float]:
+        """Name -> z with each standard error raised to its split error (with the split check)."""
+    @property
+    def disagreeing(self) -> list[str]:
+        """Unknowns whose judged |z| exceeds 3: values that do not transfer."""
+    @property
+    def other_poses(self) -> int: ...
+    @property
+    def notes(self) -> list[str]: ...
+
 class CalibrationResult:
     """The result of `calibrate`: the JSON report's fields in SI units."""
+
+    def cross_check(self, other: MeasurementSet) -> CrossCheckResult:
+        """Identify the same unknowns again on `other` and compare (z, z_split with the split check)."""
 
     @property
     def selection(self) -> Optional[SelectionResult]:
@@ -537,6 +563,8 @@ class TargetCalibrationResult:
     @property
     def split_check(self) -> Optional[SplitCheckResult]:
         """The split-half check (split_check=True); raises the predicted bounds."""
+    def cross_check(self, other: TargetMeasurementSet) -> CrossCheckResult:
+        """Identify the same unknowns again on `other` (same targets) and compare."""
     @property
     def robot(self) -> Robot:
         """The calibrated robot."""

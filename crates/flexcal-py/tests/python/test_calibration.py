@@ -283,6 +283,28 @@ def test_the_split_half_check_raises_the_bounds_where_the_arm_drifts(ur10):
     )
 
 
+def test_the_cross_series_check_names_what_changed_between_campaigns(ur10):
+    """Two campaigns of the same simulated UR10 agree on every identified
+    unknown (|z| of a standard normal: median 0.67); a campaign after the
+    upper arm was exchanged for one 0.3 mm longer (over 100 combined
+    standard errors) is named for d3."""
+    result, same, _, _, truth = calibrated_with_a_test_set(ur10, 41, 200, 200)
+    check = result.cross_check(same)
+    z = np.abs(np.array(list(check.z.values())))
+    assert len(z) >= 15 and np.median(z) < 1.2, check.notes
+    assert len(check.disagreeing) <= 1, check.notes
+    assert check.other_poses == 200
+    assert set(check.values) == set(check.z) and not check.z_split
+    rng = np.random.default_rng(42)
+    longer = truth.copy()
+    longer[ur10.parameter_names.index("d3")] -= 0.3e-3
+    q = configurations(ur10, 200, seed=43)
+    other = flexcal.MeasurementSet.from_arrays(q, measure(ur10, longer, q, rng))
+    check = result.cross_check(other)
+    assert "d3" in check.disagreeing, check.notes
+    assert check.other_values["d3"] - check.values["d3"] == pytest.approx(-0.3e-3, abs=0.05e-3)
+
+
 def test_two_stations_are_pooled_with_a_frame_each(ur10):
     """A robot seen from two tracker placements: the pooled calibration
     finds both frames, and the motion between the placements exactly."""

@@ -138,6 +138,12 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     assert accuracy.targets == [name for _, name in labels]
     np.testing.assert_allclose(accuracy.actual_error, np.linalg.norm(errors, axis=1), rtol=1e-12)
     assert 0.85 <= accuracy.coverage <= 1.0, accuracy
+    # The same robot measured again: no identified value differs beyond
+    # 3 combined errors (each raised to its split error), but perhaps one
+    # by chance among some sixty.
+    cross = result.cross_check(other)
+    assert len(cross.disagreeing) <= 1, cross.notes
+    assert cross.z_split and set(cross.z_split) <= set(cross.z)
     # At configurations: one entry per configuration and marker.
     grid = result.predicted_accuracy(q_other[:4])
     assert grid.targets == ["left", "right"] * 4
