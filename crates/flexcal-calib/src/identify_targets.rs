@@ -1,16 +1,19 @@
 //! Identification from several targets on different frames of a robot (a
-//! tree's branches, links of a chain, the tool): one measurement frame, one
-//! offset per target, the robot's parameters, all from the residuals of
-//! every target on every pose stacked together; with the elasto-geometric
-//! terms of the one-target model when asked.
+//! tree's branches, links of a chain, the tool): one measurement frame per
+//! station, one offset per target, the robot's parameters, all from the
+//! residuals of every target on every pose stacked together; with the
+//! elasto-geometric terms of the one-target model when asked.
 //!
 //! For target t on frame f(t) and pose k the model is
 //! `p_M = x_meas_base(tau) * x_base_f(q_k, xi) * x_f_target(o_t)`, the
 //! paper's (7)-(10) with the parameter Jacobian (49)-(52) of frame f(t)
 //! instead of the TCP ([`flexcal_kinematics::frame_param_jacobian`]). The
-//! unknowns are `[xi; tau; o_t for each identified target]`, the offsets
-//! named `target.<name>.x|y|z` (m, added to the nominal offset in the
-//! target's frame). Rows are positions only (m), weighted `1/sigma`.
+//! unknowns are `[xi; tau; o_t for each identified target; tau_s for each
+//! later station]`, the offsets named `target.<name>.x|y|z` (m, added to
+//! the nominal offset in the target's frame), the later stations' frames
+//! `frame_s2_x` ... ([`crate::station_frame_names`]; a pose is predicted in
+//! its station's frame, [`TargetMeasurementSet::pooled`]). Rows are
+//! positions only (m), weighted `1/sigma`.
 //!
 //! Identifiability is decided as for one target, by the same code
 //! ([`crate::calibrate`]): pivoted QR of the weighted stacked Jacobian at
@@ -58,7 +61,7 @@ use serde::Serialize;
 use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
 use crate::elastic_terms::{ElasticTerms, JointState};
-use crate::error_model::{FRAME_PARAMETER_NAMES, UnknownKind};
+use crate::error_model::{FRAME_PARAMETER_NAMES, UnknownKind, station_frame_names};
 use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew};
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
@@ -197,6 +200,22 @@ pub struct TargetCalibration {
     /// (rad or m; [`crate::Calibration::actuated_ranges`]): poses outside
     /// it are extrapolations.
     pub actuated_ranges: Vec<CoordinateCoverage>,
+    /// Names of the stations (placements of the instrument) of the
+    /// identification set, in order ([`TargetMeasurementSet::pooled`]).
+    pub station_names: Vec<String>,
+    /// Identified measurement frames of the second and later stations
+    /// (`x_meas_base` is the first's); empty with one station.
+    pub station_frames: Vec<Isometry3<f64>>,
+}
+
+impl TargetCalibration {
+    /// The identified measurement frame of every station, the first's
+    /// ([`TargetCalibration::x_meas_base`]) first.
+    pub fn measurement_frames(&self) -> Vec<Isometry3<f64>> {
+        std::iter::once(self.x_meas_base)
+            .chain(self.station_frames.iter().copied())
+            .collect()
+    }
 }
 
 impl TargetCalibration {
@@ -407,7 +426,12 @@ struct TargetErrorModel<'a> {
     frames: Vec<(usize, bool, Option<usize>)>,
     /// (pose, target) of each block of three rows.
     rows: Vec<(usize, usize)>,
-    x_meas_base0: Isometry3<f64>,
+    /// Starting measurement frame of each station (at least the set's
+    /// stations; more give the unknowns of a calibration with that many,
+    /// with zero columns).
+    x_meas_base0: Vec<Isometry3<f64>>,
+    /// First unknown of the second station's frame (after the targets').
+    stations_offset: usize,
     names: Vec<String>,
     data: RefCell<Data>,
     /// Per target of a pose: parameter and joint Jacobians, pose.
@@ -427,8 +451,19 @@ impl<'a> TargetErrorModel<'a> {
     fn new(
         model: &'a Model,
         set: &'a TargetMeasurementSet,
-        x_meas_base0: Isometry3<f64>,
+        x_meas_base0: &[Isometry3<f64>],
     ) -> Result<Self, CalibError> {
+        if x_meas_base0.len() < set.n_stations() {
+            return Err(CalibError::InvalidOption {
+                name: "station_frames",
+                reason: format!(
+                    "{} measurement frames for the {} stations of {}",
+                    x_meas_base0.len(),
+                    set.n_stations(),
+                    set.source
+                ),
+            });
+        }
         let mut names: Vec<String> = model.params().iter().map(|p| p.name.clone()).collect();
         names.extend(FRAME_PARAMETER_NAMES.iter().map(|s| s.to_string()));
         let mut frames = Vec::with_capacity(set.targets().len());
@@ -470,12 +505,19 @@ impl<'a> TargetErrorModel<'a> {
                     .map(move |(t, _)| (k, t))
             })
             .collect();
+        // The frames of the second and later stations follow the targets'
+        // offsets, as for one target ([`crate::error_model::station_frame_names`]).
+        let stations_offset = names.len();
+        for s in 1..x_meas_base0.len() {
+            names.extend(station_frame_names(s));
+        }
         Ok(Self {
             model,
             set,
             frames,
             rows,
-            x_meas_base0,
+            x_meas_base0: x_meas_base0.to_vec(),
+            stations_offset,
             elastic_offset: names.len(),
             names,
             data: RefCell::new(Data::new(model)),
@@ -558,6 +600,30 @@ impl<'a> TargetErrorModel<'a> {
         self.model.n_params()
     }
 
+    /// Index of the first measurement-frame unknown of station `s`.
+    fn station_frame_offset(&self, s: usize) -> usize {
+        if s == 0 {
+            self.frame_offset()
+        } else {
+            self.stations_offset + 6 * (s - 1)
+        }
+    }
+
+    /// Every measurement-frame unknown, station by station.
+    fn frame_columns(&self) -> Vec<usize> {
+        (0..self.x_meas_base0.len())
+            .flat_map(|s| {
+                let o = self.station_frame_offset(s);
+                o..o + 6
+            })
+            .collect()
+    }
+
+    /// The station of observation row `row`.
+    fn station_of_row(&self, row: usize) -> usize {
+        self.set.station_of(self.rows[row].0)
+    }
+
     fn kinds(&self) -> Vec<UnknownKind> {
         let mut kinds: Vec<UnknownKind> = self
             .model
@@ -570,7 +636,12 @@ impl<'a> TargetErrorModel<'a> {
             .collect();
         kinds.extend([UnknownKind::Length; 3]);
         kinds.extend([UnknownKind::Angle; 3]);
-        kinds.resize(self.elastic_offset, UnknownKind::Length);
+        // The targets' offsets (lengths), then the later stations' frames.
+        kinds.resize(self.stations_offset, UnknownKind::Length);
+        for _ in 1..self.x_meas_base0.len() {
+            kinds.extend([UnknownKind::Length; 3]);
+            kinds.extend([UnknownKind::Angle; 3]);
+        }
         kinds.extend(self.elastic.kinds());
         kinds
     }
@@ -582,15 +653,21 @@ impl<'a> TargetErrorModel<'a> {
         x
     }
 
-    fn x_meas_base(&self, x: &[f64]) -> Isometry3<f64> {
-        let f = self.frame_offset();
+    /// The measurement frame of station `s` at `x`.
+    fn x_meas_base(&self, x: &[f64], s: usize) -> Isometry3<f64> {
+        let f = self.station_frame_offset(s);
+        let start = &self.x_meas_base0[s];
         Isometry3::from_parts(
-            Translation3::from(
-                self.x_meas_base0.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2]),
-            ),
-            rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5]))
-                * self.x_meas_base0.rotation,
+            Translation3::from(start.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2])),
+            rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5])) * start.rotation,
         )
+    }
+
+    /// The measurement frame of every station at `x`.
+    fn station_frames(&self, x: &[f64]) -> Vec<Isometry3<f64>> {
+        (0..self.x_meas_base0.len())
+            .map(|s| self.x_meas_base(x, s))
+            .collect()
     }
 
     /// The offset of target `t` at `x` (m).
@@ -621,7 +698,7 @@ impl<'a> TargetErrorModel<'a> {
     /// Predicted position of every observation in M (m), in row order.
     fn predict(&self, x: &[f64]) -> Result<Vec<Vector3<f64>>, CalibError> {
         let xi = &x[..self.model.n_params()];
-        let x_meas_base = self.x_meas_base(x);
+        let frames = self.station_frames(x);
         let mut data = self.data.borrow_mut();
         let mut state = self.deflection.borrow_mut();
         let mut evaluated = None;
@@ -638,7 +715,9 @@ impl<'a> TargetErrorModel<'a> {
                 let x_base_target =
                     data.frame_pose(self.frames[t].0).expect("a checked frame") * self.point(x, t);
                 let x_base_target = self.moved_point(x, k, t, x_base_target);
-                Ok((x_meas_base * x_base_target).translation.vector)
+                Ok((frames[self.set.station_of(k)] * x_base_target)
+                    .translation
+                    .vector)
             })
             .collect()
     }
@@ -743,10 +822,20 @@ impl StackedJacobian for TargetErrorModel<'_> {
     ) -> Result<(), ProblemError> {
         let np = self.model.n_params();
         let xi = &x[..np];
-        let fo = self.frame_offset();
-        let x_meas_base = self.x_meas_base(x);
-        let r_mb = x_meas_base.rotation.to_rotation_matrix().into_inner();
-        let jl_phi = left_jacobian(&Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]));
+        // Per station: first frame unknown, rotation into M, and the left
+        // Jacobian of its rotation vector.
+        let stations: Vec<(usize, Matrix3<f64>, Matrix3<f64>)> = (0..self.x_meas_base0.len())
+            .map(|s| {
+                let fo = self.station_frame_offset(s);
+                let r_mb = self
+                    .x_meas_base(x, s)
+                    .rotation
+                    .to_rotation_matrix()
+                    .into_inner();
+                let jl_phi = left_jacobian(&Vector3::new(x[fo + 3], x[fo + 4], x[fo + 5]));
+                (fo, r_mb, jl_phi)
+            })
+            .collect();
         let mut data = self.data.borrow_mut();
         let mut jacobians = self.jacobians.borrow_mut();
         let PointJacobians {
@@ -784,6 +873,7 @@ impl StackedJacobian for TargetErrorModel<'_> {
                 self.model, &mut data, &state.q, xi, &points, jacs, jqs, poses,
             )
             .map_err(self.kinematics_error(k))?;
+            let (fo, r_mb, jl_phi) = stations[self.set.station_of(k)];
             for (i, row) in (start..end).enumerate() {
                 let t = self.rows[row].1;
                 let row = row - first;
@@ -857,7 +947,8 @@ struct SpreadReference<'a> {
     options: &'a CalibrationOptions,
     /// What the identification poses cover of each actuated coordinate.
     actuated_ranges: &'a [CoordinateCoverage],
-    x_meas_base0: Isometry3<f64>,
+    /// Starting measurement frame of each station.
+    x_meas_base0: &'a [Isometry3<f64>],
     context: &'a AnalysisContext<'a>,
 }
 
@@ -898,7 +989,17 @@ fn spread_ratios(
             observations: vec![Some(TargetObservation::new(Vector3::zeros())); set.targets().len()],
         })
         .collect();
-    let spread = TargetMeasurementSet::new("spread reference", set.targets().to_vec(), poses)?;
+    // The spread poses are shared out among the stations, each of which
+    // then sees as many as its frame needs.
+    let stations = set.n_stations();
+    if count < stations {
+        return Ok(none);
+    }
+    let spread = TargetMeasurementSet::new("spread reference", set.targets().to_vec(), poses)?
+        .with_stations(
+            set.station_names().to_vec(),
+            (0..count).map(|k| k % stations).collect(),
+        )?;
     let problem = TargetErrorModel::new(model, &spread, x_meas_base0)?
         .with_elastic(options.gravity.as_ref(), &options.joint_terms)?;
     let weights: Vec<f64> = (0..problem.n_residuals()).map(|i| weight[i % 3]).collect();
@@ -960,23 +1061,33 @@ pub fn calibrate_targets(
     check_supported(options)?;
     check_coordinates(model, set)?;
     let frame_fixed = options.measurement_frame == FrameTreatment::Fixed;
-    // The measurement frame starts from the registration of the nominal
-    // predictions onto the measurements.
-    let identity = TargetErrorModel::new(model, set, Isometry3::identity())?;
-    let x_meas_base0 = match (frame_fixed, options.measurement_frame_value) {
-        (_, Some(x)) => x,
-        (true, None) => Isometry3::identity(),
-        (false, None) => {
-            let x0 = identity.initial_unknowns();
-            let predicted = identity.predict(&x0)?;
-            let measured: Vec<Vector3<f64>> = (0..identity.rows.len())
-                .map(|r| identity.measured(r).position)
-                .collect();
-            register_points(&measured, &predicted)?
-        }
-    };
-    let problem = TargetErrorModel::new(model, set, x_meas_base0)?
+    // Each station's measurement frame starts from the registration of the
+    // nominal predictions onto its measurements (the first station's from
+    // `measurement_frame_value` when given; the identity when fixed).
+    let stations = set.n_stations();
+    let identity = TargetErrorModel::new(model, set, &vec![Isometry3::identity(); stations])?;
+    let x0 = identity.initial_unknowns();
+    let predicted = identity.predict(&x0)?;
+    let x_meas_base0 = (0..stations)
+        .map(|s| match (frame_fixed, options.measurement_frame_value) {
+            (_, Some(x)) if s == 0 => Ok(x),
+            (true, _) => Ok(Isometry3::identity()),
+            (false, _) => {
+                let rows: Vec<usize> = (0..identity.rows.len())
+                    .filter(|&r| identity.station_of_row(r) == s)
+                    .collect();
+                let measured: Vec<Vector3<f64>> = rows
+                    .iter()
+                    .map(|&r| identity.measured(r).position)
+                    .collect();
+                let predicted: Vec<Vector3<f64>> = rows.iter().map(|&r| predicted[r]).collect();
+                register_points(&measured, &predicted)
+            }
+        })
+        .collect::<Result<Vec<_>, CalibError>>()?;
+    let problem = TargetErrorModel::new(model, set, &x_meas_base0)?
         .with_elastic(options.gravity.as_ref(), &options.joint_terms)?;
+    let frame_columns = problem.frame_columns();
     let n = problem.names.len();
     let names = problem.names.clone();
     let kinds = problem.kinds();
@@ -996,12 +1107,12 @@ pub fn calibrate_targets(
     for name in &options.fixed {
         fixed[index_of(name)?] = true;
     }
-    if frame_fixed {
-        fixed[fo..fo + 6].fill(true);
-    }
     let mut priorities = vec![0i32; n];
-    priorities[fo..fo + 6].fill(2);
     priorities[fo + 6..eo].fill(1);
+    for &j in &frame_columns {
+        fixed[j] |= frame_fixed;
+        priorities[j] = 2;
+    }
     for name in &options.deferred {
         priorities[index_of(name)?] = -1;
     }
@@ -1128,7 +1239,7 @@ pub fn calibrate_targets(
                 set,
                 options,
                 actuated_ranges: &actuated_ranges,
-                x_meas_base0,
+                x_meas_base0: &x_meas_base0,
                 context: &context,
             },
             &reduced_start,
@@ -1194,9 +1305,11 @@ pub fn calibrate_targets(
     Ok(TargetCalibration {
         xi: x[..np].to_vec(),
         nominal_xi: model.nominal_params().to_vec(),
-        x_meas_base: problem.x_meas_base(&x),
-        x_meas_base_initial: x_meas_base0,
-        x_meas_base_nominal_robot: problem.x_meas_base(&x_nominal_robot),
+        x_meas_base: problem.x_meas_base(&x, 0),
+        x_meas_base_initial: x_meas_base0[0],
+        x_meas_base_nominal_robot: problem.x_meas_base(&x_nominal_robot, 0),
+        station_names: set.station_names().to_vec(),
+        station_frames: problem.station_frames(&x)[1..].to_vec(),
         measurement_frame_fixed: frame_fixed,
         targets,
         targets_nominal_robot,
@@ -1251,19 +1364,28 @@ pub struct TargetValidation {
 
 /// The multi-target model of `calibration` on `set` (whose targets carry
 /// the offsets to use), with the unknowns of the robot `xi`, the
-/// measurement frame `x_meas_base` and the identified elastic and joint
-/// unknowns (`identified`), or their starting values (the model the
-/// identification started from).
+/// measurement frames (`first` for the first station: the calibration's
+/// other stations' frames when `set` has its stations, else `first` for
+/// every station of `set`) and the identified elastic and joint unknowns
+/// (`identified`), or their starting values (the model the identification
+/// started from).
 fn fitted_model<'a>(
     model: &'a Model,
     calibration: &TargetCalibration,
     set: &'a TargetMeasurementSet,
     xi: &[f64],
     identified: bool,
-    x_meas_base: Isometry3<f64>,
+    first: Isometry3<f64>,
 ) -> Result<(TargetErrorModel<'a>, Vec<f64>), CalibError> {
     let gravity = calibration.elastic.as_ref().map(|(g, _)| g);
-    let problem = TargetErrorModel::new(model, set, x_meas_base)?
+    let frames: Vec<Isometry3<f64>> = if set.n_stations() == 1 + calibration.station_frames.len() {
+        std::iter::once(first)
+            .chain(calibration.station_frames.iter().copied())
+            .collect()
+    } else {
+        vec![first; set.n_stations()]
+    };
+    let problem = TargetErrorModel::new(model, set, &frames)?
         .with_elastic(gravity, &calibration.joint_terms)?;
     let mut x = xi.to_vec();
     x.resize(problem.elastic_offset, 0.0);
@@ -1358,7 +1480,9 @@ pub fn validate_targets(
         let (problem, mut x) = fitted_model(model, calibration, set, xi, identified, x_meas_base)?;
         if refit_frame {
             let mut frozen = vec![true; x.len()];
-            frozen[model.n_params()..model.n_params() + 6].fill(false);
+            for j in problem.frame_columns() {
+                frozen[j] = false;
+            }
             let setup = ProblemSetup {
                 row_weights: None,
                 weights_are_absolute: false,
@@ -1420,7 +1544,7 @@ impl Predicting for TargetCalibration {
         check_coordinates(model, set)?;
         let calibrated = set.with_targets(self.targets.clone())?;
         let gravity = self.elastic.as_ref().map(|(g, _)| g);
-        let problem = TargetErrorModel::new(model, &calibrated, self.x_meas_base)?
+        let problem = TargetErrorModel::new(model, &calibrated, &self.measurement_frames())?
             .with_elastic(gravity, &self.joint_terms)?;
         let mut x = self.xi.clone();
         x.resize(problem.elastic_offset, 0.0);
@@ -1485,9 +1609,9 @@ mod tests {
 
     /// Every column of the multi-target model with the elastic and joint
     /// terms (compliances, payload, lateral compliances of the torso and
-    /// both arms, the joint law, cyclic errors) against central
-    /// differences, on the two-armed tree with a marker on each hand, at
-    /// unknowns away from the start.
+    /// both arms, the joint law, cyclic errors) and two stations against
+    /// central differences, on the two-armed tree with a marker on each
+    /// hand, at unknowns away from the start.
     #[test]
     fn elastic_columns_of_markers_on_two_branches_match_central_differences() {
         let model = RobotDescription::from_toml_file(&data_file("two_arms.toml"))
@@ -1514,7 +1638,11 @@ mod tests {
                     .collect(),
             })
             .collect();
-        let set = TargetMeasurementSet::new("fd", targets, poses).unwrap();
+        // Two stations (the later one's frame columns after the offsets).
+        let set = TargetMeasurementSet::new("fd", targets, poses)
+            .unwrap()
+            .with_stations(vec!["a".into(), "b".into()], vec![0, 0, 0, 1, 1, 1])
+            .unwrap();
         let terms = JointTerms {
             law: Some(JointLaw::default()),
             cyclic: true,
@@ -1523,7 +1651,11 @@ mod tests {
             Translation3::new(2.0, -0.3, 0.4),
             rotation_from_vector(&Vector3::new(0.2, -0.1, 1.9)),
         );
-        let problem = TargetErrorModel::new(&model, &set, frame)
+        let second = Isometry3::from_parts(
+            Translation3::new(-1.5, 2.0, 0.3),
+            rotation_from_vector(&Vector3::new(-0.1, 0.3, -1.1)),
+        );
+        let problem = TargetErrorModel::new(&model, &set, &[frame, second])
             .unwrap()
             .with_elastic(Some(&gravity), &terms)
             .unwrap();
@@ -1600,5 +1732,21 @@ mod tests {
             }
         }
         assert_eq!(lateral_seen, [true, true], "names: {:?}", problem.names);
+        // Each frame moves its own station's observations only.
+        let frame_rows = |first: usize| -> Vec<usize> {
+            (0..rows)
+                .filter(|&i| (first..first + 6).any(|j| analytic[(i, j)] != 0.0))
+                .map(|i| problem.set.station_of(problem.rows[i / 3].0))
+                .collect()
+        };
+        assert!(
+            frame_rows(problem.station_frame_offset(0))
+                .iter()
+                .all(|&s| s == 0)
+        );
+        let s2 = problem.station_frame_offset(1);
+        assert_eq!(problem.names[s2], "frame_s2_x");
+        let seen = frame_rows(s2);
+        assert!(!seen.is_empty() && seen.iter().all(|&s| s == 1));
     }
 }

@@ -231,7 +231,8 @@
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
 //! - Several targets: positions only (orientation columns are read, not
-//!   fitted), Levenberg-Marquardt only, one station.
+//!   fitted), Levenberg-Marquardt only; stations pooled
+//!   ([`TargetMeasurementSet::pooled`]) but not held out in turn.
 //! - Several stations share one target offset: a probe remounted between
 //!   campaigns is refused, not modelled; with the frames fixed
 //!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.

@@ -91,6 +91,119 @@ pub const IPA_JOINT_COLUMNS: [&str; 6] = [
     "wrist_3_joint",
 ];
 
+/// Checks the stations of a set of `poses` poses from `source`: one
+/// station index per pose, each naming one of `stations`, and every station
+/// with a pose.
+///
+/// # Errors
+/// [`CalibError::BadMeasurement`] naming the set and what is wrong.
+pub(crate) fn check_stations(
+    source: &str,
+    stations: &[String],
+    station_of: &[usize],
+    poses: usize,
+) -> Result<(), CalibError> {
+    let bad = |what: String| CalibError::BadMeasurement {
+        source_name: source.to_string(),
+        line: 0,
+        what,
+    };
+    if station_of.len() != poses {
+        return Err(bad(format!(
+            "{} station indices for {poses} poses",
+            station_of.len()
+        )));
+    }
+    if let Some(k) = station_of.iter().position(|&s| s >= stations.len()) {
+        return Err(bad(format!(
+            "pose {k}: station {} of {}",
+            station_of[k] + 1,
+            stations.len()
+        )));
+    }
+    if let Some(s) = (0..stations.len()).find(|s| !station_of.contains(s)) {
+        return Err(bad(format!("station `{}` has no pose", stations[s])));
+    }
+    Ok(())
+}
+
+/// The first of the sets to pool.
+///
+/// # Errors
+/// [`CalibError::BadMeasurement`] when there is none.
+pub(crate) fn first_to_pool<T>(sets: &[T]) -> Result<&T, CalibError> {
+    sets.first().ok_or_else(|| CalibError::BadMeasurement {
+        source_name: "pooled measurements".into(),
+        line: 0,
+        what: "no measurement sets to pool".into(),
+    })
+}
+
+/// Checks that a set to pool, `(source, actuated count)`, has as many
+/// actuated coordinates as the first.
+///
+/// # Errors
+/// [`CalibError::BadMeasurement`] naming the set.
+pub(crate) fn check_same_actuated(
+    set: (&str, usize),
+    first: (&str, usize),
+) -> Result<(), CalibError> {
+    if set.1 == first.1 {
+        return Ok(());
+    }
+    Err(CalibError::BadMeasurement {
+        source_name: set.0.to_string(),
+        line: 0,
+        what: format!(
+            "{} actuated coordinates, {} has {}",
+            set.1, first.0, first.1
+        ),
+    })
+}
+
+/// The stations of sets being pooled, and the pooled station of each pose
+/// so far.
+#[derive(Default)]
+pub(crate) struct StationPool {
+    /// Station names, unique (the CSV tells stations by name): a name met
+    /// before gets its number, `markers.csv (s2)`.
+    pub stations: Vec<String>,
+    /// Pooled station of each pose added.
+    pub station_of: Vec<usize>,
+}
+
+impl StationPool {
+    /// Adds a set's stations; returns the pooled index of its first.
+    pub fn add_stations(&mut self, names: &[String]) -> usize {
+        let offset = self.stations.len();
+        for name in names {
+            let unique = if self.stations.contains(name) {
+                format!("{name} (s{})", self.stations.len() + 1)
+            } else {
+                name.clone()
+            };
+            self.stations.push(unique);
+        }
+        offset
+    }
+
+    /// Adds a pose of pooled station `station`; returns its pooled label,
+    /// `s2:line 534` for `label` `line 534` of the second station.
+    pub fn add_pose(&mut self, station: usize, label: String) -> String {
+        self.station_of.push(station);
+        format!("s{}:{label}", station + 1)
+    }
+}
+
+/// The index of station `name` in `names`, appended when new: stations by
+/// name in the order they first appear (a `station` column).
+pub(crate) fn station_index(names: &mut Vec<String>, name: &str) -> usize {
+    names.iter().position(|n| n == name).unwrap_or_else(|| {
+        names.push(name.to_string());
+        names.len() - 1
+    })
+}
+
 impl MeasurementSet {
     /// Validates and wraps measurements.
     ///
@@ -173,28 +286,7 @@ impl MeasurementSet {
         stations: Vec<String>,
         station_of: Vec<usize>,
     ) -> Result<Self, CalibError> {
-        let bad = |what: String| CalibError::BadMeasurement {
-            source_name: self.source.clone(),
-            line: 0,
-            what,
-        };
-        if station_of.len() != self.len() {
-            return Err(bad(format!(
-                "{} station indices for {} poses",
-                station_of.len(),
-                self.len()
-            )));
-        }
-        if let Some(k) = station_of.iter().position(|&s| s >= stations.len()) {
-            return Err(bad(format!(
-                "pose {k}: station {} of {}",
-                station_of[k] + 1,
-                stations.len()
-            )));
-        }
-        if let Some(s) = (0..stations.len()).find(|s| !station_of.contains(s)) {
-            return Err(bad(format!("station `{}` has no pose", stations[s])));
-        }
+        check_stations(&self.source, &stations, &station_of, self.len())?;
         self.stations = stations;
         self.station_of = station_of;
         Ok(self)
@@ -204,7 +296,9 @@ impl MeasurementSet {
     /// one identification: each set keeps its own measurement frame (its
     /// stations, when it has several), the robot and the target offset are
     /// shared. With more than one station the pose labels are prefixed by
-    /// the station's number, `s2:line 534` (pose `line 534` of the second).
+    /// the station's number, `s2:line 534` (pose `line 534` of the second);
+    /// a station name met before is made unique with its number,
+    /// `B.csv (s2)`.
     ///
     /// # Errors
     /// [`CalibError::BadMeasurement`] naming the set: no sets, a different
@@ -212,13 +306,7 @@ impl MeasurementSet {
     /// in some sets only, or nominal target offsets that differ (a target
     /// remounted between stations is not one target).
     pub fn pooled(sets: &[MeasurementSet]) -> Result<Self, CalibError> {
-        let Some(first) = sets.first() else {
-            return Err(CalibError::BadMeasurement {
-                source_name: "pooled measurements".into(),
-                line: 0,
-                what: "no measurement sets to pool".into(),
-            });
-        };
+        let first = first_to_pool(sets)?;
         if sets.len() == 1 {
             return Ok(first.clone());
         }
@@ -229,8 +317,7 @@ impl MeasurementSet {
                 set.has_orientation_std(),
             )
         };
-        let mut stations = Vec::new();
-        let mut station_of = Vec::new();
+        let mut pool = StationPool::default();
         let mut measurements = Vec::new();
         for set in sets {
             let bad = |what: String| CalibError::BadMeasurement {
@@ -238,14 +325,10 @@ impl MeasurementSet {
                 line: 0,
                 what,
             };
-            if set.n_actuated() != first.n_actuated() {
-                return Err(bad(format!(
-                    "{} actuated coordinates, {} has {}",
-                    set.n_actuated(),
-                    first.source,
-                    first.n_actuated()
-                )));
-            }
+            check_same_actuated(
+                (&set.source, set.n_actuated()),
+                (&first.source, first.n_actuated()),
+            )?;
             if pattern(set) != pattern(first) {
                 return Err(bad(format!(
                     "orientations or standard deviations are measured in {} and not here, or the reverse: pooled sets must measure the same",
@@ -266,20 +349,17 @@ impl MeasurementSet {
                     first.source
                 )));
             }
-            let offset = stations.len();
-            stations.extend(set.stations.iter().cloned());
+            let offset = pool.add_stations(&set.stations);
             for (k, m) in set.measurements.iter().enumerate() {
-                let station = offset + set.station_of[k];
                 let mut m = m.clone();
-                m.pose_id = Some(format!("s{}:{}", station + 1, m.label(k)));
+                m.pose_id = Some(pool.add_pose(offset + set.station_of[k], m.label(k)));
                 measurements.push(m);
-                station_of.push(station);
             }
         }
         let source: Vec<&str> = sets.iter().map(|s| s.source.as_str()).collect();
         let mut set = Self::new(&source.join(" + "), measurements)?;
         set.nominal_target = first.nominal_target;
-        set.with_stations(stations, station_of)
+        set.with_stations(pool.stations, pool.station_of)
     }
 
     /// Number of stations (at least 1).
@@ -496,14 +576,7 @@ impl MeasurementSet {
                     what: "empty `station` cell".into(),
                 });
             }
-            let s = match names.iter().position(|n| n == name) {
-                Some(s) => s,
-                None => {
-                    names.push(name.to_string());
-                    names.len() - 1
-                }
-            };
-            station_of.push(s);
+            station_of.push(station_index(&mut names, name));
         }
         set.with_stations(names, station_of)
     }

@@ -152,6 +152,12 @@ impl Selectable for TargetMeasurementSet {
     fn configuration(&self, k: usize) -> &[f64] {
         &self.poses()[k].q
     }
+    fn n_stations(&self) -> usize {
+        TargetMeasurementSet::n_stations(self)
+    }
+    fn station_of(&self, k: usize) -> usize {
+        TargetMeasurementSet::station_of(self, k)
+    }
     fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
         TargetMeasurementSet::subset(self, indices)
     }

@@ -33,6 +33,9 @@ use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::identify::FrameTreatment;
+use crate::measurement::{
+    StationPool, check_same_actuated, check_stations, first_to_pool, station_index,
+};
 use crate::{CalibError, MeasurementSet};
 
 /// The frame name that stands for the TCP: the end frame followed by the
@@ -116,6 +119,13 @@ pub struct TargetMeasurementSet {
     pub source: String,
     targets: Vec<Target>,
     poses: Vec<TargetPose>,
+    /// Name of each station (placement of the instrument), in order; empty
+    /// for one station named after the source.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    stations: Vec<String>,
+    /// Station of each pose (index into `stations`); empty for one station.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    station_of: Vec<usize>,
 }
 
 fn valid_target_name(name: &str) -> bool {
@@ -263,7 +273,105 @@ impl TargetMeasurementSet {
             source: source.to_string(),
             targets,
             poses,
+            stations: Vec::new(),
+            station_of: Vec::new(),
         })
+    }
+
+    /// The same poses as stations named `stations` (placements of the
+    /// instrument, each with its own measurement frame), pose `k` measured
+    /// from station `station_of[k]`.
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] when `station_of` does not have one
+    /// entry per pose, names a station that does not exist, or a station
+    /// has no pose.
+    pub fn with_stations(
+        mut self,
+        stations: Vec<String>,
+        station_of: Vec<usize>,
+    ) -> Result<Self, CalibError> {
+        check_stations(&self.source, &stations, &station_of, self.len())?;
+        if stations.len() <= 1 {
+            self.stations.clear();
+            self.station_of.clear();
+        } else {
+            self.stations = stations;
+            self.station_of = station_of;
+        }
+        Ok(self)
+    }
+
+    /// Joins sets of the same targets (names, frames and offsets) measured
+    /// from several stations: each set keeps its own measurement frame (its
+    /// stations, when it has several), the robot and the targets' offsets
+    /// are shared. With more than one station the pose labels are prefixed
+    /// by the station's number, `s2:p17` (pose `p17` of the second), as
+    /// [`crate::MeasurementSet::pooled`] does; a station name met before is
+    /// made unique with its number, `markers.csv (s2)`.
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] naming the set: no sets, a different
+    /// number of actuated coordinates, or targets that differ (a marker
+    /// glued elsewhere between stations is another target).
+    pub fn pooled(sets: &[TargetMeasurementSet]) -> Result<Self, CalibError> {
+        let first = first_to_pool(sets)?;
+        if sets.len() == 1 {
+            return Ok(first.clone());
+        }
+        let mut pool = StationPool::default();
+        let mut poses = Vec::new();
+        for set in sets {
+            check_same_actuated(
+                (&set.source, set.n_actuated()),
+                (&first.source, first.n_actuated()),
+            )?;
+            let same = set.targets.len() == first.targets.len()
+                && set.targets.iter().zip(&first.targets).all(|(a, b)| {
+                    a.name == b.name
+                        && a.frame == b.frame
+                        && a.treatment == b.treatment
+                        && (a.offset - b.offset).norm() < 1e-12
+                });
+            if !same {
+                return Err(CalibError::BadMeasurement {
+                    source_name: set.source.clone(),
+                    line: 0,
+                    what: format!(
+                        "its targets differ from those of {} (names, frames, offsets): pooled sets must measure the same targets",
+                        first.source
+                    ),
+                });
+            }
+            let offset = pool.add_stations(set.station_names());
+            for (k, pose) in set.poses.iter().enumerate() {
+                let mut pose = pose.clone();
+                pose.pose_id = Some(pool.add_pose(offset + set.station_of(k), pose.label(k)));
+                poses.push(pose);
+            }
+        }
+        let source: Vec<&str> = sets.iter().map(|s| s.source.as_str()).collect();
+        Self::new(&source.join(" + "), first.targets.clone(), poses)?
+            .with_stations(pool.stations, pool.station_of)
+    }
+
+    /// Number of stations (at least 1).
+    pub fn n_stations(&self) -> usize {
+        self.stations.len().max(1)
+    }
+    /// Names of the stations, in order (a file name, or the `station`
+    /// column's values).
+    pub fn station_names(&self) -> &[String] {
+        if self.stations.is_empty() {
+            std::slice::from_ref(&self.source)
+        } else {
+            &self.stations
+        }
+    }
+    /// Station (0-based index into [`TargetMeasurementSet::station_names`])
+    /// of pose `k`.
+    pub fn station_of(&self, k: usize) -> usize {
+        self.station_of.get(k).copied().unwrap_or(0)
     }
 
     /// The one-target set as a set of one target named `name` on the TCP
@@ -357,11 +465,19 @@ impl TargetMeasurementSet {
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        // The poses were checked when the set was made.
+        // The poses were checked when the set was made. The subset keeps
+        // every station (so its unknowns keep their names), even one that
+        // none of the picked poses belongs to.
         Ok(Self {
             source: self.source.clone(),
             targets: self.targets.clone(),
             poses,
+            stations: self.stations.clone(),
+            station_of: if self.stations.is_empty() {
+                Vec::new()
+            } else {
+                indices.iter().map(|&i| self.station_of[i]).collect()
+            },
         })
     }
 
@@ -384,7 +500,10 @@ impl TargetMeasurementSet {
                 what: "the new targets must have the names of the set's, in its order".into(),
             });
         }
-        Self::new(&self.source, targets, self.poses.clone())
+        let mut set = Self::new(&self.source, targets, self.poses.clone())?;
+        set.stations = self.stations.clone();
+        set.station_of = self.station_of.clone();
+        Ok(set)
     }
 
     /// Reads flexcal's CSV with per-target columns (see the module docs),
@@ -473,6 +592,9 @@ impl TargetMeasurementSet {
             ));
         }
         let pose_id = table.find_column("pose_id");
+        let station = table.find_column("station");
+        let mut stations: Vec<String> = Vec::new();
+        let mut station_of = Vec::with_capacity(table.len());
         let deg = 1f64.to_radians();
         let mut poses = Vec::with_capacity(table.len());
         for row in 0..table.len() {
@@ -544,13 +666,30 @@ impl TargetMeasurementSet {
                     what: "no target observed on this pose".into(),
                 });
             }
+            if let Some(column) = station {
+                // Stations by name, in the order they first appear.
+                let name = table.cell(row, column).trim();
+                if name.is_empty() {
+                    return Err(CalibError::BadMeasurement {
+                        source_name: source.clone(),
+                        line,
+                        what: "empty `station` cell".into(),
+                    });
+                }
+                station_of.push(station_index(&mut stations, name));
+            }
             poses.push(TargetPose {
                 pose_id: pose_id.map(|c| table.cell(row, c).to_string()),
                 q,
                 observations,
             });
         }
-        Self::new(&source, targets.to_vec(), poses)
+        let set = Self::new(&source, targets.to_vec(), poses)?;
+        if station.is_some() {
+            set.with_stations(stations, station_of)
+        } else {
+            Ok(set)
+        }
     }
 
     /// The set in the CSV format (mm and deg, full precision; empty cells
@@ -593,6 +732,10 @@ impl TargetMeasurementSet {
                 }
             }
         }
+        let with_stations = self.n_stations() > 1;
+        if with_stations {
+            header.push("station".into());
+        }
         let mut text = header.join(",");
         text.push('\n');
         for (k, pose) in self.poses.iter().enumerate() {
@@ -623,6 +766,9 @@ impl TargetMeasurementSet {
                         }
                     }
                 }
+            }
+            if with_stations {
+                cells.push(self.station_names()[self.station_of(k)].replace(',', ";"));
             }
             let _ = writeln!(text, "{}", cells.join(","));
         }

@@ -153,7 +153,14 @@ fn pooled_stations_recover_both_frames_exactly_where_one_frame_cannot() {
     let first = robot.station(first_station(), 50, 1);
     let second = robot.station(second_station(), 50, 2);
     let pooled = MeasurementSet::pooled(&[first.clone(), second.clone()]).unwrap();
-    assert_eq!(pooled.station_names(), ["simulated station"; 2]);
+    // Two sets of the same name: the second station's is made unique, so
+    // that a `station` column can tell them apart.
+    assert_eq!(
+        pooled.station_names(),
+        ["simulated station", "simulated station (s2)"]
+    );
+    let back = MeasurementSet::from_csv_str(&pooled.to_csv_string(), "back").unwrap();
+    assert_eq!(back.n_stations(), 2);
     assert_eq!(pooled.measurements()[50].label(50), "s2:#0");
     let mut options = CalibrationOptions::for_model(&model);
     options.target = FrameTreatment::Fixed;

@@ -244,6 +244,101 @@ fn two_markers_calibrate_end_to_end() {
     }
 }
 
+/// Two stations from the command line: the same robot measured from two
+/// placements of the instrument, one file each (`--data A --data B`); one
+/// identification with a measurement frame per station, its CSV round trip
+/// keeping the stations, and a file given twice refused by name.
+#[test]
+fn two_markers_from_two_stations_calibrate_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let targets_file = calib_data("two_arms_targets.toml");
+    let targets = read_targets(&targets_file).unwrap();
+    let first = d.join("station-a.csv");
+    let second = d.join("station-b.csv");
+    simulate(&targets, 0, 40).write_csv(&first).unwrap();
+    // The second placement: the same poses' positions seen from a tracker
+    // moved by 1 m along x and turned by 90 deg about z.
+    let moved = simulate(&targets, 500, 40);
+    let turn = Isometry3::from_parts(
+        Translation3::new(1.0, 0.0, 0.0),
+        flexcal::nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 1.5),
+    );
+    let poses = moved
+        .poses()
+        .iter()
+        .map(|p| {
+            let mut p = p.clone();
+            for o in p.observations.iter_mut().flatten() {
+                o.position = (turn * flexcal::nalgebra::Point3::from(o.position)).coords;
+            }
+            p
+        })
+        .collect();
+    TargetMeasurementSet::new("b", targets.clone(), poses)
+        .unwrap()
+        .write_csv(&second)
+        .unwrap();
+    let robot = calib_data("two_arms.toml").display().to_string();
+    let report = d.join("report.json");
+    let (a, b) = (first.display().to_string(), second.display().to_string());
+    let t = targets_file.display().to_string();
+    let r = report.display().to_string();
+    let args = [
+        "calibrate",
+        "--robot",
+        &robot,
+        "--data",
+        &a,
+        "--data",
+        &b,
+        "--targets",
+        &t,
+        "--report",
+        &r,
+    ];
+    let out = flexcal(&args);
+    let text = stdout(&out);
+    assert!(out.status.success(), "{text}\n{}", stderr(&out));
+    assert!(
+        text.contains("80 poses, 160 observations of 2 targets"),
+        "{text}"
+    );
+    assert!(
+        text.contains("2 stations, each with its own measurement frame: s1 "),
+        "{text}"
+    );
+    // Noise-free data from both placements: fitted to round-off.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let mean = json["calibration"]["training_after"]["position_mean"]
+        .as_f64()
+        .unwrap();
+    assert!(mean < 1e-7, "{mean}");
+    assert_eq!(
+        json["calibration"]["station_frames"]
+            .as_array()
+            .unwrap()
+            .len(),
+        1
+    );
+    // The same file twice is refused, naming it.
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        &robot,
+        "--data",
+        &a,
+        "--data",
+        &a,
+        "--targets",
+        &t,
+    ]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("is given twice"), "{err}");
+}
+
 /// The elasto-geometric model with two markers, from the command line: the
 /// joint springs under both arms' weights (mass table with lateral
 /// compliances) on a robot whose joints are rigid. The compliances come out

@@ -138,6 +138,32 @@ impl TargetMeasurementSet {
         self.set.write_csv(&path).map_err(|e| calib_error(&e))
     }
 
+    /// Several sets of the same targets as the stations of one
+    /// calibration: each keeps its own measurement frame (the tracker
+    /// moved to see the other hand), the robot and the targets' offsets are
+    /// shared. Labels then carry the station's number (`s2:p17`).
+    #[staticmethod]
+    fn pooled(sets: Vec<PyRef<'_, TargetMeasurementSet>>) -> PyResult<Self> {
+        let owned: Vec<Set> = sets.iter().map(|s| (*s.set).clone()).collect();
+        Ok(Self {
+            set: Arc::new(Set::pooled(&owned).map_err(|e| calib_error(&e))?),
+        })
+    }
+
+    /// Names of the stations (a file, or a `station` column's values).
+    #[getter]
+    fn station_names(&self) -> Vec<String> {
+        self.set.station_names().to_vec()
+    }
+
+    /// The station (index into `station_names`) of each pose.
+    #[getter]
+    fn station_of(&self) -> Vec<usize> {
+        (0..self.set.len())
+            .map(|k| self.set.station_of(k))
+            .collect()
+    }
+
     /// Names of the targets, in the order of `positions`.
     #[getter]
     fn target_names(&self) -> Vec<String> {
@@ -445,6 +471,18 @@ impl TargetCalibrationResult {
     #[getter]
     fn measurement_frame<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
         matrix(py, &self.run.calibration.x_meas_base)
+    }
+
+    /// The identified measurement frame of every station (4 x 4, m), by
+    /// station name; one entry for a set of one station.
+    #[getter]
+    fn station_frames<'py>(&self, py: Python<'py>) -> Vec<(String, Bound<'py, PyArrayDyn<f64>>)> {
+        let c = &self.run.calibration;
+        c.measurement_frames()
+            .iter()
+            .zip(&c.station_names)
+            .map(|(frame, name)| (name.clone(), matrix(py, frame)))
+            .collect()
     }
 
     /// Errors of the calibrated robot on another set of the same targets;

@@ -308,6 +308,33 @@ fn step(step: &'static str) -> impl FnOnce(calib::CalibError) -> Error {
     move |source| Error::CalibrationStep { step, source }
 }
 
+/// The identification files, one station each: `config.data` then
+/// `config.station_data`.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] for a file given twice: two stations that
+/// saw the very same poses are a slip of the command line, not a campaign.
+pub(crate) fn station_files(config: &CalibrationConfig) -> Result<Vec<&PathBuf>> {
+    let files: Vec<&PathBuf> = std::iter::once(&config.data)
+        .chain(&config.station_data)
+        .collect();
+    if let Some((k, path)) = files
+        .iter()
+        .enumerate()
+        .find(|(k, p)| files[..*k].contains(p))
+    {
+        return Err(Error::InvalidParameter {
+            parameter: "station_data".into(),
+            message: format!(
+                "{} is given twice (as station {} and an earlier one): each file is one station",
+                path.display(),
+                k + 1
+            ),
+        });
+    }
+    Ok(files)
+}
+
 /// The accuracy map at the configurations of
 /// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
 /// `predict`.
@@ -397,26 +424,7 @@ pub fn run_calibration(
             &mut exclusions,
         )?
     } else {
-        // The same file twice would be two stations that saw the very same
-        // poses: a slip of the command line, not a campaign.
-        let files: Vec<&PathBuf> = std::iter::once(&config.data)
-            .chain(&config.station_data)
-            .collect();
-        if let Some((k, path)) = files
-            .iter()
-            .enumerate()
-            .find(|(k, p)| files[..*k].contains(p))
-        {
-            return Err(invalid(
-                "station_data",
-                format!(
-                    "{} is given twice (as station {} and an earlier one): each file is one station",
-                    path.display(),
-                    k + 1
-                ),
-            ));
-        }
-        let sets = files
+        let sets = station_files(config)?
             .iter()
             .map(|path| config.format.read(path))
             .collect::<Result<Vec<_>>>()?;

@@ -17,6 +17,7 @@ use crate::calibration::html::{calibration_page, errors_chart, statistics_row, u
 use crate::calibration::text::{coverage_line, cross_check_text, split_check_text};
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, MeasurementFormat, extrapolation_note, grid_accuracy,
+    station_files,
 };
 use crate::report::svg::Series;
 use crate::report::{Report, Section};
@@ -60,8 +61,8 @@ pub struct TargetCalibrationRun {
 /// # Errors
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
 /// meaning with several targets or is not built for them (another file
-/// format, stations, pose exclusions, a target start, the residual
-/// model), and the errors of reading, model selection, identification,
+/// format, each station held out, pose exclusions, a target start, the
+/// residual model), and the errors of reading, model selection, identification,
 /// the split-half and cross-series checks, validation and the accuracy
 /// map, each naming its step.
 pub fn run_target_calibration(
@@ -80,7 +81,6 @@ pub fn run_target_calibration(
     };
     let unsupported = [
         ("format", config.format != MeasurementFormat::Own),
-        ("station_data", !config.station_data.is_empty()),
         ("hold_out_stations", config.hold_out_stations),
         ("exclude", !config.exclude.is_empty()),
         ("exclude_validation", !config.exclude_validation.is_empty()),
@@ -99,8 +99,13 @@ pub fn run_target_calibration(
     }
     let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
     let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
-    let data = TargetMeasurementSet::read_csv(&config.data, &targets)
+    // One station per file (each with its own measurement frame).
+    let sets = station_files(config)?
+        .into_iter()
+        .map(|path| TargetMeasurementSet::read_csv(path, &targets))
+        .collect::<std::result::Result<Vec<_>, _>>()
         .map_err(step("identification measurements"))?;
+    let data = TargetMeasurementSet::pooled(&sets).map_err(step("identification measurements"))?;
     let validation_set = config
         .validate
         .as_deref()
@@ -246,6 +251,18 @@ impl TargetCalibrationRun {
             c.solve.termination,
             c.solve.iterations
         )];
+        if c.station_names.len() > 1 {
+            lines.push(format!(
+                "{} stations, each with its own measurement frame: {}",
+                c.station_names.len(),
+                c.station_names
+                    .iter()
+                    .enumerate()
+                    .map(|(s, name)| format!("s{} {name}", s + 1))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
         if let Some(selection) = &self.selection {
             lines.extend(selection.lines());
         }

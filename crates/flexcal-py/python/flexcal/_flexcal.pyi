@@ -524,6 +524,14 @@ class TargetMeasurementSet:
         """flexcal's CSV with per-target columns (mm), the targets described by a TOML file."""
     def write_csv(self, path: StrPath) -> None:
         """Writes flexcal's CSV with per-target columns (mm)."""
+    @staticmethod
+    def pooled(sets: Sequence[TargetMeasurementSet]) -> TargetMeasurementSet:
+        """Sets of the same targets as the stations of one calibration (a frame each)."""
+    @property
+    def station_names(self) -> list[str]: ...
+    @property
+    def station_of(self) -> list[int]:
+        """The station (index into station_names) of each pose."""
     @property
     def target_names(self) -> list[str]: ...
     @property
@@ -605,6 +613,9 @@ class TargetCalibrationResult:
     @property
     def measurement_frame(self) -> FloatArray:
         """x_meas_base (4, 4), m."""
+    @property
+    def station_frames(self) -> list[tuple[str, FloatArray]]:
+        """The identified measurement frame of every station (name, 4x4 m)."""
     def validate(self, other: TargetMeasurementSet, refit_frame: bool = True) -> TargetValidationResult: ...
     def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
         """95 % bound of each target's position error at each configuration (one entry per configuration and target)."""
