@@ -1,6 +1,7 @@
 //! Each station held out in turn: with measurements from several stations
-//! (tracker placements, campaigns of other days; [`MeasurementSet::pooled`]),
-//! the calibration identified from the other stations, its model selected
+//! (tracker placements, campaigns of other days; [`MeasurementSet::pooled`],
+//! or with several targets [`TargetMeasurementSet::pooled`]), the
+//! calibration identified from the other stations, its model selected
 //! on their poses alone, predicts the held-out station's poses with only
 //! that station's measurement frame re-fitted. It is the cross-series
 //! validation of a single campaign done for every station: what a robot
@@ -12,7 +13,8 @@ use serde::Serialize;
 
 use crate::identify::CalibrationOptions;
 use crate::metrics::ErrorStatistics;
-use crate::selection::{SelectionOptions, calibrate_selected};
+use crate::selection::{Selectable, SelectionOptions, calibrate_selected_in};
+use crate::targets::TargetMeasurementSet;
 use crate::{CalibError, MeasurementSet};
 
 /// One station held out.
@@ -33,15 +35,43 @@ pub struct StationHoldOut {
 }
 
 /// Every station of `set` held out in turn: identified on the others with
-/// `options` and `selection` ([`calibrate_selected`]), validated on it.
+/// `options` and `selection` ([`crate::calibrate_selected`]), validated on it.
 ///
 /// # Errors
 /// [`CalibError::InvalidOption`] for a set of one station; what
-/// [`calibrate_selected`] and [`crate::Calibration::validate`] return,
+/// [`crate::calibrate_selected`] and [`crate::Calibration::validate`] return,
 /// naming the held-out station.
 pub fn hold_out_stations(
     model: &Model,
     set: &MeasurementSet,
+    options: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<Vec<StationHoldOut>, CalibError> {
+    hold_out(model, set, options, selection)
+}
+
+/// [`hold_out_stations`] for several targets per pose
+/// ([`TargetMeasurementSet::pooled`]): identified on the other stations
+/// with [`crate::calibrate_targets_selected`], validated on the held-out
+/// one with its measurement frame fitted again
+/// ([`crate::validate_targets`]); the errors are those of every
+/// observation.
+///
+/// # Errors
+/// As [`hold_out_stations`].
+pub fn hold_out_target_stations(
+    model: &Model,
+    set: &TargetMeasurementSet,
+    options: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<Vec<StationHoldOut>, CalibError> {
+    hold_out(model, set, options, selection)
+}
+
+/// [`hold_out_stations`] and [`hold_out_target_stations`].
+fn hold_out<S: Selectable>(
+    model: &Model,
+    set: &S,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<Vec<StationHoldOut>, CalibError> {
@@ -50,13 +80,13 @@ pub fn hold_out_stations(
             name: "hold_out_stations",
             reason: format!(
                 "{} holds one station: holding one out needs measurements from at least two (calibrate --data A --data B)",
-                set.source
+                set.source()
             ),
         });
     }
     (0..set.n_stations())
         .map(|s| {
-            let name = &set.station_names()[s];
+            let name = set.station_name(s);
             // The failure, named by station and step (a cancellation stays
             // one).
             let in_step = |step: &str, e: CalibError| match e {
@@ -66,21 +96,22 @@ pub fn hold_out_stations(
                     reason: format!("station `{name}` held out, {step}: {e}"),
                 },
             };
-            let others: Vec<usize> = (0..set.len()).filter(|&k| set.station_of(k) != s).collect();
+            let others: Vec<usize> = (0..set.n_poses())
+                .filter(|&k| set.station_of(k) != s)
+                .collect();
             let held_out = set
                 .station_poses(s)
                 .ok_or_else(|| in_step("its poses", CalibError::NothingToIdentify))?;
             let train = set.subset(&others)?;
-            let (calibration, report, _) = calibrate_selected(model, &train, options, selection)
+            let (calibration, report, _) = calibrate_selected_in(model, &train, options, selection)
                 .map_err(|e| in_step("identification on the other stations", e))?;
-            let validation = calibration
-                .validate(model, &held_out, false)
+            let (before, after) = S::held_out_statistics(model, &calibration, &held_out)
                 .map_err(|e| in_step("validation", e))?;
             Ok(StationHoldOut {
-                station: name.clone(),
+                station: name.to_string(),
                 chosen: report.map(|r| r.chosen.iter().map(|g| g.label().to_string()).collect()),
-                before: validation.before,
-                after: validation.after,
+                before,
+                after,
             })
         })
         .collect()

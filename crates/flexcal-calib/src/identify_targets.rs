@@ -1068,23 +1068,39 @@ pub fn calibrate_targets(
     let identity = TargetErrorModel::new(model, set, &vec![Isometry3::identity(); stations])?;
     let x0 = identity.initial_unknowns();
     let predicted = identity.predict(&x0)?;
-    let x_meas_base0 = (0..stations)
+    // A station without observations (a subset of the poses, as the
+    // selection's folds and each station held out make) has zero columns;
+    // its frame starts where the first registered one does.
+    let registered = (0..stations)
         .map(|s| match (frame_fixed, options.measurement_frame_value) {
-            (_, Some(x)) if s == 0 => Ok(x),
-            (true, _) => Ok(Isometry3::identity()),
+            (_, Some(x)) if s == 0 => Ok(Some(x)),
+            (true, _) => Ok(Some(Isometry3::identity())),
             (false, _) => {
                 let rows: Vec<usize> = (0..identity.rows.len())
                     .filter(|&r| identity.station_of_row(r) == s)
                     .collect();
+                if rows.is_empty() {
+                    return Ok(None);
+                }
                 let measured: Vec<Vector3<f64>> = rows
                     .iter()
                     .map(|&r| identity.measured(r).position)
                     .collect();
                 let predicted: Vec<Vector3<f64>> = rows.iter().map(|&r| predicted[r]).collect();
-                register_points(&measured, &predicted)
+                register_points(&measured, &predicted).map(Some)
             }
         })
         .collect::<Result<Vec<_>, CalibError>>()?;
+    let fallback = registered
+        .iter()
+        .flatten()
+        .next()
+        .copied()
+        .unwrap_or_else(Isometry3::identity);
+    let x_meas_base0: Vec<Isometry3<f64>> = registered
+        .into_iter()
+        .map(|x| x.unwrap_or(fallback))
+        .collect();
     let problem = TargetErrorModel::new(model, set, &x_meas_base0)?
         .with_elastic(options.gravity.as_ref(), &options.joint_terms)?;
     let frame_columns = problem.frame_columns();

@@ -231,8 +231,7 @@
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
 //! - Several targets: positions only (orientation columns are read, not
-//!   fitted), Levenberg-Marquardt only; stations pooled
-//!   ([`TargetMeasurementSet::pooled`]) but not held out in turn.
+//!   fitted), Levenberg-Marquardt only.
 //! - Several stations share one target offset: a probe remounted between
 //!   campaigns is refused, not modelled; with the frames fixed
 //!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.
@@ -285,7 +284,7 @@ pub use error_model::{
 pub use flexcal_optim::CancelToken;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
-pub use holdout::{StationHoldOut, hold_out_stations};
+pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
 pub use identify::{
     Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
     ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,

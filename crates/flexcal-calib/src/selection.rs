@@ -55,8 +55,11 @@ use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use crate::identify::{Calibration, CalibrationOptions, UnknownEstimate, UnknownStatus, calibrate};
-use crate::identify_targets::{TargetCalibration, calibrate_targets, target_position_errors};
+use crate::identify_targets::{
+    TargetCalibration, calibrate_targets, target_position_errors, validate_targets,
+};
 use crate::joint_law::JointLaw;
+use crate::metrics::ErrorStatistics;
 use crate::targets::TargetMeasurementSet;
 use crate::validate::FramePolicy;
 use crate::{CalibError, MeasurementSet};
@@ -94,6 +97,19 @@ pub(crate) trait Selectable: Sized + Sync {
         fitted: &Self::Fitted,
         held_out: &Self,
     ) -> Result<Vec<f64>, CalibError>;
+    /// Name of station `s`.
+    fn station_name(&self, s: usize) -> &str;
+    /// The poses of station `s` as a set of their own (`None` when there
+    /// are none).
+    fn station_poses(&self, s: usize) -> Option<Self>;
+    /// Errors of `held_out` (poses of another station) with the nominal
+    /// robot and with `fitted`'s, each with the measurement frame fitted
+    /// again on `held_out`: (before, after).
+    fn held_out_statistics(
+        model: &Model,
+        fitted: &Self::Fitted,
+        held_out: &Self,
+    ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError>;
     /// Every unknown of a fit.
     fn unknowns(fitted: &Self::Fitted) -> &[UnknownEstimate];
     /// The BIC of a fit.
@@ -131,6 +147,20 @@ impl Selectable for MeasurementSet {
         let (errors, _) =
             fitted.errors_after(model, held_out, FramePolicy::Fixed(fitted.x_meas_base))?;
         Ok(errors.iter().map(|e| e.position).collect())
+    }
+    fn station_name(&self, s: usize) -> &str {
+        &self.station_names()[s]
+    }
+    fn station_poses(&self, s: usize) -> Option<Self> {
+        MeasurementSet::station_poses(self, s)
+    }
+    fn held_out_statistics(
+        model: &Model,
+        fitted: &Calibration,
+        held_out: &Self,
+    ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
+        let validation = fitted.validate(model, held_out, false)?;
+        Ok((validation.before, validation.after))
     }
     fn unknowns(fitted: &Calibration) -> &[UnknownEstimate] {
         &fitted.unknowns
@@ -174,6 +204,20 @@ impl Selectable for TargetMeasurementSet {
         held_out: &Self,
     ) -> Result<Vec<f64>, CalibError> {
         target_position_errors(model, fitted, held_out)
+    }
+    fn station_name(&self, s: usize) -> &str {
+        &self.station_names()[s]
+    }
+    fn station_poses(&self, s: usize) -> Option<Self> {
+        TargetMeasurementSet::station_poses(self, s)
+    }
+    fn held_out_statistics(
+        model: &Model,
+        fitted: &TargetCalibration,
+        held_out: &Self,
+    ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
+        let validation = validate_targets(model, fitted, held_out, true)?;
+        Ok((validation.before, validation.after))
     }
     fn unknowns(fitted: &TargetCalibration) -> &[UnknownEstimate] {
         &fitted.unknowns
@@ -1173,7 +1217,7 @@ pub fn calibrate_targets_selected(
 }
 
 /// [`calibrate_selected`] over any [`Selectable`] set.
-fn calibrate_selected_in<D: Selectable>(
+pub(crate) fn calibrate_selected_in<D: Selectable>(
     model: &Model,
     set: &D,
     options: &CalibrationOptions,

@@ -374,6 +374,17 @@ impl TargetMeasurementSet {
         self.station_of.get(k).copied().unwrap_or(0)
     }
 
+    /// The poses of station `s` as a set of their own (one station, named
+    /// after it), or `None` when this set has none of them (a subset can
+    /// leave a station without poses).
+    pub fn station_poses(&self, s: usize) -> Option<Self> {
+        let poses: Vec<TargetPose> = (0..self.len())
+            .filter(|&k| self.station_of(k) == s)
+            .map(|k| self.poses[k].clone())
+            .collect();
+        Self::new(self.station_names().get(s)?, self.targets.clone(), poses).ok()
+    }
+
     /// The one-target set as a set of one target named `name` on the TCP
     /// ([`TCP_FRAME`]), its nominal offset the translation of the set's
     /// nominal target (zero without one).

@@ -713,6 +713,23 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
         "{:?}",
         validation.after
     );
+    // Each station held out: the robot calibrated on the other placement
+    // predicts it at the noise, its frame fitted again.
+    let none = flexcal_calib::SelectionOptions {
+        method: flexcal_calib::SelectionMethod::None,
+        ..Default::default()
+    };
+    let held = flexcal_calib::hold_out_target_stations(&model, &set, &options, &none).unwrap();
+    assert_eq!(held.len(), 2);
+    for h in &held {
+        println!(
+            "station {} held out: mean {:.4} mm ({:.3} mm with the nominal robot)",
+            h.station,
+            h.after.position_mean * 1e3,
+            h.before.position_mean * 1e3
+        );
+        assert!(h.after.position_mean < 0.045e-3, "{h:?}");
+    }
     // The pooled set's CSV keeps the stations.
     let text = set.to_csv_string();
     assert!(text.lines().next().unwrap().ends_with(",station"), "{text}");

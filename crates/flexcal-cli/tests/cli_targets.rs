@@ -246,8 +246,8 @@ fn two_markers_calibrate_end_to_end() {
 
 /// Two stations from the command line: the same robot measured from two
 /// placements of the instrument, one file each (`--data A --data B`); one
-/// identification with a measurement frame per station, its CSV round trip
-/// keeping the stations, and a file given twice refused by name.
+/// identification with a measurement frame per station, each station held
+/// out in turn, and a file given twice refused by name.
 #[test]
 fn two_markers_from_two_stations_calibrate_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
@@ -296,6 +296,7 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
         &t,
         "--report",
         &r,
+        "--hold-out-stations",
     ];
     let out = flexcal(&args);
     let text = stdout(&out);
@@ -322,6 +323,17 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
             .len(),
         1
     );
+    // Each station held out: the robot calibrated on the other predicts
+    // it to round-off (noise-free data), its frame fitted again.
+    assert!(text.contains("Each station held out"), "{text}");
+    let held = json["station_hold_out"].as_array().unwrap();
+    assert_eq!(held.len(), 2);
+    for h in held {
+        // Counted in observations: 40 poses of two markers.
+        assert_eq!(h["after"]["n_poses"].as_u64(), Some(80), "{h}");
+        assert!(h["after"]["position_mean"].as_f64().unwrap() < 1e-6, "{h}");
+        assert!(h["before"]["position_mean"].as_f64().unwrap() > 1e-4, "{h}");
+    }
     // The same file twice is refused, naming it.
     let out = flexcal(&[
         "calibrate",

@@ -567,25 +567,8 @@ impl CalibrationResult {
     /// otherwise).
     #[getter]
     #[allow(clippy::type_complexity)]
-    fn station_hold_out(
-        &self,
-    ) -> Vec<(
-        String,
-        Option<Vec<String>>,
-        ErrorStatistics,
-        ErrorStatistics,
-    )> {
-        self.station_hold_out
-            .iter()
-            .map(|h| {
-                (
-                    h.station.clone(),
-                    h.chosen.clone(),
-                    (&h.before).into(),
-                    (&h.after).into(),
-                )
-            })
-            .collect()
+    fn station_hold_out(&self) -> Vec<HoldOutRow> {
+        hold_out_rows(&self.station_hold_out)
     }
 
     /// Errors after identification of each station's poses, by station
@@ -906,6 +889,29 @@ pub fn calibrate<'py>(
         split: split.map(Arc::new),
         options: Arc::new(chosen),
     })
+}
+
+/// One station held out, as a Python tuple: (station, groups chosen or None
+/// without selection, errors before, errors after).
+pub(crate) type HoldOutRow = (
+    String,
+    Option<Vec<String>>,
+    ErrorStatistics,
+    ErrorStatistics,
+);
+
+/// Each station held out, as Python tuples ([`HoldOutRow`]).
+pub(crate) fn hold_out_rows(held: &[flexcal::calib::StationHoldOut]) -> Vec<HoldOutRow> {
+    held.iter()
+        .map(|h| {
+            (
+                h.station.clone(),
+                h.chosen.clone(),
+                (&h.before).into(),
+                (&h.after).into(),
+            )
+        })
+        .collect()
 }
 
 /// `options` with a fresh cancellation token, and the token: an

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use flexcal::calib::{
     CalibrationOptions, CancelToken, CrossCheck, FrameTreatment, SplitCheck, Target,
     TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
-    calibrate_targets_selected, read_targets, validate_targets,
+    calibrate_targets_selected, hold_out_target_stations, read_targets, validate_targets,
 };
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
@@ -581,6 +581,14 @@ impl TargetCalibrationResult {
         Ok(CrossCheckResult::new(check, &self.run.calibration.unknowns))
     }
 
+    /// Each station held out (`hold_out_stations=True`): (station, groups
+    /// chosen on the others or None without selection, errors before, errors
+    /// after), errors over the held-out station's observations.
+    #[getter]
+    fn station_hold_out(&self) -> Vec<crate::calibration::HoldOutRow> {
+        crate::calibration::hold_out_rows(&self.run.station_hold_out)
+    }
+
     /// The split-half check (`split_check=True`), or None. Its prediction
     /// ratio raises the bounds of `predicted_accuracy` and
     /// `accuracy_coverage` where it is above 1.
@@ -624,12 +632,15 @@ impl TargetCalibrationResult {
 /// `result.selection`; `max_iterations`; `split_check`: identify again on
 /// halves of the poses (four more identifications; `result.split_check`),
 /// which raises the predicted 95 % bounds where the standard errors
-/// understate. Positions only.
+/// understate; `hold_out_stations` (a set of several stations,
+/// `TargetMeasurementSet.pooled`): also each station held out in turn,
+/// identified on the others and validated on it (`result.station_hold_out`).
+/// Positions only.
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None, split_check = false))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None, split_check = false, hold_out_stations = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate_targets(
     py: Python<'_>,
@@ -641,6 +652,7 @@ pub fn calibrate_targets(
     select: Option<&str>,
     max_iterations: Option<usize>,
     split_check: bool,
+    hold_out_stations: bool,
 ) -> PyResult<TargetCalibrationResult> {
     let nominal = Arc::clone(&robot.model);
     let selection = selection_options(select, data.set.len())?;
@@ -660,6 +672,11 @@ pub fn calibrate_targets(
         let split = split_check
             .then(|| SplitCheck::for_targets(&model, &set, &chosen, &calibration))
             .transpose()?;
+        let station_hold_out = if hold_out_stations {
+            hold_out_target_stations(&model, &set, &options, &selection)?
+        } else {
+            Vec::new()
+        };
         let calibrated = calibration
             .description(&model)?
             .build()
@@ -674,6 +691,7 @@ pub fn calibrate_targets(
             coverage: None,
             accuracy_map: None,
             cross: None,
+            station_hold_out,
         };
         Ok((run, calibrated, chosen))
     })?;

@@ -14,7 +14,9 @@ use crate::calib::{
     TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
 use crate::calibration::html::{calibration_page, errors_chart, statistics_row, unknowns_section};
-use crate::calibration::text::{coverage_line, cross_check_text, split_check_text};
+use crate::calibration::text::{
+    coverage_line, cross_check_text, split_check_text, station_hold_out_text,
+};
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, MeasurementFormat, extrapolation_note, grid_accuracy,
     station_files,
@@ -51,6 +53,10 @@ pub struct TargetCalibrationRun {
     /// The cross-series check on the validation set, when asked for
     /// ([`CalibrationConfig::cross_check`]; [`CrossCheck::for_targets`]).
     pub cross: Option<CrossCheck>,
+    /// Each station held out in turn, when asked for
+    /// ([`CalibrationConfig::hold_out_stations`];
+    /// [`calib::hold_out_target_stations`]).
+    pub station_hold_out: Vec<calib::StationHoldOut>,
 }
 
 /// Runs a multi-target calibration: `config.targets` names the targets
@@ -61,10 +67,10 @@ pub struct TargetCalibrationRun {
 /// # Errors
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
 /// meaning with several targets or is not built for them (another file
-/// format, each station held out, pose exclusions, a target start, the
-/// residual model), and the errors of reading, model selection, identification,
-/// the split-half and cross-series checks, validation and the accuracy
-/// map, each naming its step.
+/// format, pose exclusions, a target start, the residual model), and the
+/// errors of reading, model selection, identification, each station held
+/// out, the split-half and cross-series checks, validation and the
+/// accuracy map, each naming its step.
 pub fn run_target_calibration(
     robot: &crate::kinematics::Model,
     config: &CalibrationConfig,
@@ -81,7 +87,6 @@ pub fn run_target_calibration(
     };
     let unsupported = [
         ("format", config.format != MeasurementFormat::Own),
-        ("hold_out_stations", config.hold_out_stations),
         ("exclude", !config.exclude.is_empty()),
         ("exclude_validation", !config.exclude_validation.is_empty()),
         ("target_mm", config.target_mm.is_some()),
@@ -121,6 +126,14 @@ pub fn run_target_calibration(
     let (calibration, selection, options) =
         calib::calibrate_targets_selected(robot, &data, &config.options, &selection_options)
             .map_err(step("identification"))?;
+    // Each station selects its own model on the other stations, from the
+    // options before selection.
+    let station_hold_out = if config.hold_out_stations {
+        calib::hold_out_target_stations(robot, &data, &config.options, &selection_options)
+            .map_err(step("each station held out"))?
+    } else {
+        Vec::new()
+    };
     let split = config
         .split_check
         .then(|| SplitCheck::for_targets(robot, &data, &options, &calibration))
@@ -156,6 +169,7 @@ pub fn run_target_calibration(
         coverage,
         accuracy_map,
         cross,
+        station_hold_out,
     })
 }
 
@@ -325,6 +339,11 @@ impl TargetCalibrationRun {
         if let Some(cross) = &self.cross {
             lines.extend(cross_check_text(cross).lines().map(str::to_string));
         }
+        lines.extend(
+            station_hold_out_text(&self.station_hold_out)
+                .lines()
+                .map(str::to_string),
+        );
         lines
     }
 

@@ -616,6 +616,11 @@ class TargetCalibrationResult:
     @property
     def station_frames(self) -> list[tuple[str, FloatArray]]:
         """The identified measurement frame of every station (name, 4x4 m)."""
+    @property
+    def station_hold_out(
+        self,
+    ) -> list[tuple[str, Optional[list[str]], ErrorStatistics, ErrorStatistics]]:
+        """Each station held out (hold_out_stations=True): name, groups chosen, before, after."""
     def validate(self, other: TargetMeasurementSet, refit_frame: bool = True) -> TargetValidationResult: ...
     def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
         """95 % bound of each target's position error at each configuration (one entry per configuration and target)."""
@@ -633,6 +638,7 @@ def calibrate_targets(
     select: Literal["cv", "bic", "none"] | None = None,
     max_iterations: Optional[int] = None,
     split_check: bool = False,
+    hold_out_stations: bool = False,
 ) -> TargetCalibrationResult:
     """Identifies the robot, the measurement frame and the targets' offsets from every target on
     every pose (positions only); elasto-geometric: joint springs of every branch under gravity.

@@ -186,8 +186,13 @@ def test_two_stations_of_markers_each_with_its_frame(two_arms):
     second = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q2, truth.measure(two_arms, q2), source="b")
     data = flexcal.TargetMeasurementSet.pooled([first, second])
     assert data.station_names == ["a", "b"] and data.station_of == [0] * 60 + [1] * 60
-    result = flexcal.calibrate_targets(two_arms, data, select="none")
+    result = flexcal.calibrate_targets(two_arms, data, select="none", hold_out_stations=True)
     assert result.after.position_mean < 1.3 * 1.6 * NOISE, result.after
+    # Each placement predicted by the robot calibrated on the other.
+    held = result.station_hold_out
+    assert [h[0] for h in held] == ["a", "b"]
+    for _, chosen, before, after in held:
+        assert chosen is None and after.position_mean < 1.3 * 1.6 * NOISE < before.position_mean
     (name_a, frame_a), (name_b, frame_b) = result.station_frames
     assert (name_a, name_b) == ("a", "b")
     np.testing.assert_allclose(frame_a, result.measurement_frame)

@@ -87,42 +87,7 @@ impl CalibrationRun {
         if let Some(cross) = &self.cross {
             out += &cross_check_text(cross);
         }
-        if !self.station_hold_out.is_empty() {
-            put!(out);
-            put!(
-                out,
-                "Each station held out (identified on the others, model selected on them; validated on it with its measurement frame re-fitted):"
-            );
-            put!(
-                out,
-                "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10}  chosen",
-                "held out",
-                "poses",
-                "before mm",
-                "mean mm",
-                "rms mm",
-                "max mm"
-            );
-            for (s, h) in self.station_hold_out.iter().enumerate() {
-                put!(
-                    out,
-                    "{:<24} {:>5} {:>10.4} {:>10.4} {:>10.4} {:>10.4}  {}",
-                    format!("station s{}", s + 1),
-                    h.after.n_poses,
-                    h.before.position_mean * 1e3,
-                    h.after.position_mean * 1e3,
-                    h.after.position_rms * 1e3,
-                    h.after.position_max * 1e3,
-                    h.chosen
-                        .as_ref()
-                        .map_or("(no selection)".to_string(), |c| if c.is_empty() {
-                            "base model".to_string()
-                        } else {
-                            c.join(" + ")
-                        })
-                );
-            }
-        }
+        out += &station_hold_out_text(&self.station_hold_out);
         if let Some(fit) = &self.residual {
             let r = &fit.model;
             put!(out);
@@ -302,6 +267,51 @@ pub fn temperature_text(name: &str, set: &MeasurementSet, errors: &[PoseError]) 
 /// `v` with `digits` decimals, or `-` when there is none.
 fn dash_or(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+}
+
+/// Each station held out in turn: its errors before and with the robot
+/// calibrated on the others (mm), and the groups chosen there; empty
+/// without stations held out.
+pub fn station_hold_out_text(held: &[crate::calib::StationHoldOut]) -> String {
+    let mut out = String::new();
+    if held.is_empty() {
+        return out;
+    }
+    put!(out);
+    put!(
+        out,
+        "Each station held out (identified on the others, model selected on them; validated on it with its measurement frame re-fitted):"
+    );
+    put!(
+        out,
+        "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10}  chosen",
+        "held out",
+        "poses",
+        "before mm",
+        "mean mm",
+        "rms mm",
+        "max mm"
+    );
+    for (s, h) in held.iter().enumerate() {
+        put!(
+            out,
+            "{:<24} {:>5} {:>10.4} {:>10.4} {:>10.4} {:>10.4}  {}",
+            format!("station s{}", s + 1),
+            h.after.n_poses,
+            h.before.position_mean * 1e3,
+            h.after.position_mean * 1e3,
+            h.after.position_rms * 1e3,
+            h.after.position_max * 1e3,
+            h.chosen
+                .as_ref()
+                .map_or("(no selection)".to_string(), |c| if c.is_empty() {
+                    "base model".to_string()
+                } else {
+                    c.join(" + ")
+                })
+        );
+    }
+    out
 }
 
 /// `predicted 95 % bounds (mean ... mm) cover ... % of the validation
