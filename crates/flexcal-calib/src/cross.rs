@@ -195,17 +195,13 @@ impl CrossCheck {
 }
 
 /// [`CrossCheck::new`] and [`CrossCheck::for_targets`].
-fn cross_check<S>(
+fn cross_check<S: Selectable>(
     model: &Model,
     other: &S,
     options: &CalibrationOptions,
     calibration: &S::Fitted,
     split: Option<&SplitCheck>,
-) -> Result<CrossCheck, CalibError>
-where
-    S: Selectable,
-    S::Fitted: Predicting<Set = S>,
-{
+) -> Result<CrossCheck, CalibError> {
     let other_options = reidentification_options(options, calibration.estimates());
     let refit = other.fit(model, &other_options)?;
     // A set too small to halve gets no split check: z alone, and a note.

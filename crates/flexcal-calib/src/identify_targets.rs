@@ -1537,30 +1537,30 @@ pub fn validate_targets(
     })
 }
 
-impl Predicting for TargetCalibration {
-    type Set = TargetMeasurementSet;
-    fn configuration(set: &TargetMeasurementSet, k: usize) -> &[f64] {
-        &set.poses()[k].q
-    }
-    fn estimates(&self) -> &[UnknownEstimate] {
-        &self.unknowns
-    }
-    fn covariance(&self) -> Option<&DMatrix<f64>> {
-        self.solve.covariance.as_ref()
-    }
-    /// The model of the identification (the targets' offsets unknowns as
-    /// they were, at zero increments from the identified offsets; the
-    /// measurement frame at zero increments from the identified one) on
-    /// `set`'s observations.
-    fn linearise(
+impl TargetCalibration {
+    /// `set` with this identification's targets (their identified offsets,
+    /// treated as they were), after checking its coordinates.
+    fn with_calibrated_targets(
         &self,
         model: &Model,
         set: &TargetMeasurementSet,
-    ) -> Result<Linearised, CalibError> {
+    ) -> Result<TargetMeasurementSet, CalibError> {
         check_coordinates(model, set)?;
-        let calibrated = set.with_targets(self.targets.clone())?;
+        set.with_targets(self.targets.clone())
+    }
+
+    /// The model of the identification on `calibrated`
+    /// ([`TargetCalibration::with_calibrated_targets`]) and its unknowns:
+    /// the offsets' and the measurement frames' at zero increments from
+    /// the identified ones, every frame of the identification's stations
+    /// (a set of fewer stations gives the others zero columns).
+    fn model_on<'a>(
+        &self,
+        model: &'a Model,
+        calibrated: &'a TargetMeasurementSet,
+    ) -> Result<(TargetErrorModel<'a>, Vec<f64>), CalibError> {
         let gravity = self.elastic.as_ref().map(|(g, _)| g);
-        let problem = TargetErrorModel::new(model, &calibrated, &self.measurement_frames())?
+        let problem = TargetErrorModel::new(model, calibrated, &self.measurement_frames())?
             .with_elastic(gravity, &self.joint_terms)?;
         let mut x = self.xi.clone();
         x.resize(problem.elastic_offset, 0.0);
@@ -1578,10 +1578,36 @@ impl Predicting for TargetCalibration {
                 ),
             });
         }
-        let (jacobian, _) = jacobian_and_residuals(&problem, &x)?;
+        Ok((problem, x))
+    }
+}
+
+impl Predicting for TargetCalibration {
+    type Set = TargetMeasurementSet;
+    fn configuration(set: &TargetMeasurementSet, k: usize) -> &[f64] {
+        &set.poses()[k].q
+    }
+    fn estimates(&self) -> &[UnknownEstimate] {
+        &self.unknowns
+    }
+    fn covariance(&self) -> Option<&DMatrix<f64>> {
+        self.solve.covariance.as_ref()
+    }
+    fn linearise(
+        &self,
+        model: &Model,
+        set: &TargetMeasurementSet,
+    ) -> Result<Linearised, CalibError> {
+        let calibrated = self.with_calibrated_targets(model, set)?;
+        let (problem, x) = self.model_on(model, &calibrated)?;
+        let (jacobian, residuals) = jacobian_and_residuals(&problem, &x)?;
         Ok(Linearised {
             jacobian,
-            predicted: problem.predict(&x)?,
+            predicted: (0..problem.rows.len())
+                .map(|r| {
+                    problem.measured(r).position + Vector3::from_fn(|i, _| residuals[3 * r + i])
+                })
+                .collect(),
             observed: problem
                 .rows
                 .iter()
@@ -1591,6 +1617,15 @@ impl Predicting for TargetCalibration {
                 })
                 .collect(),
         })
+    }
+    fn predicted_positions(
+        &self,
+        model: &Model,
+        set: &TargetMeasurementSet,
+    ) -> Result<Vec<Vector3<f64>>, CalibError> {
+        let calibrated = self.with_calibrated_targets(model, set)?;
+        let (problem, x) = self.model_on(model, &calibrated)?;
+        problem.predict(&x)
     }
     fn residual_variance(&self) -> f64 {
         residual_variance(

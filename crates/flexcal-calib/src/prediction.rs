@@ -10,7 +10,7 @@ use crate::coverage::CoordinateCoverage;
 use crate::error_model::GeometricErrorModel;
 use crate::identify::{Calibration, UnknownEstimate, UnknownStatus};
 use crate::{CalibError, MeasurementSet};
-use flexcal_optim::Jacobian;
+use flexcal_optim::{Jacobian, Residuals};
 
 /// One observation of a [`Linearised`] prediction: a target seen at a pose.
 pub(crate) struct Observed {
@@ -47,6 +47,14 @@ pub(crate) trait Predicting {
     fn covariance(&self) -> Option<&DMatrix<f64>>;
     /// The prediction at the poses of `set`, linearised.
     fn linearise(&self, model: &Model, set: &Self::Set) -> Result<Linearised, CalibError>;
+    /// The calibrated model's target position at each observation of `set`,
+    /// in the measurement frame (m): [`Linearised::predicted`] without the
+    /// Jacobian.
+    fn predicted_positions(
+        &self,
+        model: &Model,
+        set: &Self::Set,
+    ) -> Result<Vec<Vector3<f64>>, CalibError>;
     /// The per-axis scatter of the training residuals, squared:
     /// `SSR / (3 N - p)` with N observations and p identified unknowns
     /// (m^2).
@@ -80,16 +88,23 @@ impl Predicting for Calibration {
         let (jacobian, residuals) = jacobian_and_residuals(&problem, &x)?;
         Ok(Linearised {
             jacobian,
-            predicted: set
-                .measurements()
-                .iter()
-                .enumerate()
-                .map(|(k, m)| m.position + Vector3::from_fn(|i, _| residuals[3 * k + i]))
-                .collect(),
+            predicted: predicted_from(set, &residuals),
             observed: (0..set.len())
                 .map(|pose| Observed { pose, target: None })
                 .collect(),
         })
+    }
+    fn predicted_positions(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+    ) -> Result<Vec<Vector3<f64>>, CalibError> {
+        let (problem, x) = self.error_model_at(model, set)?;
+        let mut residuals = vec![0.0; problem.n_residuals()];
+        problem
+            .residuals(&x, &mut residuals)
+            .map_err(model_failure)?;
+        Ok(predicted_from(set, &residuals))
     }
     fn residual_variance(&self) -> f64 {
         residual_variance(self.training_after.position_rms, self.n_poses, self.rank())
@@ -184,14 +199,14 @@ pub(crate) fn prediction_variances<P: Predicting>(
         .collect())
 }
 
-/// The calibrated model's target position at each observation of `set`, in
-/// the measurement frame (m).
-pub(crate) fn predicted_positions<P: Predicting>(
-    calibration: &P,
-    model: &Model,
-    set: &P::Set,
-) -> Result<Vec<Vector3<f64>>, CalibError> {
-    Ok(calibration.linearise(model, set)?.predicted)
+/// The predicted positions of `set`'s poses from its measured ones and the
+/// position residuals (predicted minus measured, three per pose; m).
+fn predicted_from(set: &MeasurementSet, residuals: &[f64]) -> Vec<Vector3<f64>> {
+    set.measurements()
+        .iter()
+        .enumerate()
+        .map(|(k, m)| m.position + Vector3::from_fn(|i, _| residuals[3 * k + i]))
+        .collect()
 }
 
 /// The covariance does not match the error model's unknowns.

@@ -60,6 +60,7 @@ use crate::identify_targets::{
 };
 use crate::joint_law::JointLaw;
 use crate::metrics::ErrorStatistics;
+use crate::prediction::Predicting;
 use crate::targets::TargetMeasurementSet;
 use crate::validate::FramePolicy;
 use crate::{CalibError, MeasurementSet};
@@ -70,8 +71,9 @@ use crate::{CalibError, MeasurementSet};
 /// ([`MeasurementSet`], [`calibrate`]) and several
 /// ([`TargetMeasurementSet`], [`calibrate_targets`]) are selected alike.
 pub(crate) trait Selectable: Sized + Sync {
-    /// The identification of a candidate.
-    type Fitted;
+    /// The identification of a candidate, whose predictions at this kind
+    /// of set carry an uncertainty.
+    type Fitted: Predicting<Set = Self>;
     /// Number of poses.
     fn n_poses(&self) -> usize;
     /// Where the poses come from (a file name).
@@ -110,8 +112,6 @@ pub(crate) trait Selectable: Sized + Sync {
         fitted: &Self::Fitted,
         held_out: &Self,
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError>;
-    /// Every unknown of a fit.
-    fn unknowns(fitted: &Self::Fitted) -> &[UnknownEstimate];
     /// The BIC of a fit.
     fn bic(fitted: &Self::Fitted) -> f64;
 }
@@ -161,9 +161,6 @@ impl Selectable for MeasurementSet {
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
         let validation = fitted.validate(model, held_out, false)?;
         Ok((validation.before, validation.after))
-    }
-    fn unknowns(fitted: &Calibration) -> &[UnknownEstimate] {
-        &fitted.unknowns
     }
     fn bic(fitted: &Calibration) -> f64 {
         let rows = fitted.n_poses * if fitted.use_orientation { 6 } else { 3 };
@@ -218,9 +215,6 @@ impl Selectable for TargetMeasurementSet {
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
         let validation = validate_targets(model, fitted, held_out, true)?;
         Ok((validation.before, validation.after))
-    }
-    fn unknowns(fitted: &TargetCalibration) -> &[UnknownEstimate] {
-        &fitted.unknowns
     }
     fn bic(fitted: &TargetCalibration) -> f64 {
         bic(
@@ -612,7 +606,7 @@ fn remove_unidentified_groups<D: Selectable>(
     let Ok(full) = set.fit(model, &options) else {
         return;
     };
-    let unknowns = D::unknowns(&full);
+    let unknowns = full.estimates();
     let identified: Vec<&str> = unknowns
         .iter()
         .filter(|u| u.status == UnknownStatus::Identified)
@@ -827,7 +821,8 @@ fn run_fits<D: Selectable>(
     let per_candidate = folds.len().max(1);
     let jobs = candidates.len() * per_candidate;
     let rank = |fitted: &D::Fitted| {
-        D::unknowns(fitted)
+        fitted
+            .estimates()
             .iter()
             .filter(|u| u.status == UnknownStatus::Identified)
             .count()

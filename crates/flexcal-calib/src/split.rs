@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use crate::identify::{CalibrationOptions, UnknownEstimate, UnknownStatus};
 use crate::identify_targets::TargetCalibration;
-use crate::prediction::{Predicting, predicted_positions, prediction_variances};
+use crate::prediction::{Predicting, prediction_variances};
 use crate::selection::Selectable;
 use crate::targets::TargetMeasurementSet;
 use crate::{CalibError, Calibration, MeasurementSet};
@@ -191,16 +191,12 @@ impl SplitCheck {
 }
 
 /// [`SplitCheck::new`] and [`SplitCheck::for_targets`].
-pub(crate) fn split_check<S>(
+pub(crate) fn split_check<S: Selectable>(
     model: &Model,
     set: &S,
     options: &CalibrationOptions,
     calibration: &S::Fitted,
-) -> Result<SplitCheck, CalibError>
-where
-    S: Selectable,
-    S::Fitted: Predicting<Set = S>,
-{
+) -> Result<SplitCheck, CalibError> {
     let half_options = reidentification_options(options, calibration.estimates());
     // Odd, even, first-half and second-half poses; with several
     // stations, the halves of each station's poses (every half fit
@@ -278,8 +274,8 @@ fn prediction_ratio<P: Predicting>(
     let variances = prediction_variances(calibration, model, set)?;
     let mut squared_half_differences = 0.0;
     for pair in fits.chunks(2) {
-        let a = predicted_positions(&pair[0], model, set)?;
-        let b = predicted_positions(&pair[1], model, set)?;
+        let a = pair[0].predicted_positions(model, set)?;
+        let b = pair[1].predicted_positions(model, set)?;
         squared_half_differences += a
             .iter()
             .zip(&b)

@@ -258,7 +258,7 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
     let second = d.join("station-b.csv");
     simulate(&targets, 0, 40).write_csv(&first).unwrap();
     // The second placement: the same poses' positions seen from a tracker
-    // moved by 1 m along x and turned by 90 deg about z.
+    // moved by 1 m along x and turned by 1.5 rad (86 deg) about z.
     let moved = simulate(&targets, 500, 40);
     let turn = Isometry3::from_parts(
         Translation3::new(1.0, 0.0, 0.0),
