@@ -75,6 +75,7 @@ use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::prediction::{
     Linearised, Observed, Predicting, jacobian_and_residuals, residual_variance,
 };
+use crate::screen::DataChecks;
 use crate::targets::{
     TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, target_point,
 };
@@ -174,6 +175,9 @@ pub struct TargetCalibration {
     pub n_observations: usize,
     /// The error of every observation after identification, pose by pose.
     pub observation_errors: Vec<ObservationError>,
+    /// Repeated readings and suspect observations of the identification
+    /// set ([`DataChecks::for_targets`]).
+    pub data_checks: DataChecks,
     /// The gravity loading when the model is elasto-geometric, with the
     /// identified elastic unknowns (compliances, payload mass, first moment,
     /// lateral compliances when on; order of
@@ -1318,6 +1322,7 @@ pub fn calibrate_targets(
         .gravity
         .as_ref()
         .map(|g| (g.clone(), x[eo..joint_start].to_vec()));
+    let observation_errors = problem.observation_errors(&errors_after);
     Ok(TargetCalibration {
         xi: x[..np].to_vec(),
         nominal_xi: model.nominal_params().to_vec(),
@@ -1344,7 +1349,8 @@ pub fn calibrate_targets(
         per_target_after: problem.per_target(&errors_after),
         n_poses: set.len(),
         n_observations: problem.rows.len(),
-        observation_errors: problem.observation_errors(&errors_after),
+        data_checks: DataChecks::for_targets(set, &observation_errors),
+        observation_errors,
         elastic,
         joint_terms: options.joint_terms,
         joint_term_values: x[joint_start..].to_vec(),
@@ -1376,6 +1382,9 @@ pub struct TargetValidation {
     pub frame_refitted: bool,
     /// The error of every observation after calibration, pose by pose.
     pub observation_errors: Vec<ObservationError>,
+    /// Repeated readings and suspect observations of the validation set
+    /// (with the calibrated robot).
+    pub data_checks: DataChecks,
 }
 
 /// The multi-target model of `calibration` on `set` (whose targets carry
@@ -1533,6 +1542,7 @@ pub fn validate_targets(
         per_target_before,
         per_target_after,
         frame_refitted: refit_frame,
+        data_checks: DataChecks::for_targets(set, &observation_errors),
         observation_errors,
     })
 }

@@ -148,7 +148,10 @@
 //!   pairs of poses at different joint coordinates with the identical
 //!   measurement (a stale reading), and poses whose error after the fit
 //!   exceeds [`SUSPECT_ERROR_RATIO`] times the RMS error; poses are left out
-//!   by label with [`MeasurementSet::excluding`].
+//!   by label with [`MeasurementSet::excluding`]. With several targets the
+//!   same checks run per observation ([`DataChecks::for_targets`], in
+//!   [`TargetCalibration::data_checks`] and [`TargetValidation::data_checks`])
+//!   and [`TargetMeasurementSet::excluding`] leaves poses out.
 //! - Beyond the paper, a split-half check of the standard errors
 //!   ([`SplitCheck`]): the identified unknowns again on odd / even and first /
 //!   second halves of the poses; where the halves differ by more than the
@@ -306,6 +309,7 @@ pub use report::{
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
+    repeated_target_readings,
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{

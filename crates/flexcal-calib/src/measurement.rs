@@ -423,6 +423,17 @@ impl MeasurementSet {
     pub fn has_orientation_std(&self) -> bool {
         self.measurements[0].orientation_std.is_some()
     }
+    /// The same set with every pose's label written into its `pose_id`
+    /// (`#k` for a pose without one), so that a subset keeps the labels of
+    /// this set.
+    pub(crate) fn labelled(&self) -> Self {
+        let mut set = self.clone();
+        for (k, m) in set.measurements.iter_mut().enumerate() {
+            m.pose_id.get_or_insert_with(|| format!("#{k}"));
+        }
+        set
+    }
+
     /// The subset at `indices` (same source and target), for splitting a set.
     ///
     /// # Errors

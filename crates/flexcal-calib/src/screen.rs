@@ -6,20 +6,26 @@
 //!   the last bit. A real robot in two configurations is never measured at
 //!   the very same place to the tracker's resolution, so one pose carries the
 //!   other's measurement (a stale value logged again). Series B of the IPA
-//!   UR10 data has two such pairs.
+//!   UR10 data has two such pairs. With several targets per pose each
+//!   target's readings are compared with its own.
 //! - A *suspect pose*: after a fit, a pose whose position error exceeds
 //!   [`SUSPECT_ERROR_RATIO`] times the set's RMS position error. For
 //!   isotropic Gaussian errors that happens with probability below 1e-9 per
 //!   pose (the norm would exceed 6.9 standard deviations per axis), so such
 //!   a pose is a measurement fault or an effect the model lacks (unless the
-//!   fit is exact to round-off: [`ROUND_OFF_RMS`]).
+//!   fit is exact to round-off: [`ROUND_OFF_RMS`]). With several targets
+//!   the unit is one observation (a target at a pose) and the RMS is over
+//!   all observations.
 //!
-//! Poses can then be left out by label ([`MeasurementSet::excluding`]).
+//! Poses can then be left out by label ([`MeasurementSet::excluding`],
+//! [`TargetMeasurementSet::excluding`]).
+
+use std::collections::HashMap;
 
 use serde::Serialize;
 
-use crate::metrics::{PoseError, error_statistics};
-use crate::{CalibError, MeasurementSet};
+use crate::metrics::PoseError;
+use crate::{CalibError, MeasurementSet, ObservationError, TargetMeasurementSet};
 
 /// A pose whose position error exceeds this many times the set's RMS
 /// position error is reported as suspect.
@@ -35,17 +41,32 @@ pub const ROUND_OFF_RMS: f64 = 1e-9;
 pub struct RepeatedReading {
     /// Labels of the two poses ([`crate::Measurement::label`]), in file order.
     pub poses: [String; 2],
+    /// With several targets per pose, the target whose reading repeats.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<String>,
 }
 
-/// A pose with an unusually large error after a fit.
+/// A pose (with several targets, an observation) with an unusually large
+/// error after a fit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SuspectPose {
     /// Label of the pose ([`crate::Measurement::label`]).
     pub pose: String,
+    /// With several targets per pose, the target observed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<String>,
     /// Its position error (mm).
     pub position_error_mm: f64,
     /// Its position error over the set's RMS position error.
     pub ratio_to_rms: f64,
+}
+
+/// `pose`, or `target at pose` with several targets.
+fn shown(pose: &str, target: Option<&str>) -> String {
+    match target {
+        Some(t) => format!("{t} at {pose}"),
+        None => pose.to_string(),
+    }
 }
 
 /// The data checks of one measurement set.
@@ -53,7 +74,7 @@ pub struct SuspectPose {
 pub struct DataChecks {
     /// Pairs of poses that carry the identical measurement.
     pub repeated_readings: Vec<RepeatedReading>,
-    /// Poses whose position error after the fit exceeds
+    /// Poses (observations) whose position error after the fit exceeds
     /// [`SUSPECT_ERROR_RATIO`] times the RMS position error.
     pub suspect_poses: Vec<SuspectPose>,
     /// RMS position error of the set after the fit (mm).
@@ -65,19 +86,48 @@ impl DataChecks {
     /// (in the order of the set).
     pub fn new(set: &MeasurementSet, errors: &[PoseError]) -> Self {
         debug_assert_eq!(set.len(), errors.len());
-        let rms = error_statistics(errors).position_rms;
-        let suspect_poses = errors
+        let observed = errors
             .iter()
             .enumerate()
-            .filter(|(_, e)| rms > ROUND_OFF_RMS && e.position > SUSPECT_ERROR_RATIO * rms)
-            .map(|(k, e)| SuspectPose {
-                pose: set.measurements()[k].label(k),
-                position_error_mm: e.position * 1e3,
-                ratio_to_rms: e.position / rms,
+            .map(|(k, e)| (set.measurements()[k].label(k), None, e.position));
+        Self::from_errors(observed, repeated_readings(set))
+    }
+
+    /// Both checks on a set of several targets, with `errors` the error of
+    /// each of its observations after a fit
+    /// ([`crate::TargetCalibration::observation_errors`]): a suspect is one
+    /// observation, judged against the RMS over all observations.
+    pub fn for_targets(set: &TargetMeasurementSet, errors: &[ObservationError]) -> Self {
+        let observed = errors
+            .iter()
+            .map(|e| (e.pose.clone(), Some(e.target.clone()), e.error.norm()));
+        Self::from_errors(observed, repeated_target_readings(set))
+    }
+
+    /// The checks from (label, target, position error in m) of every
+    /// observation and the repeated readings found in the set.
+    fn from_errors(
+        observed: impl Iterator<Item = (String, Option<String>, f64)>,
+        repeated_readings: Vec<RepeatedReading>,
+    ) -> Self {
+        let observed: Vec<_> = observed.collect();
+        let rms = if observed.is_empty() {
+            0.0
+        } else {
+            (observed.iter().map(|(_, _, e)| e * e).sum::<f64>() / observed.len() as f64).sqrt()
+        };
+        let suspect_poses = observed
+            .into_iter()
+            .filter(|(_, _, e)| rms > ROUND_OFF_RMS && *e > SUSPECT_ERROR_RATIO * rms)
+            .map(|(pose, target, e)| SuspectPose {
+                pose,
+                target,
+                position_error_mm: e * 1e3,
+                ratio_to_rms: e / rms,
             })
             .collect();
         Self {
-            repeated_readings: repeated_readings(set),
+            repeated_readings,
             suspect_poses,
             position_rms_mm: rms * 1e3,
         }
@@ -91,13 +141,21 @@ impl DataChecks {
             let suspect: Vec<&str> = r
                 .poses
                 .iter()
-                .filter(|p| self.suspect_poses.iter().any(|s| &s.pose == *p))
+                .filter(|p| {
+                    self.suspect_poses
+                        .iter()
+                        .any(|s| &s.pose == *p && s.target == r.target)
+                })
                 .map(String::as_str)
                 .collect();
             notes.push(format!(
-                "{what} set: {} and {} carry the identical measurement to the last digit though their joint coordinates differ: one of them is a stale reading{}",
+                "{what} set: {} and {} carry the identical measurement{} to the last digit though their joint coordinates differ: one of them is a stale reading{}",
                 r.poses[0],
                 r.poses[1],
+                r.target
+                    .as_deref()
+                    .map(|t| format!(" of target {t}"))
+                    .unwrap_or_default(),
                 match suspect.as_slice() {
                     [one] => format!(" ({one}, by its error after the fit)"),
                     _ => String::new(),
@@ -108,10 +166,21 @@ impl DataChecks {
             let list: Vec<String> = self
                 .suspect_poses
                 .iter()
-                .map(|s| format!("{} ({:.2} mm)", s.pose, s.position_error_mm))
+                .map(|s| {
+                    format!(
+                        "{} ({:.2} mm)",
+                        shown(&s.pose, s.target.as_deref()),
+                        s.position_error_mm
+                    )
+                })
                 .collect();
+            let unit = if self.suspect_poses[0].target.is_some() {
+                "observation"
+            } else {
+                "pose"
+            };
             notes.push(format!(
-                "{what} set: {} pose{} with a position error above {SUSPECT_ERROR_RATIO} times the RMS error ({:.3} mm), which Gaussian noise practically never gives: {}; a measurement fault or an effect the model lacks; the figures include {}",
+                "{what} set: {} {unit}{} with a position error above {SUSPECT_ERROR_RATIO} times the RMS error ({:.3} mm), which Gaussian noise practically never gives: {}; a measurement fault or an effect the model lacks; the figures include {}",
                 list.len(),
                 if list.len() == 1 { "" } else { "s" },
                 self.position_rms_mm,
@@ -121,43 +190,155 @@ impl DataChecks {
         }
         notes
     }
+
+    /// The sentence that tells how to run again without the suspect poses,
+    /// `option` naming the option that leaves poses out (`--exclude`,
+    /// `--exclude-validation`): each pose once, IPA lines by their number.
+    /// `None` without suspects.
+    pub fn exclude_hint(&self, option: &str) -> Option<String> {
+        let mut labels: Vec<&str> = Vec::new();
+        for s in &self.suspect_poses {
+            let label = s.pose.strip_prefix("line ").unwrap_or(&s.pose);
+            if !labels.contains(&label) {
+                labels.push(label);
+            }
+        }
+        (!labels.is_empty()).then(|| {
+            format!(
+                "to compare without the suspect poses, run again with {option} '{}'",
+                labels.join(",")
+            )
+        })
+    }
+}
+
+/// Pairs of poses, among those `keyed` gives (index, coordinates, bits of
+/// the measured reading), whose coordinates differ but whose readings are
+/// bit-identical, labelled by `label`.
+fn repeated_pairs<'a>(
+    keyed: impl Iterator<Item = (usize, &'a [f64], Vec<u64>)>,
+    label: impl Fn(usize) -> String,
+    target: Option<&str>,
+) -> Vec<RepeatedReading> {
+    let mut first_with: HashMap<Vec<u64>, Vec<(usize, &[f64])>> = HashMap::new();
+    let mut pairs = Vec::new();
+    for (k, q, key) in keyed {
+        let earlier = first_with.entry(key).or_default();
+        for &(j, qj) in earlier.iter() {
+            if qj != q {
+                pairs.push(RepeatedReading {
+                    poses: [label(j), label(k)],
+                    target: target.map(str::to_string),
+                });
+            }
+        }
+        earlier.push((k, q));
+    }
+    pairs
+}
+
+/// The bits of a position and, when measured, an orientation.
+fn reading_bits(
+    position: &nalgebra::Vector3<f64>,
+    orientation: Option<&nalgebra::Vector3<f64>>,
+) -> Vec<u64> {
+    position
+        .iter()
+        .chain(orientation.into_iter().flatten())
+        .map(|v| v.to_bits())
+        .collect()
 }
 
 /// Pairs of poses of `set` whose actuated coordinates differ but whose
 /// measured position (and orientation, when measured) is bit-identical.
 pub fn repeated_readings(set: &MeasurementSet) -> Vec<RepeatedReading> {
-    let key = |k: usize| {
-        let m = &set.measurements()[k];
-        let mut bits: Vec<u64> = m.position.iter().map(|v| v.to_bits()).collect();
-        if let Some(o) = m.orientation {
-            bits.extend(o.iter().map(|v| v.to_bits()));
+    let m = set.measurements();
+    repeated_pairs(
+        m.iter().enumerate().map(|(k, m)| {
+            (
+                k,
+                m.q.as_slice(),
+                reading_bits(&m.position, m.orientation.as_ref()),
+            )
+        }),
+        |k| m[k].label(k),
+        None,
+    )
+}
+
+/// The same for each target of a multi-target set: pairs of poses whose
+/// coordinates differ but whose observations of one target are
+/// bit-identical, target by target.
+pub fn repeated_target_readings(set: &TargetMeasurementSet) -> Vec<RepeatedReading> {
+    let poses = set.poses();
+    set.targets()
+        .iter()
+        .enumerate()
+        .flat_map(|(t, target)| {
+            repeated_pairs(
+                poses.iter().enumerate().filter_map(|(k, p)| {
+                    p.observations[t].as_ref().map(|o| {
+                        (
+                            k,
+                            p.q.as_slice(),
+                            reading_bits(&o.position, o.orientation.as_ref()),
+                        )
+                    })
+                }),
+                |k| poses[k].label(k),
+                Some(&target.name),
+            )
+        })
+        .collect()
+}
+
+/// The indices of the poses labelled `labels_now` that remain when those
+/// labelled `labels` are left out (a bare number `N` stands for `line N`).
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches no
+/// pose of `source`.
+fn kept_poses(
+    labels_now: &[String],
+    labels: &[impl AsRef<str>],
+    source: &str,
+) -> Result<Vec<usize>, CalibError> {
+    let mut drop = vec![false; labels_now.len()];
+    for raw in labels {
+        let raw = raw.as_ref().trim();
+        let wanted = if raw.chars().all(|c| c.is_ascii_digit()) && !raw.is_empty() {
+            format!("line {raw}")
+        } else {
+            raw.to_string()
+        };
+        let hits: Vec<usize> = labels_now
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| **l == wanted || (**l == raw && raw != wanted))
+            .map(|(k, _)| k)
+            .collect();
+        if hits.is_empty() {
+            return Err(CalibError::InvalidOption {
+                name: "exclude",
+                reason: format!(
+                    "no pose `{wanted}` in {source} (its poses are labelled like `{}`)",
+                    labels_now.first().map_or("", String::as_str)
+                ),
+            });
         }
-        bits
-    };
-    let mut first_with: std::collections::HashMap<Vec<u64>, Vec<usize>> =
-        std::collections::HashMap::new();
-    let mut pairs = Vec::new();
-    for k in 0..set.len() {
-        let earlier = first_with.entry(key(k)).or_default();
-        for &j in earlier.iter() {
-            if set.measurements()[j].q != set.measurements()[k].q {
-                pairs.push(RepeatedReading {
-                    poses: [
-                        set.measurements()[j].label(j),
-                        set.measurements()[k].label(k),
-                    ],
-                });
-            }
+        for k in hits {
+            drop[k] = true;
         }
-        earlier.push(k);
     }
-    pairs
+    Ok((0..labels_now.len()).filter(|&k| !drop[k]).collect())
 }
 
 impl MeasurementSet {
     /// The set without the poses labelled `labels` ([`crate::Measurement::label`]:
-    /// `line 534` for the IPA format, the `pose_id` or `#k` for flexcal's own).
-    /// A bare number `N` stands for `line N`.
+    /// `line 534` for the IPA format, the `pose_id` or `#k` for flexcal's own,
+    /// `s2:` before the label of a second station's pose).
+    /// A bare number `N` stands for `line N`. The poses kept keep their
+    /// labels: `#7` stays `#7` after `#3` is left out.
     ///
     /// # Errors
     /// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches
@@ -166,35 +347,30 @@ impl MeasurementSet {
         let labels_now: Vec<String> = (0..self.len())
             .map(|k| self.measurements()[k].label(k))
             .collect();
-        let mut drop = vec![false; self.len()];
-        for raw in labels {
-            let raw = raw.as_ref().trim();
-            let wanted = if raw.chars().all(|c| c.is_ascii_digit()) && !raw.is_empty() {
-                format!("line {raw}")
-            } else {
-                raw.to_string()
-            };
-            let hits: Vec<usize> = labels_now
-                .iter()
-                .enumerate()
-                .filter(|(_, l)| **l == wanted || (**l == raw && raw != wanted))
-                .map(|(k, _)| k)
-                .collect();
-            if hits.is_empty() {
-                return Err(CalibError::InvalidOption {
-                    name: "exclude",
-                    reason: format!(
-                        "no pose `{wanted}` in {} (its poses are labelled like `{}`)",
-                        self.source, labels_now[0]
-                    ),
-                });
-            }
-            for k in hits {
-                drop[k] = true;
-            }
-        }
-        let kept: Vec<usize> = (0..self.len()).filter(|&k| !drop[k]).collect();
-        self.subset(&kept)
+        let kept = kept_poses(&labels_now, labels, &self.source)?;
+        self.labelled().subset(&kept)
+    }
+}
+
+impl TargetMeasurementSet {
+    /// The set without the poses labelled `labels`
+    /// ([`crate::TargetPose::label`]: the `pose_id` or `#k`, `s2:` before
+    /// the label of a second station's pose), every target of a pose left
+    /// out with it. A bare number `N` stands for `line N`. The poses kept
+    /// keep their labels: `#7` stays `#7` after `#3` is left out.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches
+    /// no pose of the set; [`CalibError::BadMeasurement`] when nothing is left.
+    pub fn excluding(&self, labels: &[impl AsRef<str>]) -> Result<Self, CalibError> {
+        let labels_now: Vec<String> = self
+            .poses()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p.label(k))
+            .collect();
+        let kept = kept_poses(&labels_now, labels, &self.source)?;
+        self.labelled().subset(&kept)
     }
 }
 
@@ -227,7 +403,8 @@ mod tests {
         assert_eq!(
             pairs,
             vec![RepeatedReading {
-                poses: ["line 2".into(), "line 3".into()]
+                poses: ["line 2".into(), "line 3".into()],
+                target: None,
             }]
         );
         // The same coordinates measured twice are not a repeated reading.
@@ -295,5 +472,116 @@ mod tests {
         assert!(err.contains("line 99") && err.contains("s.csv"), "{err}");
         let all: Vec<String> = (2..6).map(|n| n.to_string()).collect();
         assert!(s.excluding(&all).is_err());
+    }
+
+    /// Two targets, four unlabelled poses: target `a` reads the same at
+    /// poses 0 and 2 (other coordinates), target `b` never repeats.
+    fn target_set() -> TargetMeasurementSet {
+        use crate::{Target, TargetObservation, TargetPose};
+        let o = |p: [f64; 3]| Some(TargetObservation::new(Vector3::from(p)));
+        let pose = |q: f64, a: [f64; 3], b: [f64; 3]| TargetPose {
+            pose_id: None,
+            q: vec![q, 0.0],
+            observations: vec![o(a), o(b)],
+        };
+        TargetMeasurementSet::new(
+            "m.csv",
+            vec![
+                Target::new("a", "tcp", Vector3::zeros()),
+                Target::new("b", "tcp", Vector3::zeros()),
+            ],
+            vec![
+                pose(0.1, [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]),
+                pose(0.2, [1.1, 0.0, 0.0], [2.1, 0.0, 0.0]),
+                pose(0.3, [1.0, 0.0, 0.0], [2.2, 0.0, 0.0]),
+                pose(0.4, [1.3, 0.0, 0.0], [2.0, 0.0, 1e-12]),
+            ],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn each_target_is_compared_with_its_own_readings() {
+        let set = target_set();
+        assert_eq!(
+            repeated_target_readings(&set),
+            vec![RepeatedReading {
+                poses: ["#0".into(), "#2".into()],
+                target: Some("a".into()),
+            }]
+        );
+        // 19 observations at 0.1 mm and one at 2 mm: as for one target, the
+        // 2 mm one is 4.37 times the RMS; it is named with its target.
+        let error = |pose: usize, target: &str, mm: f64| ObservationError {
+            pose: format!("#{pose}"),
+            target: target.into(),
+            error: Vector3::new(0.0, mm * 1e-3, 0.0),
+        };
+        let mut errors: Vec<ObservationError> = (0..19)
+            .map(|k| error(k / 2, if k % 2 == 0 { "a" } else { "b" }, 0.1))
+            .collect();
+        errors.push(error(2, "a", 2.0));
+        let checks = DataChecks::for_targets(&set, &errors);
+        assert_eq!(checks.suspect_poses.len(), 1);
+        assert_eq!(checks.suspect_poses[0].pose, "#2");
+        assert_eq!(checks.suspect_poses[0].target.as_deref(), Some("a"));
+        let notes = checks.notes("identification");
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(
+            notes[0].contains("#0 and #2 carry the identical measurement of target a")
+                && notes[0].ends_with("stale reading (#2, by its error after the fit)"),
+            "{notes:?}"
+        );
+        assert!(
+            notes[1].contains("1 observation with") && notes[1].contains("a at #2 (2.00 mm)"),
+            "{notes:?}"
+        );
+        assert_eq!(
+            checks.exclude_hint("--exclude").as_deref(),
+            Some("to compare without the suspect poses, run again with --exclude '#2'")
+        );
+        assert_eq!(
+            DataChecks::for_targets(&set, &errors[..19]).exclude_hint("--exclude"),
+            None
+        );
+    }
+
+    #[test]
+    fn the_poses_kept_keep_their_labels() {
+        let set = target_set();
+        let kept = set.excluding(&["#1"]).unwrap();
+        let labels: Vec<String> = kept
+            .poses()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p.label(k))
+            .collect();
+        assert_eq!(labels, ["#0", "#2", "#3"]);
+        assert_eq!(kept.n_observations(), 6);
+        let err = set.excluding(&["#9"]).unwrap_err().to_string();
+        assert!(
+            err.contains("no pose `#9` in m.csv") && err.contains("`#0`"),
+            "{err}"
+        );
+        assert!(set.excluding(&["#0", "#1", "#2", "#3"]).is_err());
+        // One target per pose: the same.
+        let one = MeasurementSet::new(
+            "n",
+            (0..4)
+                .map(|k| Measurement::new(vec![k as f64], Vector3::new(k as f64, 0.0, 0.0)))
+                .collect(),
+        )
+        .unwrap();
+        let kept = one.excluding(&["#1"]).unwrap();
+        let labels: Vec<String> = (0..kept.len())
+            .map(|k| kept.measurements()[k].label(k))
+            .collect();
+        assert_eq!(labels, ["#0", "#2", "#3"]);
+        // Pooled stations: labels carry the station's number.
+        let pooled = TargetMeasurementSet::pooled(&[set.clone(), set]).unwrap();
+        let kept = pooled.excluding(&["s2:#0"]).unwrap();
+        assert_eq!(kept.len(), 7);
+        assert_eq!(kept.n_stations(), 2);
+        assert!(pooled.excluding(&["#0"]).is_err());
     }
 }

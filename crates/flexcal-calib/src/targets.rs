@@ -417,6 +417,17 @@ impl TargetMeasurementSet {
         )
     }
 
+    /// The same set with every pose's label written into its `pose_id`
+    /// (`#k` for a pose without one), so that a subset keeps the labels of
+    /// this set.
+    pub(crate) fn labelled(&self) -> Self {
+        let mut set = self.clone();
+        for (k, p) in set.poses.iter_mut().enumerate() {
+            p.pose_id.get_or_insert_with(|| format!("#{k}"));
+        }
+        set
+    }
+
     /// The targets, in the order of [`TargetPose::observations`].
     pub fn targets(&self) -> &[Target] {
         &self.targets

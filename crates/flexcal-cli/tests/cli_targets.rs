@@ -445,6 +445,98 @@ fn two_markers_calibrate_the_elasto_geometric_model_end_to_end() {
     }
 }
 
+/// One marker's reading 2 mm off at one identification pose and one
+/// validation pose (noise-free otherwise): the data checks name both
+/// observations and the options that leave their poses out, and the run
+/// with those options fits to round-off.
+#[test]
+fn a_marker_recording_fault_is_named_and_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let targets_file = calib_data("two_arms_targets.toml");
+    let targets = read_targets(&targets_file).unwrap();
+    let with_fault = |set: TargetMeasurementSet, pose: usize, target: usize| {
+        let mut poses = set.poses().to_vec();
+        poses[pose].observations[target]
+            .as_mut()
+            .unwrap()
+            .position
+            .y += 2e-3;
+        TargetMeasurementSet::new("simulated", targets.clone(), poses).unwrap()
+    };
+    let identification = d.join("markers.csv");
+    let validation = d.join("markers-validation.csv");
+    with_fault(simulate(&targets, 0, 60), 7, 1)
+        .write_csv(&identification)
+        .unwrap();
+    with_fault(simulate(&targets, 1000, 30), 12, 0)
+        .write_csv(&validation)
+        .unwrap();
+    let robot = calib_data("two_arms.toml").display().to_string();
+    let report = d.join("report.json");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "calibrate".to_string(),
+            "--robot".into(),
+            robot.clone(),
+            "--data".into(),
+            identification.display().to_string(),
+            "--targets".into(),
+            targets_file.display().to_string(),
+            "--validate".into(),
+            validation.display().to_string(),
+            "--report".into(),
+            report.display().to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = flexcal(&args);
+        let text = stdout(&out);
+        assert!(out.status.success(), "{text}\n{}", stderr(&out));
+        println!("{text}");
+        text
+    };
+    let text = run(&[]);
+    for expected in [
+        "data check: identification set: 1 observation with a position error above 4 times the RMS error",
+        "right at p7 (1.",
+        "data check: to compare without the suspect poses, run again with --exclude 'p7'",
+        "data check: validation set: 1 observation",
+        "left at p1012 (1.",
+        "run again with --exclude-validation 'p1012'",
+    ] {
+        assert!(text.contains(expected), "{expected} missing:\n{text}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let suspect = &json["calibration"]["data_checks"]["suspect_poses"];
+    assert_eq!(suspect.as_array().unwrap().len(), 1, "{suspect}");
+    assert_eq!(suspect[0]["pose"], "p7");
+    assert_eq!(suspect[0]["target"], "right");
+    // Without the two poses the noise-free data fit to round-off, and the
+    // run says what it left out.
+    let text = run(&["--exclude", "p7", "--exclude-validation", "p1012"]);
+    assert!(
+        text.starts_with(&format!(
+            "--exclude: 1 of the 60 poses of {} left out\n--exclude-validation: 1 of the 30 poses of {} left out\n",
+            identification.display(),
+            validation.display()
+        )),
+        "{text}"
+    );
+    assert!(text.contains("59 poses, 118 observations"), "{text}");
+    assert!(!text.contains("data check"), "{text}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    for set in ["calibration", "validation"] {
+        for target in json[set]["per_target_after"].as_array().unwrap() {
+            let max = target["statistics"]["position_max"].as_f64().unwrap();
+            assert!(max < 1e-6, "{set}: {max}");
+        }
+    }
+    assert_eq!(json["exclusions"].as_array().unwrap().len(), 2);
+}
+
 #[test]
 fn bad_multi_target_input_is_a_named_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -485,11 +577,27 @@ fn bad_multi_target_input_is_a_named_error() {
     let err = stderr(&out);
     assert!(err.contains("no frame `RX`"), "{err}");
     // An option not built for several targets.
-    let out = run(&targets_file, &["--exclude", "2"]);
+    let out = run(&targets_file, &["--target-mm", "0,0,0.1"]);
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(
-        err.contains("exclude") && err.contains("several targets"),
+        err.contains("target_mm") && err.contains("several targets"),
+        "{err}"
+    );
+    // A pose to leave out that the file does not have, and leaving out
+    // validation poses without a validation set.
+    let out = run(&targets_file, &["--exclude", "p7,p99"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.contains("--exclude") && err.contains("no pose `p99`") && err.contains("markers.csv"),
+        "{err}"
+    );
+    let out = run(&targets_file, &["--exclude-validation", "p1"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.contains("--exclude-validation needs --validate"),
         "{err}"
     );
     // A malformed targets description names its line.

@@ -205,6 +205,14 @@ impl ValidationResult {
         self.report.frame_note.clone()
     }
 
+    /// Repeated readings and suspect poses of the set (errors above four
+    /// times the RMS after calibration), in sentences; empty when the data
+    /// pass both checks.
+    #[getter]
+    fn data_checks(&self) -> Vec<String> {
+        self.report.data_checks.notes("validation")
+    }
+
     /// Actuated coordinates that leave the identification poses' range on
     /// some poses: (name, fraction of the poses outside).
     #[getter]
@@ -493,6 +501,14 @@ impl CalibrationResult {
     #[getter]
     fn notes(&self) -> Vec<String> {
         self.calibration.identifiability_notes()
+    }
+
+    /// Repeated readings and suspect poses of the identification set
+    /// (errors above four times the RMS after the fit), in sentences; empty
+    /// when the data pass both checks.
+    #[getter]
+    fn data_checks(&self) -> Vec<String> {
+        self.calibration.data_checks.notes("identification")
     }
 
     /// Condition number of the scaled base columns.

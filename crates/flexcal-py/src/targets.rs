@@ -164,6 +164,26 @@ impl TargetMeasurementSet {
             .collect()
     }
 
+    /// The label of every pose, as reports and `excluding` name it: its
+    /// `pose_id`, or `#k` from its index; `s2:` before a second station's.
+    #[getter]
+    fn labels(&self) -> Vec<String> {
+        self.set
+            .poses()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p.label(k))
+            .collect()
+    }
+
+    /// The set without the poses labelled `labels` (every target of a pose
+    /// with it); the poses kept keep their labels.
+    fn excluding(&self, labels: Vec<String>) -> PyResult<Self> {
+        Ok(Self {
+            set: Arc::new(self.set.excluding(&labels).map_err(|e| calib_error(&e))?),
+        })
+    }
+
     /// Names of the targets, in the order of `positions`.
     #[getter]
     fn target_names(&self) -> Vec<String> {
@@ -296,6 +316,14 @@ impl TargetValidationResult {
         self.validation.frame_refitted
     }
 
+    /// Repeated readings and suspect observations of the set (errors above
+    /// four times the RMS after calibration), in sentences; empty when the
+    /// data pass both checks.
+    #[getter]
+    fn data_checks(&self) -> Vec<String> {
+        self.validation.data_checks.notes("validation")
+    }
+
     /// `([(pose, target)], errors (n_observations, 3) in m)` after
     /// calibration: measured minus predicted, in the measurement frame.
     #[getter]
@@ -419,6 +447,14 @@ impl TargetCalibrationResult {
     #[getter]
     fn notes(&self) -> Vec<String> {
         self.run.calibration.identifiability_notes()
+    }
+
+    /// Repeated readings and suspect observations of the identification
+    /// set (errors above four times the RMS after the fit), in sentences;
+    /// empty when the data pass both checks.
+    #[getter]
+    fn data_checks(&self) -> Vec<String> {
+        self.run.calibration.data_checks.notes("identification")
     }
 
     /// Errors of every observation before (nominal robot, frame and
@@ -684,6 +720,7 @@ pub fn calibrate_targets(
         let run = TargetCalibrationRun {
             data: (*set).clone(),
             validation_set: None,
+            exclusions: Vec::new(),
             selection: report,
             calibration,
             validation: None,

@@ -159,6 +159,17 @@ pub struct Exclusion {
     pub source: String,
 }
 
+impl std::fmt::Display for Exclusion {
+    /// `--exclude: 3 of the 1495 poses of B.csv left out`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} of the {} poses of {} left out",
+            self.option, self.left_out, self.total, self.source
+        )
+    }
+}
+
 /// The fuzzy residual model and its validation.
 #[derive(Debug, Clone)]
 pub struct ResidualFit {
@@ -361,22 +372,57 @@ fn read_excluding(
     exclude(format.read(path)?, labels, option, exclusions)
 }
 
+/// A measurement set whose poses can be left out by label: one target per
+/// pose or several.
+pub(crate) trait Excludable: Sized {
+    /// Number of poses.
+    fn n_poses(&self) -> usize;
+    /// Where the poses come from (a file name).
+    fn source(&self) -> &str;
+    /// The set without the poses labelled `labels`.
+    fn excluding(&self, labels: &[String]) -> std::result::Result<Self, calib::CalibError>;
+}
+
+impl Excludable for MeasurementSet {
+    fn n_poses(&self) -> usize {
+        self.len()
+    }
+    fn source(&self) -> &str {
+        &self.source
+    }
+    fn excluding(&self, labels: &[String]) -> std::result::Result<Self, calib::CalibError> {
+        MeasurementSet::excluding(self, labels)
+    }
+}
+
+impl Excludable for calib::TargetMeasurementSet {
+    fn n_poses(&self) -> usize {
+        self.len()
+    }
+    fn source(&self) -> &str {
+        &self.source
+    }
+    fn excluding(&self, labels: &[String]) -> std::result::Result<Self, calib::CalibError> {
+        calib::TargetMeasurementSet::excluding(self, labels)
+    }
+}
+
 /// `set` without the poses labelled `labels`, the exclusion recorded.
-fn exclude(
-    set: MeasurementSet,
+pub(crate) fn exclude<S: Excludable>(
+    set: S,
     labels: &[String],
     option: &'static str,
     exclusions: &mut Vec<Exclusion>,
-) -> Result<MeasurementSet> {
+) -> Result<S> {
     if labels.is_empty() {
         return Ok(set);
     }
     let kept = set.excluding(labels).map_err(step(option))?;
     exclusions.push(Exclusion {
         option: option.to_string(),
-        left_out: set.len() - kept.len(),
-        total: set.len(),
-        source: set.source.clone(),
+        left_out: set.n_poses() - kept.n_poses(),
+        total: set.n_poses(),
+        source: set.source().to_string(),
     });
     Ok(kept)
 }

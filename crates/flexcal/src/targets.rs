@@ -18,8 +18,8 @@ use crate::calibration::text::{
     coverage_line, cross_check_text, split_check_text, station_hold_out_text,
 };
 use crate::calibration::{
-    CalibrationConfig, CalibrationOutputs, MeasurementFormat, extrapolation_note, grid_accuracy,
-    station_files,
+    CalibrationConfig, CalibrationOutputs, Exclusion, MeasurementFormat, exclude,
+    extrapolation_note, grid_accuracy, station_files,
 };
 use crate::report::svg::Series;
 use crate::report::{Report, Section};
@@ -28,10 +28,14 @@ use crate::{Error, Result};
 /// Every result of a multi-target calibration run.
 #[derive(Debug, Clone, Serialize)]
 pub struct TargetCalibrationRun {
-    /// The identification set.
+    /// The identification set (exclusions applied).
     pub data: TargetMeasurementSet,
-    /// The validation set.
+    /// The validation set (exclusions applied).
     pub validation_set: Option<TargetMeasurementSet>,
+    /// The poses left out of each set ([`CalibrationConfig::exclude`],
+    /// [`CalibrationConfig::exclude_validation`]), every target of a pose
+    /// with it.
+    pub exclusions: Vec<Exclusion>,
     /// The model selection, when one ran (`config.selection`; by default
     /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
     /// poses, as for one target).
@@ -67,7 +71,8 @@ pub struct TargetCalibrationRun {
 /// # Errors
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
 /// meaning with several targets or is not built for them (another file
-/// format, pose exclusions, a target start, the residual model), and the
+/// format, a target start, the residual model), labels of `exclude` that
+/// name no pose, and the
 /// errors of reading, model selection, identification, each station held
 /// out, the split-half and cross-series checks, validation and the
 /// accuracy map, each naming its step.
@@ -87,8 +92,6 @@ pub fn run_target_calibration(
     };
     let unsupported = [
         ("format", config.format != MeasurementFormat::Own),
-        ("exclude", !config.exclude.is_empty()),
-        ("exclude_validation", !config.exclude_validation.is_empty()),
         ("target_mm", config.target_mm.is_some()),
         ("refit_target", config.refit_target),
         ("residual_inputs", !config.residual_inputs.is_empty()),
@@ -96,11 +99,17 @@ pub fn run_target_calibration(
     if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
         return Err(invalid(name));
     }
-    if config.cross_check && config.validate.is_none() {
-        return Err(Error::InvalidParameter {
-            parameter: "cross_check".into(),
-            message: "needs a validation set".into(),
-        });
+    if config.validate.is_none() {
+        let needs = [
+            ("cross_check", config.cross_check),
+            ("exclude_validation", !config.exclude_validation.is_empty()),
+        ];
+        if let Some((name, _)) = needs.iter().find(|(_, set)| *set) {
+            return Err(Error::InvalidParameter {
+                parameter: name.to_string(),
+                message: "needs a validation set".into(),
+            });
+        }
     }
     let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
     let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
@@ -110,13 +119,27 @@ pub fn run_target_calibration(
         .map(|path| TargetMeasurementSet::read_csv(path, &targets))
         .collect::<std::result::Result<Vec<_>, _>>()
         .map_err(step("identification measurements"))?;
-    let data = TargetMeasurementSet::pooled(&sets).map_err(step("identification measurements"))?;
+    let mut exclusions = Vec::new();
+    let data = exclude(
+        TargetMeasurementSet::pooled(&sets).map_err(step("identification measurements"))?,
+        &config.exclude,
+        "--exclude",
+        &mut exclusions,
+    )?;
     let validation_set = config
         .validate
         .as_deref()
-        .map(|p| TargetMeasurementSet::read_csv(p, &targets))
-        .transpose()
-        .map_err(step("validation measurements"))?;
+        .map(|p| {
+            let set = TargetMeasurementSet::read_csv(p, &targets)
+                .map_err(step("validation measurements"))?;
+            exclude(
+                set,
+                &config.exclude_validation,
+                "--exclude-validation",
+                &mut exclusions,
+            )
+        })
+        .transpose()?;
     let selection_options = calib::SelectionOptions {
         method: config
             .selection
@@ -162,6 +185,7 @@ pub fn run_target_calibration(
     Ok(TargetCalibrationRun {
         data,
         validation_set,
+        exclusions,
         selection,
         calibration,
         validation,
@@ -174,11 +198,12 @@ pub fn run_target_calibration(
 }
 
 impl TargetCalibrationRun {
-    /// What `flexcal calibrate --targets` prints: a line naming the robot
-    /// and the identification file, then [`TargetCalibrationRun::lines`],
-    /// each ended by a newline.
+    /// What `flexcal calibrate --targets` prints: a line per exclusion, a
+    /// line naming the robot and the identification file, then
+    /// [`TargetCalibrationRun::lines`], each ended by a newline.
     pub fn summary_text(&self, robot: &crate::kinematics::Model) -> String {
-        let mut text = format!(
+        let mut text: String = self.exclusions.iter().map(|e| format!("{e}\n")).collect();
+        text += &format!(
             "Calibrating `{}` ({} parameters) from {}\n",
             robot.name(),
             robot.n_params(),
@@ -250,9 +275,10 @@ impl TargetCalibrationRun {
 
     /// The run as text for a terminal: the identification (rank, what the
     /// targets cannot see, identified unknowns with their standard errors),
-    /// the split-half check, per-target errors before and after (mm) and
-    /// the share of the validation observations within their predicted
-    /// 95 % bounds.
+    /// the split-half check, per-target errors before and after (mm), the
+    /// data checks (repeated readings, suspect observations and the option
+    /// that leaves their poses out) and the share of the validation
+    /// observations within their predicted 95 % bounds.
     pub fn lines(&self) -> Vec<String> {
         let c = &self.calibration;
         let mut lines = vec![format!(
@@ -332,6 +358,19 @@ impl TargetCalibrationRun {
                 &v.per_target_before,
                 &v.per_target_after,
             ));
+        }
+        let validation_checks = self.validation.as_ref().map(|v| &v.data_checks);
+        let checks = std::iter::once(("identification", "--exclude", &c.data_checks))
+            .chain(validation_checks.map(|checks| ("validation", "--exclude-validation", checks)));
+        for (what, option, checks) in checks {
+            let hint = checks.exclude_hint(option);
+            lines.extend(
+                checks
+                    .notes(what)
+                    .into_iter()
+                    .chain(hint)
+                    .map(|note| format!("data check: {note}")),
+            );
         }
         if let Some(map) = &self.coverage {
             lines.push(coverage_line(map, "observations"));

@@ -261,6 +261,9 @@ class ValidationResult:
     @property
     def note(self) -> str: ...
     @property
+    def data_checks(self) -> list[str]:
+        """Repeated readings and suspect poses (error above 4x the RMS after calibration), in sentences."""
+    @property
     def extrapolated_coordinates(self) -> list[tuple[str, float]]: ...
 
 class AccuracyResult:
@@ -430,6 +433,9 @@ class CalibrationResult:
     @property
     def notes(self) -> list[str]: ...
     @property
+    def data_checks(self) -> list[str]:
+        """Repeated readings and suspect poses of the identification set, in sentences."""
+    @property
     def condition_number(self) -> float: ...
     @property
     def singular_values(self) -> FloatArray: ...
@@ -533,6 +539,11 @@ class TargetMeasurementSet:
     def station_of(self) -> list[int]:
         """The station (index into station_names) of each pose."""
     @property
+    def labels(self) -> list[str]:
+        """Each pose's label: its pose_id or `#k`; `s2:` before a second station's."""
+    def excluding(self, labels: Sequence[str]) -> TargetMeasurementSet:
+        """Without the poses of these labels (every target of a pose); the kept keep theirs."""
+    @property
     def target_names(self) -> list[str]: ...
     @property
     def target_frames(self) -> list[str]: ...
@@ -561,6 +572,9 @@ class TargetValidationResult:
     def per_target_after(self) -> dict[str, ErrorStatistics]: ...
     @property
     def frame_refitted(self) -> bool: ...
+    @property
+    def data_checks(self) -> list[str]:
+        """Repeated readings and suspect poses (error above 4x the RMS after calibration), in sentences."""
     @property
     def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
         """([(pose, target)], (n_observations, 3) measured minus predicted, m)."""
@@ -596,6 +610,9 @@ class TargetCalibrationResult:
     def combination_terms(self) -> dict[str, list[tuple[str, float]]]: ...
     @property
     def notes(self) -> list[str]: ...
+    @property
+    def data_checks(self) -> list[str]:
+        """Repeated readings and suspect poses of the identification set, in sentences."""
     @property
     def before(self) -> ErrorStatistics: ...
     @property

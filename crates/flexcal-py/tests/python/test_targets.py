@@ -207,6 +207,38 @@ def test_two_stations_of_markers_each_with_its_frame(two_arms):
     np.testing.assert_allclose(relative[:3, :3], true_relative[:3, :3], atol=0.1e-3)
 
 
+def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
+    """One marker's reading 2 mm off at one pose, against 20 um of noise:
+    the data checks name that observation, and the set without its pose
+    calibrates at the noise."""
+    truth = Truth(two_arms, seed=41)
+    q = configurations(two_arms, 80, seed=42)
+    positions = truth.measure(two_arms, q, occlude=0.0)
+    positions[17, 1, 2] += 2e-3
+    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions)
+    assert data.labels[:2] == ["#0", "#1"]
+    result = flexcal.calibrate_targets(two_arms, data, select="none")
+    checks = result.data_checks
+    assert len(checks) == 1 and "1 observation" in checks[0] and "right at #17" in checks[0], checks
+    kept = data.excluding(["#17"])
+    assert len(kept) == 79 and "#17" not in kept.labels and kept.labels[17] == "#18"
+    clean = flexcal.calibrate_targets(two_arms, kept, select="none")
+    assert clean.data_checks == []
+    assert clean.after.position_mean < 1.3 * 1.6 * NOISE < result.after.position_mean, (
+        clean.after,
+        result.after,
+    )
+    # The validation's checks: the same fault in another set.
+    q_other = configurations(two_arms, 40, seed=43)
+    other_positions = truth.measure(two_arms, q_other, occlude=0.0)
+    other_positions[5, 0, 0] -= 2e-3
+    other = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q_other, other_positions)
+    checks = clean.validate(other).data_checks
+    assert len(checks) == 1 and "left at #5" in checks[0], checks
+    with pytest.raises(flexcal.InputError, match="no pose `#80`"):
+        data.excluding(["#80"])
+
+
 def test_the_elasto_geometric_model_with_two_markers(two_arms):
     # The joints of the simulated robot are rigid: every identified
     # compliance comes out at zero within 4 standard errors.

@@ -35,14 +35,7 @@ impl CalibrationRun {
     pub fn summary_text(&self, robot: &Model) -> String {
         let mut out = String::new();
         for e in &self.exclusions {
-            put!(
-                out,
-                "{}: {} of the {} poses of {} left out",
-                e.option,
-                e.left_out,
-                e.total,
-                e.source
-            );
+            put!(out, "{e}");
         }
         put!(
             out,
@@ -479,19 +472,8 @@ pub fn errors_text(c: &Calibration, validation: Option<&ValidationReport>) -> St
     }
     let checks = std::iter::once(("--exclude", &c.data_checks))
         .chain(validation.map(|v| ("--exclude-validation", &v.data_checks)));
-    for (option, checks) in checks {
-        if !checks.suspect_poses.is_empty() {
-            let labels: Vec<&str> = checks
-                .suspect_poses
-                .iter()
-                .map(|s| s.pose.strip_prefix("line ").unwrap_or(&s.pose))
-                .collect();
-            put!(
-                out,
-                "data check: to compare without the suspect poses, run again with {option} '{}'",
-                labels.join(",")
-            );
-        }
+    for hint in checks.filter_map(|(option, checks)| checks.exclude_hint(option)) {
+        put!(out, "data check: {hint}");
     }
     out
 }
