@@ -474,6 +474,7 @@ fn a_marker_recording_fault_is_named_and_left_out() {
         .unwrap();
     let robot = calib_data("two_arms.toml").display().to_string();
     let report = d.join("report.json");
+    let page = d.join("report.html");
     let run = |extra: &[&str]| {
         let mut args = vec![
             "calibrate".to_string(),
@@ -487,6 +488,8 @@ fn a_marker_recording_fault_is_named_and_left_out() {
             validation.display().to_string(),
             "--report".into(),
             report.display().to_string(),
+            "--html".into(),
+            page.display().to_string(),
         ];
         args.extend(extra.iter().map(|s| s.to_string()));
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -513,6 +516,14 @@ fn a_marker_recording_fault_is_named_and_left_out() {
     assert_eq!(suspect.as_array().unwrap().len(), 1, "{suspect}");
     assert_eq!(suspect[0]["pose"], "p7");
     assert_eq!(suspect[0]["target"], "right");
+    // The page says it too.
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains("Data checks")
+            && html.contains("right at p7 (1.")
+            && html.contains("run again with --exclude-validation 'p1012'"),
+        "{html}"
+    );
     // Without the two poses the noise-free data fit to round-off, and the
     // run says what it left out.
     let text = run(&["--exclude", "p7", "--exclude-validation", "p1012"]);
@@ -535,6 +546,11 @@ fn a_marker_recording_fault_is_named_and_left_out() {
         }
     }
     assert_eq!(json["exclusions"].as_array().unwrap().len(), 2);
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains("--exclude: 1 of the 60 poses of") && !html.contains("suspect"),
+        "{html}"
+    );
 }
 
 #[test]

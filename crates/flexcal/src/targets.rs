@@ -13,9 +13,11 @@ use crate::calib::{
     self, AccuracyMap, CrossCheck, SelectionReport, SplitCheck, TargetCalibration, TargetErrors,
     TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
-use crate::calibration::html::{calibration_page, errors_chart, statistics_row, unknowns_section};
+use crate::calibration::html::{
+    calibration_page, data_checks_section, errors_chart, statistics_row, unknowns_section,
+};
 use crate::calibration::text::{
-    coverage_line, cross_check_text, split_check_text, station_hold_out_text,
+    coverage_line, cross_check_text, data_check_notes, split_check_text, station_hold_out_text,
 };
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, Exclusion, MeasurementFormat, exclude,
@@ -359,19 +361,14 @@ impl TargetCalibrationRun {
                 &v.per_target_after,
             ));
         }
-        let validation_checks = self.validation.as_ref().map(|v| &v.data_checks);
-        let checks = std::iter::once(("identification", "--exclude", &c.data_checks))
-            .chain(validation_checks.map(|checks| ("validation", "--exclude-validation", checks)));
-        for (what, option, checks) in checks {
-            let hint = checks.exclude_hint(option);
-            lines.extend(
-                checks
-                    .notes(what)
-                    .into_iter()
-                    .chain(hint)
-                    .map(|note| format!("data check: {note}")),
-            );
-        }
+        lines.extend(
+            data_check_notes(
+                &c.data_checks,
+                self.validation.as_ref().map(|v| &v.data_checks),
+            )
+            .into_iter()
+            .map(|note| format!("data check: {note}")),
+        );
         if let Some(map) = &self.coverage {
             lines.push(coverage_line(map, "observations"));
         }
@@ -387,7 +384,8 @@ impl TargetCalibrationRun {
     }
 
     /// The run as a report page (write it with [`Report::to_html`]): the
-    /// errors of each target before and after, the model selection, every
+    /// errors of each target before and after, the poses left out and the
+    /// data checks, the model selection, every
     /// unknown, the validation observations against their predicted
     /// bounds, and the accuracy map with each target drawn where it is.
     pub fn html_report(&self, robot: &crate::kinematics::Model) -> Report {
@@ -409,6 +407,11 @@ impl TargetCalibrationRun {
                 names.join(", ")
             ),
             self.errors_section(),
+            data_checks_section(
+                &self.exclusions,
+                &c.data_checks,
+                self.validation.as_ref().map(|v| &v.data_checks),
+            ),
             self.selection.as_ref(),
             unknowns_section(&c.unknowns, c.rank(), &c.solve),
             self.coverage.as_ref().map(|m| (m, "observations")),

@@ -125,12 +125,15 @@ fn workflow_on_the_twin_campaign() {
         "Position errors",
         "Identified unknowns",
         "Predicted accuracy on the validation poses",
+        "Data checks",
     ] {
         assert!(
             html.contains(&format!(">{title}</h2>")),
             "no section {title}"
         );
     }
+    // The poses left out on request are said on the page.
+    assert!(html.contains("--exclude: 2 of the"), "{html}");
     assert_eq!(run.html_report(&robot).figure_count(), 2);
     assert!(!html.contains("NaN"), "a NaN on the page");
     let residuals = std::fs::read_to_string(dir.join("out/residuals.csv")).unwrap();

@@ -1,6 +1,6 @@
 //! The calibration run as a self-contained HTML page
-//! (`flexcal calibrate --html FILE`): the errors before and after, the model
-//! selection, every identified unknown, the measured errors of the
+//! (`flexcal calibrate --html FILE`): the errors before and after, the poses
+//! left out and the data checks, the model selection, every identified unknown, the measured errors of the
 //! validation poses against their predicted 95 % bounds, and the predicted
 //! accuracy over the workspace (the accuracy map) drawn where the target is.
 //!
@@ -9,14 +9,14 @@
 //! Units: positions and errors in mm, unknowns in the display unit of their
 //! kind ([`crate::calib::error_model::UnknownKind::display_unit`]).
 
-use crate::calib::{AccuracyMap, ErrorStatistics, SelectionReport, UnknownEstimate};
+use crate::calib::{AccuracyMap, DataChecks, ErrorStatistics, SelectionReport, UnknownEstimate};
 use crate::kinematics::Model;
 use crate::optim::SolveReport;
 use crate::report::svg::{self, Series, YScale};
 use crate::report::{Report, Section};
 
-use super::CalibrationRun;
-use super::text::status_word;
+use super::text::{data_check_notes, status_word};
+use super::{CalibrationRun, Exclusion};
 
 impl CalibrationRun {
     /// The run as a report page (write it with [`Report::to_html`]).
@@ -34,6 +34,11 @@ impl CalibrationRun {
                 self.data.source
             ),
             self.errors_section(),
+            data_checks_section(
+                &self.exclusions,
+                &self.calibration.data_checks,
+                self.validation.as_ref().map(|v| &v.data_checks),
+            ),
             self.selection.as_ref(),
             unknowns_section(
                 &self.calibration.unknowns,
@@ -99,14 +104,38 @@ pub(crate) fn errors_chart(name: &str, series: &[Series]) -> String {
     )
 }
 
-/// The page of a calibration run: its errors section, then the model
-/// selection, every unknown, the validation `entries` (`poses` or
+/// The poses left out on request and the data checks of the identification
+/// and validation sets, each finding with the option that leaves its poses
+/// out; `None` when there is nothing to say.
+pub(crate) fn data_checks_section(
+    exclusions: &[Exclusion],
+    identification: &DataChecks,
+    validation: Option<&DataChecks>,
+) -> Option<Section> {
+    let notes = data_check_notes(identification, validation);
+    if exclusions.is_empty() && notes.is_empty() {
+        return None;
+    }
+    let mut section = Section::new("Data checks");
+    for e in exclusions {
+        section.paragraph(e.to_string());
+    }
+    for note in notes {
+        section.paragraph(note);
+    }
+    Some(section)
+}
+
+/// The page of a calibration run: its errors section, then the data checks,
+/// the model selection, every unknown, the validation `entries` (`poses` or
 /// `observations`) against their bounds and the accuracy map, as far as the
 /// run has them.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn calibration_page(
     robot: &Model,
     subtitle: String,
     errors: Section,
+    checks: Option<Section>,
     selection: Option<&SelectionReport>,
     unknowns: Section,
     coverage: Option<(&AccuracyMap, &str)>,
@@ -114,6 +143,9 @@ pub(crate) fn calibration_page(
 ) -> Report {
     let mut report = Report::new(format!("Calibration of {}", robot.name()), subtitle);
     report.push(errors);
+    if let Some(checks) = checks {
+        report.push(checks);
+    }
     if let Some(selection) = selection {
         report.push(selection_section(selection));
     }

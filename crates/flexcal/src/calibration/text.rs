@@ -10,8 +10,8 @@ use std::fmt::Write as _;
 
 use crate::calib::temperature::TemperatureCheck;
 use crate::calib::{
-    Calibration, CrossCheck, ErrorStatistics, MeasurementSet, PoseError, SplitCheck, UnknownStatus,
-    ValidationReport,
+    Calibration, CrossCheck, DataChecks, ErrorStatistics, MeasurementSet, PoseError, SplitCheck,
+    UnknownStatus, ValidationReport,
 };
 use crate::kinematics::Model;
 
@@ -411,6 +411,22 @@ pub fn cross_check_text(cross: &CrossCheck) -> String {
     out
 }
 
+/// The data checks of the identification set and, with a validation, of
+/// the validation set: for each, its findings in sentences and the option
+/// that leaves its suspect poses out.
+pub(crate) fn data_check_notes(
+    identification: &DataChecks,
+    validation: Option<&DataChecks>,
+) -> Vec<String> {
+    std::iter::once(("identification", "--exclude", identification))
+        .chain(validation.map(|checks| ("validation", "--exclude-validation", checks)))
+        .flat_map(|(what, option, checks)| {
+            let hint = checks.exclude_hint(option);
+            checks.notes(what).into_iter().chain(hint)
+        })
+        .collect()
+}
+
 /// The errors before and after calibration on the identification set and,
 /// with a validation, on the validation set; the validation's frame note
 /// and extrapolated coordinates; the data checks and the option that
@@ -461,19 +477,8 @@ pub fn errors_text(c: &Calibration, validation: Option<&ValidationReport>) -> St
             );
         }
     }
-    let validation_notes = validation.map(|v| v.data_checks.notes("validation"));
-    for note in c
-        .data_checks
-        .notes("identification")
-        .iter()
-        .chain(validation_notes.iter().flatten())
-    {
+    for note in data_check_notes(&c.data_checks, validation.map(|v| &v.data_checks)) {
         put!(out, "data check: {note}");
-    }
-    let checks = std::iter::once(("--exclude", &c.data_checks))
-        .chain(validation.map(|v| ("--exclude-validation", &v.data_checks)));
-    for hint in checks.filter_map(|(option, checks)| checks.exclude_hint(option)) {
-        put!(out, "data check: {hint}");
     }
     out
 }
