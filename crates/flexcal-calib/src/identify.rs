@@ -1109,34 +1109,17 @@ pub fn calibrate(
         }
         .ratios(&reduced_start, &x_start, &identified)?
     };
-    let unknowns: Vec<UnknownEstimate> = (0..n)
-        .map(|j| {
-            let status = if fixed[j] {
-                UnknownStatus::Fixed
-            } else if no_influence[j] {
-                UnknownStatus::NoInfluence
-            } else if frozen[j] && exactly_dependent[j] {
-                UnknownStatus::NonIdentifiable
-            } else if frozen[j] {
-                UnknownStatus::PoorlyIdentifiable
-            } else {
-                UnknownStatus::Identified
-            };
-            UnknownEstimate {
-                name: names[j].clone(),
-                kind: kinds[j],
-                initial: x_initial[j],
-                value: x[j],
-                standard_error: if status == UnknownStatus::Identified {
-                    report.standard_errors[j]
-                } else {
-                    None
-                },
-                spread_ratio: spread_ratios[j],
-                status,
-            }
-        })
-        .collect();
+    let unknowns = unknown_estimates(
+        (&names, &kinds),
+        (&x_initial, &report),
+        &UnknownFlags {
+            fixed: &fixed,
+            no_influence: &no_influence,
+            frozen: &frozen,
+            exactly_dependent: &exactly_dependent,
+        },
+        &spread_ratios,
+    );
     let (x_meas_base, x_tcp_target) = problem.frames(&x);
     let station_frames = problem.station_frames(&x);
     let np = model.n_params();
@@ -1440,6 +1423,58 @@ pub(crate) fn noise_level(
     problem.residuals(x, &mut r).map_err(problem_error)?;
     let ssr: f64 = r.iter().zip(weights).map(|(r, w)| (r * w).powi(2)).sum();
     Ok((ssr / (rows.saturating_sub(free).max(1)) as f64).sqrt())
+}
+
+/// What an identification found of each unknown, by index.
+pub(crate) struct UnknownFlags<'a> {
+    /// Kept at its value by the options.
+    pub fixed: &'a [bool],
+    /// Its column is zero (a frame that no observation sees).
+    pub no_influence: &'a [bool],
+    /// Left at its starting value by the rank or noise-aware rank.
+    pub frozen: &'a [bool],
+    /// A combination of others whatever the noise.
+    pub exactly_dependent: &'a [bool],
+}
+
+/// Every unknown `(names, kinds)` with its start and identified value
+/// (`(x_initial, report)`, the report giving the values and standard
+/// errors), its status from `flags` and its spread ratio: the one place
+/// that decides [`UnknownStatus`] for one target and for several.
+pub(crate) fn unknown_estimates(
+    (names, kinds): (&[String], &[UnknownKind]),
+    (x_initial, report): (&[f64], &SolveReport),
+    flags: &UnknownFlags<'_>,
+    spread_ratios: &[Option<f64>],
+) -> Vec<UnknownEstimate> {
+    (0..names.len())
+        .map(|j| {
+            let status = if flags.fixed[j] {
+                UnknownStatus::Fixed
+            } else if flags.no_influence[j] {
+                UnknownStatus::NoInfluence
+            } else if flags.frozen[j] && flags.exactly_dependent[j] {
+                UnknownStatus::NonIdentifiable
+            } else if flags.frozen[j] {
+                UnknownStatus::PoorlyIdentifiable
+            } else {
+                UnknownStatus::Identified
+            };
+            UnknownEstimate {
+                name: names[j].clone(),
+                kind: kinds[j],
+                initial: x_initial[j],
+                value: report.x[j],
+                standard_error: if status == UnknownStatus::Identified {
+                    report.standard_errors[j]
+                } else {
+                    None
+                },
+                spread_ratio: spread_ratios[j],
+                status,
+            }
+        })
+        .collect()
 }
 
 /// The noise level (weighted units) at unknowns `x` with `free` unknowns

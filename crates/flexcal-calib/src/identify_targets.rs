@@ -66,9 +66,10 @@ use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
     AnalysisContext, CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT,
-    Method, Rounds, SPREAD_REFERENCE_POSES, StackedJacobian, UnknownEstimate, UnknownStatus,
-    Weighting, analysis_index, elastic_notes, is_elastic_unknown, noise_level, rms_row_weights,
-    spread_configurations, spread_ratio_values, unit_covariance_diagonal, weak_spread_note,
+    Method, Rounds, SPREAD_REFERENCE_POSES, StackedJacobian, UnknownEstimate, UnknownFlags,
+    UnknownStatus, Weighting, analysis_index, elastic_notes, is_elastic_unknown, noise_level,
+    rms_row_weights, spread_configurations, spread_ratio_values, unit_covariance_diagonal,
+    unknown_estimates, weak_spread_note,
 };
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
@@ -1269,34 +1270,17 @@ pub fn calibrate_targets(
     } else {
         vec![None; n]
     };
-    let unknowns: Vec<UnknownEstimate> = (0..n)
-        .map(|j| {
-            let status = if fixed[j] {
-                UnknownStatus::Fixed
-            } else if no_influence[j] {
-                UnknownStatus::NoInfluence
-            } else if frozen[j] && exactly_dependent[j] {
-                UnknownStatus::NonIdentifiable
-            } else if frozen[j] {
-                UnknownStatus::PoorlyIdentifiable
-            } else {
-                UnknownStatus::Identified
-            };
-            UnknownEstimate {
-                name: names[j].clone(),
-                kind: kinds[j],
-                initial: x_initial[j],
-                value: x[j],
-                standard_error: if status == UnknownStatus::Identified {
-                    report.standard_errors[j]
-                } else {
-                    None
-                },
-                spread_ratio: spread_ratios[j],
-                status,
-            }
-        })
-        .collect();
+    let unknowns = unknown_estimates(
+        (&names, &kinds),
+        (&x_initial, &report),
+        &UnknownFlags {
+            fixed: &fixed,
+            no_influence: &no_influence,
+            frozen: &frozen,
+            exactly_dependent: &exactly_dependent,
+        },
+        &spread_ratios,
+    );
     let targets: Vec<Target> = set
         .targets()
         .iter()
