@@ -155,6 +155,31 @@ pub(crate) fn outside<'a>(
         .map(|(i, _)| i)
 }
 
+/// Each coordinate (named by `names`, in order) at which some of
+/// `configurations` lie outside `ranges`, with the fraction of the
+/// configurations that do (in (0, 1]); coordinates that none leaves are
+/// not listed.
+pub(crate) fn extrapolated_coordinates<'a>(
+    names: &[String],
+    ranges: &[CoordinateCoverage],
+    configurations: impl Iterator<Item = &'a [f64]>,
+) -> Vec<(String, f64)> {
+    let mut counts = vec![0usize; ranges.len()];
+    let mut n = 0usize;
+    for q in configurations {
+        n += 1;
+        for i in outside(ranges, q) {
+            counts[i] += 1;
+        }
+    }
+    names
+        .iter()
+        .zip(counts)
+        .filter(|(_, count)| *count > 0)
+        .map(|(name, count)| (name.clone(), count as f64 / n.max(1) as f64))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1369,6 +1369,10 @@ pub struct TargetValidation {
     /// Repeated readings and suspect observations of the validation set
     /// (with the calibrated robot).
     pub data_checks: DataChecks,
+    /// Actuated coordinates at which some validation poses leave the
+    /// identification poses' range, with the fraction of the poses that do
+    /// (the prediction there is an extrapolation), as for one target.
+    pub extrapolated_coordinates: Vec<(String, f64)>,
 }
 
 /// The multi-target model of `calibration` on `set` (whose targets carry
@@ -1528,6 +1532,11 @@ pub fn validate_targets(
         frame_refitted: refit_frame,
         data_checks: DataChecks::for_targets(set, &observation_errors),
         observation_errors,
+        extrapolated_coordinates: crate::coverage::extrapolated_coordinates(
+            model.actuated_names(),
+            &calibration.actuated_ranges,
+            set.poses().iter().map(|p| p.q.as_slice()),
+        ),
     })
 }
 

@@ -345,20 +345,11 @@ impl Calibration {
         // Extrapolation: which coordinates of the validation poses leave the
         // identification poses' ranges (a joint whose motion does not change
         // the errors, like a vertical first axis, may do so harmlessly).
-        let n = set.len().max(1) as f64;
-        let mut counts = vec![0usize; self.actuated_ranges.len()];
-        for m in set.measurements() {
-            for i in self.outside_training_range(&m.q) {
-                counts[i] += 1;
-            }
-        }
-        let extrapolated_coordinates = model
-            .actuated_names()
-            .iter()
-            .zip(counts)
-            .filter(|(_, count)| *count > 0)
-            .map(|(name, count)| (name.clone(), count as f64 / n))
-            .collect();
+        let extrapolated_coordinates = crate::coverage::extrapolated_coordinates(
+            model.actuated_names(),
+            &self.actuated_ranges,
+            set.measurements().iter().map(|m| m.q.as_slice()),
+        );
         Ok(ValidationReport {
             before,
             after: error_statistics(&after_per_pose),

@@ -565,12 +565,8 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
             .filter_map(|u| u.spread_ratio.map(|r| (u.name.clone(), r)))
             .collect()
     };
-    let spread = calibrate_targets(
-        &model,
-        &measure(&model, &truth, &targets, 120, &mut rng),
-        &options,
-    )
-    .unwrap();
+    let spread_set = measure(&model, &truth, &targets, 120, &mut rng);
+    let spread = calibrate_targets(&model, &spread_set, &options).unwrap();
     let all = ratios(&spread, "");
     assert!(all.len() > 20, "{all:?}");
     let largest = all.iter().map(|(_, r)| *r).fold(0.0, f64::max);
@@ -611,6 +607,34 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
         .find(|n| n.starts_with("determined more than 10 times less precisely"))
         .unwrap_or_else(|| panic!("{notes:#?}"));
     assert!(note.contains("L"), "{note}");
+    // Validated on the spread poses, the held robot is told where it
+    // extrapolates: the left elbow, on every spread pose outside the held
+    // poses' range of it.
+    let validation = validate_targets(&model, &held, &spread_set, true).unwrap();
+    let (lo, hi) = held_set
+        .poses()
+        .iter()
+        .map(|p| p.q[elbow])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    let outside = spread_set
+        .poses()
+        .iter()
+        .filter(|p| p.q[elbow] < lo || p.q[elbow] > hi)
+        .count();
+    println!(
+        "validation on spread poses, outside the held poses' range: {:?}",
+        validation.extrapolated_coordinates
+    );
+    let (name, share) = validation
+        .extrapolated_coordinates
+        .iter()
+        .cloned()
+        .fold((String::new(), 0.0), |a, b| if b.1 > a.1 { b } else { a });
+    assert_eq!(name, "thetaL3");
+    assert!(outside > 100, "{outside}");
+    assert!((share - outside as f64 / 120.0).abs() < 1e-12, "{share}");
 }
 
 /// Two stations: the tracker measured the two-armed robot from one place,

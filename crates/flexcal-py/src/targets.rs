@@ -324,6 +324,13 @@ impl TargetValidationResult {
         self.validation.data_checks.notes("validation")
     }
 
+    /// Actuated coordinates that leave the identification poses' range on
+    /// some poses: (name, fraction of the poses outside).
+    #[getter]
+    fn extrapolated_coordinates(&self) -> Vec<(String, f64)> {
+        self.validation.extrapolated_coordinates.clone()
+    }
+
     /// `([(pose, target)], errors (n_observations, 3) in m)` after
     /// calibration: measured minus predicted, in the measurement frame.
     #[getter]

@@ -17,7 +17,8 @@ use crate::calibration::html::{
     calibration_page, data_checks_section, errors_chart, statistics_row, unknowns_section,
 };
 use crate::calibration::text::{
-    coverage_line, cross_check_text, data_check_notes, split_check_text, station_hold_out_text,
+    coverage_line, cross_check_text, data_check_notes, extrapolation_line, split_check_text,
+    station_hold_out_text,
 };
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, Exclusion, MeasurementFormat, exclude,
@@ -360,6 +361,7 @@ impl TargetCalibrationRun {
                 &v.per_target_before,
                 &v.per_target_after,
             ));
+            lines.extend(extrapolation_line(&v.extrapolated_coordinates));
         }
         lines.extend(
             data_check_notes(

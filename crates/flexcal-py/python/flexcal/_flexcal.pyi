@@ -576,6 +576,9 @@ class TargetValidationResult:
     def data_checks(self) -> list[str]:
         """Repeated readings and suspect poses (error above 4x the RMS after calibration), in sentences."""
     @property
+    def extrapolated_coordinates(self) -> list[tuple[str, float]]:
+        """(coordinate, fraction of the poses outside the identification poses' range)."""
+    @property
     def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
         """([(pose, target)], (n_observations, 3) measured minus predicted, m)."""
 

@@ -233,8 +233,20 @@ def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
     other_positions = truth.measure(two_arms, q_other, occlude=0.0)
     other_positions[5, 0, 0] -= 2e-3
     other = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q_other, other_positions)
-    checks = clean.validate(other).data_checks
+    validation = clean.validate(other)
+    checks = validation.data_checks
     assert len(checks) == 1 and "left at #5" in checks[0], checks
+    # Where the validation poses leave the identification poses' ranges:
+    # counted here from the coordinates.
+    lo, hi = kept.q.min(axis=0), kept.q.max(axis=0)
+    outside = ((other.q < lo) | (other.q > hi)).mean(axis=0)
+    names = two_arms.joint_names
+    expected = {names[i]: f for i, f in enumerate(outside) if f > 0}
+    assert expected, "40 random poses against 79: some coordinate should leave the range"
+    got = dict(validation.extrapolated_coordinates)
+    assert got.keys() == expected.keys(), (got, expected)
+    for name, f in expected.items():
+        assert got[name] == pytest.approx(f, abs=1e-12), name
     with pytest.raises(flexcal.InputError, match="no pose `#80`"):
         data.excluding(["#80"])
 

@@ -411,6 +411,30 @@ pub fn cross_check_text(cross: &CrossCheck) -> String {
     out
 }
 
+/// The sentence naming the coordinates at which validation poses leave the
+/// identification poses' range, with the share of the poses that do
+/// (`None` when none does).
+pub(crate) fn extrapolation_line(extrapolated: &[(String, f64)]) -> Option<String> {
+    if extrapolated.is_empty() {
+        return None;
+    }
+    let list: Vec<String> = extrapolated
+        .iter()
+        .map(|(name, f)| {
+            // A share that rounds to 0 % is still some poses.
+            if *f < 0.005 {
+                format!("{name} (under 1 % of the poses)")
+            } else {
+                format!("{name} ({:.0} % of the poses)", f * 100.0)
+            }
+        })
+        .collect();
+    Some(format!(
+        "validation poses outside the identification poses' range of: {}",
+        list.join(", ")
+    ))
+}
+
 /// The data checks of the identification set and, with a validation, of
 /// the validation set: for each, its findings in sentences and the option
 /// that leaves its suspect poses out.
@@ -457,24 +481,8 @@ pub fn errors_text(c: &Calibration, validation: Option<&ValidationReport>) -> St
         out += &statistics_row("validation before", &v.before);
         out += &statistics_row("validation after", &v.after);
         put!(out, "validation: {}", v.frame_note);
-        if !v.extrapolated_coordinates.is_empty() {
-            let list: Vec<String> = v
-                .extrapolated_coordinates
-                .iter()
-                .map(|(name, f)| {
-                    // A share that rounds to 0 % is still some poses.
-                    if *f < 0.005 {
-                        format!("{name} (under 1 % of the poses)")
-                    } else {
-                        format!("{name} ({:.0} % of the poses)", f * 100.0)
-                    }
-                })
-                .collect();
-            put!(
-                out,
-                "validation poses outside the identification poses' range of: {}",
-                list.join(", ")
-            );
+        if let Some(line) = extrapolation_line(&v.extrapolated_coordinates) {
+            put!(out, "{line}");
         }
     }
     for note in data_check_notes(&c.data_checks, validation.map(|v| &v.data_checks)) {
