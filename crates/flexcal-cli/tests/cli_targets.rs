@@ -239,6 +239,9 @@ fn two_markers_calibrate_end_to_end() {
         "Predicted accuracy on the validation observations",
         "at 14 configurations and targets",
         "validation, right on RH, calibrated",
+        ">Split-half check</h2>",
+        ">Cross-series check</h2>",
+        "<td>target.left.x</td>",
     ] {
         assert!(html.contains(expected), "{expected} missing");
     }
@@ -284,6 +287,8 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
     let (a, b) = (first.display().to_string(), second.display().to_string());
     let t = targets_file.display().to_string();
     let r = report.display().to_string();
+    let page = d.join("report.html");
+    let h = page.display().to_string();
     let args = [
         "calibrate",
         "--robot",
@@ -297,6 +302,8 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
         "--report",
         &r,
         "--hold-out-stations",
+        "--html",
+        &h,
     ];
     let out = flexcal(&args);
     let text = stdout(&out);
@@ -328,6 +335,12 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
     assert!(text.contains("Each station held out"), "{text}");
     let held = json["station_hold_out"].as_array().unwrap();
     assert_eq!(held.len(), 2);
+    // The page has the same table.
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains(">Each station held out</h2>") && html.contains("<td>station s2</td>"),
+        "{html}"
+    );
     for h in held {
         // Counted in observations: 40 poses of two markers.
         assert_eq!(h["after"]["n_poses"].as_u64(), Some(80), "{h}");

@@ -14,7 +14,8 @@ use crate::calib::{
     TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
 use crate::calibration::html::{
-    calibration_page, data_checks_section, errors_chart, statistics_row, unknowns_section,
+    calibration_page, check_sections, data_checks_section, errors_chart, statistics_row,
+    unknowns_section,
 };
 use crate::calibration::text::{
     coverage_line, cross_check_text, data_check_notes, extrapolation_line, split_check_text,
@@ -408,14 +409,21 @@ impl TargetCalibrationRun {
                 names.len(),
                 names.join(", ")
             ),
-            self.errors_section(),
-            data_checks_section(
-                &self.exclusions,
-                &c.data_checks,
-                self.validation.as_ref().map(|v| &v.data_checks),
+            (
+                self.errors_section(),
+                data_checks_section(
+                    &self.exclusions,
+                    &c.data_checks,
+                    self.validation.as_ref().map(|v| &v.data_checks),
+                ),
             ),
             self.selection.as_ref(),
             unknowns_section(&c.unknowns, c.rank(), &c.solve),
+            check_sections(
+                self.split.as_ref(),
+                self.cross.as_ref(),
+                &self.station_hold_out,
+            ),
             self.coverage.as_ref().map(|m| (m, "observations")),
             self.accuracy_map.as_ref(),
         )

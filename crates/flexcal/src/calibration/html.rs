@@ -1,6 +1,7 @@
 //! The calibration run as a self-contained HTML page
 //! (`flexcal calibrate --html FILE`): the errors before and after, the poses
-//! left out and the data checks, the model selection, every identified unknown, the measured errors of the
+//! left out and the data checks, the model selection, the split-half,
+//! cross-series and station checks when asked for, every identified unknown, the measured errors of the
 //! validation poses against their predicted 95 % bounds, and the predicted
 //! accuracy over the workspace (the accuracy map) drawn where the target is.
 //!
@@ -9,13 +10,19 @@
 //! Units: positions and errors in mm, unknowns in the display unit of their
 //! kind ([`crate::calib::error_model::UnknownKind::display_unit`]).
 
-use crate::calib::{AccuracyMap, DataChecks, ErrorStatistics, SelectionReport, UnknownEstimate};
+use crate::calib::{
+    AccuracyMap, CrossCheck, DataChecks, ErrorStatistics, SelectionReport, SplitCheck,
+    StationHoldOut, UnknownEstimate,
+};
 use crate::kinematics::Model;
 use crate::optim::SolveReport;
 use crate::report::svg::{self, Series, YScale};
 use crate::report::{Report, Section};
 
-use super::text::{data_check_notes, status_word};
+use super::text::{
+    CROSS_CHECK_HEADER, SPLIT_CHECK_HEADER, STATION_HOLD_OUT_HEADER, cross_check_rows,
+    data_check_notes, split_check_rows, station_hold_out_rows, status_word,
+};
 use super::{CalibrationRun, Exclusion};
 
 impl CalibrationRun {
@@ -33,17 +40,24 @@ impl CalibrationRun {
                 self.data.len(),
                 self.data.source
             ),
-            self.errors_section(),
-            data_checks_section(
-                &self.exclusions,
-                &self.calibration.data_checks,
-                self.validation.as_ref().map(|v| &v.data_checks),
+            (
+                self.errors_section(),
+                data_checks_section(
+                    &self.exclusions,
+                    &self.calibration.data_checks,
+                    self.validation.as_ref().map(|v| &v.data_checks),
+                ),
             ),
             self.selection.as_ref(),
             unknowns_section(
                 &self.calibration.unknowns,
                 self.calibration.rank(),
                 &self.calibration.solve,
+            ),
+            check_sections(
+                self.split.as_ref(),
+                self.cross.as_ref(),
+                &self.station_hold_out,
             ),
             self.coverage.as_ref().map(|c| (c, "poses")),
             self.accuracy_map.as_ref(),
@@ -126,30 +140,82 @@ pub(crate) fn data_checks_section(
     Some(section)
 }
 
+/// The split-half check, the cross-series check and each station held
+/// out, a section each, as far as the run has them: the tables and notes
+/// the terminal prints.
+pub(crate) fn check_sections(
+    split: Option<&SplitCheck>,
+    cross: Option<&CrossCheck>,
+    held: &[StationHoldOut],
+) -> Vec<Section> {
+    let mut sections = Vec::new();
+    if let Some(split) = split {
+        let mut section = Section::new("Split-half check");
+        section.table(
+            "Each identified unknown again on odd / even and first / second halves of the poses, in its display unit; ratio: split error over standard error",
+            &SPLIT_CHECK_HEADER,
+            split_check_rows(split),
+        );
+        for note in split.notes() {
+            section.paragraph(note);
+        }
+        sections.push(section);
+    }
+    if let Some(cross) = cross {
+        let mut section = Section::new("Cross-series check");
+        section.table(
+            format!(
+                "Each unknown identified again on the {} validation poses, in its display unit; z: the difference in combined standard errors (z split: each raised to its split error where larger)",
+                cross.other_poses
+            ),
+            &CROSS_CHECK_HEADER,
+            cross_check_rows(cross),
+        );
+        for note in cross.notes() {
+            section.paragraph(note);
+        }
+        sections.push(section);
+    }
+    if !held.is_empty() {
+        let mut section = Section::new("Each station held out");
+        section.table(
+            "Identified on the other stations (model selected on them), validated on the one held out with its measurement frame re-fitted; position errors in mm",
+            &STATION_HOLD_OUT_HEADER,
+            station_hold_out_rows(held),
+        );
+        sections.push(section);
+    }
+    sections
+}
+
 /// The page of a calibration run: its errors section, then the data checks,
-/// the model selection, every unknown, the validation `entries` (`poses` or
+/// the model selection, every unknown, the split-half, cross-series and
+/// station checks (`checks`), the validation `entries` (`poses` or
 /// `observations`) against their bounds and the accuracy map, as far as the
 /// run has them.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn calibration_page(
     robot: &Model,
     subtitle: String,
-    errors: Section,
-    checks: Option<Section>,
+    (errors, data_checks): (Section, Option<Section>),
     selection: Option<&SelectionReport>,
     unknowns: Section,
+    checks: Vec<Section>,
     coverage: Option<(&AccuracyMap, &str)>,
     map: Option<&AccuracyMap>,
 ) -> Report {
     let mut report = Report::new(format!("Calibration of {}", robot.name()), subtitle);
     report.push(errors);
-    if let Some(checks) = checks {
-        report.push(checks);
+    if let Some(section) = data_checks {
+        report.push(section);
     }
     if let Some(selection) = selection {
         report.push(selection_section(selection));
     }
     report.push(unknowns);
+    for section in checks {
+        report.push(section);
+    }
     if let Some((coverage, entries)) = coverage {
         report.push(coverage_section(coverage, entries));
     }

@@ -275,36 +275,69 @@ pub fn station_hold_out_text(held: &[crate::calib::StationHoldOut]) -> String {
         out,
         "Each station held out (identified on the others, model selected on them; validated on it with its measurement frame re-fitted):"
     );
+    let h = STATION_HOLD_OUT_HEADER;
     put!(
         out,
-        "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10}  chosen",
-        "held out",
-        "poses",
-        "before mm",
-        "mean mm",
-        "rms mm",
-        "max mm"
+        "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10}  {}",
+        h[0],
+        h[1],
+        h[2],
+        h[3],
+        h[4],
+        h[5],
+        h[6]
     );
-    for (s, h) in held.iter().enumerate() {
+    for r in station_hold_out_rows(held) {
         put!(
             out,
-            "{:<24} {:>5} {:>10.4} {:>10.4} {:>10.4} {:>10.4}  {}",
-            format!("station s{}", s + 1),
-            h.after.n_poses,
-            h.before.position_mean * 1e3,
-            h.after.position_mean * 1e3,
-            h.after.position_rms * 1e3,
-            h.after.position_max * 1e3,
-            h.chosen
-                .as_ref()
-                .map_or("(no selection)".to_string(), |c| if c.is_empty() {
-                    "base model".to_string()
-                } else {
-                    c.join(" + ")
-                })
+            "{:<24} {:>5} {:>10} {:>10} {:>10} {:>10}  {}",
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[5],
+            r[6]
         );
     }
     out
+}
+
+/// The columns of [`station_hold_out_rows`].
+pub(crate) const STATION_HOLD_OUT_HEADER: [&str; 7] = [
+    "held out",
+    "poses",
+    "before mm",
+    "mean mm",
+    "rms mm",
+    "max mm",
+    "chosen",
+];
+
+/// One row per station held out: its name, poses, mean error with the
+/// nominal robot and mean, RMS and maximum with the robot calibrated on
+/// the others (mm, 4 decimals), and the groups chosen there.
+pub(crate) fn station_hold_out_rows(held: &[crate::calib::StationHoldOut]) -> Vec<Vec<String>> {
+    held.iter()
+        .enumerate()
+        .map(|(s, h)| {
+            vec![
+                format!("station s{}", s + 1),
+                h.after.n_poses.to_string(),
+                format!("{:.4}", h.before.position_mean * 1e3),
+                format!("{:.4}", h.after.position_mean * 1e3),
+                format!("{:.4}", h.after.position_rms * 1e3),
+                format!("{:.4}", h.after.position_max * 1e3),
+                h.chosen.as_ref().map_or("(no selection)".to_string(), |c| {
+                    if c.is_empty() {
+                        "base model".to_string()
+                    } else {
+                        c.join(" + ")
+                    }
+                }),
+            ]
+        })
+        .collect()
 }
 
 /// `predicted 95 % bounds (mean ... mm) cover ... % of the validation
@@ -330,38 +363,95 @@ pub fn split_check_text(split: &SplitCheck) -> String {
         out,
         "Split-half check (identified again on odd / even and first / second halves)"
     );
-    put!(
-        out,
-        "{:<16} {:>9} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
-        "unknown",
-        "unit",
-        "std error",
-        "odd",
-        "even",
-        "first",
-        "second",
-        "split err",
-        "ratio"
-    );
-    for u in &split.unknowns {
+    let rows = std::iter::once(SPLIT_CHECK_HEADER.map(str::to_string).to_vec())
+        .chain(split_check_rows(split));
+    for r in rows {
         put!(
             out,
-            "{:<16} {:>9} {:>12.5} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
-            u.name,
-            u.unit,
-            u.standard_error,
-            dash_or(u.half_values[0], 5),
-            dash_or(u.half_values[1], 5),
-            dash_or(u.half_values[2], 5),
-            dash_or(u.half_values[3], 5),
-            dash_or(u.split_error, 5),
-            dash_or(u.ratio, 1)
+            "{:<16} {:>9} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>7}",
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[5],
+            r[6],
+            r[7],
+            r[8]
         );
     }
     for note in split.notes() {
         put!(out, "note: {note}");
     }
     out
+}
+
+/// The columns of [`split_check_rows`].
+pub(crate) const SPLIT_CHECK_HEADER: [&str; 9] = [
+    "unknown",
+    "unit",
+    "std error",
+    "odd",
+    "even",
+    "first",
+    "second",
+    "split err",
+    "ratio",
+];
+
+/// One row per unknown of the split-half check: name, display unit,
+/// standard error, the four half values, the split error (5 decimals) and
+/// its ratio to the standard error (1 decimal), `-` where there is none.
+pub(crate) fn split_check_rows(split: &SplitCheck) -> Vec<Vec<String>> {
+    split
+        .unknowns
+        .iter()
+        .map(|u| {
+            let mut row = vec![
+                u.name.clone(),
+                u.unit.to_string(),
+                format!("{:.5}", u.standard_error),
+            ];
+            row.extend(u.half_values.iter().map(|v| dash_or(*v, 5)));
+            row.push(dash_or(u.split_error, 5));
+            row.push(dash_or(u.ratio, 1));
+            row
+        })
+        .collect()
+}
+
+/// The columns of [`cross_check_rows`].
+pub(crate) const CROSS_CHECK_HEADER: [&str; 8] = [
+    "unknown",
+    "unit",
+    "identified",
+    "std error",
+    "validation set",
+    "std error",
+    "z",
+    "z split",
+];
+
+/// One row per unknown of the cross-series check: name, display unit,
+/// value and standard error on each set (5 decimals), z and z with the
+/// split errors (1 decimal), `-` where there is none.
+pub(crate) fn cross_check_rows(cross: &CrossCheck) -> Vec<Vec<String>> {
+    cross
+        .unknowns
+        .iter()
+        .map(|u| {
+            vec![
+                u.name.clone(),
+                u.unit.to_string(),
+                format!("{:.5}", u.value),
+                format!("{:.5}", u.standard_error),
+                dash_or(u.other_value, 5),
+                dash_or(u.other_standard_error, 5),
+                dash_or(u.z, 1),
+                dash_or(u.z_split, 1),
+            ]
+        })
+        .collect()
 }
 
 /// The cross-series check: each unknown identified again on the validation
@@ -379,30 +469,20 @@ pub fn cross_check_text(cross: &CrossCheck) -> String {
             ""
         }
     );
-    put!(
-        out,
-        "{:<18} {:>9} {:>14} {:>12} {:>14} {:>12} {:>7} {:>8}",
-        "unknown",
-        "unit",
-        "identified",
-        "std error",
-        "validation set",
-        "std error",
-        "z",
-        "z split"
-    );
-    for u in &cross.unknowns {
+    let rows = std::iter::once(CROSS_CHECK_HEADER.map(str::to_string).to_vec())
+        .chain(cross_check_rows(cross));
+    for r in rows {
         put!(
             out,
-            "{:<18} {:>9} {:>14.5} {:>12.5} {:>14} {:>12} {:>7} {:>8}",
-            u.name,
-            u.unit,
-            u.value,
-            u.standard_error,
-            dash_or(u.other_value, 5),
-            dash_or(u.other_standard_error, 5),
-            dash_or(u.z, 1),
-            dash_or(u.z_split, 1)
+            "{:<18} {:>9} {:>14} {:>12} {:>14} {:>12} {:>7} {:>8}",
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[5],
+            r[6],
+            r[7]
         );
     }
     for note in cross.notes() {
