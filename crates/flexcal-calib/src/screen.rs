@@ -191,21 +191,31 @@ impl DataChecks {
         notes
     }
 
-    /// The sentence that tells how to run again without the suspect poses,
-    /// `option` naming the option that leaves poses out (`--exclude`,
-    /// `--exclude-validation`): each pose once, IPA lines by their number.
-    /// `None` without suspects.
+    /// The sentence that tells how to run again without the suspects,
+    /// `option` naming the option that leaves them out (`--exclude`,
+    /// `--exclude-validation`): each pose once, IPA lines by their number;
+    /// with several targets each observation (`right at p7`), the pose's
+    /// other targets kept. `None` without suspects.
     pub fn exclude_hint(&self, option: &str) -> Option<String> {
-        let mut labels: Vec<&str> = Vec::new();
+        let mut labels: Vec<String> = Vec::new();
         for s in &self.suspect_poses {
-            let label = s.pose.strip_prefix("line ").unwrap_or(&s.pose);
+            let pose = s.pose.strip_prefix("line ").unwrap_or(&s.pose);
+            let label = match &s.target {
+                Some(_) => shown(&s.pose, s.target.as_deref()),
+                None => pose.to_string(),
+            };
             if !labels.contains(&label) {
                 labels.push(label);
             }
         }
+        let what = if self.suspect_poses.iter().any(|s| s.target.is_some()) {
+            "observations"
+        } else {
+            "poses"
+        };
         (!labels.is_empty()).then(|| {
             format!(
-                "to compare without the suspect poses, run again with {option} '{}'",
+                "to compare without the suspect {what}, run again with {option} '{}'",
                 labels.join(",")
             )
         })
@@ -353,15 +363,19 @@ impl MeasurementSet {
 }
 
 impl TargetMeasurementSet {
-    /// The set without the poses labelled `labels`
+    /// The set without what `labels` name: a pose by its label
     /// ([`crate::TargetPose::label`]: the `pose_id` or `#k`, `s2:` before
-    /// the label of a second station's pose), every target of a pose left
-    /// out with it. A bare number `N` stands for `line N`. The poses kept
-    /// keep their labels: `#7` stays `#7` after `#3` is left out.
+    /// the label of a second station's pose), every target of it left out
+    /// with it; or one observation as the data checks print it, `<target>
+    /// at <pose>` (`right at p7`), the pose's other targets kept. A pose
+    /// left without observations goes too. A bare number `N` stands for
+    /// `line N`. The poses kept keep their labels: `#7` stays `#7` after
+    /// `#3` is left out.
     ///
     /// # Errors
     /// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches
-    /// no pose of the set; [`CalibError::BadMeasurement`] when nothing is left.
+    /// no pose of the set or a target not observed at that pose;
+    /// [`CalibError::BadMeasurement`] when nothing is left.
     pub fn excluding(&self, labels: &[impl AsRef<str>]) -> Result<Self, CalibError> {
         let labels_now: Vec<String> = self
             .poses()
@@ -369,8 +383,59 @@ impl TargetMeasurementSet {
             .enumerate()
             .map(|(k, p)| p.label(k))
             .collect();
-        let kept = kept_poses(&labels_now, labels, &self.source)?;
-        self.labelled().subset(&kept)
+        let mut poses = Vec::new();
+        let mut observations = Vec::new();
+        for raw in labels {
+            let raw = raw.as_ref().trim();
+            match self.observation_labelled(raw, &labels_now)? {
+                Some(kt) => observations.push(kt),
+                None => poses.push(raw),
+            }
+        }
+        let mut set = self.labelled();
+        set.hide_observations(&observations);
+        let kept: Vec<usize> = kept_poses(&labels_now, &poses, &self.source)?
+            .into_iter()
+            .filter(|&k| set.poses()[k].observations.iter().any(Option::is_some))
+            .collect();
+        set.subset(&kept)
+    }
+
+    /// The (pose, target) that `raw` names in the form `<target> at
+    /// <pose>`, or `None` when `raw` is a pose's label or not of that form.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] (`exclude`) when the target is not
+    /// observed at that pose.
+    fn observation_labelled(
+        &self,
+        raw: &str,
+        labels_now: &[String],
+    ) -> Result<Option<(usize, usize)>, CalibError> {
+        if labels_now.iter().any(|l| l == raw) {
+            return Ok(None);
+        }
+        let Some((target, pose)) = raw.split_once(" at ") else {
+            return Ok(None);
+        };
+        let (Some(t), Some(k)) = (
+            self.target_index(target.trim()),
+            labels_now.iter().position(|l| l == pose.trim()),
+        ) else {
+            return Ok(None);
+        };
+        if self.poses()[k].observations[t].is_none() {
+            return Err(CalibError::InvalidOption {
+                name: "exclude",
+                reason: format!(
+                    "`{raw}`: target {} is not observed at {} in {}",
+                    target.trim(),
+                    pose.trim(),
+                    self.source
+                ),
+            });
+        }
+        Ok(Some((k, t)))
     }
 }
 
@@ -538,7 +603,7 @@ mod tests {
         );
         assert_eq!(
             checks.exclude_hint("--exclude").as_deref(),
-            Some("to compare without the suspect poses, run again with --exclude '#2'")
+            Some("to compare without the suspect observations, run again with --exclude 'a at #2'")
         );
         assert_eq!(
             DataChecks::for_targets(&set, &errors[..19]).exclude_hint("--exclude"),
@@ -564,6 +629,33 @@ mod tests {
             "{err}"
         );
         assert!(set.excluding(&["#0", "#1", "#2", "#3"]).is_err());
+        // One observation: the pose's other target stays; a pose left
+        // without observations goes.
+        let kept = set.excluding(&["b at #1"]).unwrap();
+        assert_eq!(kept.len(), 4);
+        assert_eq!(kept.n_observations(), 7);
+        assert!(kept.poses()[1].observations[1].is_none());
+        assert!(kept.poses()[1].observations[0].is_some());
+        let kept = set.excluding(&["a at #1", "b at #1", "#3"]).unwrap();
+        let labels: Vec<String> = kept
+            .poses()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p.label(k))
+            .collect();
+        assert_eq!(labels, ["#0", "#2"]);
+        let err = set
+            .excluding(&["a at #1"])
+            .unwrap()
+            .excluding(&["a at #1"])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("target a is not observed at #1 in m.csv"),
+            "{err}"
+        );
+        let err = set.excluding(&["c at #1"]).unwrap_err().to_string();
+        assert!(err.contains("no pose `c at #1`"), "{err}");
         // One target per pose: the same.
         let one = MeasurementSet::new(
             "n",

@@ -417,6 +417,14 @@ impl TargetMeasurementSet {
         )
     }
 
+    /// The same set without the observations `which` (pose, target): each
+    /// becomes unseen.
+    pub(crate) fn hide_observations(&mut self, which: &[(usize, usize)]) {
+        for &(k, t) in which {
+            self.poses[k].observations[t] = None;
+        }
+    }
+
     /// The same set with every pose's label written into its `pose_id`
     /// (`#k` for a pose without one), so that a subset keeps the labels of
     /// this set.

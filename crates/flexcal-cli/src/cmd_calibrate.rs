@@ -130,7 +130,8 @@ pub struct CalibrateArgs {
     /// Leave these identification poses out, comma-separated, by the label
     /// the reports print (`line 534` for the IPA format, a pose_id or `#k`);
     /// a bare number N stands for `line N`. With --targets every target of
-    /// the pose is left out.
+    /// the pose is left out, or one as the data checks name it
+    /// (`right at p7`).
     #[arg(long, value_delimiter = ',')]
     pub exclude: Vec<String>,
     /// The same for the validation poses.

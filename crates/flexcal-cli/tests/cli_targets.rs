@@ -516,10 +516,10 @@ fn a_marker_recording_fault_is_named_and_left_out() {
     for expected in [
         "data check: identification set: 1 observation with a position error above 4 times the RMS error",
         "right at p7 (1.",
-        "data check: to compare without the suspect poses, run again with --exclude 'p7'",
+        "data check: to compare without the suspect observations, run again with --exclude 'right at p7'",
         "data check: validation set: 1 observation",
         "left at p1012 (1.",
-        "run again with --exclude-validation 'p1012'",
+        "run again with --exclude-validation 'left at p1012'",
     ] {
         assert!(text.contains(expected), "{expected} missing:\n{text}");
     }
@@ -534,21 +534,26 @@ fn a_marker_recording_fault_is_named_and_left_out() {
     assert!(
         html.contains("Data checks")
             && html.contains("right at p7 (1.")
-            && html.contains("run again with --exclude-validation 'p1012'"),
+            && html.contains("run again with --exclude-validation 'left at p1012'"),
         "{html}"
     );
-    // Without the two poses the noise-free data fit to round-off, and the
-    // run says what it left out.
-    let text = run(&["--exclude", "p7", "--exclude-validation", "p1012"]);
+    // Without the two observations (the other marker of each pose kept) the
+    // noise-free data fit to round-off, and the run says what it left out.
+    let text = run(&[
+        "--exclude",
+        "right at p7",
+        "--exclude-validation",
+        "left at p1012",
+    ]);
     assert!(
         text.starts_with(&format!(
-            "--exclude: 1 of the 60 poses of {} left out\n--exclude-validation: 1 of the 30 poses of {} left out\n",
+            "--exclude: 0 of the 60 poses (1 of the 120 observations) of {} left out\n--exclude-validation: 0 of the 30 poses (1 of the 60 observations) of {} left out\n",
             identification.display(),
             validation.display()
         )),
         "{text}"
     );
-    assert!(text.contains("59 poses, 118 observations"), "{text}");
+    assert!(text.contains("60 poses, 119 observations"), "{text}");
     assert!(!text.contains("data check"), "{text}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
@@ -561,8 +566,15 @@ fn a_marker_recording_fault_is_named_and_left_out() {
     assert_eq!(json["exclusions"].as_array().unwrap().len(), 2);
     let html = std::fs::read_to_string(&page).unwrap();
     assert!(
-        html.contains("--exclude: 1 of the 60 poses of") && !html.contains("suspect"),
+        html.contains("--exclude: 0 of the 60 poses (1 of the 120 observations) of")
+            && !html.contains("suspect"),
         "{html}"
+    );
+    // A whole pose: both markers of it.
+    let text = run(&["--exclude", "p7"]);
+    assert!(
+        text.starts_with("--exclude: 1 of the 60 poses (2 of the 120 observations) of"),
+        "{text}"
     );
 }
 

@@ -157,15 +157,27 @@ pub struct Exclusion {
     pub total: usize,
     /// The set's file.
     pub source: String,
+    /// With several targets per pose: the observations left out (those of
+    /// the poses left out included) and the set's observations before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observations: Option<(usize, usize)>,
 }
 
 impl std::fmt::Display for Exclusion {
-    /// `--exclude: 3 of the 1495 poses of B.csv left out`.
+    /// `--exclude: 3 of the 1495 poses of B.csv left out`, with several
+    /// targets `--exclude: 1 of the 60 poses (2 of the 120 observations) of
+    /// markers.csv left out`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{}: {} of the {} poses of {} left out",
-            self.option, self.left_out, self.total, self.source
+            "{}: {} of the {} poses{} of {} left out",
+            self.option,
+            self.left_out,
+            self.total,
+            self.observations
+                .map(|(o, total)| format!(" ({o} of the {total} observations)"))
+                .unwrap_or_default(),
+            self.source
         )
     }
 }
@@ -377,6 +389,11 @@ fn read_excluding(
 pub(crate) trait Excludable: Sized {
     /// Number of poses.
     fn n_poses(&self) -> usize;
+    /// Number of observations when a pose holds several (`None` for one
+    /// target per pose).
+    fn n_observations(&self) -> Option<usize> {
+        None
+    }
     /// Where the poses come from (a file name).
     fn source(&self) -> &str;
     /// The set without the poses labelled `labels`.
@@ -398,6 +415,9 @@ impl Excludable for MeasurementSet {
 impl Excludable for calib::TargetMeasurementSet {
     fn n_poses(&self) -> usize {
         self.len()
+    }
+    fn n_observations(&self) -> Option<usize> {
+        Some(calib::TargetMeasurementSet::n_observations(self))
     }
     fn source(&self) -> &str {
         &self.source
@@ -423,6 +443,10 @@ pub(crate) fn exclude<S: Excludable>(
         left_out: set.n_poses() - kept.n_poses(),
         total: set.n_poses(),
         source: set.source().to_string(),
+        observations: set
+            .n_observations()
+            .zip(kept.n_observations())
+            .map(|(before, after)| (before - after, before)),
     });
     Ok(kept)
 }

@@ -222,6 +222,11 @@ def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
     assert len(checks) == 1 and "1 observation" in checks[0] and "right at #17" in checks[0], checks
     kept = data.excluding(["#17"])
     assert len(kept) == 79 and "#17" not in kept.labels and kept.labels[17] == "#18"
+    # Or only the faulty marker's reading, as the data checks name it.
+    marker = data.excluding(["right at #17"])
+    assert len(marker) == 80 and marker.n_observations == 159
+    assert np.isnan(marker.positions[17, 1]).all() and not np.isnan(marker.positions[17, 0]).any()
+    assert flexcal.calibrate_targets(two_arms, marker, select="none").data_checks == []
     clean = flexcal.calibrate_targets(two_arms, kept, select="none")
     assert clean.data_checks == []
     assert clean.after.position_mean < 1.3 * 1.6 * NOISE < result.after.position_mean, (
