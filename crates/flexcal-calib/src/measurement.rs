@@ -423,6 +423,16 @@ impl MeasurementSet {
     pub fn has_orientation_std(&self) -> bool {
         self.measurements[0].orientation_std.is_some()
     }
+    /// The label of every pose, in order ([`Measurement::label`]): what
+    /// reports print and [`MeasurementSet::excluding`] takes.
+    pub fn labels(&self) -> Vec<String> {
+        self.measurements
+            .iter()
+            .enumerate()
+            .map(|(k, m)| m.label(k))
+            .collect()
+    }
+
     /// The same set with every pose's label written into its `pose_id`
     /// (`#k` for a pose without one), so that a subset keeps the labels of
     /// this set.

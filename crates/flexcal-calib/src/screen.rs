@@ -354,9 +354,7 @@ impl MeasurementSet {
     /// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches
     /// no pose of the set; [`CalibError::BadMeasurement`] when nothing is left.
     pub fn excluding(&self, labels: &[impl AsRef<str>]) -> Result<Self, CalibError> {
-        let labels_now: Vec<String> = (0..self.len())
-            .map(|k| self.measurements()[k].label(k))
-            .collect();
+        let labels_now = self.labels();
         let kept = kept_poses(&labels_now, labels, &self.source)?;
         self.labelled().subset(&kept)
     }
@@ -377,12 +375,7 @@ impl TargetMeasurementSet {
     /// no pose of the set or a target not observed at that pose;
     /// [`CalibError::BadMeasurement`] when nothing is left.
     pub fn excluding(&self, labels: &[impl AsRef<str>]) -> Result<Self, CalibError> {
-        let labels_now: Vec<String> = self
-            .poses()
-            .iter()
-            .enumerate()
-            .map(|(k, p)| p.label(k))
-            .collect();
+        let labels_now = self.labels();
         let mut poses = Vec::new();
         let mut observations = Vec::new();
         for raw in labels {
@@ -615,13 +608,7 @@ mod tests {
     fn the_poses_kept_keep_their_labels() {
         let set = target_set();
         let kept = set.excluding(&["#1"]).unwrap();
-        let labels: Vec<String> = kept
-            .poses()
-            .iter()
-            .enumerate()
-            .map(|(k, p)| p.label(k))
-            .collect();
-        assert_eq!(labels, ["#0", "#2", "#3"]);
+        assert_eq!(kept.labels(), ["#0", "#2", "#3"]);
         assert_eq!(kept.n_observations(), 6);
         let err = set.excluding(&["#9"]).unwrap_err().to_string();
         assert!(
@@ -637,13 +624,7 @@ mod tests {
         assert!(kept.poses()[1].observations[1].is_none());
         assert!(kept.poses()[1].observations[0].is_some());
         let kept = set.excluding(&["a at #1", "b at #1", "#3"]).unwrap();
-        let labels: Vec<String> = kept
-            .poses()
-            .iter()
-            .enumerate()
-            .map(|(k, p)| p.label(k))
-            .collect();
-        assert_eq!(labels, ["#0", "#2"]);
+        assert_eq!(kept.labels(), ["#0", "#2"]);
         let err = set
             .excluding(&["a at #1"])
             .unwrap()
@@ -665,10 +646,7 @@ mod tests {
         )
         .unwrap();
         let kept = one.excluding(&["#1"]).unwrap();
-        let labels: Vec<String> = (0..kept.len())
-            .map(|k| kept.measurements()[k].label(k))
-            .collect();
-        assert_eq!(labels, ["#0", "#2", "#3"]);
+        assert_eq!(kept.labels(), ["#0", "#2", "#3"]);
         // Pooled stations: labels carry the station's number.
         let pooled = TargetMeasurementSet::pooled(&[set.clone(), set]).unwrap();
         let kept = pooled.excluding(&["s2:#0"]).unwrap();

@@ -417,6 +417,16 @@ impl TargetMeasurementSet {
         )
     }
 
+    /// The label of every pose, in order ([`TargetPose::label`]): what
+    /// reports print and [`TargetMeasurementSet::excluding`] takes.
+    pub fn labels(&self) -> Vec<String> {
+        self.poses
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p.label(k))
+            .collect()
+    }
+
     /// The same set without the observations `which` (pose, target): each
     /// becomes unseen.
     pub(crate) fn hide_observations(&mut self, which: &[(usize, usize)]) {

@@ -229,12 +229,7 @@ impl MeasurementSet {
     /// Labels of the poses (pose_id, `#k`, or `line N`), as reports name them.
     #[getter]
     fn labels(&self) -> Vec<String> {
-        self.set
-            .measurements()
-            .iter()
-            .enumerate()
-            .map(|(k, m)| m.label(k))
-            .collect()
+        self.set.labels()
     }
 
     /// Number of actuated coordinates per pose.

@@ -168,12 +168,7 @@ impl TargetMeasurementSet {
     /// `pose_id`, or `#k` from its index; `s2:` before a second station's.
     #[getter]
     fn labels(&self) -> Vec<String> {
-        self.set
-            .poses()
-            .iter()
-            .enumerate()
-            .map(|(k, p)| p.label(k))
-            .collect()
+        self.set.labels()
     }
 
     /// The set without the poses labelled `labels` (every target of a pose
