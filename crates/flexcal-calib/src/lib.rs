@@ -299,7 +299,7 @@ pub use identify_targets::{
 };
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{
-    IPA_JOINT_COLUMNS, Measurement, MeasurementSet, read_configurations, read_transform_mm,
+    IPA_JOINT_COLUMNS, Measurement, MeasurementSet, PoseSet, read_configurations, read_transform_mm,
 };
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{

@@ -55,6 +55,39 @@ impl Measurement {
     }
 }
 
+/// A set of measured poses, one target per pose ([`MeasurementSet`]) or
+/// several ([`crate::TargetMeasurementSet`]): what the workflows that treat
+/// both alike need (model selection, the checks, exclusions).
+pub trait PoseSet: Sized {
+    /// Number of poses.
+    fn n_poses(&self) -> usize;
+    /// Number of observations (a target seen at a pose) when a pose holds
+    /// several targets; `None` for one target per pose.
+    fn n_observations(&self) -> Option<usize> {
+        None
+    }
+    /// Where the poses come from (a file name), as messages name it.
+    fn source(&self) -> &str;
+    /// The set without what `labels` name ([`MeasurementSet::excluding`],
+    /// [`crate::TargetMeasurementSet::excluding`]).
+    ///
+    /// # Errors
+    /// A label that names nothing in the set; nothing left.
+    fn excluding(&self, labels: &[String]) -> Result<Self, CalibError>;
+}
+
+impl PoseSet for MeasurementSet {
+    fn n_poses(&self) -> usize {
+        self.len()
+    }
+    fn source(&self) -> &str {
+        &self.source
+    }
+    fn excluding(&self, labels: &[String]) -> Result<Self, CalibError> {
+        MeasurementSet::excluding(self, labels)
+    }
+}
+
 /// A validated set of measurements: every pose has the same number of
 /// actuated coordinates, finite values, and either all or none carry an
 /// orientation (and likewise standard deviations).

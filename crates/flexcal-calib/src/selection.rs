@@ -63,21 +63,17 @@ use crate::metrics::ErrorStatistics;
 use crate::prediction::Predicting;
 use crate::targets::TargetMeasurementSet;
 use crate::validate::FramePolicy;
-use crate::{CalibError, MeasurementSet};
+use crate::{CalibError, MeasurementSet, PoseSet};
 
 /// What model selection needs of a set of measurements: each pose's
 /// configuration and station (for the folds), subsets of the poses, and
 /// fits scored on held-out poses. One target per pose
 /// ([`MeasurementSet`], [`calibrate`]) and several
 /// ([`TargetMeasurementSet`], [`calibrate_targets`]) are selected alike.
-pub(crate) trait Selectable: Sized + Sync {
+pub(crate) trait Selectable: PoseSet + Sync {
     /// The identification of a candidate, whose predictions at this kind
     /// of set carry an uncertainty.
     type Fitted: Predicting<Set = Self>;
-    /// Number of poses.
-    fn n_poses(&self) -> usize;
-    /// Where the poses come from (a file name).
-    fn source(&self) -> &str;
     /// Actuated coordinates of pose `k` (rad, m).
     fn configuration(&self, k: usize) -> &[f64];
     /// Number of stations (measurement frames).
@@ -118,12 +114,6 @@ pub(crate) trait Selectable: Sized + Sync {
 
 impl Selectable for MeasurementSet {
     type Fitted = Calibration;
-    fn n_poses(&self) -> usize {
-        self.len()
-    }
-    fn source(&self) -> &str {
-        &self.source
-    }
     fn configuration(&self, k: usize) -> &[f64] {
         &self.measurements()[k].q
     }
@@ -170,12 +160,6 @@ impl Selectable for MeasurementSet {
 
 impl Selectable for TargetMeasurementSet {
     type Fitted = TargetCalibration;
-    fn n_poses(&self) -> usize {
-        self.len()
-    }
-    fn source(&self) -> &str {
-        &self.source
-    }
     fn configuration(&self, k: usize) -> &[f64] {
         &self.poses()[k].q
     }

@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::identify::FrameTreatment;
 use crate::measurement::{
-    StationPool, check_same_actuated, check_stations, first_to_pool, station_index,
+    PoseSet, StationPool, check_same_actuated, check_stations, first_to_pool, station_index,
 };
 use crate::{CalibError, MeasurementSet};
 
@@ -109,6 +109,21 @@ impl TargetPose {
     /// The pose identifier, or `#k` from its index.
     pub fn label(&self, index: usize) -> String {
         self.pose_id.clone().unwrap_or_else(|| format!("#{index}"))
+    }
+}
+
+impl PoseSet for TargetMeasurementSet {
+    fn n_poses(&self) -> usize {
+        self.len()
+    }
+    fn n_observations(&self) -> Option<usize> {
+        Some(TargetMeasurementSet::n_observations(self))
+    }
+    fn source(&self) -> &str {
+        &self.source
+    }
+    fn excluding(&self, labels: &[String]) -> Result<Self, CalibError> {
+        TargetMeasurementSet::excluding(self, labels)
     }
 }
 

@@ -384,51 +384,8 @@ fn read_excluding(
     exclude(format.read(path)?, labels, option, exclusions)
 }
 
-/// A measurement set whose poses can be left out by label: one target per
-/// pose or several.
-pub(crate) trait Excludable: Sized {
-    /// Number of poses.
-    fn n_poses(&self) -> usize;
-    /// Number of observations when a pose holds several (`None` for one
-    /// target per pose).
-    fn n_observations(&self) -> Option<usize> {
-        None
-    }
-    /// Where the poses come from (a file name).
-    fn source(&self) -> &str;
-    /// The set without the poses labelled `labels`.
-    fn excluding(&self, labels: &[String]) -> std::result::Result<Self, calib::CalibError>;
-}
-
-impl Excludable for MeasurementSet {
-    fn n_poses(&self) -> usize {
-        self.len()
-    }
-    fn source(&self) -> &str {
-        &self.source
-    }
-    fn excluding(&self, labels: &[String]) -> std::result::Result<Self, calib::CalibError> {
-        MeasurementSet::excluding(self, labels)
-    }
-}
-
-impl Excludable for calib::TargetMeasurementSet {
-    fn n_poses(&self) -> usize {
-        self.len()
-    }
-    fn n_observations(&self) -> Option<usize> {
-        Some(calib::TargetMeasurementSet::n_observations(self))
-    }
-    fn source(&self) -> &str {
-        &self.source
-    }
-    fn excluding(&self, labels: &[String]) -> std::result::Result<Self, calib::CalibError> {
-        calib::TargetMeasurementSet::excluding(self, labels)
-    }
-}
-
 /// `set` without the poses labelled `labels`, the exclusion recorded.
-pub(crate) fn exclude<S: Excludable>(
+pub(crate) fn exclude<S: calib::PoseSet>(
     set: S,
     labels: &[String],
     option: &'static str,
