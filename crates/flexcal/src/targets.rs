@@ -36,9 +36,10 @@ pub struct TargetCalibrationRun {
     pub data: TargetMeasurementSet,
     /// The validation set (exclusions applied).
     pub validation_set: Option<TargetMeasurementSet>,
-    /// The poses left out of each set ([`CalibrationConfig::exclude`],
-    /// [`CalibrationConfig::exclude_validation`]), every target of a pose
-    /// with it.
+    /// What was left out of each set ([`CalibrationConfig::exclude`],
+    /// [`CalibrationConfig::exclude_validation`]): whole poses, or single
+    /// observations named `<target> at <pose>`
+    /// ([`TargetMeasurementSet::excluding`]).
     pub exclusions: Vec<Exclusion>,
     /// The model selection, when one ran (`config.selection`; by default
     /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
@@ -76,7 +77,7 @@ pub struct TargetCalibrationRun {
 /// [`Error::InvalidParameter`] naming a setting of `config` that has no
 /// meaning with several targets or is not built for them (another file
 /// format, a target start, the residual model), labels of `exclude` that
-/// name no pose, and the
+/// name no pose or observation, and the
 /// errors of reading, model selection, identification, each station held
 /// out, the split-half and cross-series checks, validation and the
 /// accuracy map, each naming its step.
