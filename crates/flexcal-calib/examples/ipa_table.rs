@@ -164,7 +164,7 @@ fn pooled_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
         let split = SplitCheck::new(model, &pooled, &chosen, &selected)?;
         let g_report = g.validate(model, validate, false)?;
         let s_report = selected.validate(model, validate, false)?;
-        let map = selected.accuracy_coverage(model, validate, Some(&split))?;
+        let map = selected.accuracy_coverage_of(model, validate, &s_report, Some(&split))?;
         let label = chosen_label(report.as_ref());
         let compliance = estimate_cell(&selected, &split, "compliance_theta2", 1e6);
         println!(
@@ -240,8 +240,8 @@ fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
             let validate = set(v);
             let g_report = g.validate(model, validate, false)?;
             let s_report = selected.validate(model, validate, false)?;
-            let map = selected.accuracy_coverage(model, validate, Some(&split))?;
-            let plain = selected.accuracy_coverage(model, validate, None)?;
+            let map = selected.accuracy_coverage_of(model, validate, &s_report, Some(&split))?;
+            let plain = selected.accuracy_coverage_of(model, validate, &s_report, None)?;
             println!(
                 "| {t} -> {v} | {} | {} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {}; {:.1} % / {:.2} mm without | {label} |",
                 mean_max(&g_report.after),

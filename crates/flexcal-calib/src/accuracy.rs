@@ -46,10 +46,11 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 use crate::identify::{Calibration, UnknownStatus};
-use crate::identify_targets::{TargetCalibration, validate_targets};
+use crate::identify_targets::{TargetCalibration, TargetValidation, validate_targets};
 use crate::prediction::{Predicting, covariance_of, covariance_size};
 use crate::split::SplitCheck;
 use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
+use crate::validate::ValidationReport;
 use crate::{CalibError, Measurement, MeasurementSet};
 
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
@@ -207,10 +208,39 @@ impl Calibration {
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
         let report = self.validate(model, validation, false)?;
+        self.accuracy_coverage_of(model, validation, &report, split)
+    }
+
+    /// [`Calibration::accuracy_coverage`] from the validation `report` of
+    /// `validation` already made (by [`Calibration::validate`]), instead of
+    /// validating again.
+    ///
+    /// # Errors
+    /// As [`Calibration::predicted_accuracy`], and a report that is not
+    /// of `validation` (another number of poses).
+    pub fn accuracy_coverage_of(
+        &self,
+        model: &Model,
+        validation: &MeasurementSet,
+        report: &ValidationReport,
+        split: Option<&SplitCheck>,
+    ) -> Result<AccuracyMap, CalibError> {
         let actual: Vec<f64> = report.after_per_pose.iter().map(|e| e.position).collect();
+        check_report_size(actual.len(), validation.len(), &validation.source)?;
         let label = |k: usize| validation.measurements()[k].label(k);
         accuracy_at(self, model, validation, &label, Some(&actual), split)
     }
+}
+
+/// A validation report of `n` entries for a set of `expected`.
+fn check_report_size(n: usize, expected: usize, source: &str) -> Result<(), CalibError> {
+    if n == expected {
+        return Ok(());
+    }
+    Err(CalibError::InvalidOption {
+        name: "accuracy",
+        reason: format!("a validation report of {n} errors for the {expected} of {source}"),
+    })
 }
 
 impl TargetCalibration {
@@ -257,11 +287,33 @@ impl TargetCalibration {
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
         let report = validate_targets(model, self, validation, true)?;
+        self.accuracy_coverage_of(model, validation, &report, split)
+    }
+
+    /// [`TargetCalibration::accuracy_coverage`] from the validation
+    /// `report` of `validation` already made (by [`validate_targets`] with
+    /// `refit_frame`), instead of validating again.
+    ///
+    /// # Errors
+    /// As [`TargetCalibration::predicted_accuracy`], and a report that is
+    /// not of `validation` (another number of observations).
+    pub fn accuracy_coverage_of(
+        &self,
+        model: &Model,
+        validation: &TargetMeasurementSet,
+        report: &TargetValidation,
+        split: Option<&SplitCheck>,
+    ) -> Result<AccuracyMap, CalibError> {
         let actual: Vec<f64> = report
             .observation_errors
             .iter()
             .map(|e| e.error.norm())
             .collect();
+        check_report_size(
+            actual.len(),
+            validation.n_observations(),
+            &validation.source,
+        )?;
         let label = |k: usize| validation.poses()[k].label(k);
         accuracy_at(self, model, validation, &label, Some(&actual), split)
     }

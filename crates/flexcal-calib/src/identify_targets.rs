@@ -1071,8 +1071,12 @@ pub fn calibrate_targets(
     // `measurement_frame_value` when given; the identity when fixed).
     let stations = set.n_stations();
     let identity = TargetErrorModel::new(model, set, &vec![Isometry3::identity(); stations])?;
-    let x0 = identity.initial_unknowns();
-    let predicted = identity.predict(&x0)?;
+    // The nominal predictions, only when some frame is registered.
+    let predicted = if frame_fixed {
+        Vec::new()
+    } else {
+        identity.predict(&identity.initial_unknowns())?
+    };
     // A station without observations (a subset of the poses, as the
     // selection's folds and each station held out make) has zero columns;
     // its frame starts where the first registered one does.

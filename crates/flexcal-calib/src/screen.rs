@@ -86,11 +86,9 @@ impl DataChecks {
     /// (in the order of the set).
     pub fn new(set: &MeasurementSet, errors: &[PoseError]) -> Self {
         debug_assert_eq!(set.len(), errors.len());
-        let observed = errors
-            .iter()
-            .enumerate()
-            .map(|(k, e)| (set.measurements()[k].label(k), None, e.position));
-        Self::from_errors(observed, repeated_readings(set))
+        let norms: Vec<f64> = errors.iter().map(|e| e.position).collect();
+        let label = |k: usize| (set.measurements()[k].label(k), None);
+        Self::from_errors(&norms, &label, repeated_readings(set))
     }
 
     /// Both checks on a set of several targets, with `errors` the error of
@@ -98,32 +96,36 @@ impl DataChecks {
     /// ([`crate::TargetCalibration::observation_errors`]): a suspect is one
     /// observation, judged against the RMS over all observations.
     pub fn for_targets(set: &TargetMeasurementSet, errors: &[ObservationError]) -> Self {
-        let observed = errors
-            .iter()
-            .map(|e| (e.pose.clone(), Some(e.target.clone()), e.error.norm()));
-        Self::from_errors(observed, repeated_target_readings(set))
+        let norms: Vec<f64> = errors.iter().map(|e| e.error.norm()).collect();
+        let label = |i: usize| (errors[i].pose.clone(), Some(errors[i].target.clone()));
+        Self::from_errors(&norms, &label, repeated_target_readings(set))
     }
 
-    /// The checks from (label, target, position error in m) of every
-    /// observation and the repeated readings found in the set.
+    /// The checks from the position error (m) of every observation, the
+    /// label and target of observation `i` from `label(i)` (asked of the
+    /// suspects only), and the repeated readings found in the set.
     fn from_errors(
-        observed: impl Iterator<Item = (String, Option<String>, f64)>,
+        errors: &[f64],
+        label: &dyn Fn(usize) -> (String, Option<String>),
         repeated_readings: Vec<RepeatedReading>,
     ) -> Self {
-        let observed: Vec<_> = observed.collect();
-        let rms = if observed.is_empty() {
+        let rms = if errors.is_empty() {
             0.0
         } else {
-            (observed.iter().map(|(_, _, e)| e * e).sum::<f64>() / observed.len() as f64).sqrt()
+            (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt()
         };
-        let suspect_poses = observed
-            .into_iter()
-            .filter(|(_, _, e)| rms > ROUND_OFF_RMS && *e > SUSPECT_ERROR_RATIO * rms)
-            .map(|(pose, target, e)| SuspectPose {
-                pose,
-                target,
-                position_error_mm: e * 1e3,
-                ratio_to_rms: e / rms,
+        let suspect_poses = errors
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| rms > ROUND_OFF_RMS && **e > SUSPECT_ERROR_RATIO * rms)
+            .map(|(i, e)| {
+                let (pose, target) = label(i);
+                SuspectPose {
+                    pose,
+                    target,
+                    position_error_mm: e * 1e3,
+                    ratio_to_rms: e / rms,
+                }
             })
             .collect();
         Self {

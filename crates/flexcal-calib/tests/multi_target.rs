@@ -461,6 +461,13 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
         map.mean_bound_95_mm,
         map.residual_scatter_mm
     );
+    // A validation report of another set is refused by name.
+    let report = validate_targets(&model, &calibration, &validation, true).unwrap();
+    let err = calibration
+        .accuracy_coverage_of(&model, &set, &report, None)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("validation report of"), "{err}");
     // Every observation once, labelled by pose and marker.
     assert_eq!(map.poses.len(), validation.n_observations());
     assert!(map.poses.iter().all(|p| p.actual_error_mm.is_some()));

@@ -519,9 +519,19 @@ pub fn run_calibration(
         .map(|set| calibration.validate(robot, set, config.refit_target))
         .transpose()
         .map_err(step("validation"))?;
+    // The bounds against the errors of the validation just made, unless
+    // that one re-fitted the target too (the bounds are for the target as
+    // identified).
     let coverage = validation_set
         .as_ref()
-        .map(|set| calibration.accuracy_coverage(robot, set, split.as_ref()))
+        .zip(validation.as_ref())
+        .map(|(set, report)| {
+            if config.refit_target {
+                calibration.accuracy_coverage(robot, set, split.as_ref())
+            } else {
+                calibration.accuracy_coverage_of(robot, set, report, split.as_ref())
+            }
+        })
         .transpose()
         .map_err(step("predicted accuracy at the validation poses"))?;
     let accuracy_map = grid_accuracy(config, |configurations| {

@@ -172,9 +172,11 @@ pub fn run_target_calibration(
         .map(|set| calib::validate_targets(robot, &calibration, set, true))
         .transpose()
         .map_err(step("validation"))?;
+    // The bounds against the errors of the validation just made.
     let coverage = validation_set
         .as_ref()
-        .map(|set| calibration.accuracy_coverage(robot, set, split.as_ref()))
+        .zip(validation.as_ref())
+        .map(|(set, report)| calibration.accuracy_coverage_of(robot, set, report, split.as_ref()))
         .transpose()
         .map_err(step("predicted accuracy at the validation observations"))?;
     let accuracy_map = grid_accuracy(config, |configurations| {
