@@ -110,6 +110,65 @@ pub struct GravityCompliance {
     /// default [`LateralCompliance::Off`]). Their unknowns start at zero
     /// (rad/N.m).
     pub lateral: LateralCompliance,
+    /// Springs about the axes of named frames (module docs, "Springs on
+    /// any frame"): a passive or coupled joint's own axis, a fixed
+    /// mounting's two bending axes, a base on a pivot (default none).
+    pub springs: Vec<Spring>,
+}
+
+/// An axis of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameAxis {
+    /// The frame's x axis.
+    X,
+    /// The frame's y axis.
+    Y,
+    /// The frame's z axis (a joint's own axis).
+    Z,
+}
+
+impl FrameAxis {
+    /// The axis as a unit vector of its frame.
+    pub fn unit(self) -> Vector3<f64> {
+        match self {
+            FrameAxis::X => Vector3::x(),
+            FrameAxis::Y => Vector3::y(),
+            FrameAxis::Z => Vector3::z(),
+        }
+    }
+
+    /// `x`, `y` or `z`.
+    pub fn letter(self) -> &'static str {
+        match self {
+            FrameAxis::X => "x",
+            FrameAxis::Y => "y",
+            FrameAxis::Z => "z",
+        }
+    }
+}
+
+/// A linear rotational spring about one axis of a named frame: everything
+/// that moves with the frame (the links fixed to it and to the frames after
+/// it, and the payload when the end frame is among them) turns about the
+/// axis, through `pivot`, by `c M`, with `M` the gravity moment of that
+/// structure about the axis and `c` the unknown
+/// `lateral_compliance_<frame>_<axis>` (rad/N.m, starts at zero).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spring {
+    /// Name of the robot frame (a passive joint, a fixed mounting, the base).
+    pub frame: String,
+    /// The axis of that frame the structure turns about.
+    pub axis: FrameAxis,
+    /// The point of the axis, in the frame (m; default its origin).
+    pub pivot: Vector3<f64>,
+}
+
+impl Spring {
+    /// The unknown's name: `lateral_compliance_<frame>_<axis>`.
+    pub fn unknown_name(&self) -> String {
+        format!("lateral_compliance_{}_{}", self.frame, self.axis.letter())
+    }
 }
 
 /// Which lateral (transversal) joint compliances the elasto-geometric
@@ -261,17 +320,21 @@ impl GravityCompliance {
             payload_center: Vector3::new(0.0, 0.0, 0.1),
             initial_compliance: 10e-6,
             lateral: LateralCompliance::Off,
+            springs: Vec::new(),
         }
     }
 
     /// Names of the lateral compliances of `model` this loading adds
     /// (`lateral_compliance_<joint>_x`, rad/N.m; none when
-    /// [`GravityCompliance::lateral`] is off), after the payload's.
+    /// [`GravityCompliance::lateral`] is off), after the payload's, then
+    /// the [`GravityCompliance::springs`]' (`lateral_compliance_<frame>_<axis>`).
     pub fn lateral_unknown_names(&self, model: &Model) -> Vec<String> {
-        match self.lateral {
+        let mut names = match self.lateral {
             LateralCompliance::Off => Vec::new(),
             LateralCompliance::AboutX => lateral_compliance_names(model),
-        }
+        };
+        names.extend(self.springs.iter().map(Spring::unknown_name));
+        names
     }
 
     /// Every elastic unknown of this loading, in order: the compliances
@@ -529,33 +592,93 @@ impl LateralJoint {
     }
 }
 
+/// One axis the structure beyond a frame turns about: a lateral joint's
+/// x axis or a [`Spring`]'s axis, in its frame, through `pivot`.
+#[derive(Debug, Clone, Copy)]
+struct Hinge {
+    frame: usize,
+    axis: Vector3<f64>,
+    pivot: Vector3<f64>,
+}
+
 /// The lateral moments of every pose of a measurement set, evaluated once
 /// on the nominal geometry at the commanded configurations.
 #[derive(Debug, Clone)]
 pub(crate) struct LateralTerms {
-    /// Actuated index of each lateral joint ([`lateral_joints`]).
-    joints: Vec<usize>,
-    /// The frame of each lateral joint.
-    frames: Vec<usize>,
+    /// The lateral joints' x axes, then the springs' axes.
+    hinges: Vec<Hinge>,
     terms: Vec<f64>,
 }
 
 impl LateralTerms {
+    /// The hinges of `gravity` on `model`: the lateral joints' x axes,
+    /// then the springs (a frame that does not exist or carries no weight
+    /// is an error naming it).
+    fn hinges(
+        model: &Model,
+        gravity: &GravityCompliance,
+        loads: &[PointLoad],
+    ) -> Result<Vec<Hinge>, CalibError> {
+        let mut hinges: Vec<Hinge> = match gravity.lateral {
+            LateralCompliance::Off => Vec::new(),
+            LateralCompliance::AboutX => lateral_joints(model)
+                .iter()
+                .filter_map(|&i| model.actuated_frame(i))
+                .map(|frame| Hinge {
+                    frame,
+                    axis: Vector3::x(),
+                    pivot: Vector3::zeros(),
+                })
+                .collect(),
+        };
+        for spring in &gravity.springs {
+            let invalid = |reason: String| CalibError::InvalidOption {
+                name: "springs",
+                reason: format!("spring on frame `{}`: {reason}", spring.frame),
+            };
+            let frame = model.frame_index(&spring.frame).ok_or_else(|| {
+                invalid(format!(
+                    "robot `{}` has no such frame (frames: {})",
+                    model.name(),
+                    model.frame_names().join(", ")
+                ))
+            })?;
+            if lateral_compliance_names(model).contains(&spring.unknown_name())
+                && gravity.lateral == LateralCompliance::AboutX
+            {
+                return Err(invalid(format!(
+                    "`{}` is already a lateral compliance of `lateral = \"about-x\"`",
+                    spring.unknown_name()
+                )));
+            }
+            if !spring.pivot.iter().all(|v| v.is_finite()) {
+                return Err(invalid("the pivot must be finite".into()));
+            }
+            let carries = loads.iter().any(|l| model.moves_with(l.frame, frame))
+                || model.moves_with(model.end_frame(), frame);
+            if !carries {
+                return Err(invalid(
+                    "it carries no weight of the mass table and no payload: nothing loads it"
+                        .into(),
+                ));
+            }
+            hinges.push(Hinge {
+                frame,
+                axis: spring.axis.unit(),
+                pivot: spring.pivot,
+            });
+        }
+        Ok(hinges)
+    }
+
     pub(crate) fn new(
         model: &Model,
         poses: &Configurations<'_>,
         gravity: &GravityCompliance,
     ) -> Result<Self, CalibError> {
         let loads = gravity.check(model)?;
-        let joints = match gravity.lateral {
-            LateralCompliance::Off => Vec::new(),
-            LateralCompliance::AboutX => lateral_joints(model),
-        };
-        let frames: Vec<usize> = joints
-            .iter()
-            .filter_map(|&i| model.actuated_frame(i))
-            .collect();
-        let stride = LATERAL_STRIDE * joints.len();
+        let hinges = Self::hinges(model, gravity, &loads)?;
+        let stride = LATERAL_STRIDE * hinges.len();
         let mut terms = vec![0.0; poses.q.len() * stride];
         let mut data = Data::new(model);
         let xi = model.nominal_params();
@@ -566,10 +689,11 @@ impl LateralTerms {
                 .map_err(poses.kinematics_error(k))?;
             let p_tcp = x_base_tcp.translation.vector;
             let r_tcp = x_base_tcp.rotation.to_rotation_matrix().into_inner();
-            for (s, &frame) in frames.iter().enumerate() {
+            for (s, hinge) in hinges.iter().enumerate() {
+                let frame = hinge.frame;
                 let pose = data.frame_pose(frame).expect("a frame of the model");
-                let axis = pose.rotation * Vector3::x();
-                let origin = pose.translation.vector;
+                let axis = pose.rotation * hinge.axis;
+                let origin = pose.translation.vector + pose.rotation * hinge.pivot;
                 let mut links = 0.0;
                 for load in loads.iter().filter(|l| model.moves_with(l.frame, frame)) {
                     let at = data.frame_pose(load.frame).expect("a checked frame");
@@ -592,27 +716,23 @@ impl LateralTerms {
                 block[7..].copy_from_slice(&payload);
             }
         }
-        Ok(Self {
-            joints,
-            frames,
-            terms,
-        })
+        Ok(Self { hinges, terms })
     }
 
-    /// Number of lateral joints.
+    /// Number of lateral joints and springs.
     pub(crate) fn len(&self) -> usize {
-        self.joints.len()
+        self.hinges.len()
     }
 
     /// Whether lateral joint `s` moves frame `frame` (it is on the path from
     /// the root to it): a joint of another branch turns nothing there.
     pub(crate) fn moves(&self, model: &Model, s: usize, frame: usize) -> bool {
-        model.moves_with(frame, self.frames[s])
+        model.moves_with(frame, self.hinges[s].frame)
     }
 
     /// Lateral joint `s` at pose `k`.
     pub(crate) fn joint(&self, k: usize, s: usize) -> LateralJoint {
-        let stride = LATERAL_STRIDE * self.joints.len();
+        let stride = LATERAL_STRIDE * self.hinges.len();
         let b = &self.terms[k * stride + s * LATERAL_STRIDE..][..LATERAL_STRIDE];
         LateralJoint {
             axis: Vector3::new(b[0], b[1], b[2]),
@@ -632,6 +752,11 @@ impl LateralTerms {
 /// initial_compliance_urad_per_nm = 1.0  # starting value, every joint (um/N for linear joints)
 /// lateral = "about-x"                   # lateral compliances about each joint's x axis (optional; default "off")
 ///
+/// [[spring]]                           # optional, any number: springs about frame axes
+/// frame = "T4"                          # a passive joint, a fixed mounting, the base...
+/// axes = ["z"]                          # "x", "y", "z": one unknown lateral_compliance_T4_z each
+/// pivot_mm = [0.0, 0.0, 0.0]            # the axes' point in that frame (optional)
+///
 /// [[mass]]
 /// name = "upper arm"
 /// frame = "2"                           # a frame of the robot description
@@ -650,6 +775,21 @@ struct MassTableFile {
     lateral: LateralCompliance,
     #[serde(default)]
     mass: Vec<MassFile>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    spring: Vec<SpringFile>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpringFile {
+    frame: String,
+    axes: Vec<FrameAxis>,
+    #[serde(default, skip_serializing_if = "is_origin")]
+    pivot_mm: [f64; 3],
+}
+
+fn is_origin(p: &[f64; 3]) -> bool {
+    p.iter().all(|v| *v == 0.0)
 }
 
 fn is_off(lateral: &LateralCompliance) -> bool {
@@ -663,6 +803,43 @@ struct MassFile {
     frame: String,
     mass_kg: f64,
     center_mm: [f64; 3],
+}
+
+/// The springs of a mass table's `[[spring]]` entries, one per axis.
+fn springs_of(
+    files: &[SpringFile],
+    bad: &dyn Fn(usize, String) -> CalibError,
+) -> Result<Vec<Spring>, CalibError> {
+    let mut springs = Vec::new();
+    for file in files {
+        if file.axes.is_empty() || !file.pivot_mm.iter().all(|v| v.is_finite()) {
+            return Err(bad(
+                0,
+                format!(
+                    "spring on frame `{}`: give one or more axes (\"x\", \"y\", \"z\") and a finite pivot_mm",
+                    file.frame
+                ),
+            ));
+        }
+        for &axis in &file.axes {
+            let spring = Spring {
+                frame: file.frame.clone(),
+                axis,
+                pivot: Vector3::from(file.pivot_mm) * 1e-3,
+            };
+            if springs
+                .iter()
+                .any(|s: &Spring| s.unknown_name() == spring.unknown_name())
+            {
+                return Err(bad(
+                    0,
+                    format!("spring `{}` is given twice", spring.unknown_name()),
+                ));
+            }
+            springs.push(spring);
+        }
+    }
+    Ok(springs)
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -746,6 +923,7 @@ impl GravityCompliance {
             payload_center: Vector3::from(file.payload_center_mm) * 1e-3,
             initial_compliance: file.initial_compliance_urad_per_nm * 1e-6,
             lateral: file.lateral,
+            springs: springs_of(&file.spring, &bad)?,
         })
     }
 
@@ -777,6 +955,15 @@ impl GravityCompliance {
                     frame: m.frame.clone(),
                     mass_kg: m.mass,
                     center_mm: (m.center * 1e3).into(),
+                })
+                .collect(),
+            spring: self
+                .springs
+                .iter()
+                .map(|spring| SpringFile {
+                    frame: spring.frame.clone(),
+                    axes: vec![spring.axis],
+                    pivot_mm: (spring.pivot * 1e3).into(),
                 })
                 .collect(),
         };

@@ -9,7 +9,7 @@ use flexcal_optim::{
     IdentifiabilityReport, IterationState, LevenbergMarquardt, ProblemSetup, Residuals,
     SolveReport, Termination, analyze_identifiability,
 };
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 
 use crate::coverage::CoordinateCoverage;
 use crate::error_model::{
@@ -20,6 +20,9 @@ use crate::gravity::GravityCompliance;
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
+use crate::significance::{
+    InstrumentNoise, Judging, NoiseSource, ScaleJudgement, ScaleOutcome, judge_compliances,
+};
 use crate::{CalibError, MeasurementSet};
 
 /// The iterative solver of the identification.
@@ -105,10 +108,26 @@ pub struct CalibrationOptions {
     pub max_standard_error_length: f64,
     /// Same for angles (rad; default 0.25 deg; `> 0`).
     pub max_standard_error_angle: f64,
-    /// Same for joint compliances, lateral ones included (rad/N.m or m/N;
-    /// default 10e-6 rad/N.m,
-    /// about the compliance of a joint of a mid-size arm; `> 0`).
+    /// Absolute limit for joint compliances, lateral ones included
+    /// (rad/N.m or m/N; default 1e-3 rad/N.m: a standard error that large
+    /// says nothing about any robot joint; `> 0`). Compliances are judged
+    /// first on their own scale ([`CalibrationOptions::min_compliance_z`]);
+    /// a smaller limit here (the command line's `--max-se-compliance`)
+    /// also leaves out every compliance less precise than it.
     pub max_standard_error_compliance: f64,
+    /// A compliance is kept when the data determine it on its own scale:
+    /// its value at least this many standard errors (default 2: the value
+    /// is told apart from zero at about 95 %; `> 0`). Below, it goes back
+    /// to its starting value, [`UnknownStatus::PoorlyIdentifiable`]; a
+    /// compliance the fit puts below zero by at least as much is held at
+    /// zero, [`UnknownStatus::AtBound`] ([`crate::significance`]).
+    pub min_compliance_z: f64,
+    /// The instrument's stated noise (default `None`: the file's standard
+    /// deviations where it has them, else estimated from the fit's
+    /// residual). Stated, it weighs every observation and makes the
+    /// weights absolute: standard errors and every identifiability
+    /// judgement use it instead of an estimate.
+    pub instrument_noise: Option<InstrumentNoise>,
     /// Same for the payload mass (kg; default 1; `> 0`).
     pub max_standard_error_mass: f64,
     /// Same for the payload's first moment (kg.m; default 0.1; `> 0`).
@@ -165,7 +184,9 @@ impl Default for CalibrationOptions {
             rank_tolerance: 1e-4,
             max_standard_error_length: 5e-3,
             max_standard_error_angle: 0.25f64.to_radians(),
-            max_standard_error_compliance: 10e-6,
+            max_standard_error_compliance: 1e-3,
+            min_compliance_z: 2.0,
+            instrument_noise: None,
             max_standard_error_mass: 1.0,
             max_standard_error_first_moment: 0.1,
             max_standard_error_hardening: 1000.0,
@@ -233,6 +254,10 @@ impl CalibrationOptions {
             "max_standard_error_compliance",
             self.max_standard_error_compliance,
         )?;
+        positive("min_compliance_z", self.min_compliance_z)?;
+        if let Some(noise) = &self.instrument_noise {
+            noise.check()?;
+        }
         positive("max_standard_error_mass", self.max_standard_error_mass)?;
         positive(
             "max_standard_error_first_moment",
@@ -288,6 +313,27 @@ pub enum UnknownStatus {
     /// Has no influence on what is measured (e.g. target rotation without
     /// measured orientation); kept at its starting value.
     NoInfluence,
+    /// Held at its physical bound (a compliance at zero): the
+    /// unconstrained fit put it beyond, by more than
+    /// [`CalibrationOptions::min_compliance_z`] standard errors
+    /// ([`UnknownEstimate::judgement`] keeps what the fit gave).
+    AtBound,
+}
+
+impl UnknownStatus {
+    /// The status as reports and files write it (`identified`, `fixed`,
+    /// `non-identifiable`, `poorly-identifiable`, `no-influence`,
+    /// `at-bound`).
+    pub fn name(self) -> &'static str {
+        match self {
+            UnknownStatus::Identified => "identified",
+            UnknownStatus::Fixed => "fixed",
+            UnknownStatus::NonIdentifiable => "non-identifiable",
+            UnknownStatus::PoorlyIdentifiable => "poorly-identifiable",
+            UnknownStatus::NoInfluence => "no-influence",
+            UnknownStatus::AtBound => "at-bound",
+        }
+    }
 }
 
 /// One unknown of the identification, by name.
@@ -316,6 +362,11 @@ pub struct UnknownEstimate {
     pub spread_ratio: Option<f64>,
     /// What became of it.
     pub status: UnknownStatus,
+    /// For a compliance: the fit that judged it on its own scale (value,
+    /// standard error, outcome), also when it was left out or held at its
+    /// bound ([`crate::significance`]); `None` for the other unknowns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub judgement: Option<ScaleJudgement>,
 }
 
 /// Unweighted residual norms at one iterate of the identification (Figure 7
@@ -405,6 +456,9 @@ pub struct Calibration {
     /// Repeated readings and suspect poses of the identification set
     /// (after the fit).
     pub data_checks: DataChecks,
+    /// The noise the standard errors and identifiability judgements used
+    /// ([`crate::significance`]).
+    pub noise: NoiseSource,
     /// Number of poses used.
     pub n_poses: usize,
     /// Names of the robot's actuated coordinates, in the order of
@@ -598,38 +652,28 @@ pub(crate) fn elastic_notes(
             .collect()
     };
     let mut notes = Vec::new();
-    let identified: Vec<&str> = unknowns
+    // The torque each joint's compliance was identified over, and the
+    // largest of all: a joint with a twentieth of it is barely loaded.
+    let torque_of = |name: &str| {
+        actuated_names
+            .iter()
+            .position(|a| name.strip_prefix("compliance_") == Some(a.as_str()))
+            .and_then(|i| torque_ranges.get(i))
+    };
+    let largest = torque_ranges
         .iter()
-        .filter(|u| u.name.starts_with("compliance_") && u.status == UnknownStatus::Identified)
-        .map(|u| u.name.as_str())
-        .collect();
-    let not = names("compliance_");
-    // Each identified compliance with the torques it was identified
-    // over: beyond them the spring law is extrapolated.
-    let identified: Vec<String> = identified
+        .map(|r| r.lo.abs().max(r.hi.abs()))
+        .fold(0.0, f64::max);
+    let joint: Vec<&UnknownEstimate> = unknowns
         .iter()
-        .map(|name| {
-            let span = actuated_names
-                .iter()
-                .position(|a| name.strip_prefix("compliance_") == Some(a.as_str()))
-                .and_then(|i| torque_ranges.get(i));
-            // One decimal, without a negative zero.
-            let round = |v: f64| (v * 10.0).round() / 10.0 + 0.0;
-            match span {
-                Some(r) => format!(
-                    "{name} (torque {:.1} to {:.1} N.m)",
-                    round(r.lo),
-                    round(r.hi)
-                ),
-                None => name.to_string(),
-            }
-        })
+        .filter(|u| u.name.starts_with("compliance_"))
         .collect();
-    notes.push(format!(
-            "joint compliances identified from gravity loading: {}; not identifiable from gravity alone (too little or no gravity torque, kept at the starting value): {}",
-            if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
-            if not.is_empty() { "none".to_string() } else { not.join(", ") }
-        ));
+    notes.extend(compliance_sentence(
+        "joint compliances",
+        &joint,
+        &|u| torque_of(&u.name).copied(),
+        largest,
+    ));
     if law {
         for (prefix, what) in [("hardening_", "hardening"), ("lost_motion_", "lost motion")] {
             let identified: Vec<&str> = unknowns
@@ -647,17 +691,12 @@ pub(crate) fn elastic_notes(
         .iter()
         .filter(|u| u.name.starts_with("lateral_compliance_"))
         .collect();
-    if !lateral.is_empty() {
-        let identified: Vec<&str> = lateral
-            .iter()
-            .filter(|u| u.status == UnknownStatus::Identified)
-            .map(|u| u.name.as_str())
-            .collect();
-        notes.push(format!(
-                "lateral joint compliances identified from the gravity moments: {}; the others stay at zero (too little moment about their axes, or not separable from the geometry and the joint compliances)",
-                if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
-            ));
-    }
+    notes.extend(compliance_sentence(
+        "lateral joint compliances",
+        &lateral,
+        &|_| None,
+        largest,
+    ));
     let payload = names("payload_");
     if !payload.is_empty() {
         notes.push(format!(
@@ -668,35 +707,169 @@ pub(crate) fn elastic_notes(
     notes
 }
 
+/// One sentence on a family of compliances (`what`): those identified,
+/// with their standard errors as a share of their values and the torque
+/// (`torque_of`, N.m) they were identified over, and for each one left out
+/// the true reason: too little gravity torque (below a twentieth of the
+/// `largest` joint's), not separable from other unknowns, too large a
+/// standard error for its value, or a fit below zero held at the bound.
+fn compliance_sentence(
+    what: &str,
+    unknowns: &[&UnknownEstimate],
+    torque_of: &dyn Fn(&UnknownEstimate) -> Option<CoordinateCoverage>,
+    largest: f64,
+) -> Option<String> {
+    if unknowns.is_empty() {
+        return None;
+    }
+    let (unit, factor) = UnknownKind::Compliance.display_unit();
+    // One decimal, without a negative zero.
+    let round = |v: f64| (v * 10.0).round() / 10.0 + 0.0;
+    let torque_text =
+        |r: &CoordinateCoverage| format!("torque {:.1} to {:.1} N.m", round(r.lo), round(r.hi));
+    let mut kept = Vec::new();
+    let mut left = Vec::new();
+    for u in unknowns {
+        let torque = torque_of(u);
+        let judged = u.judgement.map(|j| {
+            format!(
+                "standard error {:.3} {unit} is {:.0} % of the fitted {:.3} {unit}",
+                j.standard_error * factor,
+                100.0 * j.relative_error(),
+                j.value * factor
+            )
+        });
+        match u.status {
+            UnknownStatus::Identified => {
+                let mut parts = Vec::new();
+                if let Some(se) = u.standard_error {
+                    parts.push(format!(
+                        "{:.3} +/- {:.3} {unit}, {:.0} %",
+                        u.value * factor,
+                        se * factor,
+                        100.0 * se / u.value.abs()
+                    ));
+                }
+                if let Some(r) = &torque {
+                    parts.push(torque_text(r));
+                }
+                kept.push(if parts.is_empty() {
+                    u.name.clone()
+                } else {
+                    format!("{} ({})", u.name, parts.join("; "))
+                });
+            }
+            UnknownStatus::Fixed => {}
+            UnknownStatus::AtBound => left.push(format!(
+                "{} (held at 0, the fit put it below zero: {}; a bound that binds says a term of the model is missing or the mass table is off)",
+                u.name,
+                judged.unwrap_or_default()
+            )),
+            status => {
+                let span = torque.map(|r| r.lo.abs().max(r.hi.abs()));
+                let reason = match (status, span) {
+                    (_, Some(t)) if t < 0.05 * largest || t == 0.0 => format!(
+                        "torque range +/-{:.1} N.m: too little gravity torque",
+                        round(t)
+                    ),
+                    (UnknownStatus::NoInfluence, _) => {
+                        "no influence on what is measured".to_string()
+                    }
+                    (UnknownStatus::NonIdentifiable, _) => {
+                        "not separable from the geometry and the other terms with these poses"
+                            .to_string()
+                    }
+                    _ => match judged {
+                        Some(text) => format!("{text}: left at its start"),
+                        None => "too weakly seen: its standard error would exceed the absolute limit (max_standard_error_compliance)".to_string(),
+                    },
+                };
+                left.push(format!("{} ({reason})", u.name));
+            }
+        }
+    }
+    let list = |v: &[String]| {
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.join(", ")
+        }
+    };
+    Some(format!(
+        "{what} identified from the gravity loads: {}; left out: {}",
+        list(&kept),
+        list(&left)
+    ))
+}
+
+/// Where the noise of an identification came from: the instrument when
+/// stated, the file's deviations when the weights are absolute, else the
+/// estimate `position_std` (m per axis) from the fit.
+pub(crate) fn noise_source(
+    options: &CalibrationOptions,
+    absolute: bool,
+    position_std: f64,
+) -> NoiseSource {
+    match (options.instrument_noise, absolute) {
+        (Some(noise), _) => NoiseSource::Instrument(noise),
+        (None, true) => NoiseSource::File,
+        (None, false) => NoiseSource::Estimated { position_std },
+    }
+}
+
+/// The standard deviations of one observation's position and orientation
+/// axes (m, rad) under `options`: the instrument's stated noise, else the
+/// file's (`from_file`) where it has them, else the defaults.
+pub(crate) fn observation_std(
+    options: &CalibrationOptions,
+    position_std: Option<Vector3<f64>>,
+    orientation_std: Option<Vector3<f64>>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    if let Some(noise) = options.instrument_noise {
+        let orientation = noise
+            .orientation_std
+            .unwrap_or(options.default_orientation_std);
+        return (
+            Vector3::repeat(noise.position_std),
+            Vector3::repeat(orientation),
+        );
+    }
+    let from_file = options.weighting == Weighting::FromFile;
+    let pick = |file: Option<Vector3<f64>>, default: f64| match (from_file, file) {
+        (true, Some(s)) => s,
+        _ => Vector3::repeat(default),
+    };
+    (
+        pick(position_std, options.default_position_std),
+        pick(orientation_std, options.default_orientation_std),
+    )
+}
+
 /// Per-row weights `1/sigma` and whether they are absolute.
 fn row_weights(
     set: &MeasurementSet,
     use_orientation: bool,
     options: &CalibrationOptions,
-) -> (Vec<f64>, bool) {
+) -> Result<(Vec<f64>, bool), CalibError> {
     let from_file = options.weighting == Weighting::FromFile;
     let mut absolute = from_file && set.has_position_std();
+    if let Some(noise) = options.instrument_noise {
+        if use_orientation {
+            noise.orientation()?;
+        }
+        absolute = true;
+    } else if use_orientation {
+        absolute &= set.has_orientation_std();
+    }
     let mut w = Vec::with_capacity(set.len() * 6);
     for m in set.measurements() {
-        for i in 0..3 {
-            let s = match (from_file, m.position_std) {
-                (true, Some(s)) => s[i],
-                _ => options.default_position_std,
-            };
-            w.push(1.0 / s);
-        }
+        let (position, orientation) = observation_std(options, m.position_std, m.orientation_std);
+        w.extend(position.iter().map(|s| 1.0 / s));
         if use_orientation {
-            absolute &= set.has_orientation_std();
-            for i in 0..3 {
-                let s = match (from_file, m.orientation_std) {
-                    (true, Some(s)) => s[i],
-                    _ => options.default_orientation_std,
-                };
-                w.push(1.0 / s);
-            }
+            w.extend(orientation.iter().map(|s| 1.0 / s));
         }
     }
-    (w, absolute)
+    Ok((w, absolute))
 }
 
 /// Identifies the robot parameters (and the measurement frame and target
@@ -914,7 +1087,7 @@ pub fn calibrate(
             unknowns: free_count,
         });
     }
-    let (weights, absolute) = row_weights(set, use_orientation, options);
+    let (weights, absolute) = row_weights(set, use_orientation, options)?;
     let x_initial = problem.initial_unknowns();
     let rows_per_pose = problem.rows_per_pose();
     // Position and orientation RMS of (unweighted) residuals `r`.
@@ -1069,7 +1242,17 @@ pub fn calibrate(
         Ok(report)
     };
     let reduced_start = context.reduced(&x_start)?;
-    let (report, frozen, exactly_dependent, numerical) = context.identify_in_rounds(
+    let compliance: Vec<bool> = kinds
+        .iter()
+        .map(|k| *k == UnknownKind::Compliance)
+        .collect();
+    let RoundsOutcome {
+        report,
+        frozen,
+        exactly_dependent,
+        numerical,
+        judgements,
+    } = context.identify_in_rounds(
         &Rounds {
             reduced_start: &reduced_start,
             x_start: &x_start,
@@ -1079,6 +1262,8 @@ pub fn calibrate(
             require_full_rank: options.require_full_rank,
             free_count,
             joint_start: problem.joint_terms_offset().unwrap_or(n),
+            compliance: &compliance,
+            min_compliance_z: options.min_compliance_z,
         },
         &noise_at,
         &mut solve_logged,
@@ -1117,8 +1302,14 @@ pub fn calibrate(
             no_influence: &no_influence,
             frozen: &frozen,
             exactly_dependent: &exactly_dependent,
+            judgements: &judgements,
         },
         &spread_ratios,
+    );
+    let noise = noise_source(
+        options,
+        absolute,
+        noise_at(&x, identified.len())? * options.default_position_std,
     );
     let (x_meas_base, x_tcp_target) = problem.frames(&x);
     let station_frames = problem.station_frames(&x);
@@ -1175,6 +1366,7 @@ pub fn calibrate(
         training_after,
         training_after_per_pose: errors_after,
         data_checks,
+        noise,
         n_poses: set.len(),
         actuated_names: model.actuated_names().to_vec(),
         actuated_ranges,
@@ -1435,6 +1627,8 @@ pub(crate) struct UnknownFlags<'a> {
     pub frozen: &'a [bool],
     /// A combination of others whatever the noise.
     pub exactly_dependent: &'a [bool],
+    /// Each compliance's judgement on its own scale.
+    pub judgements: &'a [Option<ScaleJudgement>],
 }
 
 /// Every unknown `(names, kinds)` with its start and identified value
@@ -1449,8 +1643,12 @@ pub(crate) fn unknown_estimates(
 ) -> Vec<UnknownEstimate> {
     (0..names.len())
         .map(|j| {
+            let at_bound = flags.judgements[j]
+                .is_some_and(|judgement| judgement.outcome == ScaleOutcome::AtBound);
             let status = if flags.fixed[j] {
                 UnknownStatus::Fixed
+            } else if at_bound {
+                UnknownStatus::AtBound
             } else if flags.no_influence[j] {
                 UnknownStatus::NoInfluence
             } else if flags.frozen[j] && flags.exactly_dependent[j] {
@@ -1472,6 +1670,7 @@ pub(crate) fn unknown_estimates(
                 },
                 spread_ratio: spread_ratios[j],
                 status,
+                judgement: flags.judgements[j],
             }
         })
         .collect()
@@ -1503,6 +1702,23 @@ pub(crate) struct Rounds<'a> {
     /// Index of the first joint-term unknown (the number of unknowns
     /// without joint terms).
     pub joint_start: usize,
+    /// Which unknowns are compliances, judged on their own scale
+    /// ([`crate::significance`]).
+    pub compliance: &'a [bool],
+    /// [`CalibrationOptions::min_compliance_z`].
+    pub min_compliance_z: f64,
+}
+
+/// What the rounds of [`AnalysisContext::identify_in_rounds`] found: the
+/// final fit, the unknowns left at their start (or bound), those exactly
+/// dependent on others, the numerical analysis (no noise) that found
+/// them, and each compliance's judgement on its own scale.
+pub(crate) struct RoundsOutcome {
+    pub report: SolveReport,
+    pub frozen: Vec<bool>,
+    pub exactly_dependent: Vec<bool>,
+    pub numerical: IdentifiabilityReport,
+    pub judgements: Vec<Option<ScaleJudgement>>,
 }
 
 impl AnalysisContext<'_> {
@@ -1513,9 +1729,9 @@ impl AnalysisContext<'_> {
     /// solved again only if it changes (at most 4 rounds). The joint terms
     /// are non-linear in their unknowns: their standard-error limits are
     /// checked again at the solution, and a term beyond them is put back
-    /// to its starting value and the rest solved again. Returns the final
-    /// report, the frozen unknowns, those exactly dependent on others and
-    /// the numerical analysis (no noise) that found them.
+    /// to its starting value and the rest solved again. Last, the
+    /// compliances are judged on their own scale
+    /// ([`crate::significance`]).
     ///
     /// # Errors
     /// [`CalibError::NothingToIdentify`], [`CalibError::RankDeficient`]
@@ -1525,7 +1741,7 @@ impl AnalysisContext<'_> {
         r: &Rounds<'_>,
         noise_at: &NoiseAt<'_>,
         solve: &mut Solve<'_>,
-    ) -> Result<(SolveReport, Vec<bool>, Vec<bool>, IdentifiabilityReport), CalibError> {
+    ) -> Result<RoundsOutcome, CalibError> {
         let n = self.names.len();
         let excluded = r.excluded;
         // Unknowns beyond the numerical rank whatever the noise (exact
@@ -1609,15 +1825,32 @@ impl AnalysisContext<'_> {
             }
             report = solve(&x0, &frozen)?;
         }
-        Ok((report, frozen, exactly_dependent, numerical))
+        let (report, frozen, judgements) = judge_compliances(
+            &Judging {
+                compliance: r.compliance,
+                limits: self.limits,
+                z_min: r.min_compliance_z,
+                x_start: r.x_start,
+            },
+            (report, frozen),
+            solve,
+        )?;
+        Ok(RoundsOutcome {
+            report,
+            frozen,
+            exactly_dependent,
+            numerical,
+            judgements,
+        })
     }
 }
 
 /// The true value of each identified combination `xi_B + K xi_N` given a
 /// full vector of true unknowns (`truth`, indexed like
 /// [`Calibration::unknowns`]): `(name, true combination value, identified
-/// value, standard error)`. Absorbed unknowns stay at their starting values
-/// in the fit, so only their true deviation from there is absorbed.
+/// value, standard error)`. Absorbed unknowns stay where the fit left them
+/// (their starting values, or zero for a compliance held at its bound), so
+/// only their true deviation from there is absorbed.
 pub fn combination_check(
     calibration: &Calibration,
     truth: &[f64],
@@ -1631,7 +1864,7 @@ pub fn combination_check(
             let mut value = *truth.get(jb)?;
             for (other, k) in &c.terms {
                 let jn = index(other)?;
-                value += k * (truth.get(jn)? - calibration.unknowns[jn].initial);
+                value += k * (truth.get(jn)? - calibration.unknowns[jn].value);
             }
             let u = &calibration.unknowns[jb];
             Some((u.name.clone(), value, u.value, u.standard_error))

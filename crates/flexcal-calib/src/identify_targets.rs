@@ -66,10 +66,10 @@ use crate::geometry::{left_jacobian, register_points, rotation_from_vector, skew
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::identify::{
     AnalysisContext, CalibrationOptions, Combination, FrameTreatment, GEODESIC_ACCELERATION_LIMIT,
-    Method, Rounds, SPREAD_REFERENCE_POSES, StackedJacobian, UnknownEstimate, UnknownFlags,
-    UnknownStatus, Weighting, analysis_index, elastic_notes, is_elastic_unknown, noise_level,
-    rms_row_weights, spread_configurations, spread_ratio_values, unit_covariance_diagonal,
-    unknown_estimates, weak_spread_note,
+    Method, Rounds, RoundsOutcome, SPREAD_REFERENCE_POSES, StackedJacobian, UnknownEstimate,
+    UnknownFlags, UnknownStatus, Weighting, analysis_index, elastic_notes, is_elastic_unknown,
+    noise_level, noise_source, observation_std, rms_row_weights, spread_configurations,
+    spread_ratio_values, unit_covariance_diagonal, unknown_estimates, weak_spread_note,
 };
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
@@ -77,6 +77,7 @@ use crate::prediction::{
     Linearised, Observed, Predicting, jacobian_and_residuals, residual_variance,
 };
 use crate::screen::DataChecks;
+use crate::significance::NoiseSource;
 use crate::targets::{
     TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, target_point,
 };
@@ -179,6 +180,9 @@ pub struct TargetCalibration {
     /// Repeated readings and suspect observations of the identification
     /// set ([`DataChecks::for_targets`]).
     pub data_checks: DataChecks,
+    /// The noise the standard errors and identifiability judgements used
+    /// ([`crate::significance`]).
+    pub noise: NoiseSource,
     /// The gravity loading when the model is elasto-geometric, with the
     /// identified elastic unknowns (compliances, payload mass, first moment,
     /// lateral compliances when on; order of
@@ -373,7 +377,7 @@ impl TargetCalibration {
                 let mut value = *truth.get(jb)?;
                 for (other, k) in &c.terms {
                     let jn = index(other)?;
-                    value += k * (truth.get(jn)? - self.unknowns[jn].initial);
+                    value += k * (truth.get(jn)? - self.unknowns[jn].value);
                 }
                 let u = &self.unknowns[jb];
                 Some((u.name.clone(), value, u.value, u.standard_error))
@@ -1153,16 +1157,14 @@ pub fn calibrate_targets(
             unknowns: free_count,
         });
     }
-    // Row weights 1/sigma; absolute when every observation has its own.
+    // Row weights 1/sigma; absolute when the instrument's noise is stated
+    // or every observation has its own.
     let from_file = options.weighting == Weighting::FromFile;
-    let absolute =
-        from_file && (0..problem.rows.len()).all(|r| problem.measured(r).position_std.is_some());
+    let absolute = options.instrument_noise.is_some()
+        || from_file && (0..problem.rows.len()).all(|r| problem.measured(r).position_std.is_some());
     let weights: Vec<f64> = (0..problem.rows.len())
         .flat_map(|r| {
-            let s = match (from_file, problem.measured(r).position_std) {
-                (true, Some(s)) => s,
-                _ => Vector3::repeat(options.default_position_std),
-            };
+            let (s, _) = observation_std(options, problem.measured(r).position_std, None);
             [1.0 / s.x, 1.0 / s.y, 1.0 / s.z]
         })
         .collect();
@@ -1229,7 +1231,17 @@ pub fn calibrate_targets(
     let noise_at = |x: &[f64], free: usize| noise_level(&problem, &weights, absolute, x, free);
     let excluded = |j: usize| fixed[j];
     let mut solve_rounds = |x0: &[f64], frozen: &[bool]| solve(x0, frozen);
-    let (report, frozen, exactly_dependent, identifiability) = context.identify_in_rounds(
+    let compliance: Vec<bool> = kinds
+        .iter()
+        .map(|k| *k == UnknownKind::Compliance)
+        .collect();
+    let RoundsOutcome {
+        report,
+        frozen,
+        exactly_dependent,
+        numerical: identifiability,
+        judgements,
+    } = context.identify_in_rounds(
         &Rounds {
             reduced_start: &reduced_start,
             x_start: &x_start,
@@ -1239,6 +1251,8 @@ pub fn calibrate_targets(
             require_full_rank: options.require_full_rank,
             free_count,
             joint_start: eo + problem.elastic.joint_terms_offset().unwrap_or(n - eo),
+            compliance: &compliance,
+            min_compliance_z: options.min_compliance_z,
         },
         &noise_at,
         &mut solve_rounds,
@@ -1282,8 +1296,15 @@ pub fn calibrate_targets(
             no_influence: &no_influence,
             frozen: &frozen,
             exactly_dependent: &exactly_dependent,
+            judgements: &judgements,
         },
         &spread_ratios,
+    );
+    let identified_count = frozen.iter().filter(|f| !**f).count();
+    let noise = noise_source(
+        options,
+        absolute,
+        noise_at(&x, identified_count)? * options.default_position_std,
     );
     let targets: Vec<Target> = set
         .targets()
@@ -1338,6 +1359,7 @@ pub fn calibrate_targets(
         n_poses: set.len(),
         n_observations: problem.rows.len(),
         data_checks: DataChecks::for_targets(set, &observation_errors),
+        noise,
         observation_errors,
         elastic,
         joint_terms: options.joint_terms,

@@ -205,6 +205,14 @@
 //!   identified with a standard error below its limit. The others are
 //!   [`UnknownStatus::PoorlyIdentifiable`].
 //!
+//! - compliances, last: on their own scale ([`significance`]): after the
+//!   fit, a compliance is kept when its value is at least
+//!   [`CalibrationOptions::min_compliance_z`] standard errors, one the fit
+//!   puts below zero by as much is held at zero
+//!   ([`UnknownStatus::AtBound`]); the noise is the instrument's when
+//!   stated ([`CalibrationOptions::instrument_noise`]), else the file's or
+//!   the fit's ([`NoiseSource`], in [`Calibration::noise`]).
+//!
 //! Both kinds stay at their starting (nominal) values — data that cannot
 //! identify a parameter leave it alone instead of letting it wander — and
 //! [`Calibration::combinations`] says what the identified ones then stand for.
@@ -227,6 +235,11 @@
 //! - Standard errors are the linearised ones and ignore model error (joint
 //!   compliance, thermal drift); with relative weights sigma^2 is estimated
 //!   from the residual, which then includes that model error.
+//! - Springs on any frame ([`gravity::Spring`]: a passive or coupled
+//!   joint's own axis, a fixed mounting, a base on a pivot) are linear and
+//!   composed like the lateral compliances; the deflection is one linear
+//!   step on the commanded geometry, not the equilibrium on the deflected
+//!   one (a robot that sags by centimetres moves its own lever arms).
 //! - The noise-aware rank decision depends on the standard-error limits; they
 //!   are judgement, not physics (see the options' defaults).
 //! - The IPA standard-deviation columns are sample spreads, not accuracies:
@@ -269,6 +282,7 @@ pub mod residual;
 pub mod screen;
 pub mod select;
 pub mod selection;
+pub mod significance;
 pub mod split;
 pub mod targets;
 pub mod temperature;
@@ -286,7 +300,9 @@ pub use error_model::{
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use flexcal_optim::CancelToken;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
-pub use gravity::{GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass};
+pub use gravity::{
+    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
+};
 pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
 pub use identify::{
     Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
@@ -303,8 +319,8 @@ pub use measurement::{
 };
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{
-    CalibrationReportJson, FrameJson, ResidualModelJson, StationHoldOutJson, StationJson,
-    read_measurement_frame,
+    CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ResidualModelJson,
+    StationHoldOutJson, StationJson, read_measurement_frame,
 };
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
@@ -317,6 +333,7 @@ pub use selection::{
     SelectionReport, TermGroup, calibrate_selected, calibrate_targets_selected, default_method,
     default_method_for, select_model, select_target_model,
 };
+pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcome};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use targets::{
     TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,

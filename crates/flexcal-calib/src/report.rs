@@ -67,8 +67,61 @@ pub struct ParameterJson {
     /// ranges (identified unknowns only; see
     /// [`crate::UnknownEstimate::spread_ratio`]).
     pub spread_ratio: Option<f64>,
-    /// `identified`, `fixed`, `non-identifiable`, `poorly-identifiable`, `no-influence`.
+    /// `identified`, `fixed`, `non-identifiable`, `poorly-identifiable`,
+    /// `no-influence`, `at-bound` ([`UnknownStatus::name`]).
     pub status: &'static str,
+    /// For a compliance: the fit that judged it on its own scale, in
+    /// `unit` ([`crate::significance`]); absent for other unknowns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub judgement: Option<JudgementJson>,
+}
+
+/// The noise of an identification in the report.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct NoiseJson {
+    /// `instrument` (stated by the user), `file` (the file's standard
+    /// deviations) or `estimated` (from the fit's residual).
+    pub source: &'static str,
+    /// Per position axis (mm); absent for `file`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_std_mm: Option<f64>,
+    /// Per orientation axis (deg), when the instrument's is stated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_std_deg: Option<f64>,
+}
+
+impl From<&crate::NoiseSource> for NoiseJson {
+    fn from(noise: &crate::NoiseSource) -> Self {
+        use crate::NoiseSource;
+        match noise {
+            NoiseSource::Instrument(i) => Self {
+                source: "instrument",
+                position_std_mm: Some(i.position_std * 1e3),
+                orientation_std_deg: i.orientation_std.map(f64::to_degrees),
+            },
+            NoiseSource::File => Self {
+                source: "file",
+                position_std_mm: None,
+                orientation_std_deg: None,
+            },
+            NoiseSource::Estimated { position_std } => Self {
+                source: "estimated",
+                position_std_mm: Some(position_std * 1e3),
+                orientation_std_deg: None,
+            },
+        }
+    }
+}
+
+/// How a compliance was judged on its own scale.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct JudgementJson {
+    /// Its value in the fit that judged it (`unit` of the parameter).
+    pub value: f64,
+    /// Its standard error in that fit (`unit`; `null` when the fit gave none).
+    pub standard_error: Option<f64>,
+    /// `kept`, `left-out` or `at-bound`.
+    pub outcome: crate::ScaleOutcome,
 }
 
 /// The `identification` object.
@@ -96,6 +149,9 @@ pub struct IdentificationJson {
     /// What the poses could not identify, in sentences
     /// ([`Calibration::identifiability_notes`]).
     pub notes: Vec<String>,
+    /// Where the noise of the standard errors and identifiability
+    /// judgements came from ([`crate::NoiseSource`]).
+    pub noise: NoiseJson,
     /// Condition number of the scaled base columns.
     pub condition_number: f64,
     /// Singular values of the scaled, weighted Jacobian of the identified unknowns.
@@ -354,16 +410,6 @@ impl ResidualModelJson {
     }
 }
 
-fn status_name(s: UnknownStatus) -> &'static str {
-    match s {
-        UnknownStatus::Identified => "identified",
-        UnknownStatus::Fixed => "fixed",
-        UnknownStatus::NonIdentifiable => "non-identifiable",
-        UnknownStatus::PoorlyIdentifiable => "poorly-identifiable",
-        UnknownStatus::NoInfluence => "no-influence",
-    }
-}
-
 impl CalibrationReportJson {
     /// Builds the report.
     pub fn new(
@@ -385,7 +431,12 @@ impl CalibrationReportJson {
                     delta: (u.value - u.initial) * scale,
                     standard_error: u.standard_error.map(|s| s * scale),
                     spread_ratio: u.spread_ratio,
-                    status: status_name(u.status),
+                    status: UnknownStatus::name(u.status),
+                    judgement: u.judgement.map(|j| JudgementJson {
+                        value: j.value * scale,
+                        standard_error: Some(j.standard_error * scale).filter(|s| s.is_finite()),
+                        outcome: j.outcome,
+                    }),
                 }
             })
             .collect();
@@ -407,6 +458,7 @@ impl CalibrationReportJson {
                 .collect(),
             combinations: calibration.combination_lines.clone(),
             notes: calibration.identifiability_notes(),
+            noise: NoiseJson::from(&calibration.noise),
             condition_number: calibration.solve.condition_number,
             singular_values: calibration.solve.singular_values.clone(),
             termination: format!("{:?}", calibration.solve.termination),

@@ -524,3 +524,104 @@ fn lateral_names_switch_and_mass_table_round_trip() {
     );
     assert!("y".parse::<LateralCompliance>().is_err());
 }
+
+/// Springs on named frames (a base on a pivot, a link about its y axis):
+/// their columns against central differences, their names, the mass
+/// table round trip, and the frames they cannot go on named.
+#[test]
+fn springs_on_named_frames_match_central_differences_and_bad_ones_are_named() {
+    let model = ur10();
+    let mut gravity = GravityCompliance::ur10_urdf(&model).unwrap();
+    gravity.springs = vec![
+        flexcal_calib::Spring {
+            frame: "1".into(),
+            axis: flexcal_calib::FrameAxis::X,
+            pivot: Vector3::new(0.0, 0.0, -0.1),
+        },
+        flexcal_calib::Spring {
+            frame: "3".into(),
+            axis: flexcal_calib::FrameAxis::Y,
+            pivot: Vector3::zeros(),
+        },
+    ];
+    let names = gravity.lateral_unknown_names(&model);
+    assert_eq!(
+        names,
+        ["lateral_compliance_1_x", "lateral_compliance_3_y"].map(String::from)
+    );
+    let (frame, target) = common::generic_frame_and_target();
+    let set = simulate(
+        &model,
+        &gravity,
+        model.nominal_params(),
+        &ur10_truth(),
+        &frame,
+        6,
+        0.0,
+        2,
+        &ur10_draw,
+    );
+    let set = common::with_orientation(&set);
+    let problem = GeometricErrorModel::new(&model, &set, true, frame, target)
+        .unwrap()
+        .with_gravity(&gravity)
+        .unwrap()
+        .with_joint_terms(&JointTerms {
+            law: Some(JointLaw::default()),
+            cyclic: false,
+        })
+        .unwrap();
+    let lo = problem.lateral_offset().unwrap();
+    assert_eq!(problem.names()[lo..lo + 2], names[..]);
+    let (_, jac) = common::assert_elastic_jacobian_matches("ur10 springs", &model, &problem, 5);
+    for j in lo..lo + 2 {
+        assert!(
+            (0..jac.nrows()).any(|i| jac[(i, j)].abs() > 1e-6),
+            "{} column is zero",
+            problem.names()[j]
+        );
+    }
+    // The mass table keeps them.
+    let text = gravity.to_toml_string().unwrap();
+    let back = GravityCompliance::from_toml_str(&text, "round trip").unwrap();
+    assert_eq!(back.springs, gravity.springs, "{text}");
+    // A frame the robot does not have, and one that carries nothing.
+    let mut bad = gravity.clone();
+    bad.springs[0].frame = "elbow".into();
+    let error = GeometricErrorModel::new(&model, &set, true, frame, target)
+        .unwrap()
+        .with_gravity(&bad)
+        .err()
+        .expect("an unknown frame")
+        .to_string();
+    assert!(
+        error.contains("`elbow`") && error.contains("no such frame"),
+        "{error}"
+    );
+    let two_arms = RobotDescription::from_toml_file(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/two_arms.toml"),
+    )
+    .unwrap()
+    .build()
+    .unwrap();
+    let table = "payload_mass_kg = 0.0\npayload_center_mm = [0.0, 0.0, 0.0]\ninitial_compliance_urad_per_nm = 10.0\n\n[[mass]]\nname = \"left forearm\"\nframe = \"L3\"\nmass_kg = 3.0\ncenter_mm = [0.0, 0.0, 0.0]\n\n[[spring]]\nframe = \"R2\"\naxes = [\"x\"]\n";
+    let lonely = GravityCompliance::from_toml_str(table, "lonely.toml").unwrap();
+    let q = vec![0.1; two_arms.n_actuated()];
+    let set =
+        MeasurementSet::new("one pose", vec![Measurement::new(q, Vector3::zeros()); 3]).unwrap();
+    let error = GeometricErrorModel::new(&two_arms, &set, false, frame, target)
+        .unwrap()
+        .with_gravity(&lonely)
+        .err()
+        .expect("a spring that carries nothing")
+        .to_string();
+    assert!(
+        error.contains("`R2`") && error.contains("carries no weight"),
+        "{error}"
+    );
+    // A spring's axes must be named.
+    let error = GravityCompliance::from_toml_str(&table.replace("[\"x\"]", "[\"w\"]"), "t.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("t.toml"), "{error}");
+}

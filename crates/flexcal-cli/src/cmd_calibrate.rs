@@ -124,6 +124,25 @@ pub struct CalibrateArgs {
     /// Same for angles (deg; default 0.25).
     #[arg(long)]
     pub max_se_angle_deg: Option<f64>,
+    /// An absolute limit for the compliances: one whose standard error
+    /// exceeds it is left at its start (urad/N.m; default 1000, which never
+    /// binds: compliances are judged on their own scale, --min-compliance-z).
+    #[arg(long)]
+    pub max_se_compliance: Option<f64>,
+    /// A compliance is kept when its value is at least this many standard
+    /// errors (default 2); one the fit puts this far below zero is held at
+    /// zero.
+    #[arg(long)]
+    pub min_compliance_z: Option<f64>,
+    /// The instrument's noise, one standard deviation per position axis
+    /// (mm): weighs every observation and replaces the noise estimated
+    /// from the fit in the standard errors and identifiability judgements.
+    #[arg(long)]
+    pub noise_mm: Option<f64>,
+    /// With --noise-mm and fitted orientations: the instrument's noise per
+    /// orientation axis (deg).
+    #[arg(long, requires = "noise_mm")]
+    pub noise_deg: Option<f64>,
     /// Fail instead of freezing non-identifiable parameters.
     #[arg(long)]
     pub strict: bool,
@@ -267,6 +286,28 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
     }
     if let Some(v) = args.max_se_angle_deg {
         options.max_standard_error_angle = v.to_radians();
+    }
+    let positive = |flag: &str, v: f64| -> anyhow::Result<f64> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            crate::usage_bail!("{flag} must be a finite number > 0, got {v}")
+        }
+    };
+    if let Some(v) = args.max_se_compliance {
+        options.max_standard_error_compliance = positive("--max-se-compliance", v)? * 1e-6;
+    }
+    if let Some(v) = args.min_compliance_z {
+        options.min_compliance_z = positive("--min-compliance-z", v)?;
+    }
+    if let Some(v) = args.noise_mm {
+        options.instrument_noise = Some(flexcal::calib::InstrumentNoise {
+            position_std: positive("--noise-mm", v)? * 1e-3,
+            orientation_std: args
+                .noise_deg
+                .map(|d| positive("--noise-deg", d).map(f64::to_radians))
+                .transpose()?,
+        });
     }
     if args.model == ModelKind::ElastoGeometric {
         options.gravity = Some(

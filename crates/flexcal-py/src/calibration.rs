@@ -118,19 +118,43 @@ pub(crate) fn unknown_estimates(
             delta: u.value - u.initial,
             standard_error: u.standard_error,
             spread_ratio: u.spread_ratio,
-            status: status_name(u.status),
+            status: UnknownStatus::name(u.status),
         })
         .collect()
 }
 
-fn status_name(s: UnknownStatus) -> &'static str {
-    match s {
-        UnknownStatus::Identified => "identified",
-        UnknownStatus::Fixed => "fixed",
-        UnknownStatus::NonIdentifiable => "non-identifiable",
-        UnknownStatus::PoorlyIdentifiable => "poorly-identifiable",
-        UnknownStatus::NoInfluence => "no-influence",
+/// The compliances' judgement and the noise, as `flexcal calibrate`'s
+/// `--max-se-compliance`, `--min-compliance-z` and `--noise-mm` set them,
+/// in SI: an absolute standard-error limit (rad/N.m), the z a compliance
+/// needs to be kept, the instrument's noise per position axis (m).
+pub(crate) fn judgement_options(
+    options: &mut CalibrationOptions,
+    max_se_compliance: Option<f64>,
+    min_compliance_z: Option<f64>,
+    noise: Option<f64>,
+) -> PyResult<()> {
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(InputError::new_err(format!(
+                "{name}: must be finite and > 0, got {v}"
+            )))
+        }
+    };
+    if let Some(v) = max_se_compliance {
+        options.max_standard_error_compliance = positive("max_se_compliance", v)?;
     }
+    if let Some(v) = min_compliance_z {
+        options.min_compliance_z = positive("min_compliance_z", v)?;
+    }
+    if let Some(v) = noise {
+        options.instrument_noise = Some(flexcal::calib::InstrumentNoise {
+            position_std: positive("noise", v)?,
+            orientation_std: None,
+        });
+    }
+    Ok(())
 }
 
 /// The position error norm of every pose, shape (n,), m.
@@ -771,11 +795,14 @@ impl CalibrationResult {
 /// `split_check`: identify again on odd / even and first / second halves of
 /// the poses (four more identifications; `result.split_check`), which
 /// raises the predicted 95 % bounds where the standard errors understate.
+/// `max_se_compliance` (rad/N.m, default 1e-3), `min_compliance_z` (default
+/// 2) and `noise` (the instrument's, m per position axis; default: from the
+/// file or the fit): see `judgement_options`.
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -798,6 +825,9 @@ pub fn calibrate<'py>(
     select: Option<&str>,
     hold_out_stations: bool,
     split_check: bool,
+    max_se_compliance: Option<f64>,
+    min_compliance_z: Option<f64>,
+    noise: Option<f64>,
 ) -> PyResult<CalibrationResult> {
     let nominal = Arc::clone(&robot.model);
     let selection = selection_options(select, data.set.len())?;
@@ -874,6 +904,7 @@ pub fn calibrate<'py>(
     }
     options.require_full_rank = strict;
     options.gravity = gravity_option(model, masses, &nominal)?;
+    judgement_options(&mut options, max_se_compliance, min_compliance_z, noise)?;
     let cancel = CancelToken::new();
     options.cancel = Some(cancel.clone());
     let set = Arc::clone(&data.set);

@@ -673,12 +673,13 @@ impl TargetCalibrationResult {
 /// understate; `hold_out_stations` (a set of several stations,
 /// `TargetMeasurementSet.pooled`): also each station held out in turn,
 /// identified on the others and validated on it (`result.station_hold_out`).
+/// `max_se_compliance`, `min_compliance_z`, `noise`: as for `calibrate`.
 /// Positions only.
 ///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None, split_check = false, hold_out_stations = false))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None, split_check = false, hold_out_stations = false, max_se_compliance = None, min_compliance_z = None, noise = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate_targets(
     py: Python<'_>,
@@ -691,12 +692,21 @@ pub fn calibrate_targets(
     max_iterations: Option<usize>,
     split_check: bool,
     hold_out_stations: bool,
+    max_se_compliance: Option<f64>,
+    min_compliance_z: Option<f64>,
+    noise: Option<f64>,
 ) -> PyResult<TargetCalibrationResult> {
     let nominal = Arc::clone(&robot.model);
     let selection = selection_options(select, data.set.len())?;
     let mut options = CalibrationOptions::for_model(&nominal);
     options.fixed = fix;
     options.gravity = gravity_option(model, masses, &nominal)?;
+    crate::calibration::judgement_options(
+        &mut options,
+        max_se_compliance,
+        min_compliance_z,
+        noise,
+    )?;
     if let Some(n) = max_iterations {
         options.max_iterations = n;
     }

@@ -313,6 +313,7 @@ impl TargetCalibrationRun {
         if let Some(selection) = &self.selection {
             lines.extend(selection.lines());
         }
+        lines.push(format!("noise: {}", c.noise));
         lines.extend(c.identifiability_notes());
         lines.extend(c.combination_lines.iter().cloned());
         lines.push(

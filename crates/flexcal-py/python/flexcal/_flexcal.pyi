@@ -502,13 +502,19 @@ def calibrate(
     select: Literal["cv", "bic", "none"] | None = None,
     hold_out_stations: bool = False,
     split_check: bool = False,
+    max_se_compliance: Optional[float] = None,
+    min_compliance_z: Optional[float] = None,
+    noise: Optional[float] = None,
 ) -> CalibrationResult:
     """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad.
 
     select: model selection as `flexcal calibrate --select` (report in `.selection`);
     default as on the command line: "cv" from 100 poses, else "none".
     hold_out_stations: with several stations, each held out in turn (`.station_hold_out`).
-    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds."""
+    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds.
+    max_se_compliance: absolute standard-error limit of the compliances (rad/N.m, default 1e-3).
+    min_compliance_z: a compliance is kept when its value is at least this many standard errors (default 2).
+    noise: the instrument's noise per position axis (m); default from the file or the fit."""
 
 class TargetMeasurementSet:
     """Measured poses of several targets: q (rad, m) and, per target, its position (m)
@@ -659,11 +665,17 @@ def calibrate_targets(
     max_iterations: Optional[int] = None,
     split_check: bool = False,
     hold_out_stations: bool = False,
+    max_se_compliance: Optional[float] = None,
+    min_compliance_z: Optional[float] = None,
+    noise: Optional[float] = None,
 ) -> TargetCalibrationResult:
     """Identifies the robot, the measurement frame and the targets' offsets from every target on
     every pose (positions only); elasto-geometric: joint springs of every branch under gravity.
     select: as `flexcal calibrate --select`; default "cv" from 100 poses, else "none".
-    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds."""
+    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds.
+    max_se_compliance: absolute standard-error limit of the compliances (rad/N.m, default 1e-3).
+    min_compliance_z: a compliance is kept when its value is at least this many standard errors (default 2).
+    noise: the instrument's noise per position axis (m); default from the file or the fit."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

@@ -111,6 +111,7 @@ pub fn status_word(status: UnknownStatus) -> &'static str {
         UnknownStatus::NonIdentifiable => "NON-IDENTIFIABLE",
         UnknownStatus::PoorlyIdentifiable => "poorly identifiable",
         UnknownStatus::NoInfluence => "no influence",
+        UnknownStatus::AtBound => "held at bound",
     }
 }
 
@@ -160,6 +161,7 @@ pub fn identification_text(c: &Calibration) -> String {
         c.identifiability.names.len(),
         c.solve.condition_number
     );
+    put!(out, "noise: {}", c.noise);
     let non = c.non_identifiable();
     if !non.is_empty() {
         put!(
@@ -176,7 +178,7 @@ pub fn identification_text(c: &Calibration) -> String {
     if !poor.is_empty() {
         put!(
             out,
-            "poorly identifiable (standard error above the limit; kept at nominal): {}",
+            "poorly identifiable (standard error above the limit or, for a compliance, too large for its value; kept at its start): {}",
             poor.join(", ")
         );
     }
@@ -583,6 +585,7 @@ mod tests {
             UnknownStatus::NonIdentifiable,
             UnknownStatus::PoorlyIdentifiable,
             UnknownStatus::NoInfluence,
+            UnknownStatus::AtBound,
         ]
         .map(status_word);
         let distinct: std::collections::BTreeSet<_> = words.iter().collect();

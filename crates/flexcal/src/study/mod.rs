@@ -546,6 +546,7 @@ pub fn ir663_mass_table(model: &Model) -> Result<GravityCompliance> {
         payload_center: nalgebra::Vector3::zeros(),
         initial_compliance: 1e-8,
         lateral: flexcal_calib::LateralCompliance::Off,
+        springs: Vec::new(),
     };
     for m in &table.masses {
         if model.frame_index(&m.frame).is_none() {

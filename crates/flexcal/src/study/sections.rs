@@ -149,6 +149,7 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
                 }
                 UnknownStatus::Fixed => "fixed".into(),
                 UnknownStatus::NoInfluence => "no influence".into(),
+                UnknownStatus::AtBound => "held at its bound".into(),
             },
             u.standard_error
                 .map(|se| format!("{:.4}", se * scale))

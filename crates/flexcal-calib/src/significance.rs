@@ -1,0 +1,241 @@
+//! Compliances judged on their own scale, and the noise every judgement
+//! uses.
+//!
+//! A joint of a light robot may be forty times softer than a joint of an
+//! industrial arm: a fixed standard-error limit in rad/N.m tuned on one
+//! rejects every compliance of the other. So the identification keeps a
+//! compliance (about a joint's axis or lateral) when the data determine it
+//! relative to its own value: after the fit, its value must be at least
+//! [`crate::CalibrationOptions::min_compliance_z`] standard errors (default
+//! 2). The judgement runs on the richest identifiable fit (every compliance
+//! the exact rank allows is in the first fit, so the noise estimated from
+//! its residual is not inflated by the sag of the ones left out), and
+//! leaves out one weak compliance at a time (all those below one standard
+//! error at once), fitting again after each step: two compliances that
+//! trade off against each other are not both dropped when one of them
+//! alone is determined.
+//!
+//! Compliances are non-negative: a spring yields in the direction of the
+//! load. A compliance the fit puts below zero by at least `min_compliance_z`
+//! standard errors is held at zero ([`ScaleOutcome::AtBound`]) and the rest
+//! fitted again; the report names it, since a bound that binds says that
+//! another term of the model is missing or that the mass table is off.
+//!
+//! The noise: the instrument's stated figure when the user gives one
+//! ([`InstrumentNoise`], `--noise-mm`), the file's standard deviations when
+//! every observation has them, else estimated from the weighted residual of
+//! the fit ([`NoiseSource`]).
+//!
+//! Limitations: the bound is handled as an active set without Lagrange
+//! multipliers (a compliance held at zero is not released again when
+//! others change); the standard errors are the linearised ones of the fit.
+
+use serde::Serialize;
+
+use crate::CalibError;
+use flexcal_optim::SolveReport;
+
+/// The measurement instrument's stated noise, one standard deviation per
+/// axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct InstrumentNoise {
+    /// Position noise per axis (m, `> 0`).
+    pub position_std: f64,
+    /// Orientation noise per axis (rad, `> 0`); needed when orientations
+    /// are fitted.
+    pub orientation_std: Option<f64>,
+}
+
+impl InstrumentNoise {
+    pub(crate) fn check(&self) -> Result<(), CalibError> {
+        let positive = |name: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(CalibError::InvalidOption {
+                    name,
+                    reason: format!("the instrument's noise must be finite and > 0, found {v}"),
+                })
+            }
+        };
+        positive("instrument_noise.position_std", self.position_std)?;
+        if let Some(s) = self.orientation_std {
+            positive("instrument_noise.orientation_std", s)?;
+        }
+        Ok(())
+    }
+
+    /// The orientation noise, or an error naming it when orientations are
+    /// fitted without one.
+    pub(crate) fn orientation(&self) -> Result<f64, CalibError> {
+        self.orientation_std.ok_or(CalibError::InvalidOption {
+            name: "instrument_noise.orientation_std",
+            reason: "orientations are fitted: state the instrument's orientation noise too (--noise-deg), or leave orientations out".into(),
+        })
+    }
+}
+
+/// Where the noise level of an identification came from.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum NoiseSource {
+    /// The instrument's figure stated by the user.
+    Instrument(InstrumentNoise),
+    /// The standard deviations of the measurement file, per observation.
+    File,
+    /// Estimated from the weighted residual of the final fit: the noise
+    /// per position axis it stands for (m), model error included.
+    Estimated {
+        /// One standard deviation per position axis (m).
+        position_std: f64,
+    },
+}
+
+impl std::fmt::Display for NoiseSource {
+    /// One phrase for reports: where the noise came from and its size
+    /// (mm, deg).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NoiseSource::Instrument(noise) => {
+                write!(
+                    f,
+                    "the instrument's stated {:.4} mm per position axis",
+                    noise.position_std * 1e3
+                )?;
+                if let Some(s) = noise.orientation_std {
+                    write!(f, " and {:.4} deg per orientation axis", s.to_degrees())?;
+                }
+                Ok(())
+            }
+            NoiseSource::File => write!(f, "the measurement file's standard deviations"),
+            NoiseSource::Estimated { position_std } => write!(
+                f,
+                "estimated from the fit's residual, {:.4} mm per position axis (what the model leaves included; a stated instrument noise replaces it)",
+                position_std * 1e3
+            ),
+        }
+    }
+}
+
+/// What the judgement on its own scale made of a compliance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScaleOutcome {
+    /// Determined: its value is at least `min_compliance_z` standard
+    /// errors.
+    Kept,
+    /// Not determined: left at its starting value.
+    LeftOut,
+    /// Below zero by at least `min_compliance_z` standard errors: held at
+    /// zero.
+    AtBound,
+}
+
+/// The fit that judged a compliance.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ScaleJudgement {
+    /// Its value in that fit (rad/N.m or m/N).
+    pub value: f64,
+    /// Its standard error in that fit (same unit; infinite when the fit
+    /// gave none).
+    pub standard_error: f64,
+    /// What became of it.
+    pub outcome: ScaleOutcome,
+}
+
+impl ScaleJudgement {
+    /// The standard error as a share of the value's magnitude (infinite at
+    /// zero).
+    pub fn relative_error(&self) -> f64 {
+        self.standard_error / self.value.abs()
+    }
+}
+
+/// What [`judge_compliances`] needs besides the fit.
+pub(crate) struct Judging<'a> {
+    /// Which unknowns are compliances.
+    pub compliance: &'a [bool],
+    /// Absolute standard-error limits (unit of each unknown).
+    pub limits: &'a [f64],
+    /// [`crate::CalibrationOptions::min_compliance_z`].
+    pub z_min: f64,
+    /// Starting values (where a compliance left out goes back to).
+    pub x_start: &'a [f64],
+}
+
+/// Judges every identified compliance of the fit `report` on its own
+/// scale (module docs), fitting again after each step with `solve`;
+/// returns the final fit, the frozen unknowns and each compliance's
+/// judgement.
+pub(crate) fn judge_compliances(
+    judging: &Judging<'_>,
+    (mut report, mut frozen): (SolveReport, Vec<bool>),
+    solve: &mut dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError>,
+) -> Result<(SolveReport, Vec<bool>, Vec<Option<ScaleJudgement>>), CalibError> {
+    let n = frozen.len();
+    let mut judgements: Vec<Option<ScaleJudgement>> = vec![None; n];
+    let candidates = (0..n).filter(|&j| judging.compliance[j]).count();
+    for _ in 0..=candidates {
+        let mut weak: Vec<(usize, f64)> = Vec::new();
+        let mut settled: Vec<(usize, ScaleOutcome)> = Vec::new();
+        for j in (0..n).filter(|&j| judging.compliance[j] && !frozen[j]) {
+            let value = report.x[j];
+            let se = report.standard_errors[j]
+                .filter(|s| s.is_finite())
+                .unwrap_or(f64::INFINITY);
+            let z = value / se;
+            judgements[j] = Some(ScaleJudgement {
+                value,
+                standard_error: se,
+                outcome: ScaleOutcome::Kept,
+            });
+            if se > judging.limits[j] {
+                settled.push((j, ScaleOutcome::LeftOut));
+            } else if z <= -judging.z_min {
+                settled.push((j, ScaleOutcome::AtBound));
+            } else if z.abs() < judging.z_min {
+                weak.push((j, z.abs()));
+            }
+        }
+        // Hopeless ones together, otherwise the weakest alone.
+        weak.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let hopeless = weak.iter().take_while(|(_, z)| *z < 1.0).count();
+        let take = if hopeless > 0 {
+            hopeless
+        } else {
+            weak.len().min(1)
+        };
+        settled.extend(
+            weak[..take]
+                .iter()
+                .map(|&(j, _)| (j, ScaleOutcome::LeftOut)),
+        );
+        if settled.is_empty() {
+            break;
+        }
+        let mut x0 = report.x.clone();
+        for &(j, outcome) in &settled {
+            frozen[j] = true;
+            x0[j] = match outcome {
+                ScaleOutcome::AtBound => 0.0,
+                _ => judging.x_start[j],
+            };
+            if let Some(judgement) = &mut judgements[j] {
+                judgement.outcome = outcome;
+            }
+        }
+        if frozen.iter().all(|f| *f) {
+            return Err(CalibError::NothingToIdentify);
+        }
+        report = solve(&x0, &frozen)?;
+    }
+    // The kept ones carry their final values.
+    for j in (0..n).filter(|&j| judging.compliance[j] && !frozen[j]) {
+        if let Some(judgement) = &mut judgements[j] {
+            judgement.value = report.x[j];
+            judgement.standard_error = report.standard_errors[j]
+                .filter(|s| s.is_finite())
+                .unwrap_or(f64::INFINITY);
+        }
+    }
+    Ok((report, frozen, judgements))
+}
