@@ -21,7 +21,8 @@ use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
 use crate::significance::{
-    InstrumentNoise, Judging, NoiseSource, ScaleJudgement, ScaleOutcome, judge_compliances,
+    InstrumentNoise, Judging, MIN_TORQUE_SHARE, NoiseSource, ScaleJudgement, ScaleOutcome,
+    barely_loaded, judge_compliances, torque_magnitude,
 };
 use crate::{CalibError, MeasurementSet};
 
@@ -653,7 +654,7 @@ pub(crate) fn elastic_notes(
     };
     let mut notes = Vec::new();
     // The torque each joint's compliance was identified over, and the
-    // largest of all: a joint with a twentieth of it is barely loaded.
+    // largest of all ([`MIN_TORQUE_SHARE`]).
     let torque_of = |name: &str| {
         actuated_names
             .iter()
@@ -662,7 +663,7 @@ pub(crate) fn elastic_notes(
     };
     let largest = torque_ranges
         .iter()
-        .map(|r| r.lo.abs().max(r.hi.abs()))
+        .map(torque_magnitude)
         .fold(0.0, f64::max);
     let joint: Vec<&UnknownEstimate> = unknowns
         .iter()
@@ -710,8 +711,8 @@ pub(crate) fn elastic_notes(
 /// One sentence on a family of compliances (`what`): those identified,
 /// with their standard errors as a share of their values and the torque
 /// (`torque_of`, N.m) they were identified over, and for each one left out
-/// the true reason: too little gravity torque (below a twentieth of the
-/// `largest` joint's), not separable from other unknowns, too large a
+/// the true reason: too little gravity torque (below
+/// [`MIN_TORQUE_SHARE`] of the `largest` joint's), not separable from other unknowns, too large a
 /// standard error for its value, or a fit below zero held at the bound.
 fn compliance_sentence(
     what: &str,
@@ -766,9 +767,9 @@ fn compliance_sentence(
                 judged.unwrap_or_default()
             )),
             status => {
-                let span = torque.map(|r| r.lo.abs().max(r.hi.abs()));
+                let span = torque.as_ref().map(torque_magnitude);
                 let reason = match (status, span) {
-                    (_, Some(t)) if t < 0.05 * largest || t == 0.0 => format!(
+                    (_, Some(t)) if t < MIN_TORQUE_SHARE * largest || t == 0.0 => format!(
                         "torque range +/-{:.1} N.m: too little gravity torque",
                         round(t)
                     ),
@@ -1236,6 +1237,13 @@ pub fn calibrate(
     // frames imitate, and it extrapolates to the rest of the turn without
     // any data; they stay at zero (poorly identifiable).
     let partial_period = crate::joint_law::partial_period_mask(model, set, &names);
+    // ... and the compliances of joints gravity barely loads.
+    let barely = barely_loaded(&names, model.actuated_names(), &problem.torque_ranges());
+    let partial_period: Vec<bool> = partial_period
+        .iter()
+        .zip(&barely)
+        .map(|(a, b)| *a || *b)
+        .collect();
     let mut solve_logged = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
         let report = solve(x0, frozen)?;
         cost_history.extend(&report.cost_history);
@@ -1691,7 +1699,8 @@ pub(crate) struct Rounds<'a> {
     pub x_start: &'a [f64],
     /// Fixed unknowns and those without influence.
     pub excluded: &'a dyn Fn(usize) -> bool,
-    /// Cyclic errors over less than their period (left at zero).
+    /// Left at their start before any fit: cyclic errors over less than
+    /// their period, compliances of barely loaded joints.
     pub partial_period: &'a [bool],
     /// Whether the row weights are absolute (the noise level is then 1).
     pub absolute: bool,

@@ -319,8 +319,9 @@ pub use measurement::{
 };
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
 pub use report::{
-    CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ResidualModelJson,
-    StationHoldOutJson, StationJson, read_measurement_frame,
+    CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ParameterJson, ResidualModelJson,
+    StationHoldOutJson, StationJson, StatisticsJson, TargetStatisticsEntry, TargetStatisticsJson,
+    TargetSummaryJson, parameters_json, read_measurement_frame,
 };
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{

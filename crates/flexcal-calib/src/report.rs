@@ -16,6 +16,10 @@ use crate::validate::ValidationReport;
 pub struct StatisticsJson {
     /// Number of poses.
     pub n_poses: usize,
+    /// Number of observations (a target seen at a pose), with several
+    /// targets; absent for one target (one observation per pose).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub n_observations: Option<usize>,
     /// Mean position error (mm).
     pub position_mean_mm: f64,
     /// RMS position error (mm).
@@ -38,6 +42,7 @@ impl From<&ErrorStatistics> for StatisticsJson {
         let o = s.orientation_mean_rms_max;
         Self {
             n_poses: s.n_poses,
+            n_observations: None,
             position_mean_mm: s.position_mean * 1e3,
             position_rms_mm: s.position_rms * 1e3,
             position_max_mm: s.position_max * 1e3,
@@ -46,6 +51,132 @@ impl From<&ErrorStatistics> for StatisticsJson {
             orientation_max_deg: o.map(|o| o.2.to_degrees()),
         }
     }
+}
+
+impl StatisticsJson {
+    /// The figures of statistics over observations (`s.n_poses` counts
+    /// them) of `poses` poses.
+    pub fn of_observations(s: &ErrorStatistics, poses: usize) -> Self {
+        Self {
+            n_poses: poses,
+            n_observations: Some(s.n_poses),
+            ..Self::from(s)
+        }
+    }
+}
+
+/// The figures of a multi-target run in the units and counts of the
+/// one-target report: the `summary` object of the multi-target JSON
+/// report, beside the run's own types (SI).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TargetSummaryJson {
+    /// Errors of every observation of the identification set after
+    /// identification (poses and observations counted apart), with
+    /// `before`, the nominal robot's.
+    pub identification: TargetStatisticsJson,
+    /// The same on the validation set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation: Option<TargetStatisticsJson>,
+    /// Where the noise of the judgements came from.
+    pub noise: NoiseJson,
+    /// Every unknown, in display units.
+    pub parameters: Vec<ParameterJson>,
+    /// The identifiability notes.
+    pub notes: Vec<String>,
+}
+
+/// Errors before and after, overall and per target (mm).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TargetStatisticsJson {
+    /// After, over every observation.
+    #[serde(flatten)]
+    pub after: StatisticsJson,
+    /// Before (nominal robot), over every observation.
+    pub before: StatisticsJson,
+    /// After, per target (its observations and the poses they are on).
+    pub per_target: Vec<TargetStatisticsEntry>,
+}
+
+/// One target's errors after (mm).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TargetStatisticsEntry {
+    /// Target name.
+    pub target: String,
+    /// Its errors.
+    #[serde(flatten)]
+    pub after: StatisticsJson,
+}
+
+impl TargetStatisticsJson {
+    /// From the statistics of a set of `poses` poses: over every
+    /// observation after and before, and each target's after.
+    pub fn new(
+        poses: usize,
+        after: &ErrorStatistics,
+        before: &ErrorStatistics,
+        per_target: &[crate::TargetErrors],
+    ) -> Self {
+        Self {
+            after: StatisticsJson::of_observations(after, poses),
+            before: StatisticsJson::of_observations(before, poses),
+            per_target: per_target
+                .iter()
+                .map(|t| TargetStatisticsEntry {
+                    target: t.target.clone(),
+                    after: StatisticsJson::from(&t.statistics),
+                })
+                .collect(),
+        }
+    }
+}
+
+impl TargetSummaryJson {
+    /// The summary of a multi-target identification and its validation
+    /// (with the number of poses of the validation set).
+    pub fn new(
+        calibration: &crate::TargetCalibration,
+        validation: Option<(&crate::TargetValidation, usize)>,
+    ) -> Self {
+        Self {
+            identification: TargetStatisticsJson::new(
+                calibration.n_poses,
+                &calibration.training_after,
+                &calibration.training_before,
+                &calibration.per_target_after,
+            ),
+            validation: validation.map(|(v, poses)| {
+                TargetStatisticsJson::new(poses, &v.after, &v.before, &v.per_target_after)
+            }),
+            noise: NoiseJson::from(&calibration.noise),
+            parameters: parameters_json(&calibration.unknowns),
+            notes: calibration.identifiability_notes(),
+        }
+    }
+}
+
+/// Every unknown in display units, for the reports.
+pub fn parameters_json(unknowns: &[crate::UnknownEstimate]) -> Vec<ParameterJson> {
+    unknowns
+        .iter()
+        .map(|u| {
+            let (unit, scale) = u.kind.display_unit();
+            ParameterJson {
+                name: u.name.clone(),
+                unit,
+                nominal: u.initial * scale,
+                identified: u.value * scale,
+                delta: (u.value - u.initial) * scale,
+                standard_error: u.standard_error.map(|s| s * scale),
+                spread_ratio: u.spread_ratio,
+                status: UnknownStatus::name(u.status),
+                judgement: u.judgement.map(|j| JudgementJson {
+                    value: j.value * scale,
+                    standard_error: Some(j.standard_error * scale).filter(|s| s.is_finite()),
+                    outcome: j.outcome,
+                }),
+            }
+        })
+        .collect()
 }
 
 /// One unknown in the report.
@@ -418,28 +549,7 @@ impl CalibrationReportJson {
         validation: Option<&ValidationReport>,
     ) -> Self {
         let after = StatisticsJson::from(&calibration.training_after);
-        let parameters = calibration
-            .unknowns
-            .iter()
-            .map(|u| {
-                let (unit, scale) = u.kind.display_unit();
-                ParameterJson {
-                    name: u.name.clone(),
-                    unit,
-                    nominal: u.initial * scale,
-                    identified: u.value * scale,
-                    delta: (u.value - u.initial) * scale,
-                    standard_error: u.standard_error.map(|s| s * scale),
-                    spread_ratio: u.spread_ratio,
-                    status: UnknownStatus::name(u.status),
-                    judgement: u.judgement.map(|j| JudgementJson {
-                        value: j.value * scale,
-                        standard_error: Some(j.standard_error * scale).filter(|s| s.is_finite()),
-                        outcome: j.outcome,
-                    }),
-                }
-            })
-            .collect();
+        let parameters = parameters_json(&calibration.unknowns);
         let identification = IdentificationJson {
             after,
             before: StatisticsJson::from(&calibration.training_before),

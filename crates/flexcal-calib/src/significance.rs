@@ -15,6 +15,14 @@
 //! trade off against each other are not both dropped when one of them
 //! alone is determined.
 //!
+//! A joint whose gravity torque spans less than [`MIN_TORQUE_SHARE`] of
+//! the most loaded joint's span is barely loaded: over a few N.m its
+//! compliance cannot be told from the geometry's and the model's small
+//! errors, which it would absorb with a value that says nothing of the
+//! joint (on IPA series B, a UR10 wrist joint loaded by +-3 N.m came out
+//! at 500 +/- 100 urad/N.m, forty times its neighbours). Its compliance
+//! stays at its start before any fit.
+//!
 //! Compliances are non-negative: a spring yields in the direction of the
 //! load. A compliance the fit puts below zero by at least `min_compliance_z`
 //! standard errors is held at zero ([`ScaleOutcome::AtBound`]) and the rest
@@ -114,6 +122,38 @@ impl std::fmt::Display for NoiseSource {
             ),
         }
     }
+}
+
+/// The share of the most loaded joint's gravity-torque span below which a
+/// joint's compliance is not identified (module docs).
+pub const MIN_TORQUE_SHARE: f64 = 0.05;
+
+/// The largest magnitude of a torque span (N.m).
+pub(crate) fn torque_magnitude(span: &crate::CoordinateCoverage) -> f64 {
+    span.lo.abs().max(span.hi.abs())
+}
+
+/// Which of the unknowns `names` are compliances `compliance_<joint>` of
+/// joints barely loaded by gravity: their torque (`torque_ranges`, in the
+/// order of `actuated_names`) below [`MIN_TORQUE_SHARE`] of the largest.
+pub(crate) fn barely_loaded(
+    names: &[String],
+    actuated_names: &[String],
+    torque_ranges: &[crate::CoordinateCoverage],
+) -> Vec<bool> {
+    let largest = torque_ranges
+        .iter()
+        .map(torque_magnitude)
+        .fold(0.0, f64::max);
+    names
+        .iter()
+        .map(|name| {
+            name.strip_prefix("compliance_")
+                .and_then(|joint| actuated_names.iter().position(|a| a == joint))
+                .and_then(|i| torque_ranges.get(i))
+                .is_some_and(|span| torque_magnitude(span) < MIN_TORQUE_SHARE * largest)
+        })
+        .collect()
 }
 
 /// What the judgement on its own scale made of a compliance.

@@ -492,12 +492,28 @@ impl TargetCalibrationRun {
         section
     }
 
-    /// The run as JSON (SI units, as in the types).
+    /// The run as JSON: a `summary` in the units and counts of the
+    /// one-target report ([`calib::TargetSummaryJson`]: mm, poses and
+    /// observations apart), then the run's own types (SI units, as in the
+    /// types).
     ///
     /// # Errors
     /// [`Error::Calib`] when serialisation fails.
     pub fn to_json_string(&self) -> Result<String> {
-        serde_json::to_string_pretty(self).map_err(|e| {
+        #[derive(Serialize)]
+        struct WithSummary<'a> {
+            summary: calib::TargetSummaryJson,
+            #[serde(flatten)]
+            run: &'a TargetCalibrationRun,
+        }
+        let summary = calib::TargetSummaryJson::new(
+            &self.calibration,
+            self.validation
+                .as_ref()
+                .zip(self.validation_set.as_ref())
+                .map(|(v, set)| (v, set.len())),
+        );
+        serde_json::to_string_pretty(&WithSummary { summary, run: self }).map_err(|e| {
             Error::Calib(calib::CalibError::Serialise {
                 what: "multi-target calibration",
                 message: e.to_string(),
@@ -593,7 +609,20 @@ mod tests {
         let written = run.write_outputs(&robot, &outputs).unwrap();
         assert_eq!(written.len(), 2, "{written:?}");
         assert!(dir.path().join("calibrated.toml").exists());
-        assert!(dir.path().join("report.json").exists());
+        // The report's summary counts poses and observations apart, in mm.
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+                .unwrap();
+        let identification = &json["summary"]["identification"];
+        assert_eq!(identification["n_poses"], 40, "{identification}");
+        assert_eq!(identification["n_observations"], 80, "{identification}");
+        let mean_mm = identification["position_mean_mm"].as_f64().unwrap();
+        assert!(
+            (mean_mm - run.calibration.training_after.position_mean * 1e3).abs() < 1e-12,
+            "{identification}"
+        );
+        assert_eq!(identification["per_target"].as_array().unwrap().len(), 2);
+        assert!(json["summary"]["noise"]["source"].is_string());
         // The error of every identification observation (no validation
         // set): a header and 80 rows.
         let residuals = CalibrationOutputs {
