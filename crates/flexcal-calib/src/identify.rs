@@ -123,6 +123,11 @@ pub struct CalibrationOptions {
     /// compliance the fit puts below zero by at least as much is held at
     /// zero, [`UnknownStatus::AtBound`] ([`crate::significance`]).
     pub min_compliance_z: f64,
+    /// A joint whose gravity torque spans less than this share of the most
+    /// loaded joint's keeps its compliance at the start before any fit
+    /// (default [`crate::significance::MIN_TORQUE_SHARE`], 0.05; range
+    /// [0, 1); 0 lets every loaded joint's compliance in).
+    pub min_torque_share: f64,
     /// The instrument's stated noise (default `None`: the file's standard
     /// deviations where it has them, else estimated from the fit's
     /// residual). Stated, it weighs every observation and makes the
@@ -187,6 +192,7 @@ impl Default for CalibrationOptions {
             max_standard_error_angle: 0.25f64.to_radians(),
             max_standard_error_compliance: 1e-3,
             min_compliance_z: 2.0,
+            min_torque_share: MIN_TORQUE_SHARE,
             instrument_noise: None,
             max_standard_error_mass: 1.0,
             max_standard_error_first_moment: 0.1,
@@ -256,6 +262,12 @@ impl CalibrationOptions {
             self.max_standard_error_compliance,
         )?;
         positive("min_compliance_z", self.min_compliance_z)?;
+        if !(self.min_torque_share >= 0.0 && self.min_torque_share < 1.0) {
+            return Err(CalibError::InvalidOption {
+                name: "min_torque_share",
+                reason: format!("must be in [0, 1), found {}", self.min_torque_share),
+            });
+        }
         if let Some(noise) = &self.instrument_noise {
             noise.check()?;
         }
@@ -1238,7 +1250,12 @@ pub fn calibrate(
     // any data; they stay at zero (poorly identifiable).
     let partial_period = crate::joint_law::partial_period_mask(model, set, &names);
     // ... and the compliances of joints gravity barely loads.
-    let barely = barely_loaded(&names, model.actuated_names(), &problem.torque_ranges());
+    let barely = barely_loaded(
+        &names,
+        model.actuated_names(),
+        &problem.torque_ranges(),
+        options.min_torque_share,
+    );
     let partial_period: Vec<bool> = partial_period
         .iter()
         .zip(&barely)

@@ -1233,6 +1233,7 @@ pub fn calibrate_targets(
         &names,
         model.actuated_names(),
         &problem.elastic.torque_ranges(set.len()),
+        options.min_torque_share,
     );
     let partial_period: Vec<bool> = partial_period
         .iter()

@@ -15,7 +15,9 @@
 //! trade off against each other are not both dropped when one of them
 //! alone is determined.
 //!
-//! A joint whose gravity torque spans less than [`MIN_TORQUE_SHARE`] of
+//! A joint whose gravity torque spans less than
+//! [`crate::CalibrationOptions::min_torque_share`] (default
+//! [`MIN_TORQUE_SHARE`], 5 %) of
 //! the most loaded joint's span is barely loaded: over a few N.m its
 //! compliance cannot be told from the geometry's and the model's small
 //! errors, which it would absorb with a value that says nothing of the
@@ -124,8 +126,9 @@ impl std::fmt::Display for NoiseSource {
     }
 }
 
-/// The share of the most loaded joint's gravity-torque span below which a
-/// joint's compliance is not identified (module docs).
+/// The default share of the most loaded joint's gravity-torque span below
+/// which a joint's compliance is not identified (module docs;
+/// [`crate::CalibrationOptions::min_torque_share`]).
 pub const MIN_TORQUE_SHARE: f64 = 0.05;
 
 /// The largest magnitude of a torque span (N.m).
@@ -135,11 +138,13 @@ pub(crate) fn torque_magnitude(span: &crate::CoordinateCoverage) -> f64 {
 
 /// Which of the unknowns `names` are compliances `compliance_<joint>` of
 /// joints barely loaded by gravity: their torque (`torque_ranges`, in the
-/// order of `actuated_names`) below [`MIN_TORQUE_SHARE`] of the largest.
+/// order of `actuated_names`) below `share` of the largest
+/// ([`crate::CalibrationOptions::min_torque_share`]).
 pub(crate) fn barely_loaded(
     names: &[String],
     actuated_names: &[String],
     torque_ranges: &[crate::CoordinateCoverage],
+    share: f64,
 ) -> Vec<bool> {
     let largest = torque_ranges
         .iter()
@@ -151,7 +156,7 @@ pub(crate) fn barely_loaded(
             name.strip_prefix("compliance_")
                 .and_then(|joint| actuated_names.iter().position(|a| a == joint))
                 .and_then(|i| torque_ranges.get(i))
-                .is_some_and(|span| torque_magnitude(span) < MIN_TORQUE_SHARE * largest)
+                .is_some_and(|span| torque_magnitude(span) < share * largest)
         })
         .collect()
 }

@@ -134,6 +134,11 @@ pub struct CalibrateArgs {
     /// zero.
     #[arg(long)]
     pub min_compliance_z: Option<f64>,
+    /// A joint whose gravity torque spans less than this share of the most
+    /// loaded joint's keeps its compliance at the start (default 0.05; 0
+    /// lets every loaded joint's compliance in).
+    #[arg(long)]
+    pub min_torque_share: Option<f64>,
     /// The instrument's noise, one standard deviation per position axis
     /// (mm): weighs every observation and replaces the noise estimated
     /// from the fit in the standard errors and identifiability judgements.
@@ -299,6 +304,12 @@ fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConf
     }
     if let Some(v) = args.min_compliance_z {
         options.min_compliance_z = positive("--min-compliance-z", v)?;
+    }
+    if let Some(v) = args.min_torque_share {
+        if !(0.0..1.0).contains(&v) {
+            crate::usage_bail!("--min-torque-share must be in [0, 1), got {v}");
+        }
+        options.min_torque_share = v;
     }
     if let Some(v) = args.noise_mm {
         options.instrument_noise = Some(flexcal::calib::InstrumentNoise {

@@ -719,3 +719,62 @@ fn several_stations_pool_end_to_end() {
         &["given twice", &north],
     );
 }
+
+/// The compliances' judgement and the instrument's noise from the command
+/// line: bad values are usage errors naming the flag, with nothing
+/// written; a stated noise is used and said (text and JSON).
+#[test]
+fn compliance_judgement_and_noise_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let train = ur10_measurements(d, "train", 60, 0.0, &|[x, y, z]| [x + 3000.0, y, z]);
+    let report = path(d, "report.json");
+    let calibrate = |extra: &[&str]| {
+        let mut args = vec![
+            "calibrate",
+            "--robot",
+            "ur10",
+            "--data",
+            &train,
+            "--model",
+            "elasto-geometric",
+            "--report",
+            &report,
+        ];
+        args.extend_from_slice(extra);
+        flexcal(&args)
+    };
+    for (flag, value) in [
+        ("--noise-mm", "0"),
+        ("--noise-mm", "NaN"),
+        ("--min-compliance-z", "-1"),
+        ("--max-se-compliance", "0"),
+        ("--min-torque-share", "1.5"),
+    ] {
+        let out = calibrate(&[flag, value]);
+        let (_, stderr) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{flag} {value}: {stderr}");
+        assert!(stderr.contains(flag), "{flag} {value}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(
+            !Path::new(&report).exists(),
+            "{flag} {value} wrote the report"
+        );
+    }
+    let out = calibrate(&["--noise-mm", "0.02"]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("noise: the instrument's stated 0.0200 mm per position axis"),
+        "{stdout}"
+    );
+    let json = read_json(&report);
+    let noise = &json["identification"]["noise"];
+    assert_eq!(noise["source"], "instrument", "{noise}");
+    assert!((noise["position_std_mm"].as_f64().unwrap() - 0.02).abs() < 1e-15);
+    // Without it, the noise is the fit's estimate, in mm.
+    let out = calibrate(&[]);
+    assert!(out.status.success());
+    let json = read_json(&report);
+    assert_eq!(json["identification"]["noise"]["source"], "estimated");
+}
