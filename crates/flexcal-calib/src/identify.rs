@@ -116,12 +116,13 @@ pub struct CalibrationOptions {
     /// a smaller limit here (the command line's `--max-se-compliance`)
     /// also leaves out every compliance less precise than it.
     pub max_standard_error_compliance: f64,
-    /// A compliance is kept when the data determine it on its own scale:
-    /// its value at least this many standard errors (default 2: the value
-    /// is told apart from zero at about 95 %; `> 0`). Below, it goes back
+    /// A compliance is kept when the data determine it on its own scale
+    /// (the larger of its fitted value and its start): that scale at least
+    /// this many standard errors (default 2; `> 0`). Below, it goes back
     /// to its starting value, [`UnknownStatus::PoorlyIdentifiable`]; a
-    /// compliance the fit puts below zero by at least as much is held at
-    /// zero, [`UnknownStatus::AtBound`] ([`crate::significance`]).
+    /// determined compliance the fit puts below zero by more than its
+    /// standard error is held at zero, [`UnknownStatus::AtBound`]
+    /// ([`crate::significance`]).
     pub min_compliance_z: f64,
     /// A joint whose gravity torque spans less than this share of the most
     /// loaded joint's keeps its compliance at the start before any fit
@@ -327,8 +328,7 @@ pub enum UnknownStatus {
     /// measured orientation); kept at its starting value.
     NoInfluence,
     /// Held at its physical bound (a compliance at zero): the
-    /// unconstrained fit put it beyond, by more than
-    /// [`CalibrationOptions::min_compliance_z`] standard errors
+    /// unconstrained fit put it beyond, by more than its standard error
     /// ([`UnknownEstimate::judgement`] keeps what the fit gave).
     AtBound,
 }
@@ -745,11 +745,13 @@ fn compliance_sentence(
     for u in unknowns {
         let torque = torque_of(u);
         let judged = u.judgement.map(|j| {
+            let scale = j.value.abs().max(u.initial.abs());
             format!(
-                "standard error {:.3} {unit} is {:.0} % of the fitted {:.3} {unit}",
+                "standard error {:.3} {unit} is {:.0} % of its scale, the larger of the fitted {:.3} and the start {:.3} {unit}",
                 j.standard_error * factor,
-                100.0 * j.relative_error(),
-                j.value * factor
+                100.0 * j.standard_error / scale,
+                j.value * factor,
+                u.initial * factor
             )
         });
         match u.status {
@@ -760,7 +762,7 @@ fn compliance_sentence(
                         "{:.3} +/- {:.3} {unit}, {:.0} %",
                         u.value * factor,
                         se * factor,
-                        100.0 * se / u.value.abs()
+                        100.0 * se / u.value.abs().max(u.initial.abs())
                     ));
                 }
                 if let Some(r) = &torque {

@@ -5,9 +5,12 @@
 //! industrial arm: a fixed standard-error limit in rad/N.m tuned on one
 //! rejects every compliance of the other. So the identification keeps a
 //! compliance (about a joint's axis or lateral) when the data determine it
-//! relative to its own value: after the fit, its value must be at least
+//! relative to its own scale, the larger of its fitted value and its
+//! starting value: after the fit, that scale must be at least
 //! [`crate::CalibrationOptions::min_compliance_z`] standard errors (default
-//! 2). The judgement runs on the richest identifiable fit (every compliance
+//! 2). A compliance the data put at zero with a small standard error is
+//! determined (the joint is stiff) and kept there, not sent back to a
+//! start the data contradict. The judgement runs on the richest identifiable fit (every compliance
 //! the exact rank allows is in the first fit, so the noise estimated from
 //! its residual is not inflated by the sag of the ones left out), and
 //! leaves out one weak compliance at a time (all those below one standard
@@ -26,8 +29,8 @@
 //! stays at its start before any fit.
 //!
 //! Compliances are non-negative: a spring yields in the direction of the
-//! load. A compliance the fit puts below zero by at least `min_compliance_z`
-//! standard errors is held at zero ([`ScaleOutcome::AtBound`]) and the rest
+//! load. A determined compliance the fit puts below zero by more than its
+//! standard error is held at zero ([`ScaleOutcome::AtBound`]) and the rest
 //! fitted again; the report names it, since a bound that binds says that
 //! another term of the model is missing or that the mass table is off.
 //!
@@ -165,13 +168,13 @@ pub(crate) fn barely_loaded(
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ScaleOutcome {
-    /// Determined: its value is at least `min_compliance_z` standard
-    /// errors.
+    /// Determined: its scale (the larger of its value and its start) is
+    /// at least `min_compliance_z` standard errors.
     Kept,
     /// Not determined: left at its starting value.
     LeftOut,
-    /// Below zero by at least `min_compliance_z` standard errors: held at
-    /// zero.
+    /// Determined, and below zero by more than its standard error: held
+    /// at zero.
     AtBound,
 }
 
@@ -185,14 +188,6 @@ pub struct ScaleJudgement {
     pub standard_error: f64,
     /// What became of it.
     pub outcome: ScaleOutcome,
-}
-
-impl ScaleJudgement {
-    /// The standard error as a share of the value's magnitude (infinite at
-    /// zero).
-    pub fn relative_error(&self) -> f64 {
-        self.standard_error / self.value.abs()
-    }
 }
 
 /// What [`judge_compliances`] needs besides the fit.
@@ -227,7 +222,10 @@ pub(crate) fn judge_compliances(
             let se = report.standard_errors[j]
                 .filter(|s| s.is_finite())
                 .unwrap_or(f64::INFINITY);
-            let z = value / se;
+            // Its own scale: the larger of its fitted value and its start
+            // (a compliance the data put at zero with a small error is
+            // determined: the joint is stiff).
+            let z = value.abs().max(judging.x_start[j].abs()) / se;
             judgements[j] = Some(ScaleJudgement {
                 value,
                 standard_error: se,
@@ -235,10 +233,10 @@ pub(crate) fn judge_compliances(
             });
             if se > judging.limits[j] {
                 settled.push((j, ScaleOutcome::LeftOut));
-            } else if z <= -judging.z_min {
+            } else if z < judging.z_min {
+                weak.push((j, z));
+            } else if value < -se {
                 settled.push((j, ScaleOutcome::AtBound));
-            } else if z.abs() < judging.z_min {
-                weak.push((j, z.abs()));
             }
         }
         // Hopeless ones together, otherwise the weakest alone.
