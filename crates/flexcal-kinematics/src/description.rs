@@ -172,10 +172,15 @@ pub struct FrameDescription {
     /// total theta (or r), e.g. theta6 = -theta5.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub coupled_to: Vec<CouplingTerm>,
-    /// Initial guess of a passive loop joint (deg) (revolute) — the assembly seed.
+    /// Initial guess of a passive loop joint (deg) (revolute) — the assembly
+    /// seed; on an actuated revolute joint of a robot with loops, its value
+    /// in the home configuration from which the loops are followed
+    /// ([`crate::Model::home_configuration`]).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub seed_deg: f64,
-    /// Initial guess of a passive loop joint (mm) (prismatic).
+    /// Initial guess of a passive loop joint (mm) (prismatic); on an actuated
+    /// prismatic joint or slider crank of a robot with loops, its value (the
+    /// screw length) in the home configuration.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub seed_mm: f64,
 }

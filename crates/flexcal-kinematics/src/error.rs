@@ -146,6 +146,25 @@ pub enum KinematicsError {
         /// Norm of the remaining cut-joint residual (m and rad mixed).
         residual: f64,
     },
+    /// Following a closed loop from the configuration where it was last
+    /// assembled (the home configuration of a fresh [`crate::Data`], else
+    /// the previous call) to the one asked for, a step met a singular loop
+    /// Jacobian: the mechanism passes through a singular configuration
+    /// (a cylinder in line with its lever, a crank and coupler aligned),
+    /// where the assembly branch cannot be followed.
+    #[error(
+        "loop `{loop_name}`: singular loop Jacobian at q = {at:?} on the way from q = {from:?} to q = {q:?} (a singular configuration of the mechanism: the assembly branch cannot be followed through it)"
+    )]
+    LoopSingular {
+        /// The loop's name.
+        loop_name: String,
+        /// The actuated configuration asked for (SI units).
+        q: Vec<f64>,
+        /// Where the continuation started (SI units).
+        from: Vec<f64>,
+        /// The step's configuration where the Jacobian is singular (SI units).
+        at: Vec<f64>,
+    },
     /// The inverse model found no configuration within the joint limits that
     /// reaches the target.
     #[error(

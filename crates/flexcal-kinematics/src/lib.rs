@@ -134,8 +134,11 @@
 //! - A planar loop constraint closes the in-plane components only: errors
 //!   out of the loop's plane are assumed taken up by the mechanism's
 //!   clearances, as the paper's planar relation U does.
-//! - The loop solver is local (Newton from the previous solution); the
-//!   four-bar closed form keeps a declared assembly branch.
+//! - The loop solver follows the assembly by continuation along the
+//!   straight line in q from the previous configuration (or the home
+//!   configuration), so it keeps the branch it starts on but cannot go
+//!   around a dead point that line crosses; the four-bar closed form keeps
+//!   a declared assembly branch.
 //! - The inverse model is local (nearest solution to the seed), not an
 //!   enumeration of all branches.
 //! - The IR-663 slider-crank geometry is a plausible choice, not KUKA's.

@@ -151,6 +151,9 @@ fn build(desc: &RobotDescription) -> Result<Model, KinematicsError> {
             )));
         }
     }
+    let follows_loops = loops.iter().any(|l| l.solver == LoopSolver::Newton);
+    let home = Some(home_configuration(desc, &actuation))
+        .filter(|h| follows_loops && h.iter().any(|&v| v != 0.0));
     let end_frame = match &desc.end_frame {
         None => frames.len() - 1,
         Some(n) => *index
@@ -184,7 +187,23 @@ fn build(desc: &RobotDescription) -> Result<Model, KinematicsError> {
         tcp_terms,
         tcp_xi_joints,
         param_owner: xi.owner,
+        home,
+        follows_loops,
     })
+}
+
+/// The actuated coordinates' seeds (rad for a revolute joint, m for a
+/// prismatic joint or a screw length): where the loops are assembled first.
+fn home_configuration(desc: &RobotDescription, actuation: &Actuation) -> Vec<f64> {
+    actuation
+        .frames
+        .iter()
+        .zip(&actuation.kinds)
+        .map(|(&i, kind)| match kind {
+            ActuatedKind::Revolute => desc.frames[i].seed_deg.to_radians(),
+            _ => desc.frames[i].seed_mm / 1000.0,
+        })
+        .collect()
 }
 
 /// Index of each frame by name; names unique and not reserved, every

@@ -310,6 +310,13 @@ pub struct Model {
     pub(crate) tcp_xi_joints: Vec<usize>,
     /// Where each parameter is written back in a description.
     pub(crate) param_owner: Vec<(usize, Quantity)>,
+    /// The home configuration (the actuated frames' seeds, rad or m) from
+    /// which loops solved by Newton's method are followed to the first
+    /// configuration; `None` when no loop is or no seed is declared.
+    pub(crate) home: Option<Vec<f64>>,
+    /// Whether a loop is solved by Newton's method, and so followed by
+    /// continuation from one call to the next.
+    pub(crate) follows_loops: bool,
 }
 
 impl Model {
@@ -392,6 +399,15 @@ impl Model {
     /// [`crate::Data::passive_values`].
     pub fn passive_names(&self) -> &[String] {
         &self.passive_names
+    }
+    /// The home configuration (rad or m, order of q) from which the loops
+    /// solved by Newton's method are followed by continuation to the first
+    /// configuration asked of a fresh [`crate::Data`] (the actuated frames'
+    /// `seed_deg` / `seed_mm`), or `None` for a robot without such loops or
+    /// whose actuated seeds are all zero (its first call closes the loops
+    /// by Newton's method from the passive seeds directly).
+    pub fn home_configuration(&self) -> Option<&[f64]> {
+        self.home.as_deref()
     }
     /// Cell frame R-1 to base frame R0 (not in xi).
     pub fn base(&self) -> Isometry3<f64> {
