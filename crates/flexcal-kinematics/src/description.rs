@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use crate::KinematicsError;
@@ -54,15 +54,40 @@ impl TransformDescription {
         )
     }
 
-    /// The description of an SI transform (mm, degrees).
+    /// The description of an SI transform (mm, degrees), with roll, pitch
+    /// and yaw extracted by [`rpy_from_rotation`]: the rotation read back
+    /// equals the one given to rounding (1e-15) at every pitch, +-90 deg
+    /// included.
     pub fn from_isometry(x: &Isometry3<f64>) -> Self {
-        let (roll, pitch, yaw) = x.rotation.euler_angles();
+        let [roll, pitch, yaw] = rpy_from_rotation(x.rotation.to_rotation_matrix().matrix());
         let t = x.translation.vector * 1000.0;
         Self {
             translation_mm: [t.x, t.y, t.z],
             rpy_deg: [roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()],
         }
     }
+}
+
+/// Roll, pitch, yaw (rad) of a rotation matrix with `R = Rz(yaw) Ry(pitch) Rx(roll)`,
+/// pitch in \[-pi/2, pi/2\].
+///
+/// Extracted so that the three angles give `R` back to rounding at every
+/// pitch: yaw from the first column, then pitch and roll from
+/// `Rz(-yaw) R = Ry(pitch) Rx(roll)`, whose entries do not shrink with
+/// cos(pitch) (an `asin` of one entry, or roll from the third row, loses
+/// half the digits near pitch +-pi/2). At pitch +-pi/2 exactly only roll -/+
+/// yaw is defined: yaw is then whatever the rounding of the first column
+/// gives, and roll takes the rest.
+pub fn rpy_from_rotation(r: &Matrix3<f64>) -> [f64; 3] {
+    let yaw = r[(1, 0)].atan2(r[(0, 0)]);
+    let (sy, cy) = yaw.sin_cos();
+    // Rows 0 and 1 of Rz(-yaw) R; its row 2 is R's.
+    let r00 = cy * r[(0, 0)] + sy * r[(1, 0)];
+    let r11 = -sy * r[(0, 1)] + cy * r[(1, 1)];
+    let r12 = -sy * r[(0, 2)] + cy * r[(1, 2)];
+    let pitch = (-r[(2, 0)]).atan2(r00);
+    let roll = (-r12).atan2(r11);
+    [roll, pitch, yaw]
 }
 
 /// A slider-crank (ball screw) actuator driving a revolute joint: the

@@ -22,11 +22,11 @@
 
 use std::fmt::Write as _;
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::KinematicsError;
-use crate::description::{JointType, TransformDescription};
+use crate::description::{JointType, TransformDescription, rpy_from_rotation};
 use crate::error::check_vector;
 use crate::forward::{Data, forward_pose};
 use crate::import::{ImportOptions, ImportedRobot};
@@ -277,24 +277,9 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-/// Roll, pitch, yaw of a rotation with `R = Rz(yaw) Ry(pitch) Rx(roll)`.
-fn rpy_of(r: &Matrix3<f64>) -> [f64; 3] {
-    let pitch = (-r[(2, 0)]).atan2((r[(0, 0)].powi(2) + r[(1, 0)].powi(2)).sqrt());
-    if pitch.cos() > 1e-12 {
-        [
-            r[(2, 1)].atan2(r[(2, 2)]),
-            pitch,
-            r[(1, 0)].atan2(r[(0, 0)]),
-        ]
-    } else {
-        // Gimbal lock: only roll -/+ yaw is defined; put it all in yaw.
-        [0.0, pitch, (-r[(0, 1)]).atan2(r[(1, 1)])]
-    }
-}
-
 fn origin_element(x: &Isometry3<f64>) -> String {
     let t = x.translation.vector;
-    let rpy = rpy_of(x.rotation.to_rotation_matrix().matrix());
+    let rpy = rpy_from_rotation(x.rotation.to_rotation_matrix().matrix());
     format!(
         "<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>",
         t.x, t.y, t.z, rpy[0], rpy[1], rpy[2]

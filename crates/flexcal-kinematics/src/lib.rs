@@ -167,7 +167,7 @@ pub mod urdf;
 pub use builtin::builtin_robot_names;
 pub use description::{
     CouplingTerm, FrameDescription, JointType, LoopConstraint, LoopDescription, LoopSolver,
-    RobotDescription, SliderCrankDescription, TransformDescription,
+    RobotDescription, SliderCrankDescription, TransformDescription, rpy_from_rotation,
 };
 pub use error::KinematicsError;
 pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
