@@ -90,6 +90,29 @@ pub fn rpy_from_rotation(r: &Matrix3<f64>) -> [f64; 3] {
     [roll, pitch, yaw]
 }
 
+/// The 1-based line of `key` in the `index`-th `[[frame]]` table of `text`
+/// (0 when it is not written on a line of its own, as in an inline table).
+fn frame_key_line(text: &str, index: usize, key: &str) -> usize {
+    // The `[[frame]]` table a line is in (None under any other header).
+    let (mut frame, mut count) = (None, 0);
+    for (k, line) in text.lines().enumerate() {
+        let line = line.trim_start();
+        if line.starts_with("[[frame]]") {
+            frame = Some(count);
+            count += 1;
+        } else if line.starts_with('[') {
+            frame = None;
+        } else if frame == Some(index)
+            && line
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        {
+            return k + 1;
+        }
+    }
+    0
+}
+
 /// A slider-crank (ball screw) actuator driving a revolute joint: the
 /// actuated coordinate is the screw length r'.
 ///
@@ -362,7 +385,7 @@ impl RobotDescription {
     /// Parses a description from TOML text; `source` names the text in errors
     /// (usually the file name). Errors carry the 1-based line.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Self, KinematicsError> {
-        toml::from_str::<RobotDescription>(text).map_err(|e| {
+        let description = toml::from_str::<RobotDescription>(text).map_err(|e| {
             let line = e
                 .span()
                 .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
@@ -372,7 +395,34 @@ impl RobotDescription {
                 line,
                 message: e.message().to_string(),
             }
-        })
+        })?;
+        description.check_limits(text, source)?;
+        Ok(description)
+    }
+
+    /// Refuses limits that are not finite or inverted (min above max), with
+    /// the frame and the line of its `limits_deg` / `limits_mm` in `text`.
+    fn check_limits(&self, text: &str, source: &str) -> Result<(), KinematicsError> {
+        for (i, f) in self.frames.iter().enumerate() {
+            for (key, limits) in [("limits_deg", f.limits_deg), ("limits_mm", f.limits_mm)] {
+                let Some([min, max]) = limits else {
+                    continue;
+                };
+                let problem = if !(min.is_finite() && max.is_finite()) {
+                    "not finite"
+                } else if min > max {
+                    "inverted (min above max)"
+                } else {
+                    continue;
+                };
+                return Err(KinematicsError::Toml {
+                    source_name: source.to_string(),
+                    line: frame_key_line(text, i, key),
+                    message: format!("frame `{}`: {key} = [{min}, {max}] is {problem}", f.name),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Reads a description file.
