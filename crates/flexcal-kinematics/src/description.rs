@@ -318,6 +318,54 @@ pub struct LoopDescription {
     pub branch: i8,
 }
 
+/// A named place rigidly attached to a frame (or to the base R0): a URDF
+/// link, a marker, a hand. `forward_named_pose` and `fk --frame` take its
+/// name like a frame's.
+///
+/// ```toml
+/// [[link]]
+/// name = "wrist_2_link"
+/// frame = "5"                  # the frame it moves with ("0": the base R0)
+/// translation_mm = [0, 0, 0]   # its pose in that frame
+/// rpy_deg = [90, 0, 0]
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkDescription {
+    /// The link's name, unique among frames and links.
+    pub name: String,
+    /// The frame it is attached to (`"0"`: the base frame R0).
+    pub frame: String,
+    /// Its translation in that frame (mm).
+    #[serde(default)]
+    pub translation_mm: [f64; 3],
+    /// Its roll, pitch, yaw in that frame (deg): `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+}
+
+impl LinkDescription {
+    /// A link `name` at the SI pose `x_frame_link` in frame `frame`.
+    pub fn new(name: &str, frame: &str, x_frame_link: &Isometry3<f64>) -> Self {
+        let t = TransformDescription::from_isometry(x_frame_link);
+        Self {
+            name: name.to_string(),
+            frame: frame.to_string(),
+            translation_mm: t.translation_mm,
+            rpy_deg: t.rpy_deg,
+        }
+    }
+
+    /// Its pose in its frame (SI).
+    pub fn to_isometry(&self) -> Isometry3<f64> {
+        TransformDescription {
+            translation_mm: self.translation_mm,
+            rpy_deg: self.rpy_deg,
+        }
+        .to_isometry()
+    }
+}
+
 /// A robot as written in a description file (lengths in mm, angles in
 /// degrees); [`RobotDescription::build`] validates it into a
 /// [`Model`](crate::Model).
@@ -379,6 +427,9 @@ pub struct RobotDescription {
     /// Closed loops.
     #[serde(default, rename = "loop", skip_serializing_if = "Vec::is_empty")]
     pub loops: Vec<LoopDescription>,
+    /// Named places attached to frames (a URDF's links).
+    #[serde(default, rename = "link", skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<LinkDescription>,
 }
 
 impl RobotDescription {
@@ -432,6 +483,56 @@ impl RobotDescription {
             message: e.to_string(),
         })?;
         Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// The same robot with its tool point moved to `tip`: a frame's name
+    /// (its end frame then, the tool transform dropped unless `tip` already
+    /// is the end frame) or a link's (its frame, the link's pose as the tool
+    /// transform) — what `--tip` means for a description that is not a URDF.
+    ///
+    /// # Errors
+    /// [`KinematicsError::UnknownFrame`] for a name that is neither (or the
+    /// base `0`), listing the frames and links there are.
+    pub fn with_tip(&self, tip: &str) -> Result<Self, KinematicsError> {
+        let mut out = self.clone();
+        let end = self
+            .end_frame
+            .clone()
+            .or_else(|| self.frames.last().map(|f| f.name.clone()));
+        if end.as_deref() == Some(tip) {
+            return Ok(out);
+        }
+        if self.frames.iter().any(|f| f.name == tip) {
+            out.end_frame = Some(tip.to_string());
+            out.tool = TransformDescription::default();
+            return Ok(out);
+        }
+        match self.links.iter().find(|l| l.name == tip && l.frame != "0") {
+            Some(link) => {
+                out.end_frame = Some(link.frame.clone());
+                out.tool = TransformDescription {
+                    translation_mm: link.translation_mm,
+                    rpy_deg: link.rpy_deg,
+                };
+                Ok(out)
+            }
+            None => Err(KinematicsError::UnknownFrame {
+                robot: self.name.clone(),
+                name: tip.to_string(),
+                known: self
+                    .frames
+                    .iter()
+                    .map(|f| f.name.as_str())
+                    .chain(
+                        self.links
+                            .iter()
+                            .filter(|l| l.frame != "0")
+                            .map(|l| l.name.as_str()),
+                    )
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+        }
     }
 
     /// The description as TOML text; [`RobotDescription::from_toml_str`] reads it back identically.

@@ -119,6 +119,17 @@ pub enum KinematicsError {
         /// What is wrong, naming the frame, parameter or loop concerned.
         what: String,
     },
+    /// A frame asked for by name is neither a frame nor a named place of
+    /// the robot.
+    #[error("robot `{robot}` has no frame `{name}` (frames: {known})")]
+    UnknownFrame {
+        /// The robot's name.
+        robot: String,
+        /// The name asked for.
+        name: String,
+        /// The names it has, comma-separated ([`crate::Model::named_frames`]).
+        known: String,
+    },
     /// A slice argument has the wrong length.
     #[error("{what}: expected length {expected}, found {found}")]
     WrongLength {

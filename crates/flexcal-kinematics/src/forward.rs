@@ -853,6 +853,35 @@ pub fn forward_pose(
     Ok(data.tcp.to_isometry())
 }
 
+/// Pose `x_base_frame` of the frame or named place `name` (a frame's name,
+/// a link of [`Model::named_frames`], or `0` for the base R0) in the robot
+/// base frame R0, at the actuated coordinates `q` and parameters `xi`.
+///
+/// # Errors
+/// [`KinematicsError::UnknownFrame`] listing the names there are; the
+/// errors of [`forward_frames`].
+pub fn forward_named_pose(
+    model: &Model,
+    data: &mut Data,
+    name: &str,
+    q: &[f64],
+    xi: &[f64],
+) -> Result<Isometry3<f64>, KinematicsError> {
+    let (frame, x_frame_place) =
+        model
+            .locate(name)
+            .ok_or_else(|| KinematicsError::UnknownFrame {
+                robot: model.name.clone(),
+                name: name.to_string(),
+                known: model.named_frames().join(", "),
+            })?;
+    run_forward(model, data, q, xi, false)?;
+    Ok(match frame {
+        Some(i) => data.poses[i].to_isometry() * x_frame_place,
+        None => x_frame_place,
+    })
+}
+
 /// Poses of all frames; afterwards [`Data::frame_pose`] gives `x_base_frame`
 /// and [`Data::passive_values`] the assembled loop joints.
 pub fn forward_frames(

@@ -166,15 +166,15 @@ pub mod urdf;
 
 pub use builtin::builtin_robot_names;
 pub use description::{
-    CouplingTerm, FrameDescription, JointType, LoopConstraint, LoopDescription, LoopSolver,
-    RobotDescription, SliderCrankDescription, TransformDescription, rpy_from_rotation,
+    CouplingTerm, FrameDescription, JointType, LinkDescription, LoopConstraint, LoopDescription,
+    LoopSolver, RobotDescription, SliderCrankDescription, TransformDescription, rpy_from_rotation,
 };
 pub use error::KinematicsError;
 pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
 pub use forward::{
-    Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_pose,
-    frame_param_and_joint_jacobians_into, frame_param_jacobian, frame_param_jacobian_into,
-    frame_points_jacobians_into, joint_jacobian, joint_jacobian_into,
+    Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_named_pose,
+    forward_pose, frame_param_and_joint_jacobians_into, frame_param_jacobian,
+    frame_param_jacobian_into, frame_points_jacobians_into, joint_jacobian, joint_jacobian_into,
     param_and_joint_jacobians_into, param_jacobian, param_jacobian_into,
 };
 pub use import::{ImportOptions, ImportedRobot, LinkMass};

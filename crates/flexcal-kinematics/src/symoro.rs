@@ -782,6 +782,7 @@ fn par_from_str(
         tool: TransformDescription::default(),
         frames,
         loops,
+        links: Vec::new(),
     };
     let mut description = description;
     four_bar_branches(&mut description, &frames_values, values, &mut notes);

@@ -189,7 +189,48 @@ fn build(desc: &RobotDescription) -> Result<Model, KinematicsError> {
         param_owner: xi.owner,
         home,
         follows_loops,
+        links: links(desc, &index)?,
     })
+}
+
+/// The named places: each name unique among frames and links, on a
+/// frame that exists, at a finite pose.
+#[allow(clippy::type_complexity)]
+fn links(
+    desc: &RobotDescription,
+    index: &HashMap<&str, usize>,
+) -> Result<Vec<(String, Option<usize>, Isometry3<f64>)>, KinematicsError> {
+    let mut out: Vec<(String, Option<usize>, Isometry3<f64>)> = Vec::new();
+    for l in &desc.links {
+        if l.name.is_empty() || l.name == "0" || index.contains_key(l.name.as_str()) {
+            return Err(invalid(format!(
+                "link `{}` has the name of a frame (or of the base `0`)",
+                l.name
+            )));
+        }
+        if out.iter().any(|(n, _, _)| *n == l.name) {
+            return Err(invalid(format!("link `{}` is declared twice", l.name)));
+        }
+        let frame = if l.frame == "0" {
+            None
+        } else {
+            Some(*index.get(l.frame.as_str()).ok_or_else(|| {
+                invalid(format!(
+                    "link `{}` is attached to `{}`, which is not a frame",
+                    l.name, l.frame
+                ))
+            })?)
+        };
+        let x = transform(
+            &format!("link `{}`", l.name),
+            &TransformDescription {
+                translation_mm: l.translation_mm,
+                rpy_deg: l.rpy_deg,
+            },
+        )?;
+        out.push((l.name.clone(), frame, x));
+    }
+    Ok(out)
 }
 
 /// The actuated coordinates' seeds (rad for a revolute joint, m for a

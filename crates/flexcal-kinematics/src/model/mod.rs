@@ -317,6 +317,8 @@ pub struct Model {
     /// Whether a loop is solved by Newton's method, and so followed by
     /// continuation from one call to the next.
     pub(crate) follows_loops: bool,
+    /// Named places: (name, frame index or None for R0, pose in that frame).
+    pub(crate) links: Vec<(String, Option<usize>, Isometry3<f64>)>,
 }
 
 impl Model {
@@ -373,6 +375,38 @@ impl Model {
     /// Frame names in index order.
     pub fn frame_names(&self) -> &[String] {
         &self.frame_names
+    }
+    /// Names of the named places attached to frames (a URDF's links, see
+    /// [`crate::LinkDescription`]), in the description's order.
+    pub fn link_names(&self) -> impl Iterator<Item = &str> {
+        self.links.iter().map(|(name, _, _)| name.as_str())
+    }
+    /// Every name [`crate::forward_named_pose`] takes: `0` (the base frame
+    /// R0), the frames in index order, then the links. A URDF's links keep
+    /// their own names here (`wrist_2_link`, `tool0`) beside the
+    /// Khalil-Kleinfinger frames `1..n` they move with: a KK frame sits on
+    /// its joint's common normal, not where the URDF puts the link's frame,
+    /// so the two are different places and keep different names.
+    pub fn named_frames(&self) -> Vec<String> {
+        std::iter::once("0".to_string())
+            .chain(self.frame_names.iter().cloned())
+            .chain(self.link_names().map(str::to_string))
+            .collect()
+    }
+    /// Where the named frame or link `name` is: the frame it moves with
+    /// (`None`: the base R0) and its pose in that frame (SI); `None` for a
+    /// name that is neither.
+    pub fn locate(&self, name: &str) -> Option<(Option<usize>, Isometry3<f64>)> {
+        if name == "0" {
+            return Some((None, Isometry3::identity()));
+        }
+        if let Some(i) = self.frame_index(name) {
+            return Some((Some(i), Isometry3::identity()));
+        }
+        self.links
+            .iter()
+            .find(|(n, _, _)| n == name)
+            .map(|(_, frame, x)| (*frame, *x))
     }
     /// Index of the antecedent of frame `i` (None: the base frame R0).
     pub fn antecedent(&self, i: usize) -> Option<usize> {
