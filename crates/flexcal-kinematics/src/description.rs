@@ -517,7 +517,7 @@ impl RobotDescription {
                 Ok(out)
             }
             None => Err(KinematicsError::UnknownFrame {
-                robot: self.name.clone(),
+                robot: self.name.as_str().into(),
                 name: tip.to_string(),
                 known: self
                     .frames

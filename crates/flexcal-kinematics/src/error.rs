@@ -124,7 +124,7 @@ pub enum KinematicsError {
     #[error("robot `{robot}` has no frame `{name}` (frames: {known})")]
     UnknownFrame {
         /// The robot's name.
-        robot: String,
+        robot: Box<str>,
         /// The name asked for.
         name: String,
         /// The names it has, comma-separated ([`crate::Model::named_frames`]).
@@ -164,18 +164,10 @@ pub enum KinematicsError {
     /// (a cylinder in line with its lever, a crank and coupler aligned),
     /// where the assembly branch cannot be followed.
     #[error(
-        "loop `{loop_name}`: singular loop Jacobian at q = {at:?} on the way from q = {from:?} to q = {q:?} (a singular configuration of the mechanism: the assembly branch cannot be followed through it)"
+        "loop `{}`: singular loop Jacobian at q = {:?} on the way from q = {:?} to q = {:?} (a singular configuration of the mechanism: the assembly branch cannot be followed through it)",
+        .0.loop_name, .0.at, .0.from, .0.q
     )]
-    LoopSingular {
-        /// The loop's name.
-        loop_name: String,
-        /// The actuated configuration asked for (SI units).
-        q: Vec<f64>,
-        /// Where the continuation started (SI units).
-        from: Vec<f64>,
-        /// The step's configuration where the Jacobian is singular (SI units).
-        at: Vec<f64>,
-    },
+    LoopSingular(Box<LoopSingularity>),
     /// The inverse model found no configuration within the joint limits that
     /// reaches the target.
     #[error(
@@ -223,6 +215,20 @@ pub enum KinematicsError {
         /// What makes it not serial, naming the loop or frame.
         reason: String,
     },
+}
+
+/// Where a loop continuation met a singular loop Jacobian
+/// ([`KinematicsError::LoopSingular`]); configurations in SI units, order of q.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopSingularity {
+    /// The loop's name.
+    pub loop_name: String,
+    /// The actuated configuration asked for.
+    pub q: Vec<f64>,
+    /// Where the continuation started.
+    pub from: Vec<f64>,
+    /// The step's configuration where the Jacobian is singular.
+    pub at: Vec<f64>,
 }
 
 /// Checks the length of a slice argument and that every entry is finite.

@@ -4,7 +4,7 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Vector3};
 
 use crate::KinematicsError;
 use crate::description::{JointType, LoopSolver};
-use crate::error::check_vector;
+use crate::error::{LoopSingularity, check_vector};
 use crate::model::{JointSource, LoopModel, Model};
 use crate::pose::Pose;
 
@@ -374,12 +374,14 @@ fn newton(model: &Model, data: &mut Data, l: &LoopModel, q: &[f64]) -> Result<()
         let g = passive_jacobian(model, data, l);
         let rhs = DMatrix::from_iterator(l.selection.len(), 1, l.selection.iter().map(|&k| -e[k]));
         let step = least_squares(g, &rhs, &format!("loop `{}`", l.name)).map_err(|e| match e {
-            KinematicsError::Singular { .. } => KinematicsError::LoopSingular {
-                loop_name: l.name.clone(),
-                q: q.to_vec(),
-                from: q.to_vec(),
-                at: q.to_vec(),
-            },
+            KinematicsError::Singular { .. } => {
+                KinematicsError::LoopSingular(Box::new(LoopSingularity {
+                    loop_name: l.name.clone(),
+                    q: q.to_vec(),
+                    from: q.to_vec(),
+                    at: q.to_vec(),
+                }))
+            }
             other => other,
         })?;
         let mut step_norm = 0.0f64;
@@ -482,13 +484,13 @@ fn follow_loops(
                 t = t_next;
                 h = (2.0 * h).min(full_step);
             }
-            Err(KinematicsError::LoopSingular { loop_name, .. }) => {
-                return Err(KinematicsError::LoopSingular {
-                    loop_name,
+            Err(KinematicsError::LoopSingular(singular)) => {
+                return Err(KinematicsError::LoopSingular(Box::new(LoopSingularity {
+                    loop_name: singular.loop_name,
                     q: to.to_vec(),
                     from: from.to_vec(),
                     at,
-                });
+                })));
             }
             Err(e) => {
                 data.joint = current;
@@ -523,12 +525,12 @@ fn continuation_failure(
         let svd = passive_jacobian(model, data, l).svd(false, false);
         let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
         if smin <= SINGULAR_LOOP_JACOBIAN * smax {
-            return KinematicsError::LoopSingular {
+            return KinematicsError::LoopSingular(Box::new(LoopSingularity {
                 loop_name: l.name.clone(),
                 q: to.to_vec(),
                 from: from.to_vec(),
                 at: at.to_vec(),
-            };
+            }));
         }
     }
     match error {
@@ -867,14 +869,7 @@ pub fn forward_named_pose(
     q: &[f64],
     xi: &[f64],
 ) -> Result<Isometry3<f64>, KinematicsError> {
-    let (frame, x_frame_place) =
-        model
-            .locate(name)
-            .ok_or_else(|| KinematicsError::UnknownFrame {
-                robot: model.name.clone(),
-                name: name.to_string(),
-                known: model.named_frames().join(", "),
-            })?;
+    let (frame, x_frame_place) = model.locate(name)?;
     run_forward(model, data, q, xi, false)?;
     Ok(match frame {
         Some(i) => data.poses[i].to_isometry() * x_frame_place,

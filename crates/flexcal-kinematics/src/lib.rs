@@ -169,7 +169,7 @@ pub use description::{
     CouplingTerm, FrameDescription, JointType, LinkDescription, LoopConstraint, LoopDescription,
     LoopSolver, RobotDescription, SliderCrankDescription, TransformDescription, rpy_from_rotation,
 };
-pub use error::KinematicsError;
+pub use error::{KinematicsError, LoopSingularity};
 pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
 pub use forward::{
     Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_named_pose,

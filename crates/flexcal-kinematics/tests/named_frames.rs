@@ -156,7 +156,7 @@ fn a_tip_is_honoured_by_frame_or_link_name_or_refused_by_name() {
     let ur10 = RobotDescription::builtin("ur10").unwrap();
     match ur10.with_tip("tool0") {
         Err(KinematicsError::UnknownFrame { robot, name, known }) => {
-            assert_eq!((robot.as_str(), name.as_str()), ("ur10", "tool0"));
+            assert_eq!((&*robot, name.as_str()), ("ur10", "tool0"));
             assert_eq!(known, "1, 2, 3, 4, 5, 6");
         }
         other => panic!("expected UnknownFrame, got {other:?}"),

@@ -394,19 +394,27 @@ impl Model {
             .collect()
     }
     /// Where the named frame or link `name` is: the frame it moves with
-    /// (`None`: the base R0) and its pose in that frame (SI); `None` for a
-    /// name that is neither.
-    pub fn locate(&self, name: &str) -> Option<(Option<usize>, Isometry3<f64>)> {
+    /// (`None`: the base R0) and its pose in that frame (SI).
+    ///
+    /// # Errors
+    /// [`KinematicsError::UnknownFrame`] for a name that is neither,
+    /// listing [`Model::named_frames`].
+    pub fn locate(&self, name: &str) -> Result<(Option<usize>, Isometry3<f64>), KinematicsError> {
         if name == "0" {
-            return Some((None, Isometry3::identity()));
+            return Ok((None, Isometry3::identity()));
         }
         if let Some(i) = self.frame_index(name) {
-            return Some((Some(i), Isometry3::identity()));
+            return Ok((Some(i), Isometry3::identity()));
         }
         self.links
             .iter()
             .find(|(n, _, _)| n == name)
             .map(|(_, frame, x)| (*frame, *x))
+            .ok_or_else(|| KinematicsError::UnknownFrame {
+                robot: self.name.as_str().into(),
+                name: name.to_string(),
+                known: self.named_frames().join(", "),
+            })
     }
     /// Index of the antecedent of frame `i` (None: the base frame R0).
     pub fn antecedent(&self, i: usize) -> Option<usize> {
