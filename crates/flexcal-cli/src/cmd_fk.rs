@@ -25,6 +25,11 @@ pub struct FkArgs {
     /// Output CSV file (default: standard output).
     #[arg(long)]
     pub output: Option<PathBuf>,
+    /// Give the pose of this frame or link instead of the TCP (repeatable:
+    /// `--frame wrist_2_link --frame tool0`); columns `NAME.x_m` ...
+    /// `NAME.qz`. `flexcal robot show` lists the names (`0` is the base).
+    #[arg(long = "frame", value_name = "NAME")]
+    pub frames: Vec<String>,
 }
 
 /// Arguments of `flexcal ik`.
@@ -68,6 +73,10 @@ pub fn run_fk(args: FkArgs) -> anyhow::Result<()> {
         (None, Some(path)) => pose_file::read_configurations(path, &model)?,
         _ => crate::usage_bail!("give either --joints or --input"),
     };
+    if !args.frames.is_empty() {
+        let poses = pose_file::forward_frame_poses(&model, &configurations, &args.frames)?;
+        return emit(&args.output, poses.to_csv());
+    }
     let poses = pose_file::forward_poses(&model, &configurations)?;
     emit(&args.output, poses.to_csv())
 }

@@ -16,6 +16,8 @@ pub enum ExportFormatArg {
     Mdh,
     /// flexcal's robot description TOML.
     Toml,
+    /// UR-style kinematics YAML (per joint x y z roll pitch yaw; six-joint arms).
+    UrYaml,
 }
 
 /// Subcommands of `flexcal robot`.
@@ -91,6 +93,7 @@ fn export(
     let format = match format {
         ExportFormatArg::Urdf => ExportFormat::Urdf,
         ExportFormatArg::Toml => ExportFormat::Toml,
+        ExportFormatArg::UrYaml => ExportFormat::UrKinematicsYaml,
         ExportFormatArg::Mdh => flexcal::robot::mdh_format_for(out.as_deref()),
     };
     let options = ExportOptions {

@@ -175,3 +175,115 @@ fn fk_takes_a_urdf_with_its_tip() {
     assert!(!missing.status.success());
     assert!(stderr(&missing).contains("D3, RL4"), "{}", stderr(&missing));
 }
+
+/// Parses the single data row of an `fk` output into numbers.
+fn fk_row(text: &str) -> Vec<f64> {
+    let row = text.lines().nth(1).expect("a data row");
+    row.split(',').map(|v| v.parse().unwrap()).collect()
+}
+
+#[test]
+fn fk_gives_named_frames_and_refuses_unknown_ones() {
+    let ur5e = kinematics_data("ur5e.urdf");
+    let q = "0.1,-1.2,0.9,-0.4,1.3,0.5";
+    let frames = flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&ur5e),
+        "--joints",
+        q,
+        "--frame",
+        "wrist_2_link",
+        "--frame",
+        "tool0",
+    ]);
+    assert!(frames.status.success(), "{}", stderr(&frames));
+    let text = stdout(&frames);
+    assert!(
+        text.starts_with("wrist_2_link.x_m,wrist_2_link.y_m,wrist_2_link.z_m,wrist_2_link.qw"),
+        "{text}"
+    );
+    let both = fk_row(&text);
+    assert_eq!(both.len(), 14);
+    // tool0 is the URDF's tip, so its columns are the TCP's.
+    let tcp = fk_row(&stdout(&flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&ur5e),
+        "--joints",
+        q,
+    ])));
+    for k in 0..3 {
+        assert!((both[7 + k] - tcp[k]).abs() < 1e-15, "column {k}");
+    }
+    // The same rotation: quaternions equal up to their sign.
+    let dot: f64 = (3..7).map(|k| both[7 + k] * tcp[k]).sum();
+    assert!((dot.abs() - 1.0).abs() < 1e-15, "{dot}");
+    // The same link as the tip of the import (five joints up to it).
+    let tip = fk_row(&stdout(&flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&ur5e),
+        "--tip",
+        "wrist_2_link",
+        "--joints",
+        "0.1,-1.2,0.9,-0.4,1.3",
+    ])));
+    for k in 0..3 {
+        assert!((both[k] - tip[k]).abs() < 1e-12, "column {k}");
+    }
+    let unknown = flexcal(&[
+        "fk",
+        "--robot",
+        path_str(&ur5e),
+        "--joints",
+        q,
+        "--frame",
+        "wrist_9",
+    ]);
+    assert!(!unknown.status.success());
+    assert!(
+        stderr(&unknown).contains("has no frame `wrist_9`")
+            && stderr(&unknown).contains("wrist_2_link"),
+        "{}",
+        stderr(&unknown)
+    );
+    assert!(stdout(&unknown).is_empty());
+}
+
+#[test]
+fn a_tip_on_a_builtin_or_toml_robot_is_honoured_or_refused_by_name() {
+    let q = "0.1,-1.2,0.9,-0.4,1.3,0.5";
+    let frame_5 = fk_row(&stdout(&flexcal(&[
+        "fk", "--robot", "ur10", "--joints", q, "--frame", "5",
+    ])));
+    let tip_5 = flexcal(&["fk", "--robot", "ur10", "--tip", "5", "--joints", q]);
+    assert!(tip_5.status.success(), "{}", stderr(&tip_5));
+    assert_eq!(fk_row(&stdout(&tip_5))[..7], frame_5[..]);
+    for (robot, file) in [("ur10", None), ("toml", Some("ur10.toml"))] {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = match file {
+            Some(name) => {
+                let path = dir.path().join(name);
+                let toml = flexcal(&["robot", "show", "ur10", "--toml"]);
+                std::fs::write(&path, stdout(&toml)).unwrap();
+                path_str(&path).to_string()
+            }
+            None => robot.to_string(),
+        };
+        let refused = flexcal(&["fk", "--robot", &spec, "--tip", "tool0", "--joints", q]);
+        assert!(!refused.status.success());
+        assert!(
+            stderr(&refused).contains("has no frame `tool0` (frames: 1, 2, 3, 4, 5, 6)"),
+            "{}",
+            stderr(&refused)
+        );
+        let root = flexcal(&["fk", "--robot", &spec, "--root", "base", "--joints", q]);
+        assert!(!root.status.success());
+        assert!(
+            stderr(&root).contains("only be chosen in a URDF"),
+            "{}",
+            stderr(&root)
+        );
+    }
+}

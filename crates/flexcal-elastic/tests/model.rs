@@ -136,6 +136,7 @@ fn one_joint_arm(kar: f64, e: f64, iz: f64) -> (Model, ElasticModel) {
         tool: Default::default(),
         frames: vec![f1, fe],
         loops: Vec::new(),
+        links: Vec::new(),
     }
     .build()
     .unwrap();

@@ -87,6 +87,7 @@ fn ur10() -> RobotDescription {
         tool: TransformDescription::default(),
         frames,
         loops: Vec::new(),
+        links: Vec::new(),
     }
 }
 
@@ -120,6 +121,7 @@ fn puma560() -> RobotDescription {
         tool: TransformDescription::default(),
         frames,
         loops: Vec::new(),
+        links: Vec::new(),
     }
 }
 
@@ -250,5 +252,6 @@ fn ir663() -> RobotDescription {
             solver: LoopSolver::FourBar,
             branch: -1,
         }],
+        links: Vec::new(),
     }
 }

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use crate::KinematicsError;
@@ -54,15 +54,63 @@ impl TransformDescription {
         )
     }
 
-    /// The description of an SI transform (mm, degrees).
+    /// The description of an SI transform (mm, degrees), with roll, pitch
+    /// and yaw extracted by [`rpy_from_rotation`]: the rotation read back
+    /// equals the one given to rounding (1e-15) at every pitch, +-90 deg
+    /// included.
     pub fn from_isometry(x: &Isometry3<f64>) -> Self {
-        let (roll, pitch, yaw) = x.rotation.euler_angles();
+        let [roll, pitch, yaw] = rpy_from_rotation(x.rotation.to_rotation_matrix().matrix());
         let t = x.translation.vector * 1000.0;
         Self {
             translation_mm: [t.x, t.y, t.z],
             rpy_deg: [roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()],
         }
     }
+}
+
+/// Roll, pitch, yaw (rad) of a rotation matrix with `R = Rz(yaw) Ry(pitch) Rx(roll)`,
+/// pitch in \[-pi/2, pi/2\].
+///
+/// Extracted so that the three angles give `R` back to rounding at every
+/// pitch: yaw from the first column, then pitch and roll from
+/// `Rz(-yaw) R = Ry(pitch) Rx(roll)`, whose entries do not shrink with
+/// cos(pitch) (an `asin` of one entry, or roll from the third row, loses
+/// half the digits near pitch +-pi/2). At pitch +-pi/2 exactly only roll -/+
+/// yaw is defined: yaw is then whatever the rounding of the first column
+/// gives, and roll takes the rest.
+pub fn rpy_from_rotation(r: &Matrix3<f64>) -> [f64; 3] {
+    let yaw = r[(1, 0)].atan2(r[(0, 0)]);
+    let (sy, cy) = yaw.sin_cos();
+    // Rows 0 and 1 of Rz(-yaw) R; its row 2 is R's.
+    let r00 = cy * r[(0, 0)] + sy * r[(1, 0)];
+    let r11 = -sy * r[(0, 1)] + cy * r[(1, 1)];
+    let r12 = -sy * r[(0, 2)] + cy * r[(1, 2)];
+    let pitch = (-r[(2, 0)]).atan2(r00);
+    let roll = (-r12).atan2(r11);
+    [roll, pitch, yaw]
+}
+
+/// The 1-based line of `key` in the `index`-th `[[frame]]` table of `text`
+/// (0 when it is not written on a line of its own, as in an inline table).
+fn frame_key_line(text: &str, index: usize, key: &str) -> usize {
+    // The `[[frame]]` table a line is in (None under any other header).
+    let (mut frame, mut count) = (None, 0);
+    for (k, line) in text.lines().enumerate() {
+        let line = line.trim_start();
+        if line.starts_with("[[frame]]") {
+            frame = Some(count);
+            count += 1;
+        } else if line.starts_with('[') {
+            frame = None;
+        } else if frame == Some(index)
+            && line
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        {
+            return k + 1;
+        }
+    }
+    0
 }
 
 /// A slider-crank (ball screw) actuator driving a revolute joint: the
@@ -172,10 +220,15 @@ pub struct FrameDescription {
     /// total theta (or r), e.g. theta6 = -theta5.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub coupled_to: Vec<CouplingTerm>,
-    /// Initial guess of a passive loop joint (deg) (revolute) — the assembly seed.
+    /// Initial guess of a passive loop joint (deg) (revolute) — the assembly
+    /// seed; on an actuated revolute joint of a robot with loops, its value
+    /// in the home configuration from which the loops are followed
+    /// ([`crate::Model::home_configuration`]).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub seed_deg: f64,
-    /// Initial guess of a passive loop joint (mm) (prismatic).
+    /// Initial guess of a passive loop joint (mm) (prismatic); on an actuated
+    /// prismatic joint or slider crank of a robot with loops, its value (the
+    /// screw length) in the home configuration.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub seed_mm: f64,
 }
@@ -265,6 +318,54 @@ pub struct LoopDescription {
     pub branch: i8,
 }
 
+/// A named place rigidly attached to a frame (or to the base R0): a URDF
+/// link, a marker, a hand. `forward_named_pose` and `fk --frame` take its
+/// name like a frame's.
+///
+/// ```toml
+/// [[link]]
+/// name = "wrist_2_link"
+/// frame = "5"                  # the frame it moves with ("0": the base R0)
+/// translation_mm = [0, 0, 0]   # its pose in that frame
+/// rpy_deg = [90, 0, 0]
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkDescription {
+    /// The link's name, unique among frames and links.
+    pub name: String,
+    /// The frame it is attached to (`"0"`: the base frame R0).
+    pub frame: String,
+    /// Its translation in that frame (mm).
+    #[serde(default)]
+    pub translation_mm: [f64; 3],
+    /// Its roll, pitch, yaw in that frame (deg): `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+}
+
+impl LinkDescription {
+    /// A link `name` at the SI pose `x_frame_link` in frame `frame`.
+    pub fn new(name: &str, frame: &str, x_frame_link: &Isometry3<f64>) -> Self {
+        let t = TransformDescription::from_isometry(x_frame_link);
+        Self {
+            name: name.to_string(),
+            frame: frame.to_string(),
+            translation_mm: t.translation_mm,
+            rpy_deg: t.rpy_deg,
+        }
+    }
+
+    /// Its pose in its frame (SI).
+    pub fn to_isometry(&self) -> Isometry3<f64> {
+        TransformDescription {
+            translation_mm: self.translation_mm,
+            rpy_deg: self.rpy_deg,
+        }
+        .to_isometry()
+    }
+}
+
 /// A robot as written in a description file (lengths in mm, angles in
 /// degrees); [`RobotDescription::build`] validates it into a
 /// [`Model`](crate::Model).
@@ -326,13 +427,16 @@ pub struct RobotDescription {
     /// Closed loops.
     #[serde(default, rename = "loop", skip_serializing_if = "Vec::is_empty")]
     pub loops: Vec<LoopDescription>,
+    /// Named places attached to frames (a URDF's links).
+    #[serde(default, rename = "link", skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<LinkDescription>,
 }
 
 impl RobotDescription {
     /// Parses a description from TOML text; `source` names the text in errors
     /// (usually the file name). Errors carry the 1-based line.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Self, KinematicsError> {
-        toml::from_str::<RobotDescription>(text).map_err(|e| {
+        let description = toml::from_str::<RobotDescription>(text).map_err(|e| {
             let line = e
                 .span()
                 .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
@@ -342,7 +446,34 @@ impl RobotDescription {
                 line,
                 message: e.message().to_string(),
             }
-        })
+        })?;
+        description.check_limits(text, source)?;
+        Ok(description)
+    }
+
+    /// Refuses limits that are not finite or inverted (min above max), with
+    /// the frame and the line of its `limits_deg` / `limits_mm` in `text`.
+    fn check_limits(&self, text: &str, source: &str) -> Result<(), KinematicsError> {
+        for (i, f) in self.frames.iter().enumerate() {
+            for (key, limits) in [("limits_deg", f.limits_deg), ("limits_mm", f.limits_mm)] {
+                let Some([min, max]) = limits else {
+                    continue;
+                };
+                let problem = if !(min.is_finite() && max.is_finite()) {
+                    "not finite"
+                } else if min > max {
+                    "inverted (min above max)"
+                } else {
+                    continue;
+                };
+                return Err(KinematicsError::Toml {
+                    source_name: source.to_string(),
+                    line: frame_key_line(text, i, key),
+                    message: format!("frame `{}`: {key} = [{min}, {max}] is {problem}", f.name),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Reads a description file.
@@ -352,6 +483,56 @@ impl RobotDescription {
             message: e.to_string(),
         })?;
         Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// The same robot with its tool point moved to `tip`: a frame's name
+    /// (its end frame then, the tool transform dropped unless `tip` already
+    /// is the end frame) or a link's (its frame, the link's pose as the tool
+    /// transform) — what `--tip` means for a description that is not a URDF.
+    ///
+    /// # Errors
+    /// [`KinematicsError::UnknownFrame`] for a name that is neither (or the
+    /// base `0`), listing the frames and links there are.
+    pub fn with_tip(&self, tip: &str) -> Result<Self, KinematicsError> {
+        let mut out = self.clone();
+        let end = self
+            .end_frame
+            .clone()
+            .or_else(|| self.frames.last().map(|f| f.name.clone()));
+        if end.as_deref() == Some(tip) {
+            return Ok(out);
+        }
+        if self.frames.iter().any(|f| f.name == tip) {
+            out.end_frame = Some(tip.to_string());
+            out.tool = TransformDescription::default();
+            return Ok(out);
+        }
+        match self.links.iter().find(|l| l.name == tip && l.frame != "0") {
+            Some(link) => {
+                out.end_frame = Some(link.frame.clone());
+                out.tool = TransformDescription {
+                    translation_mm: link.translation_mm,
+                    rpy_deg: link.rpy_deg,
+                };
+                Ok(out)
+            }
+            None => Err(KinematicsError::UnknownFrame {
+                robot: self.name.as_str().into(),
+                name: tip.to_string(),
+                known: self
+                    .frames
+                    .iter()
+                    .map(|f| f.name.as_str())
+                    .chain(
+                        self.links
+                            .iter()
+                            .filter(|l| l.frame != "0")
+                            .map(|l| l.name.as_str()),
+                    )
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+        }
     }
 
     /// The description as TOML text; [`RobotDescription::from_toml_str`] reads it back identically.

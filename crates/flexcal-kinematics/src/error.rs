@@ -119,6 +119,17 @@ pub enum KinematicsError {
         /// What is wrong, naming the frame, parameter or loop concerned.
         what: String,
     },
+    /// A frame asked for by name is neither a frame nor a named place of
+    /// the robot.
+    #[error("robot `{robot}` has no frame `{name}` (frames: {known})")]
+    UnknownFrame {
+        /// The robot's name.
+        robot: Box<str>,
+        /// The name asked for.
+        name: String,
+        /// The names it has, comma-separated ([`crate::Model::named_frames`]).
+        known: String,
+    },
     /// A slice argument has the wrong length.
     #[error("{what}: expected length {expected}, found {found}")]
     WrongLength {
@@ -146,6 +157,17 @@ pub enum KinematicsError {
         /// Norm of the remaining cut-joint residual (m and rad mixed).
         residual: f64,
     },
+    /// Following a closed loop from the configuration where it was last
+    /// assembled (the home configuration of a fresh [`crate::Data`], else
+    /// the previous call) to the one asked for, a step met a singular loop
+    /// Jacobian: the mechanism passes through a singular configuration
+    /// (a cylinder in line with its lever, a crank and coupler aligned),
+    /// where the assembly branch cannot be followed.
+    #[error(
+        "loop `{}`: singular loop Jacobian at q = {:?} on the way from q = {:?} to q = {:?} (a singular configuration of the mechanism: the assembly branch cannot be followed through it)",
+        .0.loop_name, .0.at, .0.from, .0.q
+    )]
+    LoopSingular(Box<LoopSingularity>),
     /// The inverse model found no configuration within the joint limits that
     /// reaches the target.
     #[error(
@@ -193,6 +215,20 @@ pub enum KinematicsError {
         /// What makes it not serial, naming the loop or frame.
         reason: String,
     },
+}
+
+/// Where a loop continuation met a singular loop Jacobian
+/// ([`KinematicsError::LoopSingular`]); configurations in SI units, order of q.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopSingularity {
+    /// The loop's name.
+    pub loop_name: String,
+    /// The actuated configuration asked for.
+    pub q: Vec<f64>,
+    /// Where the continuation started.
+    pub from: Vec<f64>,
+    /// The step's configuration where the Jacobian is singular.
+    pub at: Vec<f64>,
 }
 
 /// Checks the length of a slice argument and that every entry is finite.

@@ -22,11 +22,11 @@
 
 use std::fmt::Write as _;
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::KinematicsError;
-use crate::description::{JointType, TransformDescription};
+use crate::description::{JointType, TransformDescription, rpy_from_rotation};
 use crate::error::check_vector;
 use crate::forward::{Data, forward_pose};
 use crate::import::{ImportOptions, ImportedRobot};
@@ -45,6 +45,12 @@ pub enum ExportFormat {
     MdhMarkdown,
     /// flexcal's robot description TOML (mm, deg).
     Toml,
+    /// A UR-style kinematics YAML (m, rad), as the UR ROS drivers'
+    /// calibration files hold it: per joint (`shoulder`, `upper_arm`,
+    /// `forearm`, `wrist_1`, `wrist_2`, `wrist_3`) the origin of its URDF
+    /// joint, `x y z roll pitch yaw`, each joint turning about its z axis.
+    /// Only for serial arms of six directly actuated revolute joints.
+    UrKinematicsYaml,
 }
 
 /// Options of [`export_robot`].
@@ -277,24 +283,9 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-/// Roll, pitch, yaw of a rotation with `R = Rz(yaw) Ry(pitch) Rx(roll)`.
-fn rpy_of(r: &Matrix3<f64>) -> [f64; 3] {
-    let pitch = (-r[(2, 0)]).atan2((r[(0, 0)].powi(2) + r[(1, 0)].powi(2)).sqrt());
-    if pitch.cos() > 1e-12 {
-        [
-            r[(2, 1)].atan2(r[(2, 2)]),
-            pitch,
-            r[(1, 0)].atan2(r[(0, 0)]),
-        ]
-    } else {
-        // Gimbal lock: only roll -/+ yaw is defined; put it all in yaw.
-        [0.0, pitch, (-r[(0, 1)]).atan2(r[(1, 1)])]
-    }
-}
-
 fn origin_element(x: &Isometry3<f64>) -> String {
     let t = x.translation.vector;
-    let rpy = rpy_of(x.rotation.to_rotation_matrix().matrix());
+    let rpy = rpy_from_rotation(x.rotation.to_rotation_matrix().matrix());
     format!(
         "<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>",
         t.x, t.y, t.z, rpy[0], rpy[1], rpy[2]
@@ -316,6 +307,131 @@ fn joint_origin(model: &Model, i: usize, xi: &[f64]) -> Isometry3<f64> {
         UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(part.pre.r)),
     );
     pre * rotation_z(part.theta) * Translation3::new(0.0, 0.0, part.r)
+}
+
+/// The names a UR kinematics file gives its six joints, base to flange.
+pub const UR_JOINTS: [&str; 6] = [
+    "shoulder",
+    "upper_arm",
+    "forearm",
+    "wrist_1",
+    "wrist_2",
+    "wrist_3",
+];
+
+/// The origins of the six joints of a UR-style arm at `xi`: each the
+/// transform from the previous joint's frame (R0 for the first) to its own,
+/// fixed frames on the way folded in; fixed frames after the sixth joint
+/// belong with the tool (returned second: sixth joint's frame to the end
+/// frame). Refused by name for another structure.
+fn ur_joint_origins(model: &Model, xi: &[f64]) -> Result<UrJoints, KinematicsError> {
+    let refuse = |what: String| KinematicsError::Inexpressible {
+        format: "UR kinematics YAML".into(),
+        what,
+    };
+    if !model.is_serial() {
+        return Err(refuse(
+            "a closed loop, coupling or slider crank: a UR kinematics file holds six revolute joints in series".into(),
+        ));
+    }
+    let mut origins = Vec::with_capacity(6);
+    let mut names = Vec::with_capacity(6);
+    let mut pending = Isometry3::identity();
+    for &i in &model.tcp_path {
+        let f = &model.frames[i];
+        pending *= joint_origin(model, i, xi);
+        match (f.joint, f.source) {
+            (JointType::Fixed, _) => {}
+            (JointType::Revolute, JointSource::Actuated(_)) => {
+                origins.push(pending);
+                names.push(joint_name(model, i));
+                pending = Isometry3::identity();
+            }
+            _ => {
+                return Err(refuse(format!(
+                    "joint `{}` is not a directly actuated revolute joint",
+                    f.name
+                )));
+            }
+        }
+    }
+    if origins.len() != 6 || model.n_actuated() != 6 {
+        return Err(refuse(format!(
+            "{} revolute joints on the path to the TCP ({} actuated): a UR kinematics file holds six",
+            origins.len(),
+            model.n_actuated()
+        )));
+    }
+    Ok(UrJoints {
+        origins,
+        names,
+        flange: pending,
+    })
+}
+
+/// The six joints of a UR-style arm ([`ur_joint_origins`]).
+struct UrJoints {
+    /// Each joint's origin in the previous joint's frame (R0 for the first).
+    origins: Vec<Isometry3<f64>>,
+    /// The actuated coordinates' names, in the same order.
+    names: Vec<String>,
+    /// The sixth joint's frame to the end frame (fixed frames after it).
+    flange: Isometry3<f64>,
+}
+
+/// The YAML text of six joint origins (written by hand: flat keys, full precision).
+fn ur_yaml_text(name: &str, origins: &[Isometry3<f64>]) -> String {
+    let mut out = format!(
+        concat!(
+            "# {}: UR-style kinematics exported by flexcal. Per joint the origin of its URDF joint\n",
+            "# in the previous joint's frame: x, y, z (m), roll, pitch, yaw (rad, R = Rz(yaw) Ry(pitch) Rx(roll));\n",
+            "# every joint turns about its own z axis.\nkinematics:\n"
+        ),
+        name.replace('\n', " ")
+    );
+    for (joint, x) in UR_JOINTS.iter().zip(origins) {
+        let t = x.translation.vector;
+        let [roll, pitch, yaw] = rpy_from_rotation(x.rotation.to_rotation_matrix().matrix());
+        let _ = writeln!(out, "  {joint}:");
+        for (key, value) in [
+            ("x", t.x),
+            ("y", t.y),
+            ("z", t.z),
+            ("roll", roll),
+            ("pitch", pitch),
+            ("yaw", yaw),
+        ] {
+            let _ = writeln!(out, "    {key}: {value:?}");
+        }
+    }
+    out
+}
+
+/// The URDF a UR kinematics file stands for: links `base_link`, the six
+/// joints' links and `tcp` (through `tool`), every joint about z and named
+/// as the robot's actuated coordinate.
+fn ur_urdf_text(joints: &UrJoints, tool: &Isometry3<f64>) -> String {
+    let mut out = String::from("<robot name=\"ur\">\n  <link name=\"base_link\"/>\n");
+    for joint in UR_JOINTS {
+        let _ = writeln!(out, "  <link name=\"{joint}_link\"/>");
+    }
+    out.push_str("  <link name=\"tcp\"/>\n");
+    let mut parent = "base_link".to_string();
+    for ((joint, x), name) in UR_JOINTS.iter().zip(&joints.origins).zip(&joints.names) {
+        let name = xml_escape(name);
+        let _ = writeln!(
+            out,
+            "  <joint name=\"{name}\" type=\"revolute\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{joint}_link\"/>\n    {}\n    <axis xyz=\"0 0 1\"/>\n    <limit lower=\"-6.3\" upper=\"6.3\" effort=\"0\" velocity=\"0\"/>\n  </joint>",
+            origin_element(x)
+        );
+        parent = format!("{joint}_link");
+    }
+    let _ = writeln!(
+        out,
+        "  <joint name=\"tool\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"tcp\"/>\n    {}\n  </joint>\n</robot>",
+        origin_element(tool)
+    );
+    out
 }
 
 fn xml_escape(s: &str) -> String {
@@ -601,6 +717,37 @@ pub fn export_robot(
                 format,
                 text,
                 dropped: Vec::new(),
+                max_deviation_m: Some(deviation),
+            })
+        }
+        ExportFormat::UrKinematicsYaml => {
+            let joints = ur_joint_origins(model, xi)?;
+            let text = ur_yaml_text(&model.name, &joints.origins);
+            // Read back through the URDF the values stand for (the flange
+            // and tool appended for the comparison only).
+            let tool = joints.flange * model.tool;
+            let robot = UrdfRobot::parse(&ur_urdf_text(&joints, &tool), "UR kinematics")?;
+            let read_back = ImportedRobot::from_urdf(&robot, &ImportOptions::default())?
+                .description
+                .build()?;
+            let deviation = max_deviation(model, xi, &read_back, options.checked_configurations)?;
+            loss(
+                "UR kinematics YAML",
+                "its joints read back as a URDF move the TCP".into(),
+                deviation,
+            )?;
+            let mut dropped = vec![
+                "the fixed frames after the sixth joint, the tool transform (flange to TCP) and the base transform: a UR kinematics file holds the six joints only".to_string(),
+                "the joint limits, the joint names and the parameter vector's choice of identified quantities".to_string(),
+                "the `hash` a UR controller writes (its calibration checksum)".to_string(),
+            ];
+            if tool == Isometry3::identity() && model.base == Isometry3::identity() {
+                dropped.remove(0);
+            }
+            Ok(RobotExport {
+                format,
+                text,
+                dropped,
                 max_deviation_m: Some(deviation),
             })
         }

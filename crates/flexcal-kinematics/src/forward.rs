@@ -4,7 +4,7 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Vector3};
 
 use crate::KinematicsError;
 use crate::description::{JointType, LoopSolver};
-use crate::error::check_vector;
+use crate::error::{LoopSingularity, check_vector};
 use crate::model::{JointSource, LoopModel, Model};
 use crate::pose::Pose;
 
@@ -42,6 +42,10 @@ pub struct Data {
     /// d joint / d q, one row of n_actuated per frame.
     djoint_dq: Vec<f64>,
     pub(crate) tcp: Pose,
+    /// The actuated configuration at which the loops were last assembled
+    /// (the model's home for a fresh workspace): where the next call's
+    /// continuation starts. `None`: close by Newton from the joint values alone.
+    assembled_q: Option<Vec<f64>>,
 }
 
 impl Data {
@@ -70,6 +74,7 @@ impl Data {
             djoint_dxi: vec![0.0; n * model.n_params()],
             djoint_dq: vec![0.0; n * model.n_actuated()],
             tcp: Pose::IDENTITY,
+            assembled_q: model.home.clone(),
         };
         data.collect_passive(model);
         data
@@ -94,8 +99,9 @@ impl Data {
 
     /// Seeds the passive loop joints (rad or m, order of
     /// [`Model::passive_names`]): the next forward call assembles the loops
-    /// from these values, which selects the assembly branch the Newton
-    /// solver follows.
+    /// by Newton's method from these values directly (no continuation from
+    /// an earlier configuration), which selects the assembly branch the
+    /// Newton solver follows.
     pub fn set_passive_values(
         &mut self,
         model: &Model,
@@ -117,6 +123,7 @@ impl Data {
             }
         }
         self.passive.copy_from_slice(values);
+        self.assembled_q = None;
         Ok(())
     }
 
@@ -366,8 +373,17 @@ fn newton(model: &Model, data: &mut Data, l: &LoopModel, q: &[f64]) -> Result<()
         }
         let g = passive_jacobian(model, data, l);
         let rhs = DMatrix::from_iterator(l.selection.len(), 1, l.selection.iter().map(|&k| -e[k]));
-        let step = least_squares(g, &rhs, &format!("loop `{}`", l.name))
-            .map_err(|_| loop_cannot_close(l, q, norm))?;
+        let step = least_squares(g, &rhs, &format!("loop `{}`", l.name)).map_err(|e| match e {
+            KinematicsError::Singular { .. } => {
+                KinematicsError::LoopSingular(Box::new(LoopSingularity {
+                    loop_name: l.name.clone(),
+                    q: q.to_vec(),
+                    from: q.to_vec(),
+                    at: q.to_vec(),
+                }))
+            }
+            other => other,
+        })?;
         let mut step_norm = 0.0f64;
         for (c, &f) in l.passive.iter().enumerate() {
             data.joint[f] += step[c];
@@ -384,6 +400,151 @@ fn newton(model: &Model, data: &mut Data, l: &LoopModel, q: &[f64]) -> Result<()
         return Err(loop_cannot_close(l, q, norm));
     }
     Ok(())
+}
+
+/// Closes every loop, in order, at the joint values already evaluated for `q`.
+fn close_loops(model: &Model, data: &mut Data, q: &[f64]) -> Result<(), KinematicsError> {
+    for l in &model.loops {
+        if l.solver == LoopSolver::FourBar {
+            four_bar_closed_form(model, data, l, q)?;
+        }
+        newton(model, data, l, q)?;
+    }
+    Ok(())
+}
+
+/// Largest step of a loop continuation (rad or m, on every actuated coordinate).
+const CONTINUATION_STEP: f64 = 0.05;
+/// Smallest share of the whole move a continuation step is halved down to.
+const CONTINUATION_MIN_SHARE: f64 = 1e-6;
+
+/// Where the continuation to `q` starts: the configuration of the last
+/// assembly, when the loops are followed (a model with Newton loops) and
+/// `q` is more than one step away from it.
+fn continuation_start(model: &Model, data: &Data, q: &[f64]) -> Option<Vec<f64>> {
+    if !model.follows_loops {
+        return None;
+    }
+    let from = data.assembled_q.as_ref()?;
+    let distance = from
+        .iter()
+        .zip(q)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    (distance > CONTINUATION_STEP).then(|| from.clone())
+}
+
+/// Follows the loops from `from` (where the passive joints of `data` close
+/// them, or nearly) to `to` along the straight line in q, in steps of at
+/// most [`CONTINUATION_STEP`], each predicted by the secant of the last two
+/// and corrected by Newton's method; a step that does not converge is
+/// halved. The passive joints then hold the assembly at `to` on the branch
+/// of `from`. When the loops do not close at `from` itself (seeds that
+/// do not describe the home configuration), the joints are left as they
+/// were and the caller's Newton starts from them directly.
+fn follow_loops(
+    model: &Model,
+    data: &mut Data,
+    from: &[f64],
+    to: &[f64],
+) -> Result<(), KinematicsError> {
+    let start = data.joint.clone();
+    if evaluate_joints(model, data, from, false).is_err() || close_loops(model, data, from).is_err()
+    {
+        data.joint = start;
+        return Ok(());
+    }
+    let distance = from
+        .iter()
+        .zip(to)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let full_step = CONTINUATION_STEP / distance;
+    let (mut t, mut h) = (0.0, full_step);
+    let mut previous: Option<(f64, Vec<f64>)> = None;
+    let mut at = from.to_vec();
+    while t < 1.0 {
+        let t_next = (t + h).min(1.0);
+        for (k, a) in at.iter_mut().enumerate() {
+            *a = from[k] + t_next * (to[k] - from[k]);
+        }
+        let current = data.joint.clone();
+        if let Some((t_previous, joints)) = &previous {
+            let ratio = (t_next - t) / (t - t_previous);
+            for l in &model.loops {
+                for &f in &l.passive {
+                    data.joint[f] += ratio * (current[f] - joints[f]);
+                }
+            }
+        }
+        evaluate_joints(model, data, &at, false)?;
+        match close_loops(model, data, &at) {
+            Ok(()) => {
+                previous = Some((t, current));
+                t = t_next;
+                h = (2.0 * h).min(full_step);
+            }
+            Err(KinematicsError::LoopSingular(singular)) => {
+                return Err(KinematicsError::LoopSingular(Box::new(LoopSingularity {
+                    loop_name: singular.loop_name,
+                    q: to.to_vec(),
+                    from: from.to_vec(),
+                    at,
+                })));
+            }
+            Err(e) => {
+                data.joint = current;
+                h *= 0.5;
+                if h < CONTINUATION_MIN_SHARE {
+                    let reached: Vec<f64> =
+                        from.iter().zip(to).map(|(a, b)| a + t * (b - a)).collect();
+                    return Err(continuation_failure(model, data, e, [from, &reached, to]));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Relative size of the smallest singular value of a loop Jacobian below
+/// which a continuation that cannot go on is said to meet a singular one.
+const SINGULAR_LOOP_JACOBIAN: f64 = 1e-3;
+
+/// The error of a continuation that cannot go on at the configuration the
+/// joints of `data` are assembled in: a singular loop Jacobian there
+/// (by [`SINGULAR_LOOP_JACOBIAN`]), by name, or the loop that cannot close,
+/// with the configuration asked for. `at` is the last configuration reached.
+fn continuation_failure(
+    model: &Model,
+    data: &mut Data,
+    error: KinematicsError,
+    [from, at, to]: [&[f64]; 3],
+) -> KinematicsError {
+    data.compute_poses(model);
+    for l in &model.loops {
+        let svd = passive_jacobian(model, data, l).svd(false, false);
+        let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
+        if smin <= SINGULAR_LOOP_JACOBIAN * smax {
+            return KinematicsError::LoopSingular(Box::new(LoopSingularity {
+                loop_name: l.name.clone(),
+                q: to.to_vec(),
+                from: from.to_vec(),
+                at: at.to_vec(),
+            }));
+        }
+    }
+    match error {
+        KinematicsError::LoopCannotClose {
+            loop_name,
+            residual,
+            ..
+        } => KinematicsError::LoopCannotClose {
+            loop_name,
+            q: to.to_vec(),
+            residual,
+        },
+        other => other,
+    }
 }
 
 fn four_bar_closed_form(
@@ -645,25 +806,29 @@ fn run_forward(
         });
     }
     data.update_cache(model, xi);
-    evaluate_joints(model, data, q, derivatives)?;
     if model.loops.is_empty() {
+        evaluate_joints(model, data, q, derivatives)?;
         data.compute_poses(model);
     } else {
         let saved: Vec<f64> = data.joint.clone();
         let result = (|| {
-            for l in &model.loops {
-                if l.solver == LoopSolver::FourBar {
-                    four_bar_closed_form(model, data, l, q)?;
-                }
-                newton(model, data, l, q)?;
+            if let Some(from) = continuation_start(model, data, q) {
+                follow_loops(model, data, &from, q)?;
             }
-            Ok(())
+            evaluate_joints(model, data, q, derivatives)?;
+            close_loops(model, data, q)
         })();
         if let Err(e) = result {
             // Keep the previous (assembled) branch as the seed of the next call.
             data.joint = saved;
             data.compute_poses(model);
             return Err(e);
+        }
+        if model.follows_loops {
+            match data.assembled_q.as_mut() {
+                Some(a) => a.copy_from_slice(q),
+                None => data.assembled_q = Some(q.to_vec()),
+            }
         }
         data.collect_passive(model);
         if derivatives {
@@ -688,6 +853,28 @@ pub fn forward_pose(
 ) -> Result<Isometry3<f64>, KinematicsError> {
     run_forward(model, data, q, xi, false)?;
     Ok(data.tcp.to_isometry())
+}
+
+/// Pose `x_base_frame` of the frame or named place `name` (a frame's name,
+/// a link of [`Model::named_frames`], or `0` for the base R0) in the robot
+/// base frame R0, at the actuated coordinates `q` and parameters `xi`.
+///
+/// # Errors
+/// [`KinematicsError::UnknownFrame`] listing the names there are; the
+/// errors of [`forward_frames`].
+pub fn forward_named_pose(
+    model: &Model,
+    data: &mut Data,
+    name: &str,
+    q: &[f64],
+    xi: &[f64],
+) -> Result<Isometry3<f64>, KinematicsError> {
+    let (frame, x_frame_place) = model.locate(name)?;
+    run_forward(model, data, q, xi, false)?;
+    Ok(match frame {
+        Some(i) => data.poses[i].to_isometry() * x_frame_place,
+        None => x_frame_place,
+    })
 }
 
 /// Poses of all frames; afterwards [`Data::frame_pose`] gives `x_base_frame`

@@ -40,7 +40,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::KinematicsError;
 use crate::description::{
-    CouplingTerm, FrameDescription, JointType, RobotDescription, TransformDescription,
+    CouplingTerm, FrameDescription, JointType, LinkDescription, RobotDescription,
+    TransformDescription,
 };
 use crate::urdf::{UrdfJoint, UrdfJointKind, UrdfRobot};
 
@@ -678,7 +679,9 @@ fn assemble(
         tool: TransformDescription::from_isometry(&tool),
         frames,
         loops: Vec::new(),
+        links: Vec::new(),
     };
+    description.links = attached_links(robot, chain, geometry, &description, &mut notes);
     if !side_leaders.is_empty() {
         // Side frames carry a coordinate only: their quantities leave xi.
         let side_frames: Vec<String> = (1..=side_leaders.len()).map(|i| format!("m{i}")).collect();
@@ -699,15 +702,10 @@ fn assemble(
     })
 }
 
-/// The links' masses, each attached to the frame that carries the link.
-fn link_masses(
-    robot: &UrdfRobot,
-    chain: &Chain,
-    geometry: &[KkFrame],
-    notes: &mut Vec<String>,
-) -> Vec<LinkMass> {
-    // The frame carrying each link of the path: the last moving joint above it.
-    let mut carrier: HashMap<&str, usize> = HashMap::new(); // link -> 0 (R0) or frame number
+/// The frame carrying each link of the path (0: R0, else the frame number):
+/// the last moving joint above it.
+fn path_carriers<'a>(chain: &'a Chain<'a>) -> HashMap<&'a str, usize> {
+    let mut carrier: HashMap<&str, usize> = HashMap::new();
     carrier.insert(chain.root.as_str(), 0);
     let mut current = 0;
     for j in &chain.path {
@@ -716,6 +714,67 @@ fn link_masses(
         }
         carrier.insert(j.child.as_str(), current);
     }
+    carrier
+}
+
+/// Every link rigidly attached to the path (only fixed joints between it
+/// and a link of the path), as a named place on the frame that carries it:
+/// the root on R0 (`"0"`), `wrist_2_link` on its joint's frame, a flange
+/// or `tool0` on the end frame. A link whose name is a frame's is left out
+/// (and said so).
+fn attached_links(
+    robot: &UrdfRobot,
+    chain: &Chain,
+    geometry: &[KkFrame],
+    description: &RobotDescription,
+    notes: &mut Vec<String>,
+) -> Vec<LinkDescription> {
+    let carrier = path_carriers(chain);
+    let mut links = Vec::new();
+    for link in &robot.links {
+        let mut l = link.name.as_str();
+        let frame = loop {
+            if let Some(&k) = carrier.get(l) {
+                break Some(k);
+            }
+            match robot.parent_joint(l) {
+                Some(j) if j.kind == UrdfJointKind::Fixed => l = j.parent.as_str(),
+                _ => break None,
+            }
+        };
+        let (Some(frame), Some(x_root_link)) = (frame, chain.x_root_link.get(link.name.as_str()))
+        else {
+            continue;
+        };
+        if description.frames.iter().any(|f| f.name == link.name) {
+            notes.push(format!(
+                "link `{}` has a frame's name: use the frame, or rename the link",
+                link.name
+            ));
+            continue;
+        }
+        let x_frame_link = if frame == 0 {
+            *x_root_link
+        } else {
+            geometry[frame - 1].x_root_frame.inverse() * x_root_link
+        };
+        links.push(LinkDescription::new(
+            &link.name,
+            &frame.to_string(),
+            &x_frame_link,
+        ));
+    }
+    links
+}
+
+/// The links' masses, each attached to the frame that carries the link.
+fn link_masses(
+    robot: &UrdfRobot,
+    chain: &Chain,
+    geometry: &[KkFrame],
+    notes: &mut Vec<String>,
+) -> Vec<LinkMass> {
+    let carrier = path_carriers(chain);
     let mut off_path_moving = Vec::new();
     let mut masses = Vec::new();
     for link in &robot.links {

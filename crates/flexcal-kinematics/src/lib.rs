@@ -134,8 +134,11 @@
 //! - A planar loop constraint closes the in-plane components only: errors
 //!   out of the loop's plane are assumed taken up by the mechanism's
 //!   clearances, as the paper's planar relation U does.
-//! - The loop solver is local (Newton from the previous solution); the
-//!   four-bar closed form keeps a declared assembly branch.
+//! - The loop solver follows the assembly by continuation along the
+//!   straight line in q from the previous configuration (or the home
+//!   configuration), so it keeps the branch it starts on but cannot go
+//!   around a dead point that line crosses; the four-bar closed form keeps
+//!   a declared assembly branch.
 //! - The inverse model is local (nearest solution to the seed), not an
 //!   enumeration of all branches.
 //! - The IR-663 slider-crank geometry is a plausible choice, not KUKA's.
@@ -163,15 +166,15 @@ pub mod urdf;
 
 pub use builtin::builtin_robot_names;
 pub use description::{
-    CouplingTerm, FrameDescription, JointType, LoopConstraint, LoopDescription, LoopSolver,
-    RobotDescription, SliderCrankDescription, TransformDescription,
+    CouplingTerm, FrameDescription, JointType, LinkDescription, LoopConstraint, LoopDescription,
+    LoopSolver, RobotDescription, SliderCrankDescription, TransformDescription, rpy_from_rotation,
 };
-pub use error::KinematicsError;
+pub use error::{KinematicsError, LoopSingularity};
 pub use export::{ExportFormat, ExportOptions, MdhRow, MdhTable, RobotExport, export_robot};
 pub use forward::{
-    Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_pose,
-    frame_param_and_joint_jacobians_into, frame_param_jacobian, frame_param_jacobian_into,
-    frame_points_jacobians_into, joint_jacobian, joint_jacobian_into,
+    Data, PointLoad, actuated_forces_into, forward_frame_pose, forward_frames, forward_named_pose,
+    forward_pose, frame_param_and_joint_jacobians_into, frame_param_jacobian,
+    frame_param_jacobian_into, frame_points_jacobians_into, joint_jacobian, joint_jacobian_into,
     param_and_joint_jacobians_into, param_jacobian, param_jacobian_into,
 };
 pub use import::{ImportOptions, ImportedRobot, LinkMass};

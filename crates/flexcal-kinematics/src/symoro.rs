@@ -6,11 +6,16 @@
 //! 1..NL are the links, NL+1..NJ the cut joints of closed loops and
 //! NJ+1..NF (sigma = 2) the frames that coincide with them, so that
 //! NF = NJ + (NJ - NL); each pair (NL+i, NJ+i) becomes a flexcal loop with a
-//! full closure constraint. `Mu` = 1 marks actuated joints; passive joints
-//! must lie in a loop.
+//! full closure constraint. Where there are loops `Mu` = 1 marks actuated
+//! joints and passive joints must lie in a loop; a robot without loops has
+//! every joint actuated whatever its `Mu` (SYMORO writes `Mu = 0` there),
+//! and its notes say so.
 //!
-//! Entries are numbers or expressions (`+ - * /`, parentheses, `Pi`) of
-//! symbols whose values (SI: m, rad) come from a values file:
+//! Entries are numbers or expressions (`+ - * /`, `^` or `**`, unary minus,
+//! parentheses, `Pi`, the functions `sin cos tan sqrt atan2` in any case,
+//! with `(` or Mathematica's `[`) of symbols whose values (SI: m, rad) come
+//! from a values file; an error names the character where an entry stops
+//! making sense:
 //!
 //! ```toml
 //! D3 = 0.45          # symbol = value (m or rad)
@@ -28,8 +33,9 @@
 //! pose is read from [`crate::Data::frame_pose`]. A loop that is a planar
 //! four-bar (a parallelogram) is closed in closed form on the assembly
 //! branch of the `[home]` configuration when it gives every actuated and
-//! passive joint; other loops follow Newton's method from the home values,
-//! and the import's notes say which.
+//! passive joint; other loops are followed by continuation from the home
+//! configuration (the actuated frames' seeds, see
+//! [`crate::Model::home_configuration`]), and the import's notes say which.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -55,7 +61,48 @@ enum Expr {
     Number(f64),
     Symbol(String),
     Negate(Box<Expr>),
+    /// `+ - * /` and `^` (`**` is read as `^`).
     Binary(char, Box<Expr>, Box<Expr>),
+    Call(Function, Vec<Expr>),
+}
+
+/// The functions an entry may call (SYMORO's and Mathematica's spellings,
+/// any case: `cos`, `Cos`, `COS`; `ArcTan` and `atan2` take two arguments
+/// in the order `atan2(y, x)`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Function {
+    Sin,
+    Cos,
+    Tan,
+    Sqrt,
+    Atan2,
+}
+
+impl Function {
+    fn named(name: &str) -> Option<Self> {
+        match name.to_ascii_lowercase().as_str() {
+            "sin" => Some(Self::Sin),
+            "cos" => Some(Self::Cos),
+            "tan" => Some(Self::Tan),
+            "sqrt" => Some(Self::Sqrt),
+            "atan2" => Some(Self::Atan2),
+            _ => None,
+        }
+    }
+
+    fn arity(self) -> usize {
+        if self == Self::Atan2 { 2 } else { 1 }
+    }
+
+    fn apply(self, args: &[f64]) -> f64 {
+        match self {
+            Self::Sin => args[0].sin(),
+            Self::Cos => args[0].cos(),
+            Self::Tan => args[0].tan(),
+            Self::Sqrt => args[0].sqrt(),
+            Self::Atan2 => args[0].atan2(args[1]),
+        }
+    }
 }
 
 impl Expr {
@@ -70,6 +117,7 @@ impl Expr {
                 a.symbols(out);
                 b.symbols(out);
             }
+            Expr::Call(_, args) => args.iter().for_each(|a| a.symbols(out)),
         }
     }
 
@@ -84,14 +132,22 @@ impl Expr {
                     '+' => a + b,
                     '-' => a - b,
                     '*' => a * b,
+                    '^' => a.powf(b),
                     _ => a / b,
                 }
+            }
+            Expr::Call(f, args) => {
+                let values: Vec<f64> = args.iter().map(|a| a.eval(value)).collect();
+                f.apply(&values)
             }
         }
     }
 }
 
-/// Recursive-descent parser of one entry.
+/// Recursive-descent parser of one entry. Precedence, loosest first:
+/// `+ -`, `* /`, unary `- +`, `^` (right-associative, so `-x^2 = -(x^2)`
+/// and `2^3^2 = 2^9`), then numbers, symbols, `Pi`, calls and parentheses.
+/// Errors name the character (1-based) where the entry stops making sense.
 struct Parser<'a> {
     chars: Vec<char>,
     at: usize,
@@ -108,6 +164,20 @@ impl Parser<'_> {
         self.skip();
         self.chars.get(self.at).copied()
     }
+    /// An error at the current character: `what at character 7 of `text``.
+    fn error(&mut self, what: &str) -> String {
+        self.skip();
+        if self.at >= self.chars.len() {
+            format!("{what} at the end of `{}`", self.text)
+        } else {
+            format!(
+                "{what} at character {} (`{}`) of `{}`",
+                self.at + 1,
+                self.chars[self.at],
+                self.text
+            )
+        }
+    }
     fn sum(&mut self, depth: usize) -> Result<Expr, String> {
         let mut left = self.product(depth)?;
         while let Some(op @ ('+' | '-')) = self.peek() {
@@ -117,9 +187,13 @@ impl Parser<'_> {
         }
         Ok(left)
     }
+    /// `*` and `/`, but not `**` (the power).
     fn product(&mut self, depth: usize) -> Result<Expr, String> {
         let mut left = self.unary(depth)?;
         while let Some(op @ ('*' | '/')) = self.peek() {
+            if op == '*' && self.chars.get(self.at + 1) == Some(&'*') {
+                break;
+            }
             self.at += 1;
             let right = self.unary(depth)?;
             left = Expr::Binary(op, Box::new(left), Box::new(right));
@@ -128,7 +202,7 @@ impl Parser<'_> {
     }
     fn unary(&mut self, depth: usize) -> Result<Expr, String> {
         if depth > 64 {
-            return Err(format!("`{}` is nested too deeply", self.text));
+            return Err(self.error("nested too deeply"));
         }
         match self.peek() {
             Some('-') => {
@@ -139,54 +213,99 @@ impl Parser<'_> {
                 self.at += 1;
                 self.unary(depth + 1)
             }
+            _ => self.power(depth),
+        }
+    }
+    /// A primary, raised to a power by `^` or `**` (right-associative).
+    fn power(&mut self, depth: usize) -> Result<Expr, String> {
+        let base = self.primary(depth)?;
+        let width = match self.peek() {
+            Some('^') => 1,
+            Some('*') if self.chars.get(self.at + 1) == Some(&'*') => 2,
+            _ => return Ok(base),
+        };
+        self.at += width;
+        let exponent = self.unary(depth + 1)?;
+        Ok(Expr::Binary('^', Box::new(base), Box::new(exponent)))
+    }
+    fn primary(&mut self, depth: usize) -> Result<Expr, String> {
+        match self.peek() {
             Some('(') => {
                 self.at += 1;
                 let e = self.sum(depth + 1)?;
                 if self.peek() != Some(')') {
-                    return Err(format!("`{}`: missing `)`", self.text));
+                    return Err(self.error("expected `)`"));
                 }
                 self.at += 1;
                 Ok(e)
             }
-            Some(c) if c.is_ascii_digit() || c == '.' => {
-                let start = self.at;
-                while self.at < self.chars.len() {
-                    let c = self.chars[self.at];
-                    let exponent_sign = (c == '-' || c == '+')
-                        && self.at > start
-                        && matches!(self.chars[self.at - 1], 'e' | 'E');
-                    if c.is_ascii_digit() || c == '.' || c == 'e' || c == 'E' || exponent_sign {
-                        self.at += 1;
-                    } else {
-                        break;
-                    }
-                }
-                let s: String = self.chars[start..self.at].iter().collect();
-                let x: f64 = s
-                    .parse()
-                    .map_err(|_| format!("`{s}` in `{}` is not a number", self.text))?;
-                if !x.is_finite() {
-                    return Err(format!("`{s}` in `{}` is not finite", self.text));
-                }
-                Ok(Expr::Number(x))
-            }
-            Some(c) if c.is_alphabetic() || c == '_' => {
-                let start = self.at;
-                while self.at < self.chars.len()
-                    && (self.chars[self.at].is_alphanumeric() || self.chars[self.at] == '_')
-                {
-                    self.at += 1;
-                }
-                let s: String = self.chars[start..self.at].iter().collect();
-                if s.eq_ignore_ascii_case("pi") {
-                    Ok(Expr::Number(std::f64::consts::PI))
-                } else {
-                    Ok(Expr::Symbol(s))
-                }
-            }
-            Some(c) => Err(format!("unexpected `{c}` in `{}`", self.text)),
-            None => Err(format!("`{}` ends too early", self.text)),
+            Some(c) if c.is_ascii_digit() || c == '.' => self.number(),
+            Some(c) if c.is_alphabetic() || c == '_' => self.name(depth),
+            Some(_) => Err(self.error("unexpected character")),
+            None => Err(self.error("an operand is missing")),
         }
+    }
+    fn number(&mut self) -> Result<Expr, String> {
+        let start = self.at;
+        while self.at < self.chars.len() {
+            let c = self.chars[self.at];
+            let exponent_sign = (c == '-' || c == '+')
+                && self.at > start
+                && matches!(self.chars[self.at - 1], 'e' | 'E');
+            if c.is_ascii_digit() || c == '.' || c == 'e' || c == 'E' || exponent_sign {
+                self.at += 1;
+            } else {
+                break;
+            }
+        }
+        let s: String = self.chars[start..self.at].iter().collect();
+        match s.parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(Expr::Number(x)),
+            _ => {
+                self.at = start;
+                Err(self.error(&format!("`{s}` is not a finite number")))
+            }
+        }
+    }
+    /// A symbol, `Pi`, or a function call `name(args)` (or `Name[args]`).
+    fn name(&mut self, depth: usize) -> Result<Expr, String> {
+        let start = self.at;
+        while self.at < self.chars.len()
+            && (self.chars[self.at].is_alphanumeric() || self.chars[self.at] == '_')
+        {
+            self.at += 1;
+        }
+        let s: String = self.chars[start..self.at].iter().collect();
+        let close = match self.peek() {
+            Some('(') => ')',
+            Some('[') => ']',
+            _ if s.eq_ignore_ascii_case("pi") => return Ok(Expr::Number(std::f64::consts::PI)),
+            _ => return Ok(Expr::Symbol(s)),
+        };
+        let Some(function) = Function::named(&s) else {
+            self.at = start;
+            return Err(self.error(&format!(
+                "unknown function `{s}` (known: sin, cos, tan, sqrt, atan2)"
+            )));
+        };
+        self.at += 1;
+        let mut args = vec![self.sum(depth + 1)?];
+        while self.peek() == Some(',') {
+            self.at += 1;
+            args.push(self.sum(depth + 1)?);
+        }
+        if self.peek() != Some(close) {
+            return Err(self.error(&format!("expected `{close}` closing `{s}`")));
+        }
+        if args.len() != function.arity() {
+            return Err(self.error(&format!(
+                "`{s}` takes {} argument(s), found {}",
+                function.arity(),
+                args.len()
+            )));
+        }
+        self.at += 1;
+        Ok(Expr::Call(function, args))
     }
 }
 
@@ -198,7 +317,7 @@ fn parse_expr(text: &str) -> Result<Expr, String> {
     };
     let e = p.sum(0)?;
     if p.peek().is_some() {
-        return Err(format!("`{text}`: unexpected text after the expression"));
+        return Err(p.error("unexpected text after the expression"));
     }
     Ok(e)
 }
@@ -283,10 +402,25 @@ fn list_entries(value: &str, source: &str, line: usize) -> Result<Vec<String>, K
     if close < open {
         return Err(par_error(source, line, "a list closes before it opens"));
     }
-    Ok(value[open + 1..close]
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .collect())
+    // Commas inside a call's parentheses (`atan2(y, x)`) do not separate entries.
+    let mut entries = Vec::new();
+    let (mut depth, mut start) = (0i32, open + 1);
+    for (k, c) in value[..close]
+        .char_indices()
+        .skip_while(|&(k, _)| k <= open)
+    {
+        match c {
+            '(' | '[' => depth += 1,
+            ')' | ']' => depth -= 1,
+            ',' if depth == 0 => {
+                entries.push(value[start..k].trim().to_string());
+                start = k + 1;
+            }
+            _ => {}
+        }
+    }
+    entries.push(value[start..close].trim().to_string());
+    Ok(entries)
 }
 
 /// Symbol values and the home configuration of a values file.
@@ -455,7 +589,7 @@ fn par_from_str(
         };
     let (ant_line, ant) = list("ant", None)?;
     let (sigma_line, sigma) = list("sigma", None)?;
-    let (_, mu) = list("mu", Some("0"))?;
+    let (mu_line, mu) = list("mu", Some("0"))?;
     let integer = |line: usize, key: &str, s: &str| -> Result<i64, KinematicsError> {
         s.parse::<i64>().map_err(|_| {
             par_error(
@@ -551,7 +685,7 @@ fn par_from_str(
                 ));
             }
         };
-        let m = integer(0, "mu", &mu[j])?;
+        let m = integer(mu_line, "mu", &mu[j])?;
         let v = &frames_values[j];
         let mut f = FrameDescription::new(&(j + 1).to_string(), &a.to_string(), joint);
         let [gamma, b, alpha, d, theta, r] = v.quantities;
@@ -561,15 +695,30 @@ fn par_from_str(
         f.d_mm = d * 1e3;
         f.theta_deg = theta.to_degrees();
         f.r_mm = r * 1e3;
-        if joint != JointType::Fixed && m == 1 {
+        // SYMORO reads `mu` only where there are closed loops: every joint
+        // of a robot without loops is motorised, whatever its `mu`.
+        let loop_free = nj == nl;
+        let home = v
+            .variable
+            .as_ref()
+            .and_then(|n| values.home.get(n))
+            .copied();
+        if joint != JointType::Fixed && (m == 1 || loop_free) {
             f.actuated = true;
             f.actuated_name = v.variable.clone();
+            // The home configuration, where the loops are first assembled.
+            match (home, joint) {
+                (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
+                (Some(h), _) => f.seed_mm = h * 1e3,
+                (None, _) => {}
+            }
+            if m != 1 && !notes.iter().any(|n: &String| n.starts_with("mu = 0")) {
+                notes.push(
+                    "mu = 0 on a robot without closed loops: every joint is actuated (SYMORO uses mu only for loops)"
+                        .to_string(),
+                );
+            }
         } else if joint != JointType::Fixed {
-            let home = v
-                .variable
-                .as_ref()
-                .and_then(|n| values.home.get(n))
-                .copied();
             match (home, joint) {
                 (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
                 (Some(h), _) => f.seed_mm = h * 1e3,
@@ -633,6 +782,7 @@ fn par_from_str(
         tool: TransformDescription::default(),
         frames,
         loops,
+        links: Vec::new(),
     };
     let mut description = description;
     four_bar_branches(&mut description, &frames_values, values, &mut notes);

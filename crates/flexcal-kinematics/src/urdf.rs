@@ -582,6 +582,14 @@ fn read_joint(reader: &Reader, node: roxmltree::Node) -> Result<UrdfJoint, Kinem
         Some(l) => {
             let lower = reader.optional_number(l, "lower", 0.0)?;
             let upper = reader.optional_number(l, "upper", 0.0)?;
+            if lower > upper {
+                return Err(reader.error(
+                    l,
+                    format!(
+                        "joint `{name}`: inverted limits, lower = {lower} is above upper = {upper}"
+                    ),
+                ));
+            }
             Some((lower, upper))
         }
     };

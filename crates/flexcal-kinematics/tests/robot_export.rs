@@ -213,3 +213,106 @@ fn exported_urdfs_match_the_independent_evaluator() {
         assert!(dp < 1e-9 && da < 1e-9, "{name}: {dp:.3e} m, {da:.3e}");
     }
 }
+
+/// The six joint origins of a UR kinematics YAML, read line by line here
+/// (`  joint:` then `    key: value`), in file order: [x, y, z, roll, pitch, yaw].
+fn read_ur_yaml(text: &str) -> Vec<(String, [f64; 6])> {
+    let keys = ["x", "y", "z", "roll", "pitch", "yaw"];
+    let mut joints: Vec<(String, [f64; 6])> = Vec::new();
+    for line in text.lines().filter(|l| !l.trim_start().starts_with('#')) {
+        let (key, value) = line.split_once(':').unwrap();
+        match (line.starts_with("    "), line.starts_with("  ")) {
+            (true, _) => {
+                let k = keys.iter().position(|k| *k == key.trim()).unwrap();
+                joints.last_mut().unwrap().1[k] = value.trim().parse().unwrap();
+            }
+            (false, true) => joints.push((key.trim().to_string(), [f64::NAN; 6])),
+            _ => assert_eq!(line, "kinematics:"),
+        }
+    }
+    joints
+}
+
+#[test]
+fn ur_kinematics_yaml_round_trips_through_a_urdf_and_refuses_other_arms() {
+    let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
+    let xi = perturbed(&model, 21);
+    let export = export_robot(
+        &model,
+        &xi,
+        ExportFormat::UrKinematicsYaml,
+        &ExportOptions::default(),
+    )
+    .unwrap();
+    let joints = read_ur_yaml(&export.text);
+    let names: Vec<&str> = joints.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "shoulder",
+            "upper_arm",
+            "forearm",
+            "wrist_1",
+            "wrist_2",
+            "wrist_3"
+        ]
+    );
+    // The URDF the file stands for, written here: each joint about its z axis.
+    let mut urdf = String::from("<robot name=\"yaml\">\n  <link name=\"l0\"/>\n");
+    for (k, (name, v)) in joints.iter().enumerate() {
+        assert!(v.iter().all(|x| x.is_finite()), "{name}");
+        urdf.push_str(&format!(
+            "  <link name=\"l{}\"/>\n  <joint name=\"{name}\" type=\"revolute\"><parent link=\"l{k}\"/><child link=\"l{}\"/>\
+             <origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/><axis xyz=\"0 0 1\"/><limit lower=\"-7\" upper=\"7\" effort=\"0\" velocity=\"0\"/></joint>\n",
+            k + 1, k + 1, v[0], v[1], v[2], v[3], v[4], v[5]
+        ));
+    }
+    urdf.push_str("</robot>\n");
+    let robot = flexcal_kinematics::urdf::UrdfRobot::parse(&urdf, "yaml.urdf").unwrap();
+    let read = ImportedRobot::from_urdf(&robot, &ImportOptions::default())
+        .unwrap()
+        .description
+        .build()
+        .unwrap();
+    let mut worst = 0.0f64;
+    let (mut a, mut b) = (Data::new(&model), Data::new(&read));
+    for k in 0..64 {
+        let q: Vec<f64> = (0..6)
+            .map(|j| ((k * 5 + j * 11) as f64 * 0.29).sin() * 3.0)
+            .collect();
+        let x = forward_pose(&model, &mut a, &q, &xi).unwrap();
+        let y = forward_pose(&read, &mut b, &q, read.nominal_params()).unwrap();
+        worst = worst
+            .max((x.translation.vector - y.translation.vector).amax())
+            .max(x.rotation.angle_to(&y.rotation));
+    }
+    assert!(worst < 1e-12, "{worst:e}");
+    assert!(export.max_deviation_m.unwrap() < 1e-12);
+    // A four-bar loop has no place in it, by name.
+    let ir663 = RobotDescription::builtin("ir663").unwrap().build().unwrap();
+    match export_robot(
+        &ir663,
+        ir663.nominal_params(),
+        ExportFormat::UrKinematicsYaml,
+        &ExportOptions::default(),
+    ) {
+        Err(KinematicsError::Inexpressible { format, what }) => {
+            assert_eq!(format, "UR kinematics YAML");
+            assert!(what.contains("closed loop"), "{what}");
+        }
+        other => panic!("expected Inexpressible, got {other:?}"),
+    }
+    // The PUMA 560's flange frame goes with the tool, which the file drops.
+    let puma = RobotDescription::builtin("puma560")
+        .unwrap()
+        .build()
+        .unwrap();
+    let export = export_robot(
+        &puma,
+        puma.nominal_params(),
+        ExportFormat::UrKinematicsYaml,
+        &ExportOptions::default(),
+    )
+    .unwrap();
+    assert!(export.dropped[0].contains("fixed frames after the sixth joint"));
+}

@@ -187,7 +187,10 @@ pub fn kinematics_error_with(e: &KinError, message: String) -> PyErr {
         KinError::UnknownRobot { .. } => UnknownRobotError::new_err(message),
         KinError::WrongLength { .. } => ShapeError::new_err(message),
         KinError::NotFinite { .. } => NotFiniteError::new_err(message),
-        KinError::File { .. } | KinError::Toml { .. } => FileError::new_err(message),
+        KinError::File { .. }
+        | KinError::Toml { .. }
+        | KinError::Urdf { .. }
+        | KinError::Symoro { .. } => FileError::new_err(message),
         KinError::Unreachable { .. } => UnreachableError::new_err(message),
         _ => KinematicsError::new_err(message),
     }

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::kinematics::{
-    Data, InverseOptions, InverseTarget, KinematicsError as KinError, Model, ParamKind,
-    RobotDescription, SerialChain, builtin_robot_names, forward_frame_pose, forward_pose,
-    inverse_pose, joint_jacobian_into, param_jacobian_into,
+    Data, ImportedRobot, InverseOptions, InverseTarget, KinematicsError as KinError, Model,
+    ParamKind, RobotDescription, SerialChain, builtin_robot_names, forward_frame_pose,
+    forward_pose, inverse_pose, joint_jacobian_into, param_jacobian_into,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
 use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn, PyArrayMethods};
@@ -263,10 +263,55 @@ impl Robot {
     /// A robot by the command line's rule: a built-in name is that robot,
     /// anything else a description file read by the format its extension
     /// selects. Raises `UnknownRobotError` when `spec` is neither.
+    ///
+    /// `tip`: the tip link of a URDF, or the frame or link a TOML or
+    /// built-in robot's TCP moves to (an unknown name raises
+    /// `KinematicsError` naming the frames there are); `root`: a URDF's
+    /// root link (refused for other robots); `values`: the symbol values of
+    /// a `.par` file (TOML, SI units).
     #[staticmethod]
-    fn load(spec: &str) -> PyResult<Self> {
-        let model = flexcal::load_robot(spec).map_err(|e| crate::errors::facade_error(&e))?;
+    #[pyo3(signature = (spec, tip = None, root = None, values = None))]
+    fn load(
+        spec: &str,
+        tip: Option<String>,
+        root: Option<String>,
+        values: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        let options = flexcal::kinematics::ImportOptions { tip, root, values };
+        let model = flexcal::load_robot_with(spec, &options)
+            .map_err(|e| crate::errors::facade_error(&e))?;
         Ok(Self::new(model))
+    }
+
+    /// A robot from URDF text (see `from_urdf`); `source` names it in
+    /// messages. Malformed text raises `FileError` with its line.
+    #[staticmethod]
+    #[pyo3(signature = (text, tip = None, root = None, source = "<string>"))]
+    fn from_urdf_string(
+        text: &str,
+        tip: Option<String>,
+        root: Option<String>,
+        source: &str,
+    ) -> PyResult<Self> {
+        let options = flexcal::kinematics::ImportOptions {
+            tip,
+            root,
+            values: None,
+        };
+        let model = flexcal::kinematics::urdf::UrdfRobot::parse(text, source)
+            .and_then(|robot| ImportedRobot::from_urdf(&robot, &options))
+            .and_then(|imported| imported.description.build())
+            .map_err(|e| kinematics_error(&e))?;
+        Ok(Self::new(model))
+    }
+
+    /// Every name `fk(frame=...)` takes: `"0"` (the base frame), the
+    /// robot's frames (`"1"`..`"n"` for an imported URDF or `.par`), then
+    /// the links attached to them (a URDF's link names: `"wrist_2_link"`,
+    /// `"tool0"`).
+    #[getter]
+    fn frame_names(&self) -> Vec<String> {
+        self.model.named_frames()
     }
 
     /// A robot from a URDF file: the path from `root` (default: the root of
@@ -414,8 +459,9 @@ impl Robot {
     /// (n, 4, 4), translation in m; `output="pose"` returns a tuple
     /// (positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w]).
     /// `xi` (n_params,) replaces the nominal parameters (m, rad). `frame`
-    /// names a frame of the robot (a hand of a two-armed robot, a link) whose
-    /// pose is returned instead of the TCP's (no tool transform). Batches run
+    /// names a frame or link of the robot (any of `frame_names`: a hand of a
+    /// two-armed robot, a URDF link such as `"wrist_2_link"`) whose pose is
+    /// returned instead of the TCP's (no tool transform). Batches run
     /// without the GIL on up to `threads` threads (default: all cores),
     /// and Ctrl-C interrupts them between batches of 16 384.
     #[pyo3(signature = (q, xi = None, output = "matrix", threads = None, frame = None))]
@@ -432,13 +478,9 @@ impl Robot {
         let xi = self.xi(xi)?;
         let frame = frame
             .map(|name| {
-                self.model.frame_index(name).ok_or_else(|| {
-                    InputError::new_err(format!(
-                        "frame: robot `{}` has no frame `{name}` (frames: {})",
-                        self.model.name(),
-                        self.model.frame_names().join(", ")
-                    ))
-                })
+                self.model
+                    .locate(name)
+                    .map_err(|e| InputError::new_err(format!("frame: {e}")))
             })
             .transpose()?;
         // A serial chain takes the precomputed path to the TCP; other robots
@@ -450,7 +492,11 @@ impl Robot {
         };
         let pose_at = |m: &Model, d: &mut Data, q: &[f64]| match (&chain, frame) {
             (Some(chain), _) => chain.pose(q),
-            (None, Some(f)) => forward_frame_pose(m, d, q, &xi, f, &Isometry3::identity()),
+            (None, Some((Some(f), x_frame_place))) => {
+                forward_frame_pose(m, d, q, &xi, f, &x_frame_place)
+            }
+            // A place on the base does not move.
+            (None, Some((None, x_base_place))) => Ok(x_base_place),
             (None, None) => forward_pose(m, d, q, &xi),
         };
         match output {

@@ -17,7 +17,9 @@
 use std::path::Path;
 
 use flexcal_io::{CsvOptions, CsvTable, format_csv};
-use flexcal_kinematics::{Data, InverseOptions, Model, forward_pose, inverse_pose};
+use flexcal_kinematics::{
+    Data, InverseOptions, Model, forward_named_pose, forward_pose, inverse_pose,
+};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
@@ -178,6 +180,76 @@ pub fn forward_poses(model: &Model, configurations: &[Located<Vec<f64>>]) -> Res
         out.passive.push(data.passive_values().to_vec());
     }
     Ok(out)
+}
+
+/// The poses of named frames over a set of configurations (`fk --frame`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FramePoses {
+    /// The frames' names ([`Model::named_frames`]), in the order asked.
+    pub frames: Vec<String>,
+    /// Per configuration, the pose `x_base_frame` of each frame in the base
+    /// frame R0 (m), in the order of `frames`.
+    pub x_base_frame: Vec<Vec<Isometry3<f64>>>,
+}
+
+impl FramePoses {
+    /// The pose file: for each frame the columns [`POSE_COLUMNS`] prefixed
+    /// by its name and `.` (`wrist_2_link.x_m`, ..., `wrist_2_link.qz`),
+    /// full precision.
+    pub fn to_csv(&self) -> String {
+        let header: Vec<String> = self
+            .frames
+            .iter()
+            .flat_map(|f| POSE_COLUMNS.iter().map(move |c| format!("{f}.{c}")))
+            .collect();
+        let header: Vec<&str> = header.iter().map(String::as_str).collect();
+        let rows = self.x_base_frame.iter().map(|poses| {
+            poses
+                .iter()
+                .flat_map(|x| {
+                    let (t, r) = (x.translation.vector, x.rotation);
+                    [t.x, t.y, t.z, r.w, r.i, r.j, r.k]
+                })
+                .collect::<Vec<f64>>()
+        });
+        format_csv(&header, rows)
+    }
+}
+
+/// The poses of the frames or links named `frames` (any of
+/// [`Model::named_frames`]) at each of `configurations`, with the robot's
+/// nominal geometric parameters.
+///
+/// # Errors
+/// [`Error::Kinematics`] with `UnknownFrame` for a name the robot does not
+/// have (before any computation); [`Error::KinematicsAt`] naming the
+/// configuration's origin otherwise.
+pub fn forward_frame_poses(
+    model: &Model,
+    configurations: &[Located<Vec<f64>>],
+    frames: &[String],
+) -> Result<FramePoses> {
+    for name in frames {
+        model.locate(name)?;
+    }
+    let xi = model.nominal_params();
+    let mut data = Data::new(model);
+    let mut x_base_frame = Vec::with_capacity(configurations.len());
+    for q in configurations {
+        let poses = frames
+            .iter()
+            .map(|name| forward_named_pose(model, &mut data, name, &q.value, xi))
+            .collect::<std::result::Result<Vec<_>, _>>()
+            .map_err(|source| Error::KinematicsAt {
+                origin: q.origin.clone(),
+                source,
+            })?;
+        x_base_frame.push(poses);
+    }
+    Ok(FramePoses {
+        frames: frames.to_vec(),
+        x_base_frame,
+    })
 }
 
 /// The middle of the joint limits: the default start of the inverse model.

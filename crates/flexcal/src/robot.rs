@@ -72,19 +72,48 @@ impl RobotFileFormat {
     }
 
     /// Reads a robot from `path` in this format; `options` choose a URDF's
-    /// tip and root and give a `.par` file's symbol values (a TOML file
-    /// ignores them).
+    /// tip and root and give a `.par` file's symbol values. A TOML file
+    /// takes a tip too ([`with_tip`]: a frame or link by name) and refuses
+    /// a root by name.
     pub fn read(self, path: &Path, options: &ImportOptions) -> Result<ImportedRobot, Error> {
         Ok(match self {
-            Self::Toml => ImportedRobot {
-                description: RobotDescription::from_toml_file(path)?,
-                masses: Vec::new(),
-                notes: Vec::new(),
-            },
+            Self::Toml => with_tip(RobotDescription::from_toml_file(path)?, options)?,
             Self::Urdf => ImportedRobot::read_urdf(path, options)?,
             Self::Par => ImportedRobot::read_par(path, options)?,
         })
     }
+}
+
+/// A description that is not a URDF, with the import options applied: the
+/// tip moved to the frame or link `options.tip` names
+/// ([`RobotDescription::with_tip`], an unknown name refused by name), a
+/// root refused (only a URDF tree can be re-rooted).
+pub fn with_tip(
+    description: RobotDescription,
+    options: &ImportOptions,
+) -> Result<ImportedRobot, Error> {
+    if let Some(root) = &options.root {
+        return Err(flexcal_kinematics::KinematicsError::Invalid {
+            what: format!(
+                "robot `{}`: a root (`{root}`) can only be chosen in a URDF file",
+                description.name
+            ),
+        }
+        .into());
+    }
+    let mut notes = Vec::new();
+    let description = match &options.tip {
+        Some(tip) => {
+            notes.push(format!("tip moved to `{tip}`"));
+            description.with_tip(tip)?
+        }
+        None => description,
+    };
+    Ok(ImportedRobot {
+        description,
+        masses: Vec::new(),
+        notes,
+    })
 }
 
 impl RobotSpec {
@@ -119,11 +148,7 @@ impl RobotSpec {
     /// (a URDF's link masses) and notes on the conversion.
     pub fn import(&self, options: &ImportOptions) -> Result<ImportedRobot, Error> {
         match self {
-            Self::Builtin(name) => Ok(ImportedRobot {
-                description: RobotDescription::builtin(name)?,
-                masses: Vec::new(),
-                notes: Vec::new(),
-            }),
+            Self::Builtin(name) => with_tip(RobotDescription::builtin(name)?, options),
             Self::File(path) => RobotFileFormat::from_path(path)?.read(path, options),
         }
     }

@@ -151,6 +151,9 @@ fn build(desc: &RobotDescription) -> Result<Model, KinematicsError> {
             )));
         }
     }
+    let follows_loops = loops.iter().any(|l| l.solver == LoopSolver::Newton);
+    let home = Some(home_configuration(desc, &actuation))
+        .filter(|h| follows_loops && h.iter().any(|&v| v != 0.0));
     let end_frame = match &desc.end_frame {
         None => frames.len() - 1,
         Some(n) => *index
@@ -184,7 +187,64 @@ fn build(desc: &RobotDescription) -> Result<Model, KinematicsError> {
         tcp_terms,
         tcp_xi_joints,
         param_owner: xi.owner,
+        home,
+        follows_loops,
+        links: links(desc, &index)?,
     })
+}
+
+/// The named places: each name unique among frames and links, on a
+/// frame that exists, at a finite pose.
+#[allow(clippy::type_complexity)]
+fn links(
+    desc: &RobotDescription,
+    index: &HashMap<&str, usize>,
+) -> Result<Vec<(String, Option<usize>, Isometry3<f64>)>, KinematicsError> {
+    let mut out: Vec<(String, Option<usize>, Isometry3<f64>)> = Vec::new();
+    for l in &desc.links {
+        if l.name.is_empty() || l.name == "0" || index.contains_key(l.name.as_str()) {
+            return Err(invalid(format!(
+                "link `{}` has the name of a frame (or of the base `0`)",
+                l.name
+            )));
+        }
+        if out.iter().any(|(n, _, _)| *n == l.name) {
+            return Err(invalid(format!("link `{}` is declared twice", l.name)));
+        }
+        let frame = if l.frame == "0" {
+            None
+        } else {
+            Some(*index.get(l.frame.as_str()).ok_or_else(|| {
+                invalid(format!(
+                    "link `{}` is attached to `{}`, which is not a frame",
+                    l.name, l.frame
+                ))
+            })?)
+        };
+        let x = transform(
+            &format!("link `{}`", l.name),
+            &TransformDescription {
+                translation_mm: l.translation_mm,
+                rpy_deg: l.rpy_deg,
+            },
+        )?;
+        out.push((l.name.clone(), frame, x));
+    }
+    Ok(out)
+}
+
+/// The actuated coordinates' seeds (rad for a revolute joint, m for a
+/// prismatic joint or a screw length): where the loops are assembled first.
+fn home_configuration(desc: &RobotDescription, actuation: &Actuation) -> Vec<f64> {
+    actuation
+        .frames
+        .iter()
+        .zip(&actuation.kinds)
+        .map(|(&i, kind)| match kind {
+            ActuatedKind::Revolute => desc.frames[i].seed_deg.to_radians(),
+            _ => desc.frames[i].seed_mm / 1000.0,
+        })
+        .collect()
 }
 
 /// Index of each frame by name; names unique and not reserved, every

@@ -310,6 +310,15 @@ pub struct Model {
     pub(crate) tcp_xi_joints: Vec<usize>,
     /// Where each parameter is written back in a description.
     pub(crate) param_owner: Vec<(usize, Quantity)>,
+    /// The home configuration (the actuated frames' seeds, rad or m) from
+    /// which loops solved by Newton's method are followed to the first
+    /// configuration; `None` when no loop is or no seed is declared.
+    pub(crate) home: Option<Vec<f64>>,
+    /// Whether a loop is solved by Newton's method, and so followed by
+    /// continuation from one call to the next.
+    pub(crate) follows_loops: bool,
+    /// Named places: (name, frame index or None for R0, pose in that frame).
+    pub(crate) links: Vec<(String, Option<usize>, Isometry3<f64>)>,
 }
 
 impl Model {
@@ -367,6 +376,46 @@ impl Model {
     pub fn frame_names(&self) -> &[String] {
         &self.frame_names
     }
+    /// Names of the named places attached to frames (a URDF's links, see
+    /// [`crate::LinkDescription`]), in the description's order.
+    pub fn link_names(&self) -> impl Iterator<Item = &str> {
+        self.links.iter().map(|(name, _, _)| name.as_str())
+    }
+    /// Every name [`crate::forward_named_pose`] takes: `0` (the base frame
+    /// R0), the frames in index order, then the links. A URDF's links keep
+    /// their own names here (`wrist_2_link`, `tool0`) beside the
+    /// Khalil-Kleinfinger frames `1..n` they move with: a KK frame sits on
+    /// its joint's common normal, not where the URDF puts the link's frame,
+    /// so the two are different places and keep different names.
+    pub fn named_frames(&self) -> Vec<String> {
+        std::iter::once("0".to_string())
+            .chain(self.frame_names.iter().cloned())
+            .chain(self.link_names().map(str::to_string))
+            .collect()
+    }
+    /// Where the named frame or link `name` is: the frame it moves with
+    /// (`None`: the base R0) and its pose in that frame (SI).
+    ///
+    /// # Errors
+    /// [`KinematicsError::UnknownFrame`] for a name that is neither,
+    /// listing [`Model::named_frames`].
+    pub fn locate(&self, name: &str) -> Result<(Option<usize>, Isometry3<f64>), KinematicsError> {
+        if name == "0" {
+            return Ok((None, Isometry3::identity()));
+        }
+        if let Some(i) = self.frame_index(name) {
+            return Ok((Some(i), Isometry3::identity()));
+        }
+        self.links
+            .iter()
+            .find(|(n, _, _)| n == name)
+            .map(|(_, frame, x)| (*frame, *x))
+            .ok_or_else(|| KinematicsError::UnknownFrame {
+                robot: self.name.as_str().into(),
+                name: name.to_string(),
+                known: self.named_frames().join(", "),
+            })
+    }
     /// Index of the antecedent of frame `i` (None: the base frame R0).
     pub fn antecedent(&self, i: usize) -> Option<usize> {
         self.frames.get(i).and_then(|f| f.parent)
@@ -392,6 +441,15 @@ impl Model {
     /// [`crate::Data::passive_values`].
     pub fn passive_names(&self) -> &[String] {
         &self.passive_names
+    }
+    /// The home configuration (rad or m, order of q) from which the loops
+    /// solved by Newton's method are followed by continuation to the first
+    /// configuration asked of a fresh [`crate::Data`] (the actuated frames'
+    /// `seed_deg` / `seed_mm`), or `None` for a robot without such loops or
+    /// whose actuated seeds are all zero (its first call closes the loops
+    /// by Newton's method from the passive seeds directly).
+    pub fn home_configuration(&self) -> Option<&[f64]> {
+        self.home.as_deref()
     }
     /// Cell frame R-1 to base frame R0 (not in xi).
     pub fn base(&self) -> Isometry3<f64> {

@@ -81,8 +81,21 @@ class Robot:
     def builtin(name: str) -> Robot:
         """A built-in robot (`ur10`, `ir663`, `puma560`); UnknownRobotError otherwise."""
     @staticmethod
-    def load(spec: str) -> Robot:
-        """The command line's rule: a built-in name, else a description file by its extension."""
+    def load(
+        spec: str,
+        tip: str | None = None,
+        root: str | None = None,
+        values: StrPath | None = None,
+    ) -> Robot:
+        """The command line's rule: a built-in name, else a description file by its extension.
+
+        tip: a URDF's tip link, or the frame or link a TOML or built-in robot's TCP moves to;
+        root: a URDF's root link (refused for other robots); values: a .par file's symbols (TOML, SI)."""
+    @staticmethod
+    def from_urdf_string(
+        text: str, tip: str | None = None, root: str | None = None, source: str = "<string>"
+    ) -> Robot:
+        """A robot from URDF text; malformed text raises FileError with its line."""
     @staticmethod
     def from_urdf(path: StrPath, tip: str | None = None, root: str | None = None) -> Robot:
         """A robot from a URDF file: the root-to-tip path as a Khalil-Kleinfinger model (SI)."""
@@ -109,6 +122,9 @@ class Robot:
     def joint_names(self) -> list[str]:
         """Names of the actuated coordinates in the order of q."""
     @property
+    def frame_names(self) -> list[str]:
+        """Every name fk(frame=...) takes: "0" (base), the frames, then the links (a URDF's link names)."""
+    @property
     def joint_limits(self) -> FloatArray:
         """(dof, 2) [lower, upper] in rad or m."""
     @property
@@ -130,7 +146,7 @@ class Robot:
     ) -> FloatArray:
         """TCP pose in the base frame: (4, 4) for q (dof,), (n, 4, 4) for q (n, dof); m.
 
-        frame: the pose of that frame of the robot instead (no tool transform)."""
+        frame: the pose of that frame or link of the robot instead (any of frame_names; no tool transform)."""
     @overload
     def fk(
         self,

@@ -76,6 +76,11 @@ pub fn robot_text(imported: &ImportedRobot) -> Result<String, Error> {
     }
     let _ = writeln!(
         out,
+        "frames (fk --frame NAME; 0 is the base): {}",
+        model.named_frames().join(", ")
+    );
+    let _ = writeln!(
+        out,
         "\nparameter vector xi ({} parameters):",
         model.n_params()
     );
