@@ -31,8 +31,10 @@ const MAX_EXCHANGE_PASSES: usize = 10;
 
 /// Relative tolerance of a Cholesky factor's pivots below which an
 /// information matrix counts as singular (squared ratio of its smallest to
-/// its largest diagonal entry).
-const SINGULAR_PIVOT_RATIO: f64 = 1e-12;
+/// its largest diagonal entry): rounding level only. A nearly dependent
+/// unknown that the pool's identification kept is predicted with its
+/// large variance, as `calibrate` would.
+const SINGULAR_PIVOT_RATIO: f64 = 1e-24;
 
 /// The linearised campaign: weighted candidate rows and region rows over
 /// the same scaled unknowns.
@@ -90,7 +92,7 @@ impl Design {
     }
 
     /// The information of `selected` plus `prior` times the identity.
-    fn information(&self, selected: &[usize], prior: f64) -> DMatrix<f64> {
+    pub(crate) fn information(&self, selected: &[usize], prior: f64) -> DMatrix<f64> {
         let p = self.n_unknowns();
         let mut info = DMatrix::<f64>::identity(p, p) * prior;
         for &k in selected {

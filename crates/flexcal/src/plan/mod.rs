@@ -111,6 +111,45 @@ impl JointBox {
         }
     }
 
+    /// The box of `text`, `lo:hi` per actuated coordinate separated by
+    /// commas, in deg for revolute joints and mm for prismatic joints and
+    /// screws (the file and command-line units); `what` names the argument
+    /// in errors. The box is checked ([`JointBox::check`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `what`: a range that is not two
+    /// numbers `lo:hi`, and [`JointBox::check`]'s errors.
+    pub fn from_text(model: &Model, text: &str, what: &str) -> Result<Self> {
+        let invalid = |message: String| Error::InvalidParameter {
+            parameter: what.to_string(),
+            message,
+        };
+        let ranges = text
+            .split(',')
+            .zip(model.actuated_kinds().iter().chain(std::iter::repeat(
+                &crate::kinematics::ActuatedKind::Revolute,
+            )))
+            .map(|(range, kind)| {
+                let unit = match kind {
+                    crate::kinematics::ActuatedKind::Revolute => 1f64.to_radians(),
+                    _ => 1e-3,
+                };
+                let numbers: Vec<f64> = range
+                    .split(':')
+                    .map(|v| v.trim().parse::<f64>())
+                    .collect::<std::result::Result<_, _>>()
+                    .map_err(|_| invalid(format!("'{range}' is not a range lo:hi")))?;
+                match numbers[..] {
+                    [lo, hi] => Ok((lo * unit, hi * unit)),
+                    _ => Err(invalid(format!("'{range}' is not a range lo:hi"))),
+                }
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let joint_box = Self { ranges };
+        joint_box.check(model, what)?;
+        Ok(joint_box)
+    }
+
     /// Checks the box against `model`: one range per actuated coordinate,
     /// finite, not empty (`lo < hi`), inside the joint limits.
     ///
