@@ -59,7 +59,7 @@ impl CampaignPlan {
             all.push(marker);
         }
         section.paragraph(format!(
-            "{} Each count is the greedy campaign of that many poses; the knee ({}) is the smallest count whose mean bound is within the tolerance of the curve's last.",
+            "{}. Each count is the greedy campaign of that many poses; the knee ({}) is the smallest count whose mean bound is within the tolerance of the curve's last.",
             self.criterion,
             self.knee.map_or("none".to_string(), |k| format!("{k} poses"))
         ));

@@ -58,6 +58,7 @@ use crate::{Error, Result};
 pub(crate) mod design;
 mod html;
 pub mod output;
+pub mod twin_check;
 
 use design::Design;
 
@@ -410,6 +411,11 @@ pub struct RegionAccuracy {
     pub p95_bound_95_mm: f64,
     /// Largest bound (mm).
     pub max_bound_95_mm: f64,
+    /// The mean error norm over the region the bounds imply, each error
+    /// taken as isotropic Gaussian: `sqrt(8 / pi) sigma` per point with
+    /// `sigma = bound / sqrt(chi2_3(0.95))` (mm); what the achieved mean
+    /// error of a validation over the region is compared with.
+    pub predicted_mean_error_mm: f64,
 }
 
 impl RegionAccuracy {
@@ -419,8 +425,11 @@ impl RegionAccuracy {
         sorted.sort_by(f64::total_cmp);
         let n = sorted.len();
         let rank = ((0.95 * n as f64).ceil() as usize).clamp(1, n.max(1)) - 1;
+        let mean = sorted.iter().sum::<f64>() / n.max(1) as f64;
         Self {
-            mean_bound_95_mm: sorted.iter().sum::<f64>() / n.max(1) as f64,
+            mean_bound_95_mm: mean,
+            predicted_mean_error_mm: mean * (8.0 / std::f64::consts::PI).sqrt()
+                / calib::CHI2_3_95.sqrt(),
             p95_bound_95_mm: sorted.get(rank).copied().unwrap_or(0.0),
             max_bound_95_mm: sorted.last().copied().unwrap_or(0.0),
         }

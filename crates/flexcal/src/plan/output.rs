@@ -51,6 +51,17 @@ impl CampaignPlan {
             .collect()
     }
 
+    /// The plan as pretty-printed JSON (the fields of [`CampaignPlan`]).
+    ///
+    /// # Errors
+    /// [`Error::Json`] (not expected: every field serialises).
+    pub fn to_json_string(&self) -> Result<String> {
+        serde_json::to_string_pretty(self).map_err(|source| Error::Json {
+            context: "the plan".into(),
+            source,
+        })
+    }
+
     /// Writes the files of `outputs` and returns one line per file written.
     ///
     /// # Errors
@@ -86,11 +97,7 @@ impl CampaignPlan {
             ));
         }
         if let Some(path) = &outputs.report {
-            let text = serde_json::to_string_pretty(self).map_err(|source| Error::Json {
-                context: "the plan".into(),
-                source,
-            })?;
-            files.push((path, text, "JSON plan"));
+            files.push((path, self.to_json_string()?, "JSON plan"));
         }
         if let Some(path) = &outputs.html {
             files.push((path, self.html_report().to_html(), "HTML plan"));
