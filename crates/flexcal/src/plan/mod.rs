@@ -45,7 +45,7 @@
 
 use std::fmt::Write as _;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, Isometry3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::calib::{
@@ -57,6 +57,7 @@ use crate::{Error, Result};
 
 pub(crate) mod design;
 mod html;
+pub mod ipa_check;
 pub mod output;
 pub mod twin_check;
 
@@ -613,9 +614,11 @@ fn knee_of(curve: &[CurvePoint], tolerance: f64) -> Option<usize> {
         .map(|p| p.poses)
 }
 
-/// The measurements the nominal robot would give at `configurations`: its
-/// TCP positions in its base frame, with the instrument's noise as their
-/// standard deviations (no noise added), labelled `plan-k`.
+/// The measurements the nominal robot would give at `configurations`: the
+/// positions of the target `x_tcp_target` (the TCP for the identity) in
+/// its base frame, with the instrument's noise as their standard
+/// deviations (no noise added), labelled `plan-k`; the target is the
+/// set's nominal one.
 ///
 /// # Errors
 /// A configuration where the model fails.
@@ -623,6 +626,7 @@ pub fn synthetic_set(
     model: &Model,
     configurations: &[Vec<f64>],
     instrument: &Instrument,
+    x_tcp_target: &Isometry3<f64>,
 ) -> Result<MeasurementSet> {
     let mut data = Data::new(model);
     let std = Vector3::from(instrument.noise_mm) * 1e-3;
@@ -630,14 +634,23 @@ pub fn synthetic_set(
         .iter()
         .enumerate()
         .map(|(k, q)| {
-            let x = forward_pose(model, &mut data, q, model.nominal_params())?;
+            let x = forward_pose(model, &mut data, q, model.nominal_params())? * x_tcp_target;
             let mut m = Measurement::new(q.clone(), x.translation.vector);
             m.pose_id = Some(format!("plan-{}", k + 1));
             m.position_std = Some(std);
             Ok(m)
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(MeasurementSet::new("planned poses", measurements)?)
+    let mut set = MeasurementSet::new("planned poses", measurements)?;
+    set.nominal_target = Some(*x_tcp_target);
+    Ok(set)
+}
+
+/// The target of a plan: the options' starting or fixed target
+/// ([`CalibrationOptions::target_value`], e.g. a probe offset), else the
+/// TCP.
+fn planned_target(options: &CalibrationOptions) -> Isometry3<f64> {
+    options.target_value.unwrap_or_else(Isometry3::identity)
 }
 
 /// The calibration of `configurations` on their [`synthetic_set`].
@@ -647,7 +660,7 @@ fn synthetic_calibration(
     instrument: &Instrument,
     configurations: &[Vec<f64>],
 ) -> Result<(MeasurementSet, Calibration)> {
-    let set = synthetic_set(model, configurations, instrument)?;
+    let set = synthetic_set(model, configurations, instrument, &planned_target(options))?;
     let calibration =
         calib::calibrate(model, &set, options).map_err(|source| Error::CalibrationStep {
             step: "planning: identification of the planned poses",
@@ -682,7 +695,7 @@ fn pool_design(
         .collect();
     let weights = instrument.noise_mm.map(|s| 1.0 / (s * 1e-3));
     let candidates = position_rows(model, &calibration, &pool_set, &columns, weights)?;
-    let region_set = synthetic_set(model, region, instrument)?;
+    let region_set = synthetic_set(model, region, instrument, &planned_target(options))?;
     let region_rows = position_rows(model, &calibration, &region_set, &columns, [1.0; 3])?;
     let names = columns
         .iter()

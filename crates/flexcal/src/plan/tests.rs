@@ -133,7 +133,7 @@ fn the_design_rows_are_derivatives_of_the_position() {
         .into_iter()
         .map(|c| c.value)
         .collect();
-    let set = synthetic_set(&model, &pool, &config.instrument).unwrap();
+    let set = synthetic_set(&model, &pool, &config.instrument, &Isometry3::identity()).unwrap();
     let calibration = calib::calibrate(&model, &set, &options).unwrap();
     let j = model.param_index("d3").unwrap();
     let rows = position_rows(&model, &calibration, &set, &[j], [1.0; 3]).unwrap();
@@ -239,7 +239,7 @@ fn the_files_of_a_plan_round_trip() {
     let parsed: CampaignPlan = serde_json::from_str(&json).unwrap();
     assert_eq!(parsed.selected, plan.selected);
     let rapid = std::fs::read_to_string(dir.path().join("plan.mod")).unwrap();
-    assert_eq!(rapid.matches("robtarget").count() >= 12, true);
+    assert!(rapid.matches("robtarget").count() >= 12, "{rapid}");
     let html = std::fs::read_to_string(dir.path().join("plan.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("Planned poses"));
 }
