@@ -14,7 +14,7 @@
 //!    pool can identify (the columns of the design);
 //! 2. chooses poses greedily on the I-optimal criterion, the mean over the
 //!    region of the predicted position variance `tr(J_r Sigma J_r^T)` of
-//!    the identification with the stated noise ([`design`] gives the
+//!    the identification with the stated noise (`docs/planning.md` gives the
 //!    equations), up to the largest count asked;
 //! 3. predicts the accuracy over the region for every prefix of the greedy
 //!    order: mean, 95th percentile and maximum of the 95 % bound
