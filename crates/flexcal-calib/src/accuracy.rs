@@ -56,6 +56,14 @@ use crate::{CalibError, Measurement, MeasurementSet};
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
 
+/// The 95 % bound on a position error (m) whose identification part has
+/// the covariance trace `prediction_trace` (`tr Sigma_pred`, m^2) and whose
+/// remaining part is isotropic with per-axis variance `scatter_variance`
+/// (`s^2`, m^2): `sqrt(chi2_3(0.95) (tr Sigma_pred / 3 + s^2))` (module docs).
+pub fn bound_95(prediction_trace: f64, scatter_variance: f64) -> f64 {
+    (CHI2_3_95 * (prediction_trace / 3.0 + scatter_variance)).sqrt()
+}
+
 /// Predicted accuracy at one pose.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PoseAccuracy {
@@ -389,7 +397,7 @@ pub(crate) fn accuracy_at<P: Predicting>(
         let rows_k = DMatrix::<f64>::from_fn(3, columns.len(), |i, c| jac[(3 * k + i, columns[c])]);
         let pred = &rows_k * &sigma * rows_k.transpose();
         let trace = pred.trace().max(0.0);
-        let bound = (CHI2_3_95 * (trace / 3.0 + s2)).sqrt();
+        let bound = bound_95(trace, s2);
         let actual_error = actual.map(|a| a[k]);
         let position = base_from_meas * Point3::from(linearised.predicted[k]);
         if actual_error.is_some_and(|e| e <= bound) {

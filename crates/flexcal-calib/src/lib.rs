@@ -289,7 +289,7 @@ pub mod temperature;
 mod unknown_kind;
 pub mod validate;
 
-pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy};
+pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy, bound_95};
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;

@@ -120,8 +120,14 @@ impl Predicting for Calibration {
 impl Calibration {
     /// The error model at the identified unknowns (frames at their
     /// identified values, zero increments; positions only) and those
-    /// unknowns.
-    pub(crate) fn error_model_at<'a>(
+    /// unknowns: the identification's Jacobian at the poses of `set`
+    /// (whose measured positions only enter the residuals), as the
+    /// predicted accuracy and campaign planning use it.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] when `set` gives the model another
+    /// number of unknowns than the identification's; the model's errors.
+    pub fn error_model_at<'a>(
         &self,
         model: &'a Model,
         set: &'a MeasurementSet,

@@ -17,6 +17,7 @@ mod cmd_fem;
 mod cmd_fk;
 mod cmd_fuzzy;
 mod cmd_identify;
+mod cmd_plan;
 mod cmd_poses;
 mod cmd_robot;
 mod cmd_twin;
@@ -62,6 +63,8 @@ enum Command {
     Identify(cmd_identify::IdentifyCommand),
     /// Compensation: the commanded path that makes the loaded robot follow a target path.
     Compensate(cmd_compensate::CompensateArgs),
+    /// Plan a campaign before measuring: which poses, how many, and the accuracy they buy.
+    Plan(cmd_plan::PlanArgs),
     // <wire: new subcommand variants go above this line>
 }
 
@@ -135,6 +138,7 @@ fn main() -> ExitCode {
         Command::Twin(command) => cmd_twin::run(command),
         Command::Identify(command) => cmd_identify::run(command),
         Command::Compensate(args) => cmd_compensate::run(args),
+        Command::Plan(args) => cmd_plan::run(args),
         // <wire: new match arms go above this line>
     };
     match result {

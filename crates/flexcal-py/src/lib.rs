@@ -32,6 +32,7 @@ mod fem;
 mod fuzzy;
 pub mod interrupt;
 mod measurement;
+mod plan;
 mod robot;
 mod targets;
 
@@ -63,6 +64,7 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(targets::calibrate_targets, m)?)?;
     m.add_class::<compensation::CommandedPath>()?;
     m.add_function(wrap_pyfunction!(compensation::compensate_path, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

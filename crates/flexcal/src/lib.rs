@@ -58,6 +58,7 @@ pub mod compensation;
 mod error;
 pub mod forming;
 pub mod fuzzy_csv;
+pub mod plan;
 pub mod pose_file;
 pub mod pose_selection;
 pub mod report;

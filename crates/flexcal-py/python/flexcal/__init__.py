@@ -53,6 +53,7 @@ from ._flexcal import (
     calibrate,
     calibrate_targets,
     compensate_path,
+    plan,
 )
 
 __all__ = [
@@ -93,4 +94,5 @@ __all__ = [
     "calibrate",
     "calibrate_targets",
     "compensate_path",
+    "plan",
 ]

@@ -780,3 +780,25 @@ def compensate_path(
     """Compensates a path: points (n, 3) in the part frame (m), x_base_part (4, 4) m,
     elastic `fe:NAME|FILE` or `fuzzy:FILE`, process `cantilever:...` (the CLI's text, mm),
     payload (6,) [N; N.m] in the base frame (eqs. (39)-(41))."""
+
+def plan(
+    robot: Robot,
+    noise_mm: Sequence[float],
+    candidates: Optional[ArrayLike] = None,
+    region: Optional[ArrayLike] = None,
+    joint_box: Optional[ArrayLike] = None,
+    candidate_count: int = 200,
+    region_count: int = 200,
+    seed: int = 1,
+    poses: Optional[int] = None,
+    max_poses: Optional[int] = None,
+    model: str = "geometric",
+    masses: Optional[str] = None,
+    fix: Sequence[str] = (),
+    fixed_frame: bool = False,
+    fixed_target: bool = False,
+    knee_tolerance: float = 0.05,
+) -> dict:
+    """Plans a campaign before measuring: noise per axis in mm, candidates (n, dof) and
+    region (m, dof) in rad or m (else drawn in joint_box (dof, 2), default the joint
+    limits); returns the plan (configurations, selected, curve, knee, prediction)."""

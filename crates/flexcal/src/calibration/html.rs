@@ -365,7 +365,7 @@ fn coverage_section(map: &AccuracyMap, entries: &str) -> Section {
 }
 
 /// The accuracy map drawn where each target is.
-fn map_section(map: &AccuracyMap) -> Section {
+pub(crate) fn map_section(map: &AccuracyMap) -> Section {
     let mut section = Section::new("Accuracy map");
     let view = |a: usize, b: usize| -> Vec<(f64, f64, f64)> {
         map.poses

@@ -1,0 +1,156 @@
+//! `flexcal plan` end to end on temporary files, and bad input that must
+//! give a named error and write nothing.
+
+mod common;
+use common::flexcal;
+
+fn stdout(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+const BOX: &str = "-90:90,-125:-35,30:125,-140:30,30:150,-170:170";
+
+#[test]
+fn plan_writes_the_poses_programs_and_pages() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    let out = flexcal(&[
+        "plan",
+        "--robot",
+        "ur10",
+        "--noise-mm",
+        "0.02,0.02,0.03",
+        "--box-deg",
+        BOX,
+        "--candidate-count",
+        "60",
+        "--region-count",
+        "40",
+        "--poses",
+        "20",
+        "--max-poses",
+        "40",
+        "--out",
+        &p("poses.csv"),
+        "--krl",
+        &p("plan.src"),
+        "--rapid",
+        &p("plan.mod"),
+        "--joints-csv",
+        &p("joints.csv"),
+        "--report",
+        &p("plan.json"),
+        "--html",
+        &p("plan.html"),
+    ]);
+    assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("plan for ur10 (geometric model): 20 poses of 60 candidates"),
+        "{text}"
+    );
+    assert!(text.contains("<- knee"), "{text}");
+    assert!(text.contains("planned 20 poses: rank"), "{text}");
+    let poses = std::fs::read_to_string(p("poses.csv")).unwrap();
+    assert_eq!(poses.lines().count(), 21, "{poses}");
+    assert!(poses.starts_with("q1,q2,q3,q4,q5,q6"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("plan.json")).unwrap()).unwrap();
+    assert_eq!(json["count"], 20);
+    assert_eq!(json["configurations"].as_array().unwrap().len(), 20);
+    // The planned rows are the candidates' rows, each once.
+    let mut rows: Vec<u64> = json["selected"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    rows.sort_unstable();
+    rows.dedup();
+    assert_eq!(rows.len(), 20);
+    assert!(rows.iter().all(|&r| r < 60));
+    let krl = std::fs::read_to_string(p("plan.src")).unwrap();
+    assert!(krl.contains("DEF flexcal_plan"), "{krl}");
+    let joints = std::fs::read_to_string(p("joints.csv")).unwrap();
+    assert_eq!(joints.lines().count(), 21);
+    // The configurations file is what `flexcal fk` reads.
+    let fk = flexcal(&[
+        "fk",
+        "--robot",
+        "ur10",
+        "--input",
+        &p("poses.csv"),
+        "--output",
+        &p("tcp.csv"),
+    ]);
+    assert!(fk.status.success(), "{}", stderr(&fk));
+    assert!(
+        std::fs::read_to_string(p("plan.html"))
+            .unwrap()
+            .contains("<svg")
+    );
+}
+
+/// Each bad input gets a one-line error naming what was wrong, and the
+/// output file is not written.
+#[test]
+fn bad_plans_are_refused_by_name_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_file = dir.path().join("poses.csv");
+    let region = dir.path().join("region.csv");
+    std::fs::write(&region, "q1,q2,q3,q4,q5,q6\n0,-1,1,0,1,0\n0,-1,1,0,1,20\n").unwrap();
+    let region = region.display().to_string();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["--noise-mm", "0", "--box-deg", BOX],
+            "noise along x must be finite and > 0",
+        ),
+        (&["--noise-mm", "nan", "--box-deg", BOX], "noise along x"),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                "-90:90,-35:-35,30:125,-140:30,30:150,-170:170",
+            ],
+            "the range of",
+        ),
+        (
+            &["--noise-mm", "0.02", "--box-deg", BOX, "--region", &region],
+            "region.csv:3: theta6 = 20 outside the joint limits",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                BOX,
+                "--candidate-count",
+                "30",
+                "--poses",
+                "31",
+            ],
+            "31 poses asked for, but only 30 candidates",
+        ),
+    ];
+    for (args, expected) in cases {
+        let mut all = vec![
+            "plan",
+            "--robot",
+            "ur10",
+            "--out",
+            out_file.to_str().unwrap(),
+        ];
+        all.extend_from_slice(args);
+        let out = flexcal(&all);
+        assert!(!out.status.success(), "{all:?} succeeded");
+        let err = stderr(&out);
+        assert!(err.contains(expected), "{all:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!out_file.exists(), "{all:?} wrote the pose file");
+    }
+}

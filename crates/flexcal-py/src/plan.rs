@@ -1,0 +1,130 @@
+//! `flexcal.plan(...)`: a campaign plan before measuring
+//! ([`flexcal::plan::plan_campaign`]), returned as the plan's JSON parsed
+//! into Python dicts and lists (the fields of `CampaignPlan`, docs/planning.md).
+
+use flexcal::calib::{CalibrationOptions, FrameTreatment};
+use flexcal::plan::{JointBox, PlanConfig, PoseSource, plan_campaign};
+use flexcal::pose_file::Located;
+use numpy::{AllowTypeChange, PyArrayLikeDyn};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use crate::arrays::exact;
+use crate::calibration::gravity_option;
+use crate::errors::InputError;
+use crate::interrupt::run_interruptible;
+use crate::robot::Robot;
+
+/// Configurations of an `(n, dof)` array (rad or m) named `what`.
+fn configurations(
+    what: &str,
+    array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    dof: usize,
+) -> PyResult<PoseSource> {
+    let (values, shape) = exact(what, array, &[None, Some(dof)])?;
+    Ok(PoseSource::Configurations(
+        values
+            .chunks(dof)
+            .take(shape[0])
+            .enumerate()
+            .map(|(k, q)| Located {
+                value: q.to_vec(),
+                origin: format!("{what} row {k}"),
+            })
+            .collect(),
+    ))
+}
+
+/// Plans a measurement campaign before measuring: which poses, how many,
+/// and the predicted 95 % bound they buy over the region.
+///
+/// `noise_mm` the instrument's standard deviation per position axis (mm;
+/// one value or three); `candidates` (n, dof) configurations the cell
+/// allows (rad or m), else `candidate_count` drawn in `joint_box` (dof, 2)
+/// (rad or m; default the joint limits) with `seed`; `region` (m, dof)
+/// configurations where accuracy matters, else `region_count` drawn in the
+/// box with `seed + 1`; `poses` the number to plan (default: the knee);
+/// `max_poses` the curve's end; `model`, `masses`, `fix`, `fixed_frame`,
+/// `fixed_target` as for `calibrate`.
+///
+/// Returns the plan as a dict: `configurations` (the planned poses),
+/// `selected` (candidate rows), `curve` (per count: `poses` and
+/// `accuracy` with `mean_bound_95_mm`, `p95_bound_95_mm`,
+/// `max_bound_95_mm`), `knee`, `prediction` (`accuracy`, `map`,
+/// `identifiability_notes`, ...). Runs without the GIL.
+#[pyfunction]
+#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05))]
+#[allow(clippy::too_many_arguments)]
+pub fn plan<'py>(
+    py: Python<'py>,
+    robot: &Robot,
+    noise_mm: Vec<f64>,
+    candidates: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    region: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    joint_box: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    candidate_count: usize,
+    region_count: usize,
+    seed: u64,
+    poses: Option<usize>,
+    max_poses: Option<usize>,
+    model: &str,
+    masses: Option<PathBuf>,
+    fix: Vec<String>,
+    fixed_frame: bool,
+    fixed_target: bool,
+    knee_tolerance: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let robot_model = Arc::clone(&robot.model);
+    let dof = robot_model.n_actuated();
+    let noise_mm = match noise_mm[..] {
+        [s] => [s; 3],
+        [x, y, z] => [x, y, z],
+        _ => {
+            return Err(InputError::new_err(format!(
+                "noise_mm: one value or three (x, y, z), got {}",
+                noise_mm.len()
+            )));
+        }
+    };
+    let joint_box = match joint_box {
+        Some(b) => {
+            let (v, _) = exact("joint_box", &b, &[Some(dof), Some(2)])?;
+            JointBox {
+                ranges: v.chunks(2).map(|r| (r[0], r[1])).collect(),
+            }
+        }
+        None => JointBox::of_limits(&robot_model),
+    };
+    let drawn = |count, seed| PoseSource::Box {
+        joint_box: joint_box.clone(),
+        count,
+        seed,
+    };
+    let candidates = match candidates {
+        Some(c) => configurations("candidates", &c, dof)?,
+        None => drawn(candidate_count, seed),
+    };
+    let region = match region {
+        Some(r) => configurations("region", &r, dof)?,
+        None => drawn(region_count, seed.wrapping_add(1)),
+    };
+    let mut options = CalibrationOptions::for_model(&robot_model);
+    options.gravity = gravity_option(model, masses, &robot_model)?;
+    options.fixed = fix;
+    if fixed_frame {
+        options.measurement_frame = FrameTreatment::Fixed;
+    }
+    if fixed_target {
+        options.target = FrameTreatment::Fixed;
+    }
+    let mut config = PlanConfig::new(options, noise_mm, candidates, region);
+    config.count = poses;
+    config.max_poses = max_poses;
+    config.knee_tolerance = knee_tolerance;
+    let text = run_interruptible(py, move || {
+        let plan = plan_campaign(&robot_model, &config)?;
+        Ok(plan.to_json_string()?)
+    })?;
+    py.import("json")?.call_method1("loads", (text,))
+}

@@ -1,0 +1,866 @@
+//! Campaign planning before measuring (`flexcal plan`): which poses, how
+//! many, and the accuracy they will buy over the region that matters.
+//!
+//! Given a robot, the model to identify (the same
+//! [`calib::CalibrationOptions`] as `calibrate`: geometric or
+//! elasto-geometric, frames identified or fixed, parameters fixed or
+//! deferred), the instrument's noise per axis, a pool of candidate
+//! configurations (a file, or a joint box sampled with a seed) and the
+//! region where accuracy matters (a path or configuration file, or a joint
+//! box sampled with a seed), [`plan_campaign`]:
+//! 1. identifies the pool: `calibrate` on positions the nominal robot
+//!    would give at every candidate, weighted by the instrument's noise
+//!    ([`synthetic_set`]), decides which unknowns any campaign from this
+//!    pool can identify (the columns of the design);
+//! 2. chooses poses greedily on the I-optimal criterion, the mean over the
+//!    region of the predicted position variance `tr(J_r Sigma J_r^T)` of
+//!    the identification with the stated noise (`docs/planning.md` gives the
+//!    equations), up to the largest count asked;
+//! 3. predicts the accuracy over the region for every prefix of the greedy
+//!    order: mean, 95th percentile and maximum of the 95 % bound
+//!    `sqrt(chi2_3(0.95) (tr Sigma_pred / 3 + s^2))` of
+//!    [`calib::accuracy`], with `s` the instrument's noise
+//!    ([`CurvePoint`]), and finds the knee where more poses stop paying
+//!    ([`PlanConfig::knee_tolerance`]);
+//! 4. refines the campaign of the chosen count by exchange passes and
+//!    predicts its accuracy with `calibrate`'s own machinery: a
+//!    calibration of the planned poses on the same noise-free positions,
+//!    its identifiability notes (what the campaign cannot determine, in
+//!    `calibrate`'s words), its combinations and its accuracy map over
+//!    the region ([`predict_campaign`]).
+//!
+//! ## Limitations
+//! - One target, positions only: the instrument measures a point on the
+//!   flange or tool; orientations, several targets, line of sight and a
+//!   reach box of the instrument are not modelled.
+//! - The prediction is that of a model that holds: what the identified
+//!   model lacks (non-geometric errors, temperature, unmodelled
+//!   elasticity) is not in the bound, and region points outside the
+//!   planned poses' joint ranges are flagged
+//!   ([`calib::PoseAccuracy::outside_training_range`]), not widened.
+//! - The linearisation is at the nominal robot; errors of millimetres
+//!   change the Jacobian to second order only.
+//! - The greedy criterion is the mean predicted variance; the curve
+//!   reports the bound, which is not linear in it.
+
+use std::fmt::Write as _;
+
+use nalgebra::{DMatrix, Isometry3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::calib::{
+    self, AccuracyMap, Calibration, CalibrationOptions, Measurement, MeasurementSet,
+};
+use crate::kinematics::{Data, Model, forward_pose};
+use crate::pose_file::Located;
+use crate::{Error, Result};
+
+pub(crate) mod design;
+mod html;
+pub mod ipa_check;
+pub mod output;
+pub mod twin_check;
+
+use design::Design;
+
+/// The instrument of the campaign.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Instrument {
+    /// Standard deviation of each measured position axis x, y, z (mm;
+    /// finite and > 0).
+    pub noise_mm: [f64; 3],
+}
+
+impl Instrument {
+    /// The per-axis variance of the isotropic scatter the bound assumes:
+    /// the mean of the axes' variances (m^2).
+    pub fn scatter_variance(&self) -> f64 {
+        self.noise_mm
+            .iter()
+            .map(|s| (s * 1e-3).powi(2))
+            .sum::<f64>()
+            / 3.0
+    }
+
+    fn check(&self) -> Result<()> {
+        for (axis, s) in ["x", "y", "z"].iter().zip(self.noise_mm) {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(Error::InvalidParameter {
+                    parameter: "noise_mm".into(),
+                    message: format!(
+                        "the instrument's noise along {axis} must be finite and > 0 mm, found {s}"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A box of actuated coordinates (rad or m), one `(lo, hi)` per
+/// coordinate, in the order of [`Model::actuated_names`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JointBox {
+    /// Lower and upper bound of each actuated coordinate (rad or m).
+    pub ranges: Vec<(f64, f64)>,
+}
+
+impl JointBox {
+    /// The robot's joint limits.
+    pub fn of_limits(model: &Model) -> Self {
+        Self {
+            ranges: model.actuated_limits().to_vec(),
+        }
+    }
+
+    /// The box of `text`, `lo:hi` per actuated coordinate separated by
+    /// commas, in deg for revolute joints and mm for prismatic joints and
+    /// screws (the file and command-line units); `what` names the argument
+    /// in errors. The box is checked ([`JointBox::check`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `what`: a range that is not two
+    /// numbers `lo:hi`, and [`JointBox::check`]'s errors.
+    pub fn from_text(model: &Model, text: &str, what: &str) -> Result<Self> {
+        let invalid = |message: String| Error::InvalidParameter {
+            parameter: what.to_string(),
+            message,
+        };
+        let ranges = text
+            .split(',')
+            .zip(model.actuated_kinds().iter().chain(std::iter::repeat(
+                &crate::kinematics::ActuatedKind::Revolute,
+            )))
+            .map(|(range, kind)| {
+                let unit = match kind {
+                    crate::kinematics::ActuatedKind::Revolute => 1f64.to_radians(),
+                    _ => 1e-3,
+                };
+                let numbers: Vec<f64> = range
+                    .split(':')
+                    .map(|v| v.trim().parse::<f64>())
+                    .collect::<std::result::Result<_, _>>()
+                    .map_err(|_| invalid(format!("'{range}' is not a range lo:hi")))?;
+                match numbers[..] {
+                    [lo, hi] => Ok((lo * unit, hi * unit)),
+                    _ => Err(invalid(format!("'{range}' is not a range lo:hi"))),
+                }
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let joint_box = Self { ranges };
+        joint_box.check(model, what)?;
+        Ok(joint_box)
+    }
+
+    /// Checks the box against `model`: one range per actuated coordinate,
+    /// finite, not empty (`lo < hi`), inside the joint limits.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming `what` and the coordinate.
+    pub fn check(&self, model: &Model, what: &str) -> Result<()> {
+        let invalid = |message: String| Error::InvalidParameter {
+            parameter: what.to_string(),
+            message,
+        };
+        if self.ranges.len() != model.n_actuated() {
+            return Err(invalid(format!(
+                "{} ranges for the {} actuated coordinates of '{}'",
+                self.ranges.len(),
+                model.n_actuated(),
+                model.name()
+            )));
+        }
+        let names = model.actuated_names();
+        for ((&(lo, hi), &(min, max)), name) in
+            self.ranges.iter().zip(model.actuated_limits()).zip(names)
+        {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(invalid(format!(
+                    "the range of {name} is empty: [{lo}, {hi}]"
+                )));
+            }
+            if lo < min - LIMIT_TOLERANCE || hi > max + LIMIT_TOLERANCE {
+                return Err(invalid(format!(
+                    "the range of {name} [{lo}, {hi}] leaves the joint limits [{min}, {max}]: the robot cannot reach it"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// `count` configurations drawn uniformly in the box with `seed`
+    /// (ChaCha8), a closed loop's drawn again where it cannot close,
+    /// labelled `what sample k`.
+    ///
+    /// # Errors
+    /// As [`JointBox::check`]; [`Error::InvalidParameter`] when a closed
+    /// loop rarely closes in the box.
+    pub fn sample(
+        &self,
+        model: &Model,
+        count: usize,
+        seed: u64,
+        what: &str,
+    ) -> Result<Vec<Located<Vec<f64>>>> {
+        use rand::{Rng, SeedableRng};
+        self.check(model, what)?;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut data = Data::new(model);
+        let xi = model.nominal_params();
+        let mut drawn = Vec::with_capacity(count);
+        let mut tries = 0usize;
+        while drawn.len() < count && tries < 50 * count.max(1) {
+            tries += 1;
+            let q: Vec<f64> = self
+                .ranges
+                .iter()
+                .map(|&(lo, hi)| rng.random_range(lo..hi))
+                .collect();
+            if model.is_serial() || forward_pose(model, &mut data, &q, xi).is_ok() {
+                drawn.push(Located {
+                    value: q,
+                    origin: format!("{what} sample {}", drawn.len() + 1),
+                });
+            }
+        }
+        if drawn.len() < count {
+            return Err(Error::InvalidParameter {
+                parameter: what.to_string(),
+                message: format!(
+                    "only {} of {count} configurations of the box close the robot's loops",
+                    drawn.len()
+                ),
+            });
+        }
+        Ok(drawn)
+    }
+}
+
+/// Tolerance on the joint limits (rad or m): rounding in a file.
+const LIMIT_TOLERANCE: f64 = 1e-9;
+
+/// Where configurations come from: given ones (a file), or a joint box
+/// sampled with a seed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum PoseSource {
+    /// Configurations read from a file (or given), each with its origin.
+    Configurations(Vec<Located<Vec<f64>>>),
+    /// `count` configurations drawn uniformly in a box with `seed`.
+    Box {
+        /// The box.
+        joint_box: JointBox,
+        /// Number of configurations (>= 1).
+        count: usize,
+        /// Seed of the draw.
+        seed: u64,
+    },
+}
+
+impl PoseSource {
+    /// The configurations, checked to be reachable: the robot's number of
+    /// actuated coordinates, finite, inside the joint limits, a closed
+    /// loop closing; `what` names the source in errors.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for an empty source or box;
+    /// [`Error::InvalidData`] naming the row the robot cannot reach.
+    pub fn configurations(&self, model: &Model, what: &str) -> Result<Vec<Located<Vec<f64>>>> {
+        let rows = match self {
+            Self::Configurations(rows) => rows.clone(),
+            Self::Box {
+                joint_box,
+                count,
+                seed,
+            } => joint_box.sample(model, *count, *seed, what)?,
+        };
+        if rows.is_empty() {
+            return Err(Error::InvalidParameter {
+                parameter: what.to_string(),
+                message: "no configurations".into(),
+            });
+        }
+        let mut data = Data::new(model);
+        for row in &rows {
+            reachable(model, &mut data, row)?;
+        }
+        Ok(rows)
+    }
+}
+
+/// Checks that the robot reaches the configuration `row`.
+fn reachable(model: &Model, data: &mut Data, row: &Located<Vec<f64>>) -> Result<()> {
+    let unreachable = |message: String| Error::InvalidData {
+        origin: row.origin.clone(),
+        message,
+    };
+    let q = &row.value;
+    if q.len() != model.n_actuated() {
+        return Err(unreachable(format!(
+            "{} coordinates for the {} actuated coordinates of '{}'",
+            q.len(),
+            model.n_actuated(),
+            model.name()
+        )));
+    }
+    for ((v, &(lo, hi)), name) in q
+        .iter()
+        .zip(model.actuated_limits())
+        .zip(model.actuated_names())
+    {
+        if !(v.is_finite() && *v >= lo - LIMIT_TOLERANCE && *v <= hi + LIMIT_TOLERANCE) {
+            return Err(unreachable(format!(
+                "{name} = {v} outside the joint limits [{lo}, {hi}]: the robot cannot reach it"
+            )));
+        }
+    }
+    forward_pose(model, data, q, model.nominal_params())
+        .map(|_| ())
+        .map_err(|source| Error::KinematicsAt {
+            origin: row.origin.clone(),
+            source,
+        })
+}
+
+/// Everything a plan needs besides the robot.
+#[derive(Debug, Clone)]
+pub struct PlanConfig {
+    /// The model to identify, as for `calibrate` (the plan measures
+    /// positions only and weights them by the instrument's noise: its
+    /// `use_orientation` and `weighting` are overridden).
+    pub options: CalibrationOptions,
+    /// The instrument.
+    pub instrument: Instrument,
+    /// The candidate poses the cell allows.
+    pub candidates: PoseSource,
+    /// The region where accuracy matters.
+    pub region: PoseSource,
+    /// Number of poses to plan (`None`: the knee of the curve).
+    pub count: Option<usize>,
+    /// Largest number of poses on the curve (`None`: the larger of the
+    /// count asked and [`DEFAULT_CURVE_POSES`], at most the candidates).
+    pub max_poses: Option<usize>,
+    /// The knee is the smallest count whose mean bound is within this
+    /// fraction of the mean bound of the largest count on the curve
+    /// (default 0.05; range (0, 1)).
+    pub knee_tolerance: f64,
+}
+
+/// Default largest number of poses on the curve.
+pub const DEFAULT_CURVE_POSES: usize = 100;
+
+impl PlanConfig {
+    /// A plan of `candidates` for `region` with `options` and the
+    /// instrument's noise `noise_mm`; the count at the knee.
+    pub fn new(
+        options: CalibrationOptions,
+        noise_mm: [f64; 3],
+        candidates: PoseSource,
+        region: PoseSource,
+    ) -> Self {
+        Self {
+            options,
+            instrument: Instrument { noise_mm },
+            candidates,
+            region,
+            count: None,
+            max_poses: None,
+            knee_tolerance: 0.05,
+        }
+    }
+
+    /// The largest count on the curve for `n_candidates` candidates.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`]: a count of zero or above the candidates.
+    fn curve_end(&self, n_candidates: usize) -> Result<usize> {
+        let too_many = |name: &str, n: usize| Error::InvalidParameter {
+            parameter: name.to_string(),
+            message: format!("{n} poses asked for, but only {n_candidates} candidates"),
+        };
+        for (name, n) in [("count", self.count), ("max_poses", self.max_poses)] {
+            match n {
+                Some(0) => {
+                    return Err(Error::InvalidParameter {
+                        parameter: name.into(),
+                        message: "must be >= 1".into(),
+                    });
+                }
+                Some(n) if n > n_candidates => return Err(too_many(name, n)),
+                _ => {}
+            }
+        }
+        if !(self.knee_tolerance > 0.0 && self.knee_tolerance < 1.0) {
+            return Err(Error::InvalidParameter {
+                parameter: "knee_tolerance".into(),
+                message: format!("must be in (0, 1), found {}", self.knee_tolerance),
+            });
+        }
+        let end = self
+            .max_poses
+            .unwrap_or_else(|| self.count.unwrap_or(0).max(DEFAULT_CURVE_POSES))
+            .min(n_candidates);
+        Ok(end.max(self.count.unwrap_or(0)))
+    }
+}
+
+/// Predicted accuracy over the region: statistics of the 95 % bound.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RegionAccuracy {
+    /// Mean of the 95 % bounds over the region points (mm).
+    pub mean_bound_95_mm: f64,
+    /// 95th percentile (nearest rank) of the bounds (mm).
+    pub p95_bound_95_mm: f64,
+    /// Largest bound (mm).
+    pub max_bound_95_mm: f64,
+    /// The mean error norm over the region the bounds imply, each error
+    /// taken as isotropic Gaussian: `sqrt(8 / pi) sigma` per point with
+    /// `sigma = bound / sqrt(chi2_3(0.95))` (mm); what the achieved mean
+    /// error of a validation over the region is compared with.
+    pub predicted_mean_error_mm: f64,
+}
+
+impl RegionAccuracy {
+    /// The statistics of `bounds_mm` (mm; empty gives zeros).
+    pub fn of(bounds_mm: &[f64]) -> Self {
+        let mut sorted = bounds_mm.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let n = sorted.len();
+        let rank = ((0.95 * n as f64).ceil() as usize).clamp(1, n.max(1)) - 1;
+        let mean = sorted.iter().sum::<f64>() / n.max(1) as f64;
+        Self {
+            mean_bound_95_mm: mean,
+            predicted_mean_error_mm: mean * (8.0 / std::f64::consts::PI).sqrt()
+                / calib::CHI2_3_95.sqrt(),
+            p95_bound_95_mm: sorted.get(rank).copied().unwrap_or(0.0),
+            max_bound_95_mm: sorted.last().copied().unwrap_or(0.0),
+        }
+    }
+}
+
+/// One point of the accuracy-versus-poses curve: the greedy campaign of
+/// `poses` poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CurvePoint {
+    /// Number of poses.
+    pub poses: usize,
+    /// Predicted accuracy over the region.
+    pub accuracy: RegionAccuracy,
+}
+
+/// What a campaign of given poses is predicted to give, by `calibrate`'s
+/// own machinery ([`predict_campaign`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CampaignPrediction {
+    /// Predicted accuracy over the region.
+    pub accuracy: RegionAccuracy,
+    /// The 95 % bound at every region point ([`calib::AccuracyMap`], its
+    /// scatter the instrument's noise; region points outside the planned
+    /// poses' joint ranges are flagged).
+    pub map: AccuracyMap,
+    /// What the campaign cannot determine, in `calibrate`'s words
+    /// ([`Calibration::identifiability_notes`]).
+    pub identifiability_notes: Vec<String>,
+    /// Unknowns exactly dependent on others with these poses.
+    pub non_identifiable: Vec<String>,
+    /// Unknowns the poses see too weakly for the noise.
+    pub poorly_identifiable: Vec<String>,
+    /// What the identified unknowns stand for (`calibrate`'s lines).
+    pub combinations: Vec<String>,
+    /// Number of unknowns the campaign identifies.
+    pub rank: usize,
+}
+
+/// A campaign plan: the poses, the curve, the knee and the prediction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CampaignPlan {
+    /// The robot's name.
+    pub robot: String,
+    /// `geometric` or `elasto-geometric`.
+    pub model: String,
+    /// The selection criterion, in words.
+    pub criterion: String,
+    /// The instrument.
+    pub instrument: Instrument,
+    /// Number of candidate configurations.
+    pub candidates: usize,
+    /// Number of region points.
+    pub region_points: usize,
+    /// The unknowns the whole pool identifies (the design's columns, the
+    /// measurement frame apart).
+    pub design_unknowns: Vec<String>,
+    /// Predicted accuracy of the greedy campaign of each count, from the
+    /// first count whose poses determine every design unknown.
+    pub curve: Vec<CurvePoint>,
+    /// The knee of the curve: the smallest count within
+    /// [`PlanConfig::knee_tolerance`] of the curve's last mean bound.
+    pub knee: Option<usize>,
+    /// Number of planned poses.
+    pub count: usize,
+    /// The planned poses (rows of the candidates, 0-based), in greedy
+    /// order as refined by the exchange passes.
+    pub selected: Vec<usize>,
+    /// Where each planned pose came from (file and line, or sample).
+    pub origins: Vec<String>,
+    /// The planned configurations (rad or m).
+    pub configurations: Vec<Vec<f64>>,
+    /// Number of exchanges the passes made.
+    pub exchanges: usize,
+    /// The prediction for the planned poses.
+    pub prediction: CampaignPrediction,
+}
+
+/// Plans a campaign (module docs).
+///
+/// # Errors
+/// Named errors before any work: the instrument's noise (zero, negative,
+/// NaN), an empty box or one outside the joint limits, a candidate or
+/// region configuration the robot cannot reach (by its row), more poses
+/// than candidates; then the identification's errors, and a pool that
+/// cannot determine the unknowns with all its poses.
+pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan> {
+    config.instrument.check()?;
+    let candidates = config.candidates.configurations(model, "candidates")?;
+    let region = config.region.configurations(model, "region")?;
+    let end = config.curve_end(candidates.len())?;
+    let options = plan_options(&config.options);
+    let pool_q: Vec<Vec<f64>> = candidates.iter().map(|c| c.value.clone()).collect();
+    let region_q: Vec<Vec<f64>> = region.iter().map(|c| c.value.clone()).collect();
+    let (design, design_unknowns) =
+        pool_design(model, &options, &config.instrument, &pool_q, &region_q)?;
+    let order = design.greedy(end).ok_or_else(|| Error::InvalidParameter {
+        parameter: "candidates".into(),
+        message: "the greedy selection's information is not positive definite".into(),
+    })?;
+    let s2 = config.instrument.scatter_variance();
+    let curve: Vec<CurvePoint> = (1..=end)
+        .filter_map(|n| {
+            let variances = design.region_variances(&order[..n])?;
+            let bounds: Vec<f64> = variances
+                .iter()
+                .map(|v| calib::bound_95(*v, s2) * 1e3)
+                .collect();
+            Some(CurvePoint {
+                poses: n,
+                accuracy: RegionAccuracy::of(&bounds),
+            })
+        })
+        .collect();
+    let knee = knee_of(&curve, config.knee_tolerance);
+    let count = config.count.or(knee).ok_or_else(|| Error::InvalidParameter {
+        parameter: "candidates".into(),
+        message: format!(
+            "{end} poses of the {} candidates do not determine the {} unknowns the pool identifies: no curve, no knee (ask for more poses, or fix parameters)",
+            candidates.len(),
+            design_unknowns.len()
+        ),
+    })?;
+    let mut selected = order[..count].to_vec();
+    let exchanges = design.exchange(&mut selected);
+    let configurations: Vec<Vec<f64>> = selected.iter().map(|&k| pool_q[k].clone()).collect();
+    let prediction = predict_campaign(
+        model,
+        &options,
+        &config.instrument,
+        &configurations,
+        &region_q,
+    )?;
+    Ok(CampaignPlan {
+        robot: model.name().to_string(),
+        model: model_name(&options).into(),
+        criterion: "I-optimal: greedy then exchange on the mean predicted position variance over the region".into(),
+        instrument: config.instrument.clone(),
+        candidates: candidates.len(),
+        region_points: region.len(),
+        design_unknowns,
+        curve,
+        knee,
+        count,
+        origins: selected.iter().map(|&k| candidates[k].origin.clone()).collect(),
+        selected,
+        configurations,
+        exchanges,
+        prediction,
+    })
+}
+
+/// `geometric` or `elasto-geometric`.
+fn model_name(options: &CalibrationOptions) -> &'static str {
+    if options.gravity.is_some() {
+        "elasto-geometric"
+    } else {
+        "geometric"
+    }
+}
+
+/// The calibration options of a plan: `options` measuring positions only,
+/// weighted by the instrument's noise (absolute weights), without
+/// cancellation.
+fn plan_options(options: &CalibrationOptions) -> CalibrationOptions {
+    CalibrationOptions {
+        use_orientation: Some(false),
+        weighting: calib::Weighting::FromFile,
+        cancel: None,
+        ..options.clone()
+    }
+}
+
+/// The smallest count of `curve` whose mean bound is within `tolerance` of
+/// the last one's.
+fn knee_of(curve: &[CurvePoint], tolerance: f64) -> Option<usize> {
+    let last = curve.last()?.accuracy.mean_bound_95_mm;
+    curve
+        .iter()
+        .find(|p| p.accuracy.mean_bound_95_mm <= (1.0 + tolerance) * last)
+        .map(|p| p.poses)
+}
+
+/// The measurements the nominal robot would give at `configurations`: the
+/// positions of the target `x_tcp_target` (the TCP for the identity) in
+/// its base frame, with the instrument's noise as their standard
+/// deviations (no noise added), labelled `plan-k`; the target is the
+/// set's nominal one.
+///
+/// # Errors
+/// A configuration where the model fails.
+pub fn synthetic_set(
+    model: &Model,
+    configurations: &[Vec<f64>],
+    instrument: &Instrument,
+    x_tcp_target: &Isometry3<f64>,
+) -> Result<MeasurementSet> {
+    let mut data = Data::new(model);
+    let std = Vector3::from(instrument.noise_mm) * 1e-3;
+    let measurements = configurations
+        .iter()
+        .enumerate()
+        .map(|(k, q)| {
+            let x = forward_pose(model, &mut data, q, model.nominal_params())? * x_tcp_target;
+            let mut m = Measurement::new(q.clone(), x.translation.vector);
+            m.pose_id = Some(format!("plan-{}", k + 1));
+            m.position_std = Some(std);
+            Ok(m)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut set = MeasurementSet::new("planned poses", measurements)?;
+    set.nominal_target = Some(*x_tcp_target);
+    Ok(set)
+}
+
+/// The target of a plan: the options' starting or fixed target
+/// ([`CalibrationOptions::target_value`], e.g. a probe offset), else the
+/// TCP.
+fn planned_target(options: &CalibrationOptions) -> Isometry3<f64> {
+    options.target_value.unwrap_or_else(Isometry3::identity)
+}
+
+/// The calibration of `configurations` on their [`synthetic_set`].
+fn synthetic_calibration(
+    model: &Model,
+    options: &CalibrationOptions,
+    instrument: &Instrument,
+    configurations: &[Vec<f64>],
+) -> Result<(MeasurementSet, Calibration)> {
+    let set = synthetic_set(model, configurations, instrument, &planned_target(options))?;
+    let calibration =
+        calib::calibrate(model, &set, options).map_err(|source| Error::CalibrationStep {
+            step: "planning: identification of the planned poses",
+            source,
+        })?;
+    Ok((set, calibration))
+}
+
+/// The design of the pool: the unknowns a calibration of every candidate
+/// identifies (the measurement frame's apart) and the candidates' weighted
+/// and the region's position rows over them.
+fn pool_design(
+    model: &Model,
+    options: &CalibrationOptions,
+    instrument: &Instrument,
+    pool: &[Vec<f64>],
+    region: &[Vec<f64>],
+) -> Result<(Design, Vec<String>)> {
+    let pool_options = CalibrationOptions {
+        spread_reference: false,
+        ..options.clone()
+    };
+    let (pool_set, calibration) = synthetic_calibration(model, &pool_options, instrument, pool)?;
+    let columns: Vec<usize> = calibration
+        .unknowns
+        .iter()
+        .enumerate()
+        .filter(|(_, u)| {
+            u.status == calib::UnknownStatus::Identified && !u.name.starts_with("frame_")
+        })
+        .map(|(j, _)| j)
+        .collect();
+    let weights = instrument.noise_mm.map(|s| 1.0 / (s * 1e-3));
+    let candidates = position_rows(model, &calibration, &pool_set, &columns, weights)?;
+    let region_set = synthetic_set(model, region, instrument, &planned_target(options))?;
+    let region_rows = position_rows(model, &calibration, &region_set, &columns, [1.0; 3])?;
+    let names = columns
+        .iter()
+        .map(|&j| calibration.unknowns[j].name.clone())
+        .collect();
+    Ok((Design::new(candidates, region_rows), names))
+}
+
+/// The position rows (3 per pose) of the identification's Jacobian at the
+/// poses of `set`, over the unknowns `columns`, row i times `weights[i]`.
+fn position_rows(
+    model: &Model,
+    calibration: &Calibration,
+    set: &MeasurementSet,
+    columns: &[usize],
+    weights: [f64; 3],
+) -> Result<Vec<DMatrix<f64>>> {
+    use crate::optim::Jacobian as _;
+    let (problem, x) = calibration.error_model_at(model, set)?;
+    let mut jac = faer::Mat::<f64>::zeros(3 * set.len(), x.len());
+    problem
+        .jacobian(&x, jac.as_mut())
+        .map_err(|e| Error::InvalidData {
+            origin: set.source.clone(),
+            message: e.to_string(),
+        })?;
+    Ok((0..set.len())
+        .map(|k| {
+            DMatrix::from_fn(3, columns.len(), |i, c| {
+                jac[(3 * k + i, columns[c])] * weights[i]
+            })
+        })
+        .collect())
+}
+
+/// What a campaign measuring `configurations` with `instrument` is
+/// predicted to give over `region` (rad or m) when `options`' model is
+/// identified: `calibrate` on the positions the nominal robot would give
+/// ([`synthetic_set`]), its identifiability notes and combinations, and
+/// its accuracy map over the region with the instrument's noise as the
+/// scatter (the map's bounds recomputed with it; the synthetic residuals
+/// are zero).
+///
+/// # Errors
+/// The identification's errors (too few poses for the unknowns, a model
+/// failure at a pose).
+pub fn predict_campaign(
+    model: &Model,
+    options: &CalibrationOptions,
+    instrument: &Instrument,
+    configurations: &[Vec<f64>],
+    region: &[Vec<f64>],
+) -> Result<CampaignPrediction> {
+    let options = plan_options(options);
+    let (_, calibration) = synthetic_calibration(model, &options, instrument, configurations)?;
+    let mut map = calibration
+        .predicted_accuracy(model, region, None)
+        .map_err(|source| Error::CalibrationStep {
+            step: "planning: predicted accuracy over the region",
+            source,
+        })?;
+    let s2 = instrument.scatter_variance();
+    for p in &mut map.poses {
+        let trace = (p.model_uncertainty_mm * 1e-3).powi(2);
+        p.bound_95_mm = calib::bound_95(trace, s2) * 1e3;
+    }
+    map.residual_scatter_mm = s2.sqrt() * 1e3;
+    let bounds: Vec<f64> = map.poses.iter().map(|p| p.bound_95_mm).collect();
+    let accuracy = RegionAccuracy::of(&bounds);
+    map.mean_bound_95_mm = accuracy.mean_bound_95_mm;
+    let strings = |v: Vec<&str>| v.into_iter().map(String::from).collect();
+    Ok(CampaignPrediction {
+        accuracy,
+        identifiability_notes: calibration.identifiability_notes(),
+        non_identifiable: strings(calibration.non_identifiable()),
+        poorly_identifiable: strings(calibration.poorly_identifiable()),
+        combinations: calibration.combination_lines.clone(),
+        rank: calibration.rank(),
+        map,
+    })
+}
+
+impl CampaignPlan {
+    /// The human-readable summary (what `flexcal plan` prints): the
+    /// campaign, the curve (every count up to 10, then every 5th and the
+    /// knee and chosen counts), the knee, the prediction and what the
+    /// campaign cannot determine; lines ended by newlines.
+    pub fn summary_text(&self) -> String {
+        let mut out = String::new();
+        let n = self.instrument.noise_mm;
+        let _ = writeln!(
+            out,
+            "plan for {} ({} model): {} poses of {} candidates, region of {} points, noise {:.4}/{:.4}/{:.4} mm, {} design unknowns",
+            self.robot,
+            self.model,
+            self.count,
+            self.candidates,
+            self.region_points,
+            n[0],
+            n[1],
+            n[2],
+            self.design_unknowns.len()
+        );
+        let _ = writeln!(
+            out,
+            "criterion: {} ({} exchanges)",
+            self.criterion, self.exchanges
+        );
+        let _ = writeln!(
+            out,
+            "predicted 95 % bound over the region (mm), greedy campaign of each size:"
+        );
+        let _ = writeln!(
+            out,
+            "{:>6} {:>10} {:>10} {:>10}",
+            "poses", "mean", "p95", "max"
+        );
+        for p in &self.curve {
+            let shown = p.poses <= 10
+                || p.poses % 5 == 0
+                || Some(p.poses) == self.knee
+                || p.poses == self.count
+                || Some(p) == self.curve.last();
+            if shown {
+                let a = p.accuracy;
+                let mark = if Some(p.poses) == self.knee {
+                    "  <- knee"
+                } else {
+                    ""
+                };
+                let _ = writeln!(
+                    out,
+                    "{:>6} {:>10.4} {:>10.4} {:>10.4}{mark}",
+                    p.poses, a.mean_bound_95_mm, a.p95_bound_95_mm, a.max_bound_95_mm
+                );
+            }
+        }
+        match self.knee {
+            Some(k) => {
+                let _ = writeln!(
+                    out,
+                    "knee: {k} poses (more poses improve the mean bound by less than the tolerance up to the curve's end)"
+                );
+            }
+            None => {
+                let _ = writeln!(out, "knee: none (the curve is empty)");
+            }
+        }
+        let a = self.prediction.accuracy;
+        let _ = writeln!(
+            out,
+            "planned {} poses: rank {}, predicted 95 % bound mean {:.4} mm, p95 {:.4} mm, max {:.4} mm; {} region points outside the planned poses' joint ranges",
+            self.count,
+            self.prediction.rank,
+            a.mean_bound_95_mm,
+            a.p95_bound_95_mm,
+            a.max_bound_95_mm,
+            self.prediction.map.extrapolated_poses
+        );
+        for note in &self.prediction.identifiability_notes {
+            let _ = writeln!(out, "note: {note}");
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests;

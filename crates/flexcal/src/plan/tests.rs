@@ -1,0 +1,245 @@
+use super::*;
+
+fn ur10() -> Model {
+    crate::load_robot("ur10").unwrap()
+}
+
+/// A box of the UR10's workspace away from its singular configurations.
+fn ur10_box() -> JointBox {
+    JointBox {
+        ranges: vec![
+            (-1.5, 1.5),
+            (-2.2, -0.6),
+            (0.5, 2.2),
+            (-2.5, 0.5),
+            (0.5, 2.6),
+            (-3.0, 3.0),
+        ],
+    }
+}
+
+fn config(count: Option<usize>, candidates: usize, region: usize) -> PlanConfig {
+    let mut options = CalibrationOptions::for_model(&ur10());
+    options.target = calib::FrameTreatment::Fixed;
+    let mut config = PlanConfig::new(
+        options,
+        [0.02, 0.02, 0.03],
+        PoseSource::Box {
+            joint_box: ur10_box(),
+            count: candidates,
+            seed: 1,
+        },
+        PoseSource::Box {
+            joint_box: ur10_box(),
+            count: region,
+            seed: 2,
+        },
+    );
+    config.count = count;
+    config.max_poses = Some(candidates.min(40));
+    config
+}
+
+/// More poses never raise a predicted variance: along the greedy order the
+/// mean, percentile and largest bound do not increase.
+#[test]
+fn the_curve_never_rises_and_the_knee_is_on_it() {
+    let model = ur10();
+    let plan = plan_campaign(&model, &config(Some(25), 60, 30)).unwrap();
+    assert!(!plan.curve.is_empty());
+    for w in plan.curve.windows(2) {
+        let (a, b) = (w[0].accuracy, w[1].accuracy);
+        assert_eq!(w[1].poses, w[0].poses + 1);
+        assert!(
+            b.mean_bound_95_mm <= a.mean_bound_95_mm * (1.0 + 1e-9),
+            "{w:?}"
+        );
+        assert!(
+            b.max_bound_95_mm <= a.max_bound_95_mm * (1.0 + 1e-9),
+            "{w:?}"
+        );
+    }
+    let knee = plan.knee.unwrap();
+    let last = plan.curve.last().unwrap().accuracy.mean_bound_95_mm;
+    let at = |n: usize| plan.curve.iter().find(|p| p.poses == n).unwrap().accuracy;
+    assert!(at(knee).mean_bound_95_mm <= 1.05 * last);
+    if knee > plan.curve[0].poses {
+        assert!(at(knee - 1).mean_bound_95_mm > 1.05 * last);
+    }
+    // The floor: with the model known exactly the bound is the noise's.
+    let floor = calib::bound_95(0.0, plan.instrument.scatter_variance()) * 1e3;
+    assert!(last > floor);
+    assert_eq!(plan.count, 25);
+    assert_eq!(plan.configurations.len(), 25);
+    let mut rows = plan.selected.clone();
+    rows.sort_unstable();
+    rows.dedup();
+    assert_eq!(rows.len(), 25, "a pose planned twice");
+    assert_eq!(plan.prediction.map.poses.len(), 30);
+    let text = plan.summary_text();
+    assert!(text.contains("<- knee"), "{text}");
+}
+
+/// The plan's prediction (a calibration of the planned poses and its
+/// accuracy map) agrees with the design's variances of the same poses,
+/// two evaluations that share only the error model's Jacobian.
+#[test]
+fn the_prediction_matches_the_designs_variances() {
+    let model = ur10();
+    let config = config(Some(20), 50, 15);
+    let plan = plan_campaign(&model, &config).unwrap();
+    // The same unknowns: the design's and the six of the measurement frame.
+    assert_eq!(plan.prediction.rank, plan.design_unknowns.len() + 6);
+    let options = plan_options(&config.options);
+    let pool: Vec<Vec<f64>> = config
+        .candidates
+        .configurations(&model, "c")
+        .unwrap()
+        .into_iter()
+        .map(|c| c.value)
+        .collect();
+    let region: Vec<Vec<f64>> = plan
+        .prediction
+        .map
+        .poses
+        .iter()
+        .map(|p| p.q.clone())
+        .collect();
+    let (design, _) = pool_design(&model, &options, &config.instrument, &pool, &region).unwrap();
+    let variances = design.region_variances(&plan.selected).unwrap();
+    let s2 = config.instrument.scatter_variance();
+    for (v, p) in variances.iter().zip(&plan.prediction.map.poses) {
+        let bound = calib::bound_95(*v, s2) * 1e3;
+        assert!(
+            (bound - p.bound_95_mm).abs() < 1e-6 * bound,
+            "{bound} vs {}",
+            p.bound_95_mm
+        );
+    }
+}
+
+/// The position rows of the design are the derivatives of the nominal
+/// robot's TCP position: finite differences of forward_pose in a robot
+/// parameter.
+#[test]
+fn the_design_rows_are_derivatives_of_the_position() {
+    let model = ur10();
+    let config = config(None, 20, 3);
+    let options = plan_options(&config.options);
+    let pool: Vec<Vec<f64>> = config
+        .candidates
+        .configurations(&model, "c")
+        .unwrap()
+        .into_iter()
+        .map(|c| c.value)
+        .collect();
+    let set = synthetic_set(&model, &pool, &config.instrument, &Isometry3::identity()).unwrap();
+    let calibration = calib::calibrate(&model, &set, &options).unwrap();
+    let j = model.param_index("d3").unwrap();
+    let rows = position_rows(&model, &calibration, &set, &[j], [1.0; 3]).unwrap();
+    let mut data = Data::new(&model);
+    let h = 1e-6;
+    for (q, row) in pool.iter().zip(&rows).take(5) {
+        let mut xi = calibration.xi.clone();
+        xi[j] += h;
+        let plus = forward_pose(&model, &mut data, q, &xi)
+            .unwrap()
+            .translation
+            .vector;
+        xi[j] -= 2.0 * h;
+        let minus = forward_pose(&model, &mut data, q, &xi)
+            .unwrap()
+            .translation
+            .vector;
+        let fd = (plus - minus) / (2.0 * h);
+        for i in 0..3 {
+            assert!(
+                (row[(i, 0)] - fd[i]).abs() < 1e-6,
+                "{} vs {}",
+                row[(i, 0)],
+                fd[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_input_gets_named_errors() {
+    let model = ur10();
+    let message = |c: &PlanConfig| plan_campaign(&model, c).unwrap_err().to_string();
+    let mut c = config(Some(10), 30, 5);
+    c.instrument.noise_mm = [0.02, 0.0, 0.02];
+    assert!(
+        message(&c).contains("noise along y must be finite and > 0"),
+        "{}",
+        message(&c)
+    );
+    c.instrument.noise_mm = [f64::NAN, 0.02, 0.02];
+    assert!(message(&c).contains("noise along x"), "{}", message(&c));
+    let mut c = config(Some(10), 30, 5);
+    if let PoseSource::Box { joint_box, .. } = &mut c.candidates {
+        joint_box.ranges[1] = (-1.0, -1.0);
+    }
+    assert!(
+        message(&c).contains("candidates: the range of"),
+        "{}",
+        message(&c)
+    );
+    assert!(message(&c).contains("is empty"), "{}", message(&c));
+    let mut c = config(Some(10), 30, 5);
+    c.region = PoseSource::Configurations(vec![Located {
+        value: vec![0.0, -1.0, 1.0, 0.0, 1.0, 9.0],
+        origin: "path.csv:3".into(),
+    }]);
+    let m = message(&c);
+    assert!(
+        m.starts_with("path.csv:3: ") && m.contains("cannot reach"),
+        "{m}"
+    );
+    let c = config(Some(31), 30, 5);
+    assert!(
+        message(&c).contains("31 poses asked for, but only 30 candidates"),
+        "{}",
+        message(&c)
+    );
+}
+
+#[test]
+fn region_statistics_use_the_nearest_rank() {
+    let bounds: Vec<f64> = (1..=20).map(f64::from).collect();
+    let a = RegionAccuracy::of(&bounds);
+    assert_eq!(a.p95_bound_95_mm, 19.0);
+    assert_eq!(a.max_bound_95_mm, 20.0);
+    assert!((a.mean_bound_95_mm - 10.5).abs() < 1e-12);
+    assert_eq!(RegionAccuracy::of(&[3.0]).p95_bound_95_mm, 3.0);
+}
+
+/// The plan's files: configurations that read back, a KRL program and a
+/// RAPID module with one target per pose, a JSON plan that parses back.
+#[test]
+fn the_files_of_a_plan_round_trip() {
+    let model = ur10();
+    let plan = plan_campaign(&model, &config(Some(12), 30, 6)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let outputs = output::PlanOutputs {
+        configurations: Some(dir.path().join("poses.csv")),
+        joint_trajectory: Some(dir.path().join("joints.csv")),
+        krl: Some(dir.path().join("plan.src")),
+        rapid: Some(dir.path().join("plan.mod")),
+        report: Some(dir.path().join("plan.json")),
+        html: Some(dir.path().join("plan.html")),
+    };
+    let written = plan.write_outputs(&model, &outputs).unwrap();
+    assert_eq!(written.len(), 6);
+    let back =
+        crate::pose_file::read_configurations(&dir.path().join("poses.csv"), &model).unwrap();
+    let back: Vec<Vec<f64>> = back.into_iter().map(|l| l.value).collect();
+    assert_eq!(back, plan.configurations);
+    let json = std::fs::read_to_string(dir.path().join("plan.json")).unwrap();
+    let parsed: CampaignPlan = serde_json::from_str(&json).unwrap();
+    assert_eq!(parsed.selected, plan.selected);
+    let rapid = std::fs::read_to_string(dir.path().join("plan.mod")).unwrap();
+    assert!(rapid.matches("robtarget").count() >= 12, "{rapid}");
+    let html = std::fs::read_to_string(dir.path().join("plan.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("Planned poses"));
+}

@@ -1,0 +1,298 @@
+//! The plan's predictions checked on the virtual IR-663
+//! ([`twin_plan_check`]): the twin measures 300 candidate and 100 region
+//! poses of box (59) with its own truth (geometric errors, its own weight
+//! through its FE structure, drives' lost motion and hardening,
+//! transmission errors, the camera's frame and noise; none of them the
+//! identified model); plans of N poses are calibrated on the twin's
+//! measurements of the planned poses and validated over the region, and
+//! the achieved errors compared with the plan's predicted bounds. Then a
+//! planned campaign against random draws and the O1-selected set of the
+//! same size.
+
+use rand::SeedableRng;
+use serde::{Deserialize, Serialize};
+
+use super::{Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
+use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet};
+use crate::kinematics::Model;
+use crate::pose_file::Located;
+use crate::twin::geometric::{GeometricCampaignOptions, geometric_campaign};
+use crate::{Error, Result};
+
+/// Number of candidate poses the twin measures.
+pub const TWIN_CANDIDATES: usize = 300;
+/// Number of region poses the twin measures.
+pub const TWIN_REGION: usize = 100;
+
+/// One planned campaign of the check.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlannedCampaignCheck {
+    /// Number of planned poses.
+    pub poses: usize,
+    /// Why the campaign could not be planned or calibrated (then the
+    /// figures are zero).
+    pub refused: Option<String>,
+    /// Predicted accuracy over the region.
+    pub predicted: Option<super::RegionAccuracy>,
+    /// Share of region poses whose achieved error is within the plan's
+    /// 95 % bound there.
+    pub coverage: f64,
+    /// Mean achieved error over the region after calibration (mm).
+    pub achieved_mean_error_mm: f64,
+    /// Region poses outside the planned poses' joint ranges.
+    pub extrapolated: usize,
+}
+
+/// Result of [`twin_plan_check`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TwinPlanCheck {
+    /// Seed of the twin's campaign.
+    pub seed: u64,
+    /// The camera's noise per axis (mm).
+    pub noise_mm: f64,
+    /// One entry per count asked.
+    pub planned: Vec<PlannedCampaignCheck>,
+    /// Number of poses of the comparison.
+    pub compared_poses: usize,
+    /// Achieved mean error of the planned campaign of that size (mm).
+    pub planned_mean_error_mm: f64,
+    /// Achieved mean error of each random draw of that size (mm), sorted.
+    pub random_mean_errors_mm: Vec<f64>,
+    /// Achieved mean error of the O1-selected set (mm).
+    pub o1_mean_error_mm: f64,
+    /// Predicted mean error of the O1-selected set (mm).
+    pub o1_predicted_mean_error_mm: f64,
+}
+
+impl TwinPlanCheck {
+    /// Median of [`TwinPlanCheck::random_mean_errors_mm`] (mm).
+    pub fn random_median_mm(&self) -> f64 {
+        let v = &self.random_mean_errors_mm;
+        match v.len() {
+            0 => 0.0,
+            n if n % 2 == 1 => v[n / 2],
+            n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+        }
+    }
+}
+
+/// The twin's measurements: candidates, region, the model and the noise.
+struct TwinData {
+    model: Model,
+    candidates: MeasurementSet,
+    region: MeasurementSet,
+    noise_mm: f64,
+}
+
+fn twin_data(seed: u64) -> Result<TwinData> {
+    let options = GeometricCampaignOptions {
+        seed,
+        n_validation: TWIN_CANDIDATES + TWIN_REGION,
+        ..Default::default()
+    };
+    let campaign = geometric_campaign(&options)?;
+    let all = &campaign.validation;
+    let rows = |r: std::ops::Range<usize>| all.subset(&r.collect::<Vec<_>>());
+    Ok(TwinData {
+        candidates: rows(0..TWIN_CANDIDATES)?,
+        region: rows(TWIN_CANDIDATES..TWIN_CANDIDATES + TWIN_REGION)?,
+        noise_mm: options.camera.position_std_per_axis() * 1e3,
+        model: campaign.model,
+    })
+}
+
+fn located(set: &MeasurementSet) -> Vec<Located<Vec<f64>>> {
+    set.measurements()
+        .iter()
+        .enumerate()
+        .map(|(k, m)| Located {
+            value: m.q.clone(),
+            origin: format!("{} {}", set.source, k + 1),
+        })
+        .collect()
+}
+
+impl TwinData {
+    /// The errors over the region (mm) after calibrating on the measured
+    /// candidates `rows`.
+    fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
+        let set = self.candidates.subset(rows)?;
+        let calibration = calib::calibrate(&self.model, &set, options)?;
+        let report = calibration.validate(&self.model, &self.region, false)?;
+        Ok(report
+            .after_per_pose
+            .iter()
+            .map(|e| e.position * 1e3)
+            .collect())
+    }
+
+    /// Plans `n` poses, calibrates on their measurements, validates.
+    fn check(
+        &self,
+        options: &CalibrationOptions,
+        n: usize,
+    ) -> Result<(PlannedCampaignCheck, Vec<usize>)> {
+        let mut config = PlanConfig::new(
+            options.clone(),
+            [self.noise_mm; 3],
+            PoseSource::Configurations(located(&self.candidates)),
+            PoseSource::Configurations(located(&self.region)),
+        );
+        config.count = Some(n);
+        config.max_poses = Some(n);
+        let plan = match plan_campaign(&self.model, &config) {
+            Ok(plan) => plan,
+            Err(e) => {
+                let refused = PlannedCampaignCheck {
+                    poses: n,
+                    refused: Some(e.to_string()),
+                    predicted: None,
+                    coverage: 0.0,
+                    achieved_mean_error_mm: 0.0,
+                    extrapolated: 0,
+                };
+                return Ok((refused, Vec::new()));
+            }
+        };
+        let errors = self.achieved(options, &plan.selected)?;
+        let within = errors
+            .iter()
+            .zip(&plan.prediction.map.poses)
+            .filter(|(e, p)| **e <= p.bound_95_mm)
+            .count();
+        let check = PlannedCampaignCheck {
+            poses: n,
+            refused: None,
+            predicted: Some(plan.prediction.accuracy),
+            coverage: within as f64 / errors.len().max(1) as f64,
+            achieved_mean_error_mm: mean(&errors),
+            extrapolated: plan.prediction.map.extrapolated_poses,
+        };
+        Ok((check, plan.selected))
+    }
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Runs the check (module docs) on the twin's campaign of `seed`: plans of
+/// each of `counts` poses, then `compared` planned poses against
+/// `random_draws` random draws (seeded by `seed`) and the O1-selected set.
+/// The identified model is `calibrate`'s default for the IR-663 with the
+/// target fixed at the TCP (the twin's target), the measurement frame
+/// identified.
+///
+/// # Errors
+/// The twin's, planning's and calibration's errors; `compared` not among
+/// `counts` or refused.
+pub fn twin_plan_check(
+    seed: u64,
+    counts: &[usize],
+    compared: usize,
+    random_draws: usize,
+) -> Result<TwinPlanCheck> {
+    let data = twin_data(seed)?;
+    let mut options = CalibrationOptions::for_model(&data.model);
+    options.target = FrameTreatment::Fixed;
+    let mut planned = Vec::with_capacity(counts.len());
+    let mut compared_rows = None;
+    for &n in counts {
+        let (check, rows) = data.check(&options, n)?;
+        if n == compared && check.refused.is_none() {
+            compared_rows = Some((check.achieved_mean_error_mm, rows));
+        }
+        planned.push(check);
+    }
+    let (planned_mean_error_mm, _) = compared_rows.ok_or_else(|| Error::InvalidParameter {
+        parameter: "compared".into(),
+        message: format!("{compared} poses are not among the counts planned ({counts:?})"),
+    })?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut random_mean_errors_mm = (0..random_draws)
+        .map(|_| {
+            let rows = rand::seq::index::sample(&mut rng, TWIN_CANDIDATES, compared).into_vec();
+            Ok(mean(&data.achieved(&options, &rows)?))
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    random_mean_errors_mm.sort_by(f64::total_cmp);
+    let q: Vec<Vec<f64>> = data
+        .candidates
+        .measurements()
+        .iter()
+        .map(|m| m.q.clone())
+        .collect();
+    let o1 = calib::select_calibration_poses(
+        &data.model,
+        &q,
+        compared,
+        crate::optim::ObservabilityIndex::O1,
+        false,
+        &[],
+    )?;
+    let o1_rows = o1.selection.selected;
+    let region_q: Vec<Vec<f64>> = data
+        .region
+        .measurements()
+        .iter()
+        .map(|m| m.q.clone())
+        .collect();
+    let o1_q: Vec<Vec<f64>> = o1_rows.iter().map(|&k| q[k].clone()).collect();
+    let instrument = Instrument {
+        noise_mm: [data.noise_mm; 3],
+    };
+    let o1_predicted = predict_campaign(&data.model, &options, &instrument, &o1_q, &region_q)?;
+    Ok(TwinPlanCheck {
+        seed,
+        noise_mm: data.noise_mm,
+        planned,
+        compared_poses: compared,
+        planned_mean_error_mm,
+        random_mean_errors_mm,
+        o1_mean_error_mm: mean(&data.achieved(&options, &o1_rows)?),
+        o1_predicted_mean_error_mm: o1_predicted.accuracy.predicted_mean_error_mm,
+    })
+}
+
+impl TwinPlanCheck {
+    /// The check as two Markdown tables (the docs' tables).
+    pub fn to_markdown(&self) -> String {
+        let mut out = format!(
+            "virtual IR-663, seed {}: {TWIN_CANDIDATES} candidates and {TWIN_REGION} region poses of box (59), noise {:.4} mm per axis\n\n",
+            self.seed, self.noise_mm
+        );
+        out.push_str("| N | predicted mean bound (mm) | coverage of the 95 % bound | predicted mean error (mm) | achieved mean error (mm) | predicted / achieved | region poses outside the planned ranges |\n|---|---|---|---|---|---|---|\n");
+        for c in &self.planned {
+            match (&c.refused, c.predicted) {
+                (None, Some(a)) => out.push_str(&format!(
+                    "| {} | {:.4} | {:.1} % | {:.4} | {:.4} | {:.2} | {} |\n",
+                    c.poses,
+                    a.mean_bound_95_mm,
+                    100.0 * c.coverage,
+                    a.predicted_mean_error_mm,
+                    c.achieved_mean_error_mm,
+                    a.predicted_mean_error_mm / c.achieved_mean_error_mm,
+                    c.extrapolated
+                )),
+                (reason, _) => out.push_str(&format!(
+                    "| {} | refused: {} | | | | | |\n",
+                    c.poses,
+                    reason.as_deref().unwrap_or("no prediction")
+                )),
+            }
+        }
+        let r = &self.random_mean_errors_mm;
+        out.push_str(&format!(
+            "\n| {} poses | achieved mean error over the region (mm) |\n|---|---|\n| planned (I-optimal on the region) | {:.4} |\n| random, median of {} draws | {:.4} (from {:.4} to {:.4}) |\n| O1-selected | {:.4} (predicted {:.4}) |\n",
+            self.compared_poses,
+            self.planned_mean_error_mm,
+            r.len(),
+            self.random_median_mm(),
+            r.first().copied().unwrap_or(0.0),
+            r.last().copied().unwrap_or(0.0),
+            self.o1_mean_error_mm,
+            self.o1_predicted_mean_error_mm
+        ));
+        out
+    }
+}
