@@ -29,5 +29,3 @@ pub mod geometric;
 pub mod elastic;
 
 pub mod forming;
-
-pub mod bench_fixtures;
