@@ -72,9 +72,9 @@ pub struct FormingResult {
     pub contact: Vec<bool>,
     /// The dead weight as weighed (N).
     pub dead_weight_n: f64,
-    /// Distance between the located and the true part origin (mm): the
-    /// part location's own error.
-    pub part_location_error_mm: f64,
+    /// RMS distance between the part's measured reference points and the
+    /// fitted drawing (mm): how well the part was located, as a user sees it.
+    pub part_fit_rms_mm: f64,
     /// The path commanded without compensation (inverse geometric model of
     /// the calibrated robot).
     pub uncompensated: MeasuredPath,
@@ -176,6 +176,14 @@ pub fn run_forming(
     let measured: Vec<Vector3<f64>> = points.iter().map(|p| p.measured_camera_m).collect();
     let nominal: Vec<Vector3<f64>> = points.iter().map(|p| p.nominal_part_m).collect();
     let x_meas_part = flexcal_calib::register_points(&measured, &nominal)?;
+    let fit_rms_mm = (measured
+        .iter()
+        .zip(&nominal)
+        .map(|(m, n)| (x_meas_part.transform_point(&(*n).into()).coords - m).norm_squared())
+        .sum::<f64>()
+        / measured.len() as f64)
+        .sqrt()
+        * 1e3;
     let x_base_part_user = match &user.x_meas_base {
         Some(frame) => frame.inverse() * x_meas_part,
         None => options.x_base_part,
@@ -262,10 +270,7 @@ pub fn run_forming(
             .collect(),
         contact,
         dead_weight_n: options.dead_weight_n,
-        part_location_error_mm: (x_base_part_user.translation.vector
-            - options.x_base_part.translation.vector)
-            .norm()
-            * 1e3,
+        part_fit_rms_mm: fit_rms_mm,
         uncompensated,
         compensated: measured_paths,
     })

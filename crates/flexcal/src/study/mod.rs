@@ -272,8 +272,8 @@ pub struct FormingSummary {
     /// One entry per elastic model, in the order they were run (fuzzy, FE
     /// beam model); no entry is singled out.
     pub compensations: Vec<CompensationFigures>,
-    /// Distance between the located and the true part origin (mm).
-    pub part_location_error_mm: f64,
+    /// RMS residual of the part's location fit over its reference points (mm).
+    pub part_fit_rms_mm: f64,
 }
 
 impl FormingSummary {
@@ -307,7 +307,7 @@ impl FormingSummary {
                         <= crate::forming::PAPER_TOLERANCE_MM,
                 })
                 .collect(),
-            part_location_error_mm: result.part_location_error_mm,
+            part_fit_rms_mm: result.part_fit_rms_mm,
         }
     }
 }

@@ -599,14 +599,14 @@ fn forming_section(forming: &FormingResults) -> Section {
          bar, 70 GPa, 1 % thicker, a compliant clamp, a 10 mm tool tip whose contact moves, Coulomb friction, a \
          dead weight 0.5 % off) and measures the path with the camera; the commands use the identified geometry, \
          an identified elastic model, the handbook bar without friction and the part located from {} noisy \
-         reference points through the registered camera frame ({:.3} mm off). The contact points ({} of {}) are \
+         reference points through the registered camera frame (fit residual {:.3} mm RMS). The contact points ({} of {}) are \
          those below the bar's surface, where the process load acts. Without compensation the deviation along z_p \
          reaches {:.3} mm over the contact points and {:.3} mm over the whole path (paper: 0.4 to 1.5 mm); \
          compensated, {}. The paper: 80 % better, within +/- 0.15 mm.",
         summary.dead_weight_n,
         summary.dead_weight_source,
         6,
-        summary.part_location_error_mm,
+        summary.part_fit_rms_mm,
         summary.contact_points,
         summary.path_points,
         summary.uncompensated_contact_mm,
