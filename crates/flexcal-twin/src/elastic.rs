@@ -633,52 +633,6 @@ pub fn write_elastic_campaign(
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_truth_line_gives_each_range_once() {
-        let summary = ElasticCampaignSummary {
-            data_files: Vec::new(),
-            truth_files: Vec::new(),
-            deflection_norm_1100n_z_mm: [1.234, 5.678],
-            kar2_effective_range_nm_rad: [1.0e6, 2.0e6],
-            kar8_effective_range_nm_rad: [3.0e6, 4.0e6],
-        };
-        let line = summary.truth_line();
-        assert_eq!(line.lines().count(), 1);
-        assert!(line.contains("1.23 to 5.68 mm"), "{line}");
-        assert!(
-            line.contains("joint 2 1.00e6 to 2.00e6, joint 8 3.00e6 to 4.00e6 N.m/rad"),
-            "{line}"
-        );
-    }
-
-    #[test]
-    fn the_text_counts_the_files_and_ends_with_the_identify_command() {
-        let summary = ElasticCampaignSummary {
-            data_files: vec![PathBuf::from("a.csv"), PathBuf::from("b.csv")],
-            truth_files: Vec::new(),
-            deflection_norm_1100n_z_mm: [1.0, 2.0],
-            kar2_effective_range_nm_rad: [1.0e6, 2.0e6],
-            kar8_effective_range_nm_rad: [3.0e6, 4.0e6],
-        };
-        let text = summary.text(9, Path::new("out/elastic"));
-        let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines.len(), 3, "{text}");
-        assert_eq!(
-            lines[0],
-            "virtual IR-663 elastic campaign (seed 9): 2 data files and the truth written to out/elastic"
-        );
-        assert_eq!(lines[1], summary.truth_line());
-        assert!(
-            lines[2].ends_with("--data out/elastic --train-load 900`"),
-            "{text}"
-        );
-    }
-}
-
 /// Poses of the held-out elastic campaign ([`write_held_out_campaign`]).
 pub const HELD_OUT_POSES: usize = 24;
 /// Load of the held-out elastic campaign (N): unlike every training load.
@@ -800,4 +754,50 @@ pub fn write_held_out_campaign(
     ];
     write_position_rows(&path, &rows, &comments)?;
     Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_truth_line_gives_each_range_once() {
+        let summary = ElasticCampaignSummary {
+            data_files: Vec::new(),
+            truth_files: Vec::new(),
+            deflection_norm_1100n_z_mm: [1.234, 5.678],
+            kar2_effective_range_nm_rad: [1.0e6, 2.0e6],
+            kar8_effective_range_nm_rad: [3.0e6, 4.0e6],
+        };
+        let line = summary.truth_line();
+        assert_eq!(line.lines().count(), 1);
+        assert!(line.contains("1.23 to 5.68 mm"), "{line}");
+        assert!(
+            line.contains("joint 2 1.00e6 to 2.00e6, joint 8 3.00e6 to 4.00e6 N.m/rad"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn the_text_counts_the_files_and_ends_with_the_identify_command() {
+        let summary = ElasticCampaignSummary {
+            data_files: vec![PathBuf::from("a.csv"), PathBuf::from("b.csv")],
+            truth_files: Vec::new(),
+            deflection_norm_1100n_z_mm: [1.0, 2.0],
+            kar2_effective_range_nm_rad: [1.0e6, 2.0e6],
+            kar8_effective_range_nm_rad: [3.0e6, 4.0e6],
+        };
+        let text = summary.text(9, Path::new("out/elastic"));
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3, "{text}");
+        assert_eq!(
+            lines[0],
+            "virtual IR-663 elastic campaign (seed 9): 2 data files and the truth written to out/elastic"
+        );
+        assert_eq!(lines[1], summary.truth_line());
+        assert!(
+            lines[2].ends_with("--data out/elastic --train-load 900`"),
+            "{text}"
+        );
+    }
 }

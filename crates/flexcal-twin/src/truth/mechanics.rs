@@ -433,7 +433,7 @@ impl Frame {
             .diagonal()
             .iter()
             .fold(f64::INFINITY, |m, v| m.min(v * v));
-        if !(smallest > PIVOT_TOLERANCE * largest) {
+        if smallest.is_nan() || smallest <= PIVOT_TOLERANCE * largest {
             return Err(MechanicsError::Mechanism);
         }
         let u = factor.solve(&f);
