@@ -17,7 +17,7 @@ pub enum TwinCommand {
     /// 300-1100 N along x and z, loaded and unloaded poses (8 files), and the truth.
     Elastic(CampaignArgs),
     /// The forming experiment (paper section 4, Figure 17) on the virtual
-    /// IR-663: a 920 N tool plunges 25 mm into a clamped Al-5005 beam and
+    /// IR-663: a 650 N tool plunges 25 mm into a clamped Al-5005 beam and
     /// travels 200 mm, commanded without and with compensation.
     Forming(FormingArgs),
 }

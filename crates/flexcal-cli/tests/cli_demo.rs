@@ -77,10 +77,18 @@ fn demo_writes_its_folder_and_matches_the_individual_commands() {
             .is_some_and(|a| !a.is_empty())
     );
     let f = &summary["forming"];
-    let before = f["max_deviation_uncompensated_mm"].as_f64().unwrap();
-    let after = f["max_deviation_compensated_mm"].as_f64().unwrap();
-    assert!(before > 0.4 && after < before, "{before} -> {after}");
-    assert!(f["improvement_percent"].as_f64().unwrap() > 50.0);
+    let before = f["uncompensated_contact_mm"].as_f64().unwrap();
+    let compensations = f["compensations"].as_array().unwrap();
+    assert_eq!(
+        compensations.len(),
+        2,
+        "fuzzy and FE beam model side by side"
+    );
+    for c in compensations {
+        let after = c["max_deviation_contact_mm"].as_f64().unwrap();
+        assert!(before > 0.4 && after < before, "{before} -> {after}");
+        assert!(c["improvement_contact_percent"].as_f64().unwrap() > 50.0);
+    }
 
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.matches("<svg").count() >= 8);

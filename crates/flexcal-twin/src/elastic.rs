@@ -1,12 +1,13 @@
 //! The virtual IR-663's elastic campaign (paper section 3.3.1).
 //!
 //! The twin's truth is richer than every identification model: the loads
-//! act on the twin itself ([`TwinRobot`]): its own FE structure (own mesh
-//! and sections, ball screws of joints 2 and 8 as axial springs whose
+//! act on the twin itself ([`TwinRobot`]): its own structure solved by its
+//! own mechanics (own mesh and sections, Timoshenko beams, ball screws of joints 2 and 8 as axial springs whose
 //! stiffness about the joint, `k_screw h(q)^2`, changes with the
 //! configuration, finite bearings), its own weight in every pose, the
-//! drives' lost motion and torque hardening (so the response to 300, 600,
-//! 900 and 1100 N is not proportional), its transmission errors and
+//! drives' lost motion with memory and torque hardening (so the response
+//! to 300, 600, 900 and 1100 N is not proportional, and depends on the
+//! order in which the cell loads and unloads), its transmission errors and
 //! geometric errors; the photogrammetry system of [`crate::truth::measurement`]
 //! measures every position (12.3 um per axis on the target origin, so a
 //! measured deflection, loaded minus unloaded, carries about 17 um per
@@ -20,7 +21,11 @@
 //! 300, 600, 900 and 1100 N along +x (horizontal, a cable over a pulley) and
 //! along -z (a dead weight), each pose measured unloaded and loaded: eight
 //! files in flexcal's measurement CSV conventions (see
-//! `flexcal_elastic::campaign`), plus the truth.
+//! `flexcal_elastic::campaign`), plus the truth. The cell works as a real
+//! one does: it drives to a pose (from the previous one, the direction of
+//! each screw's motion written to `approach.log`), then for each load set
+//! in turn measures the unloaded pose, hangs the load, measures, and takes
+//! the load off; the drives remember each load they have seen.
 //!
 //! The grid's three lowest points at x = 1.25 m (z = 0.85, 1.0125,
 //! 1.175 m) cannot be reached with the tool pointing straight down by any
@@ -51,7 +56,6 @@
 use std::path::{Path, PathBuf};
 
 use flexcal_elastic::campaign::{PositionRow, write_position_rows};
-use flexcal_elastic::description::ElasticDescription;
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, Model, RobotDescription, actuated_from_joint_angles,
     forward_frames, forward_pose, inverse_pose, joint_angles_from_actuated,
@@ -62,7 +66,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 pub use crate::truth::structure::{
-    SCREW_2_STIFFNESS, SCREW_8_STIFFNESS, crank, screw_lever_arm, twin_structure,
+    SCREW_2_STIFFNESS, SCREW_8_STIFFNESS, TwinStructure, crank, screw_lever_arm, twin_structure,
 };
 use crate::truth::{
     FormingTruth, Photogrammetry, TruthError, TruthSwitches, TwinRobot, TwinTerms, twin_terms,
@@ -71,7 +75,7 @@ use crate::truth::{
 /// Errors of the elastic twin.
 #[derive(Debug, thiserror::Error)]
 pub enum ElasticTwinError {
-    /// The elastic model failed.
+    /// A measurement file could not be written.
     #[error(transparent)]
     Elastic(#[from] flexcal_elastic::ElasticError),
     /// The robot geometry failed (a grid point out of reach, ...).
@@ -155,7 +159,7 @@ impl Default for ElasticCampaignOptions {
 ///
 /// # Errors
 /// Never for the built-in robot (the error type is that of the descriptions).
-pub fn ir663_elastic_truth() -> Result<ElasticDescription, ElasticTwinError> {
+pub fn ir663_elastic_truth() -> Result<TwinStructure, ElasticTwinError> {
     let robot = RobotDescription::builtin("ir663")?;
     Ok(twin_structure(&robot))
 }
@@ -317,7 +321,8 @@ pub struct PoseTruth {
     pub kar8_effective_nm_rad: f64,
     /// Torques of joints 2 and 8 under the robot's own weight (N.m).
     pub gravity_torques_nm: [f64; 2],
-    /// True TCP deflection under 1100 N along -z, loaded minus unloaded (mm).
+    /// True TCP deflection under 1100 N along -z, loaded minus unloaded, as
+    /// the cell measured it (the drives' memory included) (mm).
     pub deflection_1100n_z_mm: [f64; 3],
     /// True TCP deflection under 1100 N along +x, loaded minus unloaded (mm).
     pub deflection_1100n_x_mm: [f64; 3],
@@ -331,7 +336,10 @@ pub struct ElasticCampaign {
     /// Per-pose truth.
     pub truth: Vec<PoseTruth>,
     /// The true elastic structure.
-    pub description: ElasticDescription,
+    pub structure: TwinStructure,
+    /// Direction each screw (joints 2 and 8) was driven in to reach each
+    /// pose (+1, -1, 0 for the first pose), in pose order.
+    pub approach: Vec<(u64, [i8; 2])>,
     /// The truth's terms.
     pub terms: TwinTerms,
 }
@@ -350,6 +358,7 @@ struct TruthFile<'a> {
     grid_corner: GridCorner,
     terms: &'a TwinTerms,
     poses: &'a [PoseTruth],
+    structure: &'a TwinStructure,
 }
 
 /// The two load directions of the campaign: along +x (a cable over a
@@ -385,7 +394,7 @@ pub fn simulate_elastic_campaign(
     let twin = TwinRobot::new(options.switches)?;
     let robot_description = RobotDescription::builtin("ir663")?;
     let robot = twin.model().clone();
-    let description = twin.structure().description().clone();
+    let structure = twin.structure().clone();
     let mut workspace = twin.workspace()?;
     let poses = grid_configurations(&robot, options.corner)?;
     let (l1_2, l3_2, k2, la2) = crank(&robot_description, "2");
@@ -401,6 +410,7 @@ pub fn simulate_elastic_campaign(
     };
     let sigma = Vector3::repeat(camera.position_std_per_axis().max(f64::MIN_POSITIVE));
     let mut truth = Vec::with_capacity(poses.len());
+    let mut approach = Vec::with_capacity(poses.len());
     let mut sets: Vec<(String, Vec<PositionRow>)> = Vec::new();
     for (dir_name, _) in &DIRECTIONS {
         for load in &options.loads_n {
@@ -408,24 +418,36 @@ pub fn simulate_elastic_campaign(
         }
     }
     let last = (poses.len().max(2) - 1) as f64;
+    let mut previous_q: Option<Vec<f64>> = None;
     for (k, pose) in poses.iter().enumerate() {
         let fraction = k as f64 / last;
-        let unloaded = twin.pose(&mut workspace, &pose.q, &Vector6::zeros(), fraction)?;
-        let mut set_index = 0;
+        let signs = match &previous_q {
+            Some(p) => [
+                (pose.q[1] - p[1]).signum() as i8,
+                (pose.q[2] - p[2]).signum() as i8,
+            ],
+            None => [0, 0],
+        };
+        approach.push((pose.pose_id, signs));
+        previous_q = Some(pose.q.clone());
+        // Gravity torques on arrival (a copy: the drives' memory of the
+        // cell's own sequence below is what the files record).
+        let arrived = twin.pose(&mut workspace.clone(), &pose.q, &Vector6::zeros(), fraction)?;
         let mut tip = [[0.0; 3]; 2];
+        let mut set_index = 0;
         for (d, (_, direction)) in DIRECTIONS.iter().enumerate() {
             let direction = Vector3::from(*direction);
-            let wrench = |load: f64| {
-                let f = direction * load;
-                Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0)
-            };
-            let at_1100 = twin.pose(&mut workspace, &pose.q, &wrench(1100.0), fraction)?;
-            let u = (at_1100.x_base_tcp.translation.vector
-                - unloaded.x_base_tcp.translation.vector)
-                * 1e3;
-            tip[d] = [u.x, u.y, u.z];
             for &load in &options.loads_n {
-                let loaded = twin.pose(&mut workspace, &pose.q, &wrench(load), fraction)?;
+                let f = direction * load;
+                let wrench = Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0);
+                let unloaded = twin.pose(&mut workspace, &pose.q, &Vector6::zeros(), fraction)?;
+                let loaded = twin.pose(&mut workspace, &pose.q, &wrench, fraction)?;
+                if load == 1100.0 {
+                    let u = (loaded.x_base_tcp.translation.vector
+                        - unloaded.x_base_tcp.translation.vector)
+                        * 1e3;
+                    tip[d] = [u.x, u.y, u.z];
+                }
                 let rows = &mut sets[set_index].1;
                 rows.push(PositionRow {
                     pose_id: pose.pose_id,
@@ -438,12 +460,14 @@ pub fn simulate_elastic_campaign(
                     pose_id: pose.pose_id,
                     q: pose.q.clone(),
                     position: draw(&loaded.x_base_tcp),
-                    wrench: wrench(load),
+                    wrench,
                     sigma,
                 });
                 set_index += 1;
             }
         }
+        // Unloaded at the end, before the cell drives on.
+        twin.pose(&mut workspace, &pose.q, &Vector6::zeros(), fraction)?;
         let h2 = screw_lever_arm(
             l1_2,
             l3_2,
@@ -464,7 +488,7 @@ pub fn simulate_elastic_campaign(
             screw8_lever_m: h8,
             kar2_effective_nm_rad: SCREW_2_STIFFNESS * h2 * h2,
             kar8_effective_nm_rad: SCREW_8_STIFFNESS * h8 * h8,
-            gravity_torques_nm: unloaded.joint_torques_nm,
+            gravity_torques_nm: arrived.joint_torques_nm,
             deflection_1100n_x_mm: tip[0],
             deflection_1100n_z_mm: tip[1],
         });
@@ -473,7 +497,8 @@ pub fn simulate_elastic_campaign(
     Ok(ElasticCampaign {
         sets,
         truth,
-        description,
+        structure,
+        approach,
         terms,
     })
 }
@@ -489,7 +514,8 @@ fn range(values: impl Iterator<Item = f64>) -> [f64; 2] {
 pub struct ElasticCampaignSummary {
     /// The data files, one per load case.
     pub data_files: Vec<PathBuf>,
-    /// The truth files (JSON summary and TOML description).
+    /// The truth file (`elastic_truth.json`) and the approach directions
+    /// (`approach.log`).
     pub truth_files: Vec<PathBuf>,
     /// Range of the true TCP deflection norm under 1100 N along -z (mm).
     pub deflection_norm_1100n_z_mm: [f64; 2],
@@ -533,9 +559,10 @@ impl ElasticCampaignSummary {
 }
 
 /// Simulates the campaign and writes it into `out_dir`: the eight data files
-/// `elastic_{x,z}_{load}N.csv`, `elastic_truth.json` (per-pose truth,
-/// lever arms, screw stiffness about the joints, gravity torques, the
-/// truth's terms) and `elastic_truth.toml` (the twin's FE structure).
+/// `elastic_{x,z}_{load}N.csv`, `approach.log` (CSV text: per pose, the direction
+/// each screw was driven in to reach it, as a cell's log records it) and
+/// `elastic_truth.json` (per-pose truth, lever arms, screw stiffness about
+/// the joints, gravity torques, the truth's terms, the twin's structure).
 ///
 /// # Errors
 /// As [`simulate_elastic_campaign`], and file errors.
@@ -577,6 +604,7 @@ pub fn write_elastic_campaign(
         grid_corner: options.corner,
         terms: &campaign.terms,
         poses: &campaign.truth,
+        structure: &campaign.structure,
     };
     let json_path = out_dir.join("elastic_truth.json");
     let json =
@@ -585,15 +613,147 @@ pub fn write_elastic_campaign(
             message: e.to_string(),
         })?;
     flexcal_io::write_atomic(&json_path, json)?;
-    let toml_path = out_dir.join("elastic_truth.toml");
-    flexcal_io::write_atomic(&toml_path, campaign.description.to_toml_string()?)?;
+    let approach_path = out_dir.join("approach.log");
+    flexcal_io::write_atomic(
+        &approach_path,
+        flexcal_io::format_csv(
+            &["pose_id", "approach_r2p", "approach_r8p"],
+            campaign
+                .approach
+                .iter()
+                .map(|(id, [a, b])| vec![*id as f64, f64::from(*a), f64::from(*b)]),
+        ),
+    )?;
     Ok(ElasticCampaignSummary {
         data_files,
-        truth_files: vec![json_path, toml_path],
+        truth_files: vec![json_path, approach_path],
         deflection_norm_1100n_z_mm: norms,
         kar2_effective_range_nm_rad: kar2,
         kar8_effective_range_nm_rad: kar8,
     })
+}
+
+/// Poses of the held-out elastic campaign ([`write_held_out_campaign`]).
+pub const HELD_OUT_POSES: usize = 24;
+/// Load of the held-out elastic campaign (N): unlike every training load.
+pub const HELD_OUT_LOAD_N: f64 = 650.0;
+/// Mixed into the seed of the held-out campaign's draws.
+const HELD_OUT_STREAM: u64 = 0x6865_6c64;
+
+/// A campaign the identified models never see: [`HELD_OUT_POSES`] random
+/// configurations off the grid (65) (x 1.35-2.15 m, y -0.4-0.4 m, z
+/// 0.95-2.0 m, the tool tilted by up to 20 deg in a random direction),
+/// each loaded by [`HELD_OUT_LOAD_N`] in the x-z plane at a random angle
+/// between +x and -z, measured unloaded and loaded by the same cell and
+/// camera as [`simulate_elastic_campaign`]; one set, named
+/// `held_out_0650N.csv`.
+///
+/// # Errors
+/// As [`simulate_elastic_campaign`].
+pub fn simulate_held_out_campaign(
+    options: &ElasticCampaignOptions,
+) -> Result<(String, Vec<PositionRow>), ElasticTwinError> {
+    use rand::Rng;
+    let twin = TwinRobot::new(options.switches)?;
+    let robot = twin.model();
+    let xi = robot.nominal_params().to_vec();
+    let mut data = Data::new(robot);
+    let inverse = InverseOptions {
+        target: InverseTarget::PositionAndToolAxis,
+        ..InverseOptions::default()
+    };
+    let start = actuated_from_joint_angles(robot, &[0.0, -0.5, 0.4, 0.8, 1.6, 0.0])?;
+    let joint9 = robot.passive_names().iter().position(|n| n == "9");
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed ^ HELD_OUT_STREAM);
+    let mut camera = options.camera.clone();
+    if !options.switches.measurement_frame {
+        camera.x_meas_base = Isometry3::identity();
+    }
+    let sigma = Vector3::repeat(camera.position_std_per_axis().max(f64::MIN_POSITIVE));
+    let mut workspace = twin.workspace()?;
+    let mut rows = Vec::with_capacity(2 * HELD_OUT_POSES);
+    let mut pose_id = 0u64;
+    let mut attempts = 0;
+    while (pose_id as usize) < HELD_OUT_POSES {
+        attempts += 1;
+        if attempts > 50 * HELD_OUT_POSES {
+            return Err(ElasticTwinError::InvalidOption {
+                name: "held-out campaign",
+                message: "too few reachable random poses".into(),
+            });
+        }
+        let p = Vector3::new(
+            rng.random_range(1.35..=2.15),
+            rng.random_range(-0.4..=0.4),
+            rng.random_range(0.95..=2.0),
+        );
+        let azimuth = rng.random_range(0.0..std::f64::consts::TAU);
+        let tilt = 20f64.to_radians() * rng.random_range(0.0f64..=1.0).sqrt();
+        let angle = rng.random_range(0.0..=std::f64::consts::FRAC_PI_2);
+        let rotation =
+            UnitQuaternion::from_scaled_axis(
+                Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt,
+            ) * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
+        let target = Isometry3::from_parts(p.into(), rotation);
+        let Ok(solution) = inverse_pose(robot, &mut data, &target, &start, &xi, &inverse) else {
+            continue;
+        };
+        let limits_ok = solution
+            .q
+            .iter()
+            .zip(robot.actuated_limits())
+            .all(|(q, (lo, hi))| (*lo..=*hi).contains(q));
+        if !limits_ok || !clear_of_dead_centre(robot, &mut data, &solution.q, &xi, joint9)? {
+            continue;
+        }
+        // Between +x (the cable) and -z (the dead weight).
+        let f = Vector3::new(angle.cos(), 0.0, -angle.sin()) * HELD_OUT_LOAD_N;
+        let wrench = Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0);
+        let unloaded = twin.pose(&mut workspace, &solution.q, &Vector6::zeros(), 0.0)?;
+        let loaded = twin.pose(&mut workspace, &solution.q, &wrench, 0.0)?;
+        twin.pose(&mut workspace, &solution.q, &Vector6::zeros(), 0.0)?;
+        for (pose, w) in [(unloaded, Vector6::zeros()), (loaded, wrench)] {
+            rows.push(PositionRow {
+                pose_id,
+                q: solution.q.clone(),
+                position: camera
+                    .measure(
+                        &pose.x_base_tcp,
+                        options.switches.measurement_noise,
+                        true,
+                        &mut rng,
+                    )
+                    .translation
+                    .vector,
+                wrench: w,
+                sigma,
+            });
+        }
+        pose_id += 1;
+    }
+    Ok((format!("held_out_{HELD_OUT_LOAD_N:04.0}N.csv"), rows))
+}
+
+/// Simulates the held-out campaign ([`simulate_held_out_campaign`]) and
+/// writes its set into `out_dir`; returns the file.
+///
+/// # Errors
+/// As [`simulate_held_out_campaign`], and file errors.
+pub fn write_held_out_campaign(
+    out_dir: impl AsRef<Path>,
+    options: &ElasticCampaignOptions,
+) -> Result<PathBuf, ElasticTwinError> {
+    let (name, rows) = simulate_held_out_campaign(options)?;
+    let path = out_dir.as_ref().join(&name);
+    let comments = vec![
+        format!(
+            "flexcal twin elastic, held out (virtual IR-663), seed {}: random poses off the grid, {HELD_OUT_LOAD_N:.0} N in the x-z plane at random angles",
+            options.seed
+        ),
+        "q1..q6 = theta1 (rad), r'2 (m), r'8 (m), theta4, theta5, theta7 (rad); positions of the TCP in R0".into(),
+    ];
+    write_position_rows(&path, &rows, &comments)?;
+    Ok(path)
 }
 
 #[cfg(test)]

@@ -25,7 +25,7 @@
 
 use std::path::Path;
 
-use flexcal_calib::{Measurement, MeasurementSet, rotation_from_vector, vector_from_rotation};
+use flexcal_calib::{Measurement, MeasurementSet};
 use flexcal_kinematics::{
     Data, InverseOptions, InverseTarget, KinematicsError, Model, RobotDescription,
     actuated_from_joint_angles, inverse_pose,
@@ -282,8 +282,9 @@ fn measure(
     for (k, p) in points.iter().enumerate() {
         let tilt_axis = rng.random_range(0.0..std::f64::consts::TAU);
         let tilt = options.max_tilt * rng.random_range(0.0f64..=1.0).sqrt();
-        let tilt_rotation =
-            rotation_from_vector(&(Vector3::new(tilt_axis.cos(), tilt_axis.sin(), 0.0) * tilt));
+        let tilt_rotation = UnitQuaternion::from_scaled_axis(
+            Vector3::new(tilt_axis.cos(), tilt_axis.sin(), 0.0) * tilt,
+        );
         let target = Isometry3::from_parts((*p).into(), tilt_rotation * down);
         // A random turn about the tool axis: theta7 is free with this target.
         let mut seed_k = seed.clone();
@@ -307,7 +308,7 @@ fn measure(
         );
         let mut m = Measurement::new(solution.q, x_meas_tcp.translation.vector);
         m.pose_id = Some(format!("{name}-{}", k + 1));
-        m.orientation = Some(vector_from_rotation(&x_meas_tcp.rotation));
+        m.orientation = Some(x_meas_tcp.rotation.scaled_axis());
         m.position_std = Some(Vector3::repeat(position_std.max(f64::MIN_POSITIVE)));
         m.orientation_std = Some(orientation_std.map(|s| s.max(f64::MIN_POSITIVE)));
         measurements.push(m);
@@ -366,104 +367,5 @@ pub fn write_geometric_campaign(
 }
 
 /// The twin's terms that a geometric campaign meets besides the geometric
-/// errors and the camera frame, in the order [`model_class_residuals`]
-/// switches them on one at a time.
+/// errors and the camera frame: what no geometric model contains.
 pub const NON_GEOMETRIC_TERMS: [&str; 3] = ["gravity", "drive_nonlinearity", "transmission_errors"];
-
-/// RMS position residuals (m) of a calibration fitted to the noise-free
-/// identification poses of the geometric campaign: how far a model class
-/// reproduces the twin ([`model_class_residuals`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ModelClassResiduals {
-    /// With every term of the twin (noise off).
-    pub all_terms: f64,
-    /// With the geometric errors and the camera frame only: the geometric
-    /// model's own class.
-    pub own_class: f64,
-    /// With the own class and one of [`NON_GEOMETRIC_TERMS`] switched on.
-    pub term_alone: Vec<(&'static str, f64)>,
-}
-
-impl ModelClassResiduals {
-    /// The terms whose residual alone exceeds `threshold` (m): what the
-    /// model cannot absorb.
-    pub fn causes(&self, threshold: f64) -> Vec<&'static str> {
-        self.term_alone
-            .iter()
-            .filter(|(_, rms)| *rms > threshold)
-            .map(|(term, _)| *term)
-            .collect()
-    }
-}
-
-impl std::fmt::Display for ModelClassResiduals {
-    /// The residuals in micrometres, one line per case.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "noise-free identification RMS: {:.2} um with every term, {:.4} um with geometry and frame only",
-            self.all_terms * 1e6,
-            self.own_class * 1e6
-        )?;
-        for (term, alone) in &self.term_alone {
-            write!(f, "\n  {term} alone: {:.2} um", alone * 1e6)?;
-        }
-        Ok(())
-    }
-}
-
-/// Fits a calibration (measurement frame identified, target fixed,
-/// completed by `configure` for the campaign's model, e.g. with a mass
-/// table) to the 27 noise-free identification poses of the geometric
-/// campaign (seed 2), with every term of the twin, with its own class only,
-/// and with each of [`NON_GEOMETRIC_TERMS`] alone: the residuals say which
-/// terms of the twin a model class cannot reproduce.
-///
-/// # Errors
-/// The campaign's and the calibration's errors.
-pub fn model_class_residuals(
-    configure: &dyn Fn(&Model, &mut flexcal_calib::CalibrationOptions),
-) -> Result<ModelClassResiduals, GeometricTwinError> {
-    let residual = |switches: TruthSwitches| -> Result<f64, GeometricTwinError> {
-        let campaign = geometric_campaign(&GeometricCampaignOptions {
-            seed: 2,
-            switches: TruthSwitches {
-                measurement_noise: false,
-                ..switches
-            },
-            ..GeometricCampaignOptions::default()
-        })?;
-        let model = &campaign.model;
-        let mut options = flexcal_calib::CalibrationOptions::for_model(model);
-        options.measurement_frame = flexcal_calib::FrameTreatment::Identify;
-        options.target = flexcal_calib::FrameTreatment::Fixed;
-        configure(model, &mut options);
-        let calibration = flexcal_calib::calibrate(model, &campaign.identification, &options)?;
-        Ok(calibration
-            .validate(model, &campaign.identification, false)?
-            .after
-            .position_rms)
-    };
-    let own_class = TruthSwitches {
-        gravity: false,
-        drive_nonlinearity: false,
-        transmission_errors: false,
-        ..TruthSwitches::default()
-    };
-    let mut term_alone = Vec::with_capacity(NON_GEOMETRIC_TERMS.len());
-    for term in NON_GEOMETRIC_TERMS {
-        let switches =
-            own_class
-                .with(term, true)
-                .map_err(|reason| GeometricTwinError::InvalidOption {
-                    name: "switches",
-                    reason,
-                })?;
-        term_alone.push((term, residual(switches)?));
-    }
-    Ok(ModelClassResiduals {
-        all_terms: residual(TruthSwitches::default())?,
-        own_class: residual(own_class)?,
-        term_alone,
-    })
-}

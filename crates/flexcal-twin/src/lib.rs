@@ -3,15 +3,22 @@
 //! The virtual robot on which flexcal proves its identification and
 //! compensation: a KUKA IR-663 whose behaviour is richer than every model
 //! identified from it ([`truth`]: true geometric errors of Appendix C, its
-//! own FE structure with its own weight in every campaign, slider-crank
-//! screws as configuration-dependent springs, drives with lost motion and
-//! torque hardening, cyclic transmission errors, a measurement system in an
-//! unknown frame with noise derived from its published accuracy, a forming
-//! beam, contact and dead weight that differ from the user's process
-//! model), and the campaigns of the reference paper simulated on it: the
+//! own structure solved by its own mechanics (Timoshenko beams) with its
+//! own weight in every campaign, slider-crank screws as
+//! configuration-dependent springs, drives with lost motion, hysteresis
+//! and torque hardening, cyclic transmission errors, a measurement system
+//! in an unknown frame with noise derived from its published accuracy, its
+//! own forming bar, clamp, tool tip, friction and dead weight), and the
+//! campaigns of the reference paper simulated on it: the
 //! geometric campaign of section 3.2 (27 + 16 poses in box (59), equations
 //! (48)-(53)), the elastic campaign of section 3.3.1 (63 poses of grid (65),
-//! 8 load sets) and the forming experiment of section 4 (Figure 17).
+//! 8 load sets, and a held-out set off the grid) and the forming cell of
+//! section 4 (Figure 17), which executes commanded paths.
+//!
+//! The twin shares no model code with what it tests: of `flexcal_elastic`,
+//! `flexcal_compensate` and `flexcal_calib` it uses only the measurement
+//! and path file formats (the test `the_twin_shares_no_model_code`); the
+//! experiments that calibrate and compensate live in the facade's study.
 //!
 //! ## Limitations
 //! - Three points of grid (65) cannot be reached with the tool down by the
@@ -29,5 +36,3 @@ pub mod geometric;
 pub mod elastic;
 
 pub mod forming;
-
-pub mod bench_fixtures;

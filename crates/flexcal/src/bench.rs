@@ -16,8 +16,8 @@
 //! compensation fixtures (one point solved from scratch, the 10 000-point
 //! forming travel with the fuzzy and the FE model, with and without the
 //! cantilever beam, in one thread and in parallel threads) are those of
-//! `cargo bench -p flexcal-twin --bench compensation`
-//! ([`flexcal_twin::bench_fixtures`]).
+//! `cargo bench -p flexcal --bench compensation`
+//! ([`crate::bench_fixtures`]).
 //!
 //! ```no_run
 //! let report = flexcal::bench::run(&flexcal::bench::BenchOptions::default())?;
@@ -30,12 +30,10 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+use crate::bench_fixtures::{self as fixtures, CompensationFixture, Elastic, Load, PATH_POINTS};
 use flexcal_compensate::compensation::{Cell, ConstantCompliance, ElastoGeometricModel};
 use flexcal_fuzzy::FuzzyModel;
 use flexcal_kinematics::{Data, RobotDescription, forward_pose, param_jacobian_into};
-use flexcal_twin::bench_fixtures::{
-    self as fixtures, CompensationFixture, Elastic, Load, PATH_POINTS,
-};
 use nalgebra::{DMatrix, Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 

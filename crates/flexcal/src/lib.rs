@@ -82,3 +82,4 @@ pub use flexcal_twin as twin;
 /// The linear algebra crate of flexcal's types (poses, twists, wrenches, Jacobians).
 pub use nalgebra;
 pub mod bench;
+pub mod bench_fixtures;

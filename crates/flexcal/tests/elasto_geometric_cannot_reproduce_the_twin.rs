@@ -6,7 +6,7 @@
 //! `flexcal-twin/tests/no_model_reproduces_the_twin.rs`.
 
 use flexcal::study::ir663_mass_table;
-use flexcal::twin::geometric::model_class_residuals;
+use flexcal::study::model_class::model_class_residuals;
 
 /// Residuals this far above zero are the twin's, not the solvers'.
 const WELL_ABOVE_ZERO_M: f64 = 1e-6;

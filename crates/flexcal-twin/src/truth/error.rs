@@ -21,9 +21,9 @@ pub enum TruthError {
         #[source]
         source: flexcal_kinematics::KinematicsError,
     },
-    /// The twin's FE structure failed.
-    #[error("twin truth, FE structure: {0}")]
-    Elastic(#[from] flexcal_elastic::ElasticError),
+    /// The twin's structure failed.
+    #[error("twin truth, structure: {0}")]
+    Mechanics(#[from] super::mechanics::MechanicsError),
     /// An argument is out of range.
     #[error("twin truth: invalid `{name}`: {reason}")]
     Invalid {

@@ -4,22 +4,24 @@
 //! TCP, the twin
 //! 1. turns every joint by its transmission error
 //!    ([`transmission`](super::transmission)): `theta <- theta + e(theta)`;
-//! 2. solves its own FE structure ([`structure`](super::structure)) in that
+//! 2. solves its own structure ([`structure`](super::structure), with the
+//!    twin's own mechanics, [`mechanics`](super::mechanics)) in that
 //!    configuration, on the true geometry (warmed by the temperature drift
 //!    when on), under its own weight and `W`: TCP deflection `u` and the
 //!    forces in the ball screws of joints 2 and 8;
-//! 3. lets each screw drive yield further by its non-linear law
-//!    ([`drive`](super::drive)) under the joint torque `T = F h` (screw force
-//!    times lever arm): the screw lengthens by `h theta_drive(T)`;
+//! 3. lets each screw drive yield further by its non-linear law with
+//!    memory ([`drive`](super::drive)) under the joint torque `T = F h`
+//!    (screw force times lever arm): the screw lengthens by
+//!    `h theta_drive(T, history)`; the workspace keeps each drive's
+//!    position in its play, set by the direction the joint was last driven
+//!    in (the sign of the change of its actuated coordinate since the last
+//!    command) and by the torques met since;
 //! 4. places the TCP with the true forward model at the actuated
 //!    coordinates so reached, displaced by `u`.
 //!
 //! Every term has a switch ([`TruthSwitches`]); with all off this is the
 //! nominal rigid robot.
 
-use flexcal_elastic::tcp::{DeflectionError, TcpDeflection};
-
-use flexcal_elastic::model::{ElasticData, ElasticModel, OwnWeight, tcp_deflection};
 use flexcal_kinematics::{
     Data, Model, ParamKind, RobotDescription, actuated_from_joint_angles, forward_pose,
     joint_angles_from_actuated,
@@ -29,7 +31,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 use super::drive::DriveLaw;
 use super::error::TruthError;
 use super::geometry::{GeometricErrors, ir663_true_params};
-use super::structure::{crank, screw_lever_arm, twin_structure};
+use super::structure::{TwinStructure, crank, screw_lever_arm, twin_structure};
 use super::temperature::TemperatureDrift;
 use super::terms::{TruthSwitches, TwinTerm};
 use super::transmission::TransmissionErrors;
@@ -53,7 +55,7 @@ struct ScrewDrive {
 pub struct TwinRobot {
     model: Model,
     true_xi: Vec<f64>,
-    structure: ElasticModel,
+    structure: TwinStructure,
     screws: Vec<ScrewDrive>,
     /// The drive law of joints 2 and 8.
     pub drive: DriveLaw,
@@ -69,7 +71,18 @@ pub struct TwinRobot {
 #[derive(Debug, Clone)]
 pub struct TwinWorkspace {
     kinematics: Data,
-    fe: ElasticData,
+    /// Each screw drive's position in its play (rad).
+    lost_motion: [f64; 2],
+    /// The last command, whose change gives the direction of approach.
+    last_q: Option<Vec<f64>>,
+}
+
+impl TwinWorkspace {
+    /// Each screw drive's position in its play (rad), joints 2 and 8:
+    /// the drives' memory.
+    pub fn lost_motion(&self) -> [f64; 2] {
+        self.lost_motion
+    }
 }
 
 /// What the twin did for one command.
@@ -106,7 +119,7 @@ impl TwinRobot {
         } else {
             model.nominal_params().to_vec()
         };
-        let structure = ElasticModel::new(&model, &twin_structure(&description))?;
+        let structure = twin_structure(&description);
         let mut screws = Vec::new();
         for (frame, actuated, joint) in [("2", "r2p", 1), ("8", "r8p", 2)] {
             let missing = |what: String| TruthError::NotTheIr663 {
@@ -114,8 +127,7 @@ impl TwinRobot {
                 missing: what,
             };
             let spring = structure
-                .template()
-                .springs()
+                .screws
                 .iter()
                 .position(|s| s.name == format!("screw{frame}"))
                 .ok_or_else(|| missing(format!("screw{frame}")))?;
@@ -159,19 +171,20 @@ impl TwinRobot {
         &self.true_xi
     }
 
-    /// The twin's own FE structure.
-    pub fn structure(&self) -> &ElasticModel {
+    /// The twin's own structure.
+    pub fn structure(&self) -> &TwinStructure {
         &self.structure
     }
 
-    /// A workspace for this twin.
+    /// A workspace for this twin, its drives in the middle of their play.
     ///
     /// # Errors
-    /// Never for a validated structure.
+    /// Never (kept for workspaces that may fail).
     pub fn workspace(&self) -> Result<TwinWorkspace, TruthError> {
         Ok(TwinWorkspace {
             kinematics: Data::new(&self.model),
-            fe: ElasticData::new(&self.structure)?,
+            lost_motion: [0.0; 2],
+            last_q: None,
         })
     }
 
@@ -184,14 +197,14 @@ impl TwinRobot {
             TwinTerm {
                 name: "gravity".into(),
                 magnitude: format!(
-                    "own weight through the twin's FE structure in every campaign: steel links, {:.0} kg of wrist motors behind the elbow, {:.0} kg wrist, {:.0} kg tool; ball screws of joints 2 and 8 as configuration-dependent springs ({:.1e} and {:.1e} N/m)",
+                    "own weight through the twin's own structure (Timoshenko beams, its own solver) in every campaign: steel links, {:.0} kg of wrist motors behind the elbow, {:.0} kg wrist, {:.0} kg tool; ball screws of joints 2 and 8 as configuration-dependent springs ({:.1e} and {:.1e} N/m)",
                     super::structure::WRIST_MOTORS_MASS_KG,
                     super::structure::WRIST_MASS_KG,
                     super::structure::TOOL_MASS_KG,
                     super::structure::SCREW_2_STIFFNESS,
                     super::structure::SCREW_8_STIFFNESS
                 ),
-                source: "the twin's own frame FE model (flexcal_twin::truth::structure): plausible steel sections and masses of a 120-kg-class arm; screw stiffness from the paper's measured deflections under 1100 N vertical (1.6-2.5 mm, section 3.3.1); with its own structure and drives the twin deflects 0.6-2.1 mm".into(),
+                source: "the twin's own frame model and mechanics (flexcal_twin::truth::structure, flexcal_twin::truth::mechanics): plausible steel sections and masses of a 120-kg-class arm; screw stiffness from the paper's measured deflections under 1100 N vertical (1.6-2.5 mm, section 3.3.1); with its own structure and drives the twin deflects 0.6-2.1 mm".into(),
                 enabled: s.gravity,
             },
             self.drive.term(s.drive_nonlinearity),
@@ -264,35 +277,37 @@ impl TwinRobot {
                 q_reached[screw.actuated] *= scale;
             }
         }
+        let approach: Vec<f64> = match &ws.last_q {
+            Some(last) => self
+                .screws
+                .iter()
+                .map(|s| q[s.actuated] - last[s.actuated])
+                .collect(),
+            None => vec![0.0; self.screws.len()],
+        };
+        ws.last_q = Some(q.to_vec());
         let loaded = self.switches.gravity || wrench_base.iter().any(|w| *w != 0.0);
         let mut deflection = Vector6::zeros();
         let mut forces = [0.0; 2];
         let mut torques = [0.0; 2];
         if loaded || self.switches.drive_nonlinearity {
-            deflection = tcp_deflection(
-                &self.structure,
-                &mut ws.fe,
-                &q_reached,
-                &xi,
-                &[],
-                wrench_base,
-                OwnWeight::included_if(self.switches.gravity),
-            )?;
-            let structure = &ws.fe.structure;
-            let u = ws.fe.displacements();
+            let frame = self
+                .structure
+                .frame(&self.model, &mut ws.kinematics, &q_reached, &xi)?;
+            let solution = self
+                .structure
+                .solve(&frame, wrench_base, self.switches.gravity)?;
+            deflection = solution.tcp;
             for (k, screw) in self.screws.iter().enumerate() {
-                let spring = &structure.springs()[screw.spring];
-                let (i, j) = (spring.i, spring.j);
-                let axis = structure.positions()[j] - structure.positions()[i];
-                let ui = Vector3::new(u[6 * i], u[6 * i + 1], u[6 * i + 2]);
-                let uj = Vector3::new(u[6 * j], u[6 * j + 1], u[6 * j + 2]);
-                let elongation = (uj - ui).dot(&axis.normalize());
-                forces[k] = spring.k * elongation;
+                forces[k] = self.structure.screws[screw.spring].stiffness_n_m
+                    * solution.screw_elongations[screw.spring];
                 let (l1, l3, kappa, lambda) = screw.crank;
                 let h = screw_lever_arm(l1, l3, kappa, lambda, theta[screw.joint]);
                 torques[k] = forces[k] * h;
                 if self.switches.drive_nonlinearity {
-                    q_reached[screw.actuated] += h * self.drive.rotation(torques[k]);
+                    self.drive.approach(approach[k], &mut ws.lost_motion[k]);
+                    q_reached[screw.actuated] +=
+                        h * self.drive.rotation(torques[k], &mut ws.lost_motion[k]);
                 }
             }
         }
@@ -313,62 +328,5 @@ impl TwinRobot {
             screw_forces_n: forces,
             joint_torques_nm: torques,
         })
-    }
-}
-
-/// The twin seen from its TCP, for the forming cell: the displacement of
-/// the pose it reaches from the true rigid forward model `f(q, xi_true)`,
-/// under a wrench at the TCP: its own weight, the drives' yield and the
-/// transmission errors included. Implements the elastic seam
-/// ([`TcpDeflection`]) so that the compensation machinery can solve the
-/// robot-process equilibrium of the true cell; each thread evaluates it with
-/// its own [`TwinWorkspace`].
-pub struct TwinAsElastic {
-    robot: TwinRobot,
-}
-
-impl TwinAsElastic {
-    /// Wraps `robot`, checking that its workspace can be built.
-    ///
-    /// # Errors
-    /// As [`TwinRobot::workspace`].
-    pub fn new(robot: TwinRobot) -> Result<Self, TruthError> {
-        robot.workspace()?;
-        Ok(Self { robot })
-    }
-
-    /// The wrapped robot.
-    pub fn robot(&self) -> &TwinRobot {
-        &self.robot
-    }
-}
-
-impl TcpDeflection for TwinAsElastic {
-    type Workspace = TwinWorkspace;
-
-    fn describe(&self) -> String {
-        "virtual IR-663 (twin truth)".into()
-    }
-
-    fn workspace(&self) -> Result<TwinWorkspace, DeflectionError> {
-        Ok(self.robot.workspace()?)
-    }
-
-    fn tcp_displacement(
-        &self,
-        ws: &mut TwinWorkspace,
-        q: &[f64],
-        wrench_base: &Vector6<f64>,
-    ) -> Result<Vector6<f64>, DeflectionError> {
-        let reached = self.robot.pose(ws, q, wrench_base, 0.0)?;
-        let rigid = forward_pose(
-            &self.robot.model,
-            &mut ws.kinematics,
-            q,
-            &self.robot.true_xi,
-        )?;
-        let dp = reached.x_base_tcp.translation.vector - rigid.translation.vector;
-        let dphi = (reached.x_base_tcp.rotation * rigid.rotation.inverse()).scaled_axis();
-        Ok(Vector6::new(dp.x, dp.y, dp.z, dphi.x, dphi.y, dphi.z))
     }
 }

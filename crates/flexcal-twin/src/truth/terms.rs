@@ -58,6 +58,12 @@ pub struct TruthSwitches {
     pub temperature_drift: bool,
     /// Forming: the beam's true Young's modulus off its handbook value.
     pub beam_modulus_offset: bool,
+    /// Forming: the bar's thickness off its nominal value.
+    pub sheet_thickness: bool,
+    /// Forming: the clamp lets the bar's root turn.
+    pub clamp_compliance: bool,
+    /// Forming: the tool tip is a hemisphere, not a point.
+    pub tool_radius: bool,
     /// Forming: Coulomb friction between the tool and the beam.
     pub tool_friction: bool,
     /// Forming: the dead weight differs from its nominal value by the
@@ -76,6 +82,9 @@ impl Default for TruthSwitches {
             measurement_noise: true,
             temperature_drift: false,
             beam_modulus_offset: true,
+            sheet_thickness: true,
+            clamp_compliance: true,
+            tool_radius: true,
             tool_friction: true,
             payload_error: true,
         }
@@ -95,6 +104,9 @@ impl TruthSwitches {
             measurement_noise: false,
             temperature_drift: false,
             beam_modulus_offset: false,
+            sheet_thickness: false,
+            clamp_compliance: false,
+            tool_radius: false,
             tool_friction: false,
             payload_error: false,
         }
@@ -114,6 +126,9 @@ impl TruthSwitches {
             "measurement_noise" => &mut self.measurement_noise,
             "temperature_drift" => &mut self.temperature_drift,
             "beam_modulus_offset" => &mut self.beam_modulus_offset,
+            "sheet_thickness" => &mut self.sheet_thickness,
+            "clamp_compliance" => &mut self.clamp_compliance,
+            "tool_radius" => &mut self.tool_radius,
             "tool_friction" => &mut self.tool_friction,
             "payload_error" => &mut self.payload_error,
             other => {
@@ -129,7 +144,7 @@ impl TruthSwitches {
 }
 
 /// Names of every truth term, in [`TruthSwitches`] order.
-pub const TERM_NAMES: [&str; 10] = [
+pub const TERM_NAMES: [&str; 13] = [
     "geometric_errors",
     "gravity",
     "drive_nonlinearity",
@@ -138,6 +153,9 @@ pub const TERM_NAMES: [&str; 10] = [
     "measurement_noise",
     "temperature_drift",
     "beam_modulus_offset",
+    "sheet_thickness",
+    "clamp_compliance",
+    "tool_radius",
     "tool_friction",
     "payload_error",
 ];

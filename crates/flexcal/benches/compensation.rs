@@ -6,15 +6,15 @@
 //!
 //! Goals: the 10 000-point path in <= 50 ms with the fuzzy model and <= 1 s
 //! with the FE model. Run with
-//! `cargo bench -p flexcal-twin --bench compensation`; `flexcal bench`
-//! times the same fixtures (`flexcal_twin::bench_fixtures`).
+//! `cargo bench -p flexcal --bench compensation`; `flexcal bench`
+//! times the same fixtures (`flexcal::bench_fixtures`).
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 
-use flexcal_twin::bench_fixtures::{CompensationFixture, Elastic, Load, PATH_POINTS};
+use flexcal::bench_fixtures::{CompensationFixture, Elastic, Load, PATH_POINTS};
 
 fn bench(c: &mut Criterion) {
     let fixture = CompensationFixture::new(PATH_POINTS).expect("built-in fixture");

@@ -1,13 +1,13 @@
 //! Acceptance of the geometric calibration on the virtual IR-663 (27 + 16 poses).
 
+use flexcal::twin::geometric::{
+    GeometricCampaignOptions, IR663_TRUE_ERRORS, geometric_campaign, write_geometric_campaign,
+};
+use flexcal::twin::truth::TruthSwitches;
 use flexcal_calib::{
     CalibrationOptions, FrameTreatment, MeasurementSet, UnknownStatus, calibrate, combination_check,
 };
 use flexcal_kinematics::RobotDescription;
-use flexcal_twin::geometric::{
-    GeometricCampaignOptions, IR663_TRUE_ERRORS, geometric_campaign, write_geometric_campaign,
-};
-use flexcal_twin::truth::TruthSwitches;
 
 /// The calibration on a twin whose only non-ideality is its geometry (and
 /// the camera's frame and noise): the model class of the calibration, so

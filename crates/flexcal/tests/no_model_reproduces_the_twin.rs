@@ -7,6 +7,9 @@
 //! covered with the demo study in the `flexcal` crate, where the IR-663's
 //! mass table lives.
 
+use flexcal::study::model_class::model_class_residuals;
+use flexcal::twin::elastic::{ElasticCampaignOptions, write_elastic_campaign};
+use flexcal::twin::truth::TruthSwitches;
 use flexcal_elastic::campaign::{DeflectionMeasurement, read_campaign_dir};
 use flexcal_elastic::description::ElasticDescription;
 use flexcal_elastic::fuzzy_compliance::{
@@ -17,9 +20,6 @@ use flexcal_elastic::identify::{
 };
 use flexcal_elastic::metrics::per_load_metrics;
 use flexcal_elastic::model::ElasticModel;
-use flexcal_twin::elastic::{ElasticCampaignOptions, write_elastic_campaign};
-use flexcal_twin::geometric::model_class_residuals;
-use flexcal_twin::truth::TruthSwitches;
 
 /// Residuals this far above zero are the twin's, not the solvers'.
 const WELL_ABOVE_ZERO_M: f64 = 1e-6;
