@@ -142,3 +142,16 @@ impl CalibError {
         move |source| CalibError::Optim { step, source }
     }
 }
+
+/// `Ok` when option `name`'s value `v` is finite and `> 0`, else
+/// [`CalibError::InvalidOption`] naming it.
+pub(crate) fn require_positive(name: &'static str, v: f64) -> Result<(), CalibError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(CalibError::InvalidOption {
+            name,
+            reason: format!("must be finite and > 0, found {v}"),
+        })
+    }
+}

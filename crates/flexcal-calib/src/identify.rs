@@ -21,7 +21,7 @@ use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
 use crate::significance::{
-    InstrumentNoise, Judging, MIN_TORQUE_SHARE, NoiseSource, ScaleJudgement, ScaleOutcome,
+    InstrumentNoise, Judging, MIN_TORQUE_SHARE, NoiseSource, ScaleJudgement, ScaleOutcome, Solve,
     barely_loaded, judge_compliances, torque_magnitude,
 };
 use crate::{CalibError, MeasurementSet};
@@ -244,16 +244,7 @@ impl CalibrationOptions {
     }
 
     pub(crate) fn check(&self) -> Result<(), CalibError> {
-        let positive = |name: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(CalibError::InvalidOption {
-                    name,
-                    reason: format!("must be finite and > 0, found {v}"),
-                })
-            }
-        };
+        let positive = crate::error::require_positive;
         positive("default_position_std", self.default_position_std)?;
         positive("default_orientation_std", self.default_orientation_std)?;
         positive("max_standard_error_length", self.max_standard_error_length)?;
@@ -1252,17 +1243,12 @@ pub fn calibrate(
     // any data; they stay at zero (poorly identifiable).
     let partial_period = crate::joint_law::partial_period_mask(model, set, &names);
     // ... and the compliances of joints gravity barely loads.
-    let barely = barely_loaded(
-        &names,
-        model.actuated_names(),
+    let partial_period = barely_loaded(
+        partial_period,
+        (&names, model.actuated_names()),
         &problem.torque_ranges(),
         options.min_torque_share,
     );
-    let partial_period: Vec<bool> = partial_period
-        .iter()
-        .zip(&barely)
-        .map(|(a, b)| *a || *b)
-        .collect();
     let mut solve_logged = |x0: &[f64], frozen: &[bool]| -> Result<SolveReport, CalibError> {
         let report = solve(x0, frozen)?;
         cost_history.extend(&report.cost_history);
@@ -1706,8 +1692,6 @@ pub(crate) fn unknown_estimates(
 /// The noise level (weighted units) at unknowns `x` with `free` unknowns
 /// identified.
 pub(crate) type NoiseAt<'a> = dyn Fn(&[f64], usize) -> Result<f64, CalibError> + 'a;
-/// One solve from `x0` with the unknowns `frozen` held.
-pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError> + 'a;
 
 /// What the rounds of a noise-aware identification
 /// ([`AnalysisContext::identify_in_rounds`]) start from.

@@ -1229,17 +1229,12 @@ pub fn calibrate_targets(
     let q: Vec<&[f64]> = set.poses().iter().map(|p| p.q.as_slice()).collect();
     let partial_period = crate::joint_law::partial_period_mask_of(model, &q, &names);
     // ... and the compliances of joints gravity barely loads.
-    let barely = crate::significance::barely_loaded(
-        &names,
-        model.actuated_names(),
+    let partial_period = crate::significance::barely_loaded(
+        partial_period,
+        (&names, model.actuated_names()),
         &problem.elastic.torque_ranges(set.len()),
         options.min_torque_share,
     );
-    let partial_period: Vec<bool> = partial_period
-        .iter()
-        .zip(&barely)
-        .map(|(a, b)| *a || *b)
-        .collect();
     let noise_at = |x: &[f64], free: usize| noise_level(&problem, &weights, absolute, x, free);
     let excluded = |j: usize| fixed[j];
     let mut solve_rounds = |x0: &[f64], frozen: &[bool]| solve(x0, frozen);

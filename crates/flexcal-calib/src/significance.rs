@@ -61,16 +61,7 @@ pub struct InstrumentNoise {
 
 impl InstrumentNoise {
     pub(crate) fn check(&self) -> Result<(), CalibError> {
-        let positive = |name: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(CalibError::InvalidOption {
-                    name,
-                    reason: format!("the instrument's noise must be finite and > 0, found {v}"),
-                })
-            }
-        };
+        let positive = crate::error::require_positive;
         positive("instrument_noise.position_std", self.position_std)?;
         if let Some(s) = self.orientation_std {
             positive("instrument_noise.orientation_std", s)?;
@@ -139,13 +130,14 @@ pub(crate) fn torque_magnitude(span: &crate::CoordinateCoverage) -> f64 {
     span.lo.abs().max(span.hi.abs())
 }
 
-/// Which of the unknowns `names` are compliances `compliance_<joint>` of
-/// joints barely loaded by gravity: their torque (`torque_ranges`, in the
+/// `mask` (unknowns left at their start before any fit) with the
+/// compliances `compliance_<joint>` of the unknowns `names` whose joints
+/// gravity barely loads added: their torque (`torque_ranges`, in the
 /// order of `actuated_names`) below `share` of the largest
 /// ([`crate::CalibrationOptions::min_torque_share`]).
 pub(crate) fn barely_loaded(
-    names: &[String],
-    actuated_names: &[String],
+    mask: Vec<bool>,
+    (names, actuated_names): (&[String], &[String]),
     torque_ranges: &[crate::CoordinateCoverage],
     share: f64,
 ) -> Vec<bool> {
@@ -155,8 +147,10 @@ pub(crate) fn barely_loaded(
         .fold(0.0, f64::max);
     names
         .iter()
-        .map(|name| {
-            name.strip_prefix("compliance_")
+        .zip(mask)
+        .map(|(name, left)| {
+            left || name
+                .strip_prefix("compliance_")
                 .and_then(|joint| actuated_names.iter().position(|a| a == joint))
                 .and_then(|i| torque_ranges.get(i))
                 .is_some_and(|span| torque_magnitude(span) < share * largest)
@@ -190,6 +184,13 @@ pub struct ScaleJudgement {
     pub outcome: ScaleOutcome,
 }
 
+/// One solve from `x0` with the unknowns `frozen` held.
+pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError> + 'a;
+
+/// A fit after judging: its report, the frozen unknowns, and each
+/// compliance's judgement.
+pub(crate) type Judged = (SolveReport, Vec<bool>, Vec<Option<ScaleJudgement>>);
+
 /// What [`judge_compliances`] needs besides the fit.
 pub(crate) struct Judging<'a> {
     /// Which unknowns are compliances.
@@ -209,8 +210,8 @@ pub(crate) struct Judging<'a> {
 pub(crate) fn judge_compliances(
     judging: &Judging<'_>,
     (mut report, mut frozen): (SolveReport, Vec<bool>),
-    solve: &mut dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError>,
-) -> Result<(SolveReport, Vec<bool>, Vec<Option<ScaleJudgement>>), CalibError> {
+    solve: &mut Solve<'_>,
+) -> Result<Judged, CalibError> {
     let n = frozen.len();
     let mut judgements: Vec<Option<ScaleJudgement>> = vec![None; n];
     let candidates = (0..n).filter(|&j| judging.compliance[j]).count();
