@@ -65,9 +65,17 @@ fn workflow_on_the_twin_campaign() {
     }
     let ratio = run.split.as_ref().unwrap().prediction_ratio.unwrap();
     assert!((coverage.inflation - ratio.max(1.0)).abs() < 1e-12);
+    // The two runs identify again and solve for the covariance, whose
+    // conditioning carries round-off to about 1e-9 relative (1.4e-9
+    // measured on the twin's campaign): agreement to 1e-7 is the same
+    // bound times the ratio, far below any difference of method.
     for (with, without) in coverage.poses.iter().zip(&plain.poses) {
         let expected = without.model_uncertainty_mm * coverage.inflation;
-        assert!((with.model_uncertainty_mm - expected).abs() < 1e-9 * expected.max(1e-9));
+        assert!(
+            (with.model_uncertainty_mm - expected).abs() < 1e-7 * expected.max(1e-9),
+            "{with:?} against {without:?} x {}",
+            coverage.inflation
+        );
     }
     assert!(coverage.coverage.unwrap() >= plain.coverage.unwrap());
     assert_eq!(name, "validation");
