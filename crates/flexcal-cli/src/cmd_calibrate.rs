@@ -127,26 +127,26 @@ pub struct CalibrateArgs {
     /// An absolute limit for the compliances: one whose standard error
     /// exceeds it is left at its start (urad/N.m; default 1000, which never
     /// binds: compliances are judged on their own scale, --min-compliance-z).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub max_se_compliance: Option<f64>,
     /// A compliance is kept when its value is at least this many standard
     /// errors (default 2); one the fit puts this far below zero is held at
     /// zero.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub min_compliance_z: Option<f64>,
     /// A joint whose gravity torque spans less than this share of the most
     /// loaded joint's keeps its compliance at the start (default 0.05; 0
     /// lets every loaded joint's compliance in).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub min_torque_share: Option<f64>,
     /// The instrument's noise, one standard deviation per position axis
     /// (mm): weighs every observation and replaces the noise estimated
     /// from the fit in the standard errors and identifiability judgements.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub noise_mm: Option<f64>,
     /// With --noise-mm and fitted orientations: the instrument's noise per
     /// orientation axis (deg).
-    #[arg(long, requires = "noise_mm")]
+    #[arg(long, requires = "noise_mm", allow_hyphen_values = true)]
     pub noise_deg: Option<f64>,
     /// Fail instead of freezing non-identifiable parameters.
     #[arg(long)]
