@@ -9,8 +9,10 @@
 //! starting value: after the fit, that scale must be at least
 //! [`crate::CalibrationOptions::min_compliance_z`] standard errors (default
 //! 2). A compliance the data put at zero with a small standard error is
-//! determined (the joint is stiff) and kept there, not sent back to a
-//! start the data contradict. The judgement runs on the richest identifiable fit (every compliance
+//! determined (the joint is stiff) and kept there. A compliance left out
+//! stays at its start, like every unknown the data do not determine: the
+//! mass table's starting compliance is then the user's prior, and on a
+//! robot much stiffer or softer than it, it carries into the predictions. The judgement runs on the richest identifiable fit (every compliance
 //! the exact rank allows is in the first fit, so the noise estimated from
 //! its residual is not inflated by the sag of the ones left out), and
 //! leaves out one weak compliance at a time (all those below one standard
@@ -199,7 +201,8 @@ pub(crate) struct Judging<'a> {
     pub limits: &'a [f64],
     /// [`crate::CalibrationOptions::min_compliance_z`].
     pub z_min: f64,
-    /// Starting values (where a compliance left out goes back to).
+    /// Starting values (where a compliance left out goes back to; its
+    /// scale is at least its start).
     pub x_start: &'a [f64],
 }
 
