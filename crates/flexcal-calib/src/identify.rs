@@ -1255,10 +1255,6 @@ pub fn calibrate(
         Ok(report)
     };
     let reduced_start = context.reduced(&x_start)?;
-    let compliance: Vec<bool> = kinds
-        .iter()
-        .map(|k| *k == UnknownKind::Compliance)
-        .collect();
     let RoundsOutcome {
         report,
         frozen,
@@ -1275,7 +1271,7 @@ pub fn calibrate(
             require_full_rank: options.require_full_rank,
             free_count,
             joint_start: problem.joint_terms_offset().unwrap_or(n),
-            compliance: &compliance,
+            kinds: &kinds,
             min_compliance_z: options.min_compliance_z,
         },
         &noise_at,
@@ -1714,9 +1710,9 @@ pub(crate) struct Rounds<'a> {
     /// Index of the first joint-term unknown (the number of unknowns
     /// without joint terms).
     pub joint_start: usize,
-    /// Which unknowns are compliances, judged on their own scale
-    /// ([`crate::significance`]).
-    pub compliance: &'a [bool],
+    /// The kind of every unknown (the compliances are judged on their own
+    /// scale, [`crate::significance`]).
+    pub kinds: &'a [UnknownKind],
     /// [`CalibrationOptions::min_compliance_z`].
     pub min_compliance_z: f64,
 }
@@ -1837,9 +1833,14 @@ impl AnalysisContext<'_> {
             }
             report = solve(&x0, &frozen)?;
         }
+        let compliance: Vec<bool> = r
+            .kinds
+            .iter()
+            .map(|k| *k == UnknownKind::Compliance)
+            .collect();
         let (report, frozen, judgements) = judge_compliances(
             &Judging {
-                compliance: r.compliance,
+                compliance: &compliance,
                 limits: self.limits,
                 z_min: r.min_compliance_z,
                 x_start: r.x_start,

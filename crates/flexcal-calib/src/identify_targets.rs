@@ -1238,10 +1238,6 @@ pub fn calibrate_targets(
     let noise_at = |x: &[f64], free: usize| noise_level(&problem, &weights, absolute, x, free);
     let excluded = |j: usize| fixed[j];
     let mut solve_rounds = |x0: &[f64], frozen: &[bool]| solve(x0, frozen);
-    let compliance: Vec<bool> = kinds
-        .iter()
-        .map(|k| *k == UnknownKind::Compliance)
-        .collect();
     let RoundsOutcome {
         report,
         frozen,
@@ -1258,7 +1254,7 @@ pub fn calibrate_targets(
             require_full_rank: options.require_full_rank,
             free_count,
             joint_start: eo + problem.elastic.joint_terms_offset().unwrap_or(n - eo),
-            compliance: &compliance,
+            kinds: &kinds,
             min_compliance_z: options.min_compliance_z,
         },
         &noise_at,
