@@ -27,8 +27,9 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{Calibration, CalibrationOptions, UnknownStatus};
+use crate::identify::{Calibration, UnknownStatus};
 use crate::identify_targets::TargetCalibration;
+use crate::options::CalibrationOptions;
 use crate::prediction::Predicting;
 use crate::selection::Selectable;
 use crate::split::{

@@ -1,25 +1,33 @@
-//! The stacked geometric error model (7)-(10), (49)-(52), extended with the
-//! measurement frame and the target offset.
+//! The measurement model (7)-(10), (49)-(52) of every identification: each
+//! observation is a target, fixed to a frame of the robot, seen at a pose
+//! from a station's measurement frame, with its position and, where the
+//! target carries one, its orientation.
+//!
+//! For target t on frame f(t), pose k, station s(k):
+//! `x_meas_target = x_meas_base(tau_s) * G_k * x_base_f(q_k + dq_k, xi) *
+//! x_f_target(o_t)`, with `G_k` the rigid motion of the lateral
+//! compliances that reach f(t) and `dq_k` the joint deflections of
+//! [`crate::gravity`] and [`crate::joint_law`] (both the identity without
+//! the elasto-geometric terms). A target on [`crate::TCP_FRAME`] sits after
+//! the robot's tool transform.
 
+use std::borrow::Cow;
 use std::cell::{Cell, RefCell};
 
 use faer::MatMut;
-use flexcal_kinematics::{
-    Data, Model, ParamKind, forward_pose, param_and_joint_jacobians_into, param_jacobian_into,
-};
+use flexcal_kinematics::{Data, Model, ParamKind, forward_frames, frame_points_jacobians_into};
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
-use nalgebra::{
-    DMatrix, Isometry3, Matrix3, Matrix6xX, Point3, Translation3, UnitQuaternion, Vector3,
-};
+use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, UnitQuaternion, Vector3};
 
-use crate::elastic_terms::{ElasticTerms, JointState, LateralMotion};
+use crate::CalibError;
+use crate::elastic_terms::{ElasticTerms, JointState};
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::joint_law::JointTerms;
 use crate::metrics::PoseError;
-use crate::{CalibError, MeasurementSet};
+use crate::targets::{TCP_FRAME, TargetMeasurementSet, TargetObservation};
 
 /// Names of the six unknowns of the measurement frame `x_meas_base`: a
 /// translation (m) added to the starting estimate and a rotation vector (rad)
@@ -28,10 +36,11 @@ pub const FRAME_PARAMETER_NAMES: [&str; 6] = [
     "frame_x", "frame_y", "frame_z", "frame_rx", "frame_ry", "frame_rz",
 ];
 
-/// Names of the six unknowns of the target offset `x_tcp_target`: a
-/// translation (m) added to the starting offset and a rotation vector (rad)
-/// applied on the right of the starting rotation (used only when orientations
-/// are measured).
+/// Names of the six unknowns of the offset `x_frame_target` of a set's only
+/// target: a translation (m, in the target's frame) added to the starting
+/// offset and a rotation vector (rad) applied on the right of the starting
+/// rotation (identified only when orientations are measured). With several
+/// targets each has its own ([`target_unknown_names`]).
 pub const TARGET_PARAMETER_NAMES: [&str; 6] = [
     "target_x",
     "target_y",
@@ -41,10 +50,20 @@ pub const TARGET_PARAMETER_NAMES: [&str; 6] = [
     "target_rz",
 ];
 
+/// Names of the six offset unknowns of target `name` of a set of `count`
+/// targets: [`TARGET_PARAMETER_NAMES`] for a set's only target, else
+/// `target.<name>.x|y|z|rx|ry|rz` (m in the target's frame, rad).
+pub fn target_unknown_names(name: &str, count: usize) -> [String; 6] {
+    if count == 1 {
+        TARGET_PARAMETER_NAMES.map(str::to_string)
+    } else {
+        ["x", "y", "z", "rx", "ry", "rz"].map(|a| format!("target.{name}.{a}"))
+    }
+}
+
 /// Names of the six measurement-frame unknowns of station `station`
-/// (0-based) of a set with several stations ([`MeasurementSet::pooled`]):
-/// `frame_x..frame_rz` for the first, `frame_s2_x..frame_s2_rz` for the
-/// second, and so on.
+/// (0-based) of a set with several stations: `frame_x..frame_rz` for the
+/// first, `frame_s2_x..frame_s2_rz` for the second, and so on.
 pub fn station_frame_names(station: usize) -> [String; 6] {
     FRAME_PARAMETER_NAMES.map(|name| {
         if station == 0 {
@@ -57,121 +76,251 @@ pub fn station_frame_names(station: usize) -> [String; 6] {
 
 pub use crate::unknown_kind::UnknownKind;
 
-/// The measurement model of one pose k,
-/// `x_meas_target = x_meas_base(tau) * FK(q_k, xi) * x_tcp_target(t)`,
-/// stacked over a measurement set, as a least-squares problem in the
-/// unknowns `x = [xi; tau; t]` (n_params + 6 + 6).
-///
-/// A set with several stations ([`MeasurementSet::pooled`]) has one
-/// measurement frame per station: the frames of the second and later
-/// stations follow the target's unknowns (`frame_s2_x`, ...;
-/// [`station_frame_names`]), and each pose is predicted in its station's
-/// frame.
-///
-/// Residual rows per pose: `predicted - measured` position (m), then, when
-/// orientations are used, the rotation vector `log(R_pred R_meas^T)` (rad).
-/// The Jacobian is exact: the robot part is the parameter Jacobian of
-/// `flexcal-kinematics` carried to the target point and into the measurement
-/// frame; the frame parts use the SO(3) left Jacobian.
-///
-/// With [`GeometricErrorModel::with_gravity`] the model is elasto-geometric:
-/// the robot is evaluated at `q_k + dq_k`, the joint-spring deflection under
-/// gravity of [`crate::gravity`], and the unknowns gain the compliances and
-/// the payload (`[xi; tau; t; c; m; m c]`), and, with
-/// [`GravityCompliance::lateral`], the lateral compliances after them: the
-/// robot's pose is then moved by the rigid motion `G` of
-/// [`crate::gravity`]'s lateral rotations, `x_base_tcp' = G FK(q_k + dq_k,
-/// xi)`, with exact derivatives of that model.
-pub struct GeometricErrorModel<'a> {
-    model: &'a Model,
-    set: &'a MeasurementSet,
-    use_orientation: bool,
-    x_meas_base0: Isometry3<f64>,
-    x_tcp_target0: Isometry3<f64>,
-    /// Starting measurement frames of the second and later stations.
-    station_frames0: Vec<Isometry3<f64>>,
-    names: Vec<String>,
-    data: RefCell<Data>,
-    pose_jacobian: RefCell<DMatrix<f64>>,
-    robot_columns: Cell<bool>,
-    /// The elastic and joint terms (none when geometric).
-    elastic: ElasticTerms,
-    /// The lateral joints that move the TCP ([`ElasticTerms::lateral_mask`]).
-    lateral_mask: Vec<bool>,
-    joint_jacobian: RefCell<Matrix6xX<f64>>,
-    deflection: RefCell<JointState>,
+/// Where the frames of an [`ErrorModel`] start: its unknowns are
+/// increments on these.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameStarts {
+    /// Starting measurement frame `x_meas_base` of each station (at least
+    /// the set's stations; more give the model the unknowns of a
+    /// calibration with that many, with zero columns).
+    pub stations: Vec<Isometry3<f64>>,
+    /// Starting pose `x_frame_target` of each target of the set in its
+    /// frame (after the tool for a target on [`TCP_FRAME`]).
+    pub targets: Vec<Isometry3<f64>>,
+    /// Whether each target's orientation rows are fitted (every
+    /// observation of the target then carries an orientation).
+    pub orientation: Vec<bool>,
 }
 
-impl<'a> GeometricErrorModel<'a> {
-    /// The model of `set` measured on `model`, linearised around the starting
-    /// frame estimates `x_meas_base0` and `x_tcp_target0`.
+impl FrameStarts {
+    /// The targets' nominal offsets and rotations from `set`, every
+    /// station's frame at `x_meas_base`, and orientations fitted for the
+    /// targets that carry them (`use_orientation` `None`), for none
+    /// (`Some(false)`) or for all (`Some(true)`).
+    ///
+    /// # Errors
+    /// [`CalibError::BadMeasurement`] when orientations are asked for and a
+    /// target carries none.
+    pub fn nominal(
+        set: &TargetMeasurementSet,
+        x_meas_base: Isometry3<f64>,
+        use_orientation: Option<bool>,
+    ) -> Result<Self, CalibError> {
+        let orientation = (0..set.targets().len())
+            .map(|t| {
+                let carried = set.target_has_orientation(t);
+                match use_orientation {
+                    Some(true) if !carried => Err(CalibError::BadMeasurement {
+                        source_name: set.source.clone(),
+                        line: 0,
+                        what: format!(
+                            "orientation asked for but target `{}` has none (no rx_deg, ry_deg, rz_deg columns)",
+                            set.targets()[t].name
+                        ),
+                    }),
+                    Some(used) => Ok(used),
+                    None => Ok(carried),
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            stations: vec![x_meas_base; set.n_stations()],
+            targets: set.targets().iter().map(|t| t.pose()).collect(),
+            orientation,
+        })
+    }
+}
+
+/// What the model keeps of one target.
+#[derive(Debug, Clone)]
+struct TargetTerms {
+    /// Index of its frame in the model.
+    frame: usize,
+    /// Whether it sits after the tool ([`TCP_FRAME`]).
+    on_tcp: bool,
+    /// First of its six unknowns.
+    unknowns: usize,
+    /// Starting `x_frame_target`.
+    start: Isometry3<f64>,
+    /// Whether its orientation rows are fitted.
+    orientation: bool,
+}
+
+/// One observation: the residual block of a target at a pose.
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    pose: usize,
+    target: usize,
+}
+
+/// The Jacobians of the targets of one pose
+/// ([`frame_points_jacobians_into`]), one entry per target of the set.
+struct PointJacobians {
+    params: Vec<DMatrix<f64>>,
+    joints: Vec<Matrix6xX<f64>>,
+    poses: Vec<Isometry3<f64>>,
+}
+
+/// The stacked measurement model of a set of observations, as a
+/// least-squares problem in the unknowns
+/// `x = [xi; tau_1; o_1 .. o_T; tau_2 .. tau_S; elastic and joint terms]`:
+/// the robot's parameters, the first station's measurement frame (6), each
+/// target's offset (6: translation in its frame, rotation vector on the
+/// right of its starting rotation), the later stations' frames
+/// ([`station_frame_names`]) and, elasto-geometric
+/// ([`ErrorModel::with_elastic`]), the compliances, the payload, the
+/// lateral compliances and the joint terms.
+///
+/// Residual rows per observation: `predicted - measured` position (m) in
+/// the station's frame, then, where the target's orientation is fitted,
+/// the rotation vector `log(R_pred R_meas^T)` (rad). The Jacobian is exact:
+/// the robot part is the parameter Jacobian of `flexcal-kinematics` at the
+/// target point ([`frame_points_jacobians_into`]) carried into the
+/// measurement frame; the frame parts use the SO(3) left Jacobian; the
+/// elastic part carries the joint deflections through the point's joint
+/// Jacobian.
+pub struct ErrorModel<'a> {
+    model: &'a Model,
+    set: Cow<'a, TargetMeasurementSet>,
+    targets: Vec<TargetTerms>,
+    blocks: Vec<Block>,
+    /// First residual row of each block, and the number of rows last.
+    block_rows: Vec<usize>,
+    x_meas_base0: Vec<Isometry3<f64>>,
+    /// First unknown of the second station's frame (after the targets').
+    stations_offset: usize,
+    /// Where the elastic and joint-term unknowns start.
+    elastic_offset: usize,
+    names: Vec<String>,
+    elastic: ElasticTerms,
+    /// Per target, the lateral joints that move it.
+    lateral_masks: Vec<Vec<bool>>,
+    robot_columns: Cell<bool>,
+    data: RefCell<Data>,
+    jacobians: RefCell<PointJacobians>,
+    deflection: RefCell<JointState>,
+    twists: RefCell<Matrix6xX<f64>>,
+}
+
+impl<'a> ErrorModel<'a> {
+    /// The model of `set` measured on `model`, its frames starting at
+    /// `starts`.
     ///
     /// # Errors
     /// [`CalibError::ActuatedCountMismatch`]; [`CalibError::BadMeasurement`]
-    /// when orientations are asked for but not measured.
+    /// for a target on a frame the robot does not have, or orientation rows
+    /// for a target without orientations; [`CalibError::InvalidOption`] for
+    /// starts that do not match the set.
     pub fn new(
         model: &'a Model,
-        set: &'a MeasurementSet,
-        use_orientation: bool,
-        x_meas_base0: Isometry3<f64>,
-        x_tcp_target0: Isometry3<f64>,
+        set: Cow<'a, TargetMeasurementSet>,
+        starts: &FrameStarts,
     ) -> Result<Self, CalibError> {
-        if set.n_actuated() != model.n_actuated() {
-            return Err(CalibError::ActuatedCountMismatch {
-                source_name: set.source.clone(),
-                robot: model.name().to_string(),
-                expected: model.n_actuated(),
-                found: set.n_actuated(),
-            });
-        }
-        if use_orientation && !set.has_orientation() {
-            return Err(CalibError::BadMeasurement {
-                source_name: set.source.clone(),
-                line: 0,
-                what: "orientation asked for but the file has no rx_deg, ry_deg, rz_deg columns"
-                    .into(),
-            });
-        }
-        let station_frames0 = vec![x_meas_base0; set.n_stations() - 1];
+        check_starts(model, &set, starts)?;
         let mut names: Vec<String> = model.params().iter().map(|p| p.name.clone()).collect();
-        names.extend(FRAME_PARAMETER_NAMES.iter().map(|s| s.to_string()));
-        names.extend(TARGET_PARAMETER_NAMES.iter().map(|s| s.to_string()));
-        for s in 1..set.n_stations() {
+        names.extend(station_frame_names(0));
+        let count = set.targets().len();
+        let mut targets = Vec::with_capacity(count);
+        for (t, target) in set.targets().iter().enumerate() {
+            let on_tcp = target.frame == TCP_FRAME;
+            let frame = if on_tcp {
+                model.end_frame()
+            } else {
+                model.frame_index(&target.frame).ok_or_else(|| CalibError::BadMeasurement {
+                    source_name: set.source.clone(),
+                    line: 0,
+                    what: format!(
+                        "target `{}`: robot `{}` has no frame `{}` (frames: {}, or `{TCP_FRAME}`)",
+                        target.name,
+                        model.name(),
+                        target.frame,
+                        model.frame_names().join(", ")
+                    ),
+                })?
+            };
+            targets.push(TargetTerms {
+                frame,
+                on_tcp,
+                unknowns: names.len(),
+                start: starts.targets[t],
+                orientation: starts.orientation[t],
+            });
+            names.extend(target_unknown_names(&target.name, count));
+        }
+        let stations_offset = names.len();
+        for s in 1..starts.stations.len() {
             names.extend(station_frame_names(s));
+        }
+        let mut blocks = Vec::with_capacity(set.n_observations());
+        let mut block_rows = vec![0];
+        for (k, pose) in set.poses().iter().enumerate() {
+            for (t, observation) in pose.observations.iter().enumerate() {
+                if observation.is_some() {
+                    blocks.push(Block { pose: k, target: t });
+                    let rows = if targets[t].orientation { 6 } else { 3 };
+                    block_rows.push(block_rows.last().copied().unwrap_or(0) + rows);
+                }
+            }
         }
         Ok(Self {
             model,
-            set,
-            use_orientation,
-            x_meas_base0,
-            x_tcp_target0,
-            station_frames0,
+            targets,
+            blocks,
+            block_rows,
+            x_meas_base0: starts.stations.clone(),
+            stations_offset,
+            elastic_offset: names.len(),
             names,
-            data: RefCell::new(Data::new(model)),
-            pose_jacobian: RefCell::new(DMatrix::zeros(6, model.n_params())),
-            robot_columns: Cell::new(true),
             elastic: ElasticTerms::none(model),
-            lateral_mask: Vec::new(),
-            joint_jacobian: RefCell::new(Matrix6xX::zeros(model.n_actuated())),
+            lateral_masks: Vec::new(),
+            robot_columns: Cell::new(true),
+            data: RefCell::new(Data::new(model)),
+            jacobians: RefCell::new(PointJacobians {
+                params: vec![DMatrix::zeros(6, model.n_params()); count],
+                joints: vec![Matrix6xX::zeros(model.n_actuated()); count],
+                poses: vec![Isometry3::identity(); count],
+            }),
             deflection: RefCell::new(JointState::new(model.n_actuated())),
+            twists: RefCell::new(Matrix6xX::zeros(0)),
+            set,
         })
     }
 
+    /// The model of a one-target set ([`crate::MeasurementSet`]): its
+    /// target on the TCP starting at `x_tcp_target`, every station's
+    /// measurement frame at `x_meas_base`, orientations fitted when
+    /// `use_orientation`.
+    ///
+    /// # Errors
+    /// As [`ErrorModel::new`].
+    pub fn one_target(
+        model: &'a Model,
+        set: &crate::MeasurementSet,
+        use_orientation: bool,
+        x_meas_base: Isometry3<f64>,
+        x_tcp_target: Isometry3<f64>,
+    ) -> Result<Self, CalibError> {
+        let set = TargetMeasurementSet::from_measurement_set(set, TCP_FRAME)?;
+        let mut starts = FrameStarts::nominal(&set, x_meas_base, Some(use_orientation))?;
+        starts.targets[0] = x_tcp_target;
+        Self::new(model, Cow::Owned(set), &starts)
+    }
+
     /// The starting measurement frames of the second and later stations
-    /// (without this, each starts at the first station's). More frames than
+    /// (without this, as given to [`ErrorModel::new`]). More frames than
     /// the set has stations give the model the unknowns of a calibration
-    /// with that many stations (the extra ones have no pose: zero columns),
-    /// so that its unknowns line up with that calibration's.
+    /// with that many stations (the extra ones have no observation: zero
+    /// columns), so that its unknowns line up with that calibration's.
     ///
     /// # Errors
     /// [`CalibError::InvalidOption`] with fewer frames than the set's
-    /// stations beyond the first, or after the gravity model or the joint
-    /// terms (their unknowns come after the frames).
+    /// stations beyond the first, or after the elastic terms (their
+    /// unknowns come after the frames).
     pub fn with_station_frames(mut self, frames: &[Isometry3<f64>]) -> Result<Self, CalibError> {
-        if self.elastic.len() > 0 {
+        if self.elastic_offset != self.names.len() {
             return Err(CalibError::InvalidOption {
                 name: "station_frames",
-                reason: "the station frames go before the gravity model and the joint terms".into(),
+                reason: "the station frames go before the elastic terms".into(),
             });
         }
         if frames.len() + 1 < self.set.n_stations() {
@@ -185,136 +334,99 @@ impl<'a> GeometricErrorModel<'a> {
                 ),
             });
         }
-        self.station_frames0 = frames.to_vec();
-        self.names.truncate(self.model.n_params() + 12);
+        self.x_meas_base0.truncate(1);
+        self.x_meas_base0.extend_from_slice(frames);
+        self.names.truncate(self.stations_offset);
         for s in 1..=frames.len() {
             self.names.extend(station_frame_names(s));
         }
+        self.elastic_offset = self.names.len();
         Ok(self)
     }
 
-    /// Number of measurement frames (stations) of the model.
-    pub fn n_stations(&self) -> usize {
-        self.station_frames0.len() + 1
-    }
-
-    /// Index of the first measurement-frame unknown of station `s`
-    /// (0-based).
-    pub fn station_frame_offset(&self, s: usize) -> usize {
-        if s == 0 {
-            self.frame_offset()
-        } else {
-            self.model.n_params() + 12 + 6 * (s - 1)
+    /// Makes the model elasto-geometric: joint springs under `gravity`
+    /// ([`crate::gravity`]) and the joint terms of [`crate::joint_law`],
+    /// their unknowns after the frames' (the compliances, the payload, the
+    /// lateral compliances, then the joint terms). The torque of each joint
+    /// comes from every weight it carries; each target's joint Jacobian
+    /// carries the deflections to it, so a joint of one branch moves that
+    /// branch's targets only, and a lateral rotation moves the targets on
+    /// frames after its joint.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for a mass on a missing frame,
+    /// non-finite values, the stiffness law without gravity;
+    /// [`CalibError::Kinematics`] naming a pose.
+    pub fn with_elastic(
+        mut self,
+        gravity: Option<&GravityCompliance>,
+        terms: &JointTerms,
+    ) -> Result<Self, CalibError> {
+        let set = &*self.set;
+        let label = |k: usize| set.poses()[k].label(k);
+        let poses = Configurations {
+            q: set.poses().iter().map(|p| p.q.as_slice()).collect(),
+            label: &label,
+        };
+        let mut elastic = ElasticTerms::none(self.model);
+        let mut names = Vec::new();
+        if let Some(gravity) = gravity {
+            elastic.add_gravity(self.model, &poses, gravity)?;
+            names.extend(gravity.elastic_unknown_names(self.model));
         }
-    }
-
-    /// Index one past the last frame unknown (measurement frames and target
-    /// offset): where the elastic and joint-term unknowns start.
-    pub fn frames_end(&self) -> usize {
-        self.model.n_params() + 12 + 6 * self.station_frames0.len()
-    }
-
-    /// Makes the model elasto-geometric: joint compliances under gravity
-    /// ([`crate::gravity`]), their unknowns appended after the target's
-    /// (the compliances, the payload, then the lateral compliances when
-    /// [`GravityCompliance::lateral`] is on).
-    ///
-    /// # Errors
-    /// [`CalibError::InvalidOption`] for a mass on a missing frame or
-    /// non-finite values, [`CalibError::Kinematics`] naming a pose.
-    pub fn with_gravity(mut self, gravity: &GravityCompliance) -> Result<Self, CalibError> {
-        let label = |k: usize| self.set.measurements()[k].label(k);
-        let poses = Configurations::of_set(self.set, &label);
-        self.elastic.add_gravity(self.model, &poses, gravity)?;
-        self.lateral_mask = self
-            .elastic
-            .lateral_mask(self.model, self.model.end_frame());
-        self.names.extend(gravity.elastic_unknown_names(self.model));
+        if terms.any() {
+            elastic.add_joint_terms(self.model, &poses, terms)?;
+            names.extend(terms.unknown_names(self.model));
+        }
+        self.lateral_masks = self
+            .targets
+            .iter()
+            .map(|t| elastic.lateral_mask(self.model, t.frame))
+            .collect();
+        self.twists = RefCell::new(Matrix6xX::zeros(elastic.len()));
+        self.elastic = elastic;
+        self.names.extend(names);
         Ok(self)
     }
 
-    /// Adds the joint terms of [`crate::joint_law`] (their unknowns appended
-    /// after all others, starting at zero: linear springs, no cyclic error).
-    ///
-    /// # Errors
-    /// [`CalibError::InvalidOption`] for the stiffness law without the
-    /// gravity model, or a lost-motion torque that is not `> 0`.
-    pub fn with_joint_terms(mut self, terms: &JointTerms) -> Result<Self, CalibError> {
-        let label = |k: usize| self.set.measurements()[k].label(k);
-        let poses = Configurations::of_set(self.set, &label);
-        self.elastic.add_joint_terms(self.model, &poses, terms)?;
-        self.names.extend(terms.unknown_names(self.model));
-        Ok(self)
-    }
-
-    /// Span of each actuated coordinate's gravity torque over the poses, with
-    /// the starting payload (N.m or N;
-    /// [`crate::GravityCompliance::joint_torques`]); empty when geometric.
-    pub fn torque_ranges(&self) -> Vec<crate::CoordinateCoverage> {
-        self.elastic.torque_ranges(self.set.len())
-    }
-
-    /// Index of the first unknown of the joint terms (the law's, then the
-    /// cyclic ones), when there are any.
-    pub fn joint_terms_offset(&self) -> Option<usize> {
-        self.elastic
-            .joint_terms_offset()
-            .map(|o| self.frames_end() + o)
-    }
-
-    /// Index of the first lateral compliance, when the model has them.
-    pub fn lateral_offset(&self) -> Option<usize> {
-        self.elastic.lateral_offset().map(|o| self.frames_end() + o)
-    }
-
-    /// Index of the first elastic unknown (the compliances), when the model
-    /// is elasto-geometric.
-    pub fn elastic_offset(&self) -> Option<usize> {
-        self.elastic.has_gravity().then(|| self.frames_end())
-    }
-
-    /// The rigid motion of the lateral rotations of pose `k` at `x`, which
-    /// moves the TCP ([`ElasticTerms::lateral_motion`]).
-    fn lateral_motion(&self, x: &[f64], k: usize) -> Option<LateralMotion> {
-        self.elastic
-            .lateral_motion(&x[self.frames_end()..], k, &self.lateral_mask)
-    }
-
-    /// The actuated coordinates at which the robot is evaluated for pose `k`
-    /// ([`ElasticTerms::deflect`]).
-    fn deflect(&self, x: &[f64], k: usize, state: &mut JointState) {
-        let q = &self.set.measurements()[k].q;
-        self.elastic.deflect(&x[self.frames_end()..], k, q, state);
-    }
-
-    /// Whether [`Jacobian::jacobian`] computes the robot-parameter columns
-    /// (default true). With `false` they are written as zeros and only the
-    /// forward model runs per pose: for fits of the frames alone, where the
-    /// parameter Jacobian would be most of the cost.
-    pub fn set_robot_columns(&self, on: bool) {
-        self.robot_columns.set(on);
-    }
-
-    /// Number of unknowns: `n_params + 12`, plus 6 per station after the
-    /// first, plus `n_actuated + 4` (and the lateral compliances) when
-    /// elasto-geometric, plus the joint terms.
-    pub fn n_unknowns(&self) -> usize {
-        self.names.len()
-    }
-    /// Index of the first measurement-frame unknown (the first 6 after xi).
-    pub fn frame_offset(&self) -> usize {
-        self.model.n_params()
-    }
-    /// Index of the first target unknown.
-    pub fn target_offset(&self) -> usize {
-        self.model.n_params() + 6
+    /// The measurement set the model predicts.
+    pub fn set(&self) -> &TargetMeasurementSet {
+        &self.set
     }
     /// Names of all unknowns.
     pub fn names(&self) -> &[String] {
         &self.names
     }
-    /// Length or angle, per unknown.
+    /// Number of unknowns.
+    pub fn n_unknowns(&self) -> usize {
+        self.names.len()
+    }
+    /// Number of observations (residual blocks).
+    pub fn n_observations(&self) -> usize {
+        self.blocks.len()
+    }
+    /// `(pose, target)` of observation `i`, in the order of the residuals.
+    pub fn observation(&self, i: usize) -> (usize, usize) {
+        (self.blocks[i].pose, self.blocks[i].target)
+    }
+    /// The measured observation `i`.
+    pub fn measured(&self, i: usize) -> &TargetObservation {
+        let Block { pose, target } = self.blocks[i];
+        self.set.poses()[pose].observations[target]
+            .as_ref()
+            .expect("blocks hold observed targets only")
+    }
+    /// Residual rows of observation `i` (3, or 6 with its orientation).
+    pub fn block_rows(&self, i: usize) -> std::ops::Range<usize> {
+        self.block_rows[i]..self.block_rows[i + 1]
+    }
+    /// Whether target `t`'s orientation rows are fitted.
+    pub fn uses_orientation(&self, t: usize) -> bool {
+        self.targets[t].orientation
+    }
+    /// Length, angle, compliance, ... per unknown.
     pub fn kinds(&self) -> Vec<UnknownKind> {
+        let frame = [[UnknownKind::Length; 3], [UnknownKind::Angle; 3]].concat();
         let mut kinds: Vec<UnknownKind> = self
             .model
             .params()
@@ -324,134 +436,269 @@ impl<'a> GeometricErrorModel<'a> {
                 ParamKind::Angle => UnknownKind::Angle,
             })
             .collect();
-        for _ in 0..2 + self.station_frames0.len() {
-            kinds.extend([UnknownKind::Length; 3]);
-            kinds.extend([UnknownKind::Angle; 3]);
+        // Measurement frames and target offsets alike: 3 lengths, 3 angles.
+        while kinds.len() < self.elastic_offset {
+            kinds.extend(&frame);
         }
         kinds.extend(self.elastic.kinds());
         kinds
     }
-    /// The measurements the model predicts.
-    pub fn measurements(&self) -> &[crate::Measurement] {
-        self.set.measurements()
-    }
-    /// Rows per pose: 3 (position) or 6 (position and orientation).
-    pub fn rows_per_pose(&self) -> usize {
-        if self.use_orientation { 6 } else { 3 }
-    }
-    /// The starting vector: nominal xi, zero frame and target increments,
-    /// and the starting elastic unknowns when elasto-geometric.
+    /// The starting vector: nominal xi, zero frame and offset increments,
+    /// the starting elastic unknowns.
     pub fn initial_unknowns(&self) -> Vec<f64> {
         let mut x = self.model.nominal_params().to_vec();
-        x.extend(vec![0.0; 12 + 6 * self.station_frames0.len()]);
+        x.resize(self.elastic_offset, 0.0);
         x.extend(self.elastic.initial());
         x
     }
+    /// Index of the first measurement-frame unknown of the first station.
+    pub fn frame_offset(&self) -> usize {
+        self.model.n_params()
+    }
+    /// Index of the first measurement-frame unknown of station `s`.
+    pub fn station_frame_offset(&self, s: usize) -> usize {
+        if s == 0 {
+            self.frame_offset()
+        } else {
+            self.stations_offset + 6 * (s - 1)
+        }
+    }
+    /// Number of measurement frames of the model.
+    pub fn n_stations(&self) -> usize {
+        self.x_meas_base0.len()
+    }
+    /// Index of the first offset unknown of target `t`.
+    pub fn target_offset(&self, t: usize) -> usize {
+        self.targets[t].unknowns
+    }
+    /// Index one past the last frame unknown: where the elastic and
+    /// joint-term unknowns start.
+    pub fn frames_end(&self) -> usize {
+        self.elastic_offset
+    }
+    /// Index of the first elastic unknown (the compliances), when the model
+    /// has gravity.
+    pub fn elastic_offset(&self) -> Option<usize> {
+        self.elastic.has_gravity().then_some(self.elastic_offset)
+    }
+    /// Index of the first lateral compliance, when the model has them.
+    pub fn lateral_offset(&self) -> Option<usize> {
+        self.elastic
+            .lateral_offset()
+            .map(|o| self.elastic_offset + o)
+    }
+    /// Index of the first unknown of the joint terms, when there are any.
+    pub fn joint_terms_offset(&self) -> Option<usize> {
+        self.elastic
+            .joint_terms_offset()
+            .map(|o| self.elastic_offset + o)
+    }
+    /// Span of each actuated coordinate's gravity torque over the poses,
+    /// with the starting payload (N.m or N); empty when geometric.
+    pub fn torque_ranges(&self) -> Vec<crate::CoordinateCoverage> {
+        self.elastic.torque_ranges(self.set.len())
+    }
+    /// Whether [`Jacobian::jacobian`] computes the robot-parameter and
+    /// elastic columns (default true). With `false` they are zeros and only
+    /// the forward model runs per pose: for fits of the frames alone.
+    pub fn set_robot_columns(&self, on: bool) {
+        self.robot_columns.set(on);
+    }
 
-    /// The measurement frame `x_meas_base` of station `s` (0-based) at `x`.
+    /// The measurement frame `x_meas_base` of station `s` at `x`.
     pub fn station_frame(&self, x: &[f64], s: usize) -> Isometry3<f64> {
         let f = self.station_frame_offset(s);
-        let start = if s == 0 {
-            &self.x_meas_base0
-        } else {
-            &self.station_frames0[s - 1]
-        };
+        let start = &self.x_meas_base0[s];
         Isometry3::from_parts(
             Translation3::from(start.translation.vector + Vector3::new(x[f], x[f + 1], x[f + 2])),
             rotation_from_vector(&Vector3::new(x[f + 3], x[f + 4], x[f + 5])) * start.rotation,
         )
     }
-
-    /// The measurement frames of the second and later stations at `x`.
+    /// Every station's measurement frame at `x`.
     pub fn station_frames(&self, x: &[f64]) -> Vec<Isometry3<f64>> {
-        (1..self.n_stations())
+        (0..self.n_stations())
             .map(|s| self.station_frame(x, s))
             .collect()
     }
-
-    /// The measurement frame `x_meas_base` (of the first station) and target
-    /// offset `x_tcp_target` at `x`.
-    pub fn frames(&self, x: &[f64]) -> (Isometry3<f64>, Isometry3<f64>) {
-        let t = self.target_offset();
-        let x_meas_base = self.station_frame(x, 0);
-        let x_tcp_target = Isometry3::from_parts(
-            Translation3::from(
-                self.x_tcp_target0.translation.vector + Vector3::new(x[t], x[t + 1], x[t + 2]),
-            ),
-            self.x_tcp_target0.rotation
-                * rotation_from_vector(&Vector3::new(x[t + 3], x[t + 4], x[t + 5])),
-        );
-        (x_meas_base, x_tcp_target)
+    /// The pose `x_frame_target` of target `t` in its frame at `x` (after
+    /// the tool for a target on the TCP).
+    pub fn target_frame(&self, x: &[f64], t: usize) -> Isometry3<f64> {
+        let o = self.targets[t].unknowns;
+        let start = &self.targets[t].start;
+        Isometry3::from_parts(
+            Translation3::from(start.translation.vector + Vector3::new(x[o], x[o + 1], x[o + 2])),
+            start.rotation * rotation_from_vector(&Vector3::new(x[o + 3], x[o + 4], x[o + 5])),
+        )
     }
 
-    /// Predicted target pose `x_meas_target` of pose `k` at unknowns `x`.
+    /// The target's point on its frame: the offset, after the tool on the TCP.
+    fn point(&self, x: &[f64], t: usize) -> Isometry3<f64> {
+        let offset = self.target_frame(x, t);
+        if self.targets[t].on_tcp {
+            self.model.tool() * offset
+        } else {
+            offset
+        }
+    }
+
+    fn kinematics_error(
+        &self,
+        k: usize,
+    ) -> impl FnOnce(flexcal_kinematics::KinematicsError) -> CalibError {
+        let pose_id = self.set.poses()[k].label(k);
+        move |source| CalibError::Kinematics {
+            pose: k,
+            pose_id,
+            source,
+        }
+    }
+
+    /// The actuated coordinates of pose `k` moved by the joint deflections.
+    fn deflect(&self, x: &[f64], k: usize, state: &mut JointState) {
+        self.elastic
+            .deflect(&x[self.elastic_offset..], k, &self.set.poses()[k].q, state);
+    }
+
+    /// Predicted pose `x_meas_target` of every observation at `x`, in the
+    /// order of the residuals.
     ///
     /// # Errors
     /// [`CalibError::Kinematics`] naming the pose.
-    pub fn predict(&self, x: &[f64], k: usize) -> Result<Isometry3<f64>, CalibError> {
-        self.predict_in(&self.all_frames(x), x, k)
-    }
-
-    /// Every station's measurement frame and the target offset at `x`.
-    fn all_frames(&self, x: &[f64]) -> (Vec<Isometry3<f64>>, Isometry3<f64>) {
-        let (first, target) = self.frames(x);
-        let mut frames = vec![first];
-        frames.extend(self.station_frames(x));
-        (frames, target)
-    }
-
-    /// [`GeometricErrorModel::predict`] with the frames of `x` already at
-    /// hand (they cost two exponential maps each: once per evaluation, not
-    /// per pose).
-    fn predict_in(
-        &self,
-        (stations, x_tcp_target): &(Vec<Isometry3<f64>>, Isometry3<f64>),
-        x: &[f64],
-        k: usize,
-    ) -> Result<Isometry3<f64>, CalibError> {
-        let x_meas_base = &stations[self.set.station_of(k)];
-        let m = &self.set.measurements()[k];
+    pub fn predict(&self, x: &[f64]) -> Result<Vec<Isometry3<f64>>, CalibError> {
         let xi = &x[..self.model.n_params()];
-        let mut buffers = self.deflection.borrow_mut();
-        self.deflect(x, k, &mut buffers);
-        let x_base_tcp = forward_pose(self.model, &mut self.data.borrow_mut(), &buffers.q, xi)
-            .map_err(|source| CalibError::Kinematics {
-                pose: k,
-                pose_id: m.label(k),
-                source,
-            })?;
-        let x_base_tcp = match self.lateral_motion(x, k) {
-            Some(motion) => lateral_isometry(&motion.rotation, &motion.translation) * x_base_tcp,
-            None => x_base_tcp,
-        };
-        Ok(x_meas_base * x_base_tcp * x_tcp_target)
+        let frames = self.station_frames(x);
+        let mut data = self.data.borrow_mut();
+        let mut state = self.deflection.borrow_mut();
+        let mut evaluated = None;
+        self.blocks
+            .iter()
+            .map(|&Block { pose: k, target: t }| {
+                // One pass of the forward model per pose, for all its targets.
+                if evaluated != Some(k) {
+                    self.deflect(x, k, &mut state);
+                    forward_frames(self.model, &mut data, &state.q, xi)
+                        .map_err(self.kinematics_error(k))?;
+                    evaluated = Some(k);
+                }
+                let frame = data
+                    .frame_pose(self.targets[t].frame)
+                    .expect("a checked frame");
+                let x_base_target = frame * self.point(x, t);
+                let moved = match self.elastic.lateral_motion(
+                    &x[self.elastic_offset..],
+                    k,
+                    self.lateral_mask(t),
+                ) {
+                    Some(m) => {
+                        Isometry3::from_parts(Translation3::from(m.translation), m.rotation)
+                            * x_base_target
+                    }
+                    None => x_base_target,
+                };
+                Ok(frames[self.set.station_of(k)] * moved)
+            })
+            .collect()
     }
 
-    fn write_residual(&self, k: usize, predicted: &Isometry3<f64>, out: &mut [f64]) {
-        let m = &self.set.measurements()[k];
-        let dp = predicted.translation.vector - m.position;
-        out[..3].copy_from_slice(dp.as_slice());
-        if self.use_orientation {
-            let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
-            let dr = vector_from_rotation(&(predicted.rotation * measured.inverse()));
-            out[3..6].copy_from_slice(dr.as_slice());
-        }
+    /// The error `measured - predicted` of every observation at `x`, in the
+    /// order of the residuals (the orientation error where fitted).
+    ///
+    /// # Errors
+    /// [`CalibError::Kinematics`] naming the pose.
+    pub fn errors(&self, x: &[f64]) -> Result<Vec<PoseError>, CalibError> {
+        Ok(self
+            .predict(x)?
+            .iter()
+            .enumerate()
+            .map(|(i, predicted)| {
+                let measured = self.measured(i);
+                let position_vector = measured.position - predicted.translation.vector;
+                let orientation = self.targets[self.blocks[i].target]
+                    .orientation
+                    .then(|| rotation_error(predicted, measured).norm());
+                PoseError {
+                    position: position_vector.norm(),
+                    position_vector,
+                    orientation,
+                }
+            })
+            .collect())
+    }
+
+    /// The lateral joints that move target `t` (empty without them).
+    fn lateral_mask(&self, t: usize) -> &[bool] {
+        self.lateral_masks.get(t).map_or(&[], Vec::as_slice)
     }
 }
 
-impl Residuals for GeometricErrorModel<'_> {
+/// `log(R_pred R_meas^T)` (rad) of an observation with an orientation.
+fn rotation_error(predicted: &Isometry3<f64>, measured: &TargetObservation) -> Vector3<f64> {
+    let r_meas = rotation_from_vector(&measured.orientation.unwrap_or_default());
+    vector_from_rotation(&(predicted.rotation * r_meas.inverse()))
+}
+
+/// Checks that `starts` match `set` and that `set` matches `model`.
+fn check_starts(
+    model: &Model,
+    set: &TargetMeasurementSet,
+    starts: &FrameStarts,
+) -> Result<(), CalibError> {
+    if set.n_actuated() != model.n_actuated() {
+        return Err(CalibError::ActuatedCountMismatch {
+            source_name: set.source.clone(),
+            robot: model.name().to_string(),
+            expected: model.n_actuated(),
+            found: set.n_actuated(),
+        });
+    }
+    let count = set.targets().len();
+    if starts.stations.len() < set.n_stations()
+        || starts.targets.len() != count
+        || starts.orientation.len() != count
+    {
+        return Err(CalibError::InvalidOption {
+            name: "frame_starts",
+            reason: format!(
+                "{} station frames, {} target starts and {} orientation flags for the {} stations and {count} targets of {}",
+                starts.stations.len(),
+                starts.targets.len(),
+                starts.orientation.len(),
+                set.n_stations(),
+                set.source
+            ),
+        });
+    }
+    for (t, &used) in starts.orientation.iter().enumerate() {
+        if used && !set.target_has_orientation(t) {
+            return Err(CalibError::BadMeasurement {
+                source_name: set.source.clone(),
+                line: 0,
+                what: format!(
+                    "orientation asked for but target `{}` has none",
+                    set.targets()[t].name
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+impl Residuals for ErrorModel<'_> {
     fn n_residuals(&self) -> usize {
-        self.set.len() * self.rows_per_pose()
+        self.block_rows.last().copied().unwrap_or(0)
     }
     fn n_params(&self) -> usize {
         self.names.len()
     }
     fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
-        let rows = self.rows_per_pose();
-        let frames = self.all_frames(x);
-        for k in 0..self.set.len() {
-            let predicted = self.predict_in(&frames, x, k)?;
-            self.write_residual(k, &predicted, &mut out[k * rows..(k + 1) * rows]);
+        for (i, predicted) in self.predict(x)?.iter().enumerate() {
+            let measured = self.measured(i);
+            let r0 = self.block_rows[i];
+            let dp = predicted.translation.vector - measured.position;
+            out[r0..r0 + 3].copy_from_slice(dp.as_slice());
+            if self.targets[self.blocks[i].target].orientation {
+                out[r0 + 3..r0 + 6].copy_from_slice(rotation_error(predicted, measured).as_slice());
+            }
         }
         Ok(())
     }
@@ -460,338 +707,257 @@ impl Residuals for GeometricErrorModel<'_> {
     }
 }
 
-impl Jacobian for GeometricErrorModel<'_> {
+impl Jacobian for ErrorModel<'_> {
     fn jacobian(&self, x: &[f64], out: MatMut<'_, f64>) -> Result<(), ProblemError> {
-        self.jacobian_rows(x, 0..self.set.len(), out)
-    }
-}
-
-impl GeometricErrorModel<'_> {
-    /// The Jacobian rows of the poses `poses` only (row 0 of `out` is the
-    /// first row of pose `poses.start`): for factorisations that stream the
-    /// stacked Jacobian block by block instead of holding it whole.
-    ///
-    /// # Errors
-    /// [`CalibError::Kinematics`] naming the pose.
-    pub fn jacobian_rows(
-        &self,
-        x: &[f64],
-        poses: std::ops::Range<usize>,
-        mut out: MatMut<'_, f64>,
-    ) -> Result<(), ProblemError> {
-        let np = self.model.n_params();
-        let xi = &x[..np];
-        let (stations, x_tcp_target) = self.all_frames(x);
-        let to = self.target_offset();
-        let psi = Vector3::new(x[to + 3], x[to + 4], x[to + 5]);
-        let jr_psi = left_jacobian(&psi).transpose();
-        let station_terms: Vec<StationTerms> = stations
-            .iter()
-            .enumerate()
-            .map(|(s, frame)| {
-                let offset = self.station_frame_offset(s);
-                let phi = Vector3::new(x[offset + 3], x[offset + 4], x[offset + 5]);
-                StationTerms {
-                    frame: *frame,
-                    offset,
-                    jl_phi: left_jacobian(&phi),
-                    rotation: frame.rotation.to_rotation_matrix().into_inner(),
-                }
-            })
-            .collect();
-        let rows = self.rows_per_pose();
-        let mut data = self.data.borrow_mut();
-        let mut jac = self.pose_jacobian.borrow_mut();
-        let mut jq = self.joint_jacobian.borrow_mut();
-        let mut buffers = self.deflection.borrow_mut();
-        let robot_columns = self.robot_columns.get();
-        if !robot_columns {
-            jac.fill(0.0);
-        }
-        let eo = self.frames_end();
-        // Elastic and joint-term unknowns: every unknown after the target's.
-        let n_elastic = self.names.len() - eo;
-        // TCP twists of the elastic unknowns, one column each (before the
-        // lateral motion G, which the robot's columns share).
-        let mut elastic = Matrix6xX::<f64>::zeros(n_elastic);
-        let first = poses.start;
-        for k in poses {
-            let m = &self.set.measurements()[k];
-            let station = self.set.station_of(k);
-            let StationTerms {
-                frame: x_meas_base,
-                offset: fo,
-                jl_phi,
-                rotation: r_mb,
-            } = station_terms[station];
-            let kinematics_error = |source| CalibError::Kinematics {
-                pose: k,
-                pose_id: m.label(k),
-                source,
-            };
-            self.deflect(x, k, &mut buffers);
-            let q = &buffers.q;
-            let x_base_tcp = if robot_columns && n_elastic > 0 {
-                param_and_joint_jacobians_into(self.model, &mut data, q, xi, &mut jac, &mut jq)
-                    .map_err(kinematics_error)?
-            } else if robot_columns {
-                param_jacobian_into(self.model, &mut data, q, xi, &mut jac)
-                    .map_err(kinematics_error)?
-            } else {
-                forward_pose(self.model, &mut data, q, xi).map_err(kinematics_error)?
-            };
-            let motion = self.lateral_motion(x, k);
-            if robot_columns && n_elastic > 0 {
-                self.elastic.twists(
-                    &x[eo..],
-                    k,
-                    &self.lateral_mask,
-                    &buffers,
-                    &jq,
-                    motion.as_ref(),
-                    &x_base_tcp.translation.vector,
-                    &mut elastic,
-                );
-            }
-            // Twists before G move the target by R_G times their motion.
-            let (x_base_tcp, r_mbg, offset_base) = match &motion {
-                Some(motion) => {
-                    let offset = x_base_tcp.rotation * x_tcp_target.translation.vector;
-                    (
-                        lateral_isometry(&motion.rotation, &motion.translation) * x_base_tcp,
-                        r_mb * motion.rotation.to_rotation_matrix().into_inner(),
-                        offset,
-                    )
-                }
-                None => (
-                    x_base_tcp,
-                    r_mb,
-                    x_base_tcp.rotation * x_tcp_target.translation.vector,
-                ),
-            };
-            let r_bt = x_base_tcp.rotation.to_rotation_matrix().into_inner();
-            let target_base =
-                x_base_tcp.translation.vector + r_bt * x_tcp_target.translation.vector;
-            let r0 = (k - first) * rows;
-            // Other stations' frames do not move this pose.
-            for (s, other) in station_terms.iter().enumerate() {
-                if s != station {
-                    for i in 0..rows {
-                        for c in 0..6 {
-                            out[(r0 + i, other.offset + c)] = 0.0;
-                        }
-                    }
-                }
-            }
-            // Robot parameters and elastic unknowns: moving the TCP by
-            // (v, w) moves the target by v + w x offset.
-            let lever = skew(&offset_base);
-            let twist = |j: usize| -> (usize, Vector3<f64>, Vector3<f64>) {
-                if j < np {
-                    let v = Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
-                    let w = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
-                    (j, v, w)
-                } else {
-                    let e = j - np;
-                    let c = elastic.column(e);
-                    (
-                        eo + e,
-                        Vector3::new(c[0], c[1], c[2]),
-                        Vector3::new(c[3], c[4], c[5]),
-                    )
-                }
-            };
-            for j in 0..np + n_elastic {
-                let (col, v, w) = twist(j);
-                let dp = r_mbg * (v - lever * w);
-                for i in 0..3 {
-                    out[(r0 + i, col)] = dp[i];
-                }
-            }
-            // Measurement frame.
-            let d_rot = -skew(&(r_mb * target_base)) * jl_phi;
-            // Target offset.
-            let d_target = r_mb * r_bt;
-            for i in 0..3 {
-                for c in 0..3 {
-                    out[(r0 + i, fo + c)] = if i == c { 1.0 } else { 0.0 };
-                    out[(r0 + i, fo + 3 + c)] = d_rot[(i, c)];
-                    out[(r0 + i, to + c)] = d_target[(i, c)];
-                    out[(r0 + i, to + 3 + c)] = 0.0;
-                }
-            }
-            if self.use_orientation {
-                let predicted = x_meas_base * x_base_tcp * x_tcp_target;
-                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
-                let residual = vector_from_rotation(&(predicted.rotation * measured.inverse()));
-                let jinv = left_jacobian_inverse(&residual);
-                let map = jinv * r_mbg;
-                for j in 0..np + n_elastic {
-                    let (col, _, w) = twist(j);
-                    let dr = map * w;
-                    for i in 0..3 {
-                        out[(r0 + 3 + i, col)] = dr[i];
-                    }
-                }
-                let d_phi = jinv * jl_phi;
-                let r_pred = predicted.rotation.to_rotation_matrix().into_inner();
-                let d_psi = jinv * r_pred * jr_psi;
-                let zero = Matrix3::<f64>::zeros();
-                for i in 0..3 {
-                    for c in 0..3 {
-                        out[(r0 + 3 + i, fo + c)] = zero[(i, c)];
-                        out[(r0 + 3 + i, fo + 3 + c)] = d_phi[(i, c)];
-                        out[(r0 + 3 + i, to + c)] = 0.0;
-                        out[(r0 + 3 + i, to + 3 + c)] = d_psi[(i, c)];
-                    }
-                }
-            }
-        }
-        Ok(())
+        self.jacobian_blocks(x, 0..self.blocks.len(), out)
     }
 }
 
 /// What the Jacobian needs of one station's measurement frame at the
-/// unknowns: the frame, the column of its first unknown, the left Jacobian
-/// of its rotation vector and its rotation matrix.
+/// unknowns: its first unknown, its rotation and the left Jacobian of its
+/// rotation vector.
 #[derive(Clone, Copy)]
 struct StationTerms {
-    frame: Isometry3<f64>,
     offset: usize,
-    jl_phi: Matrix3<f64>,
+    quaternion: UnitQuaternion<f64>,
     rotation: Matrix3<f64>,
+    jl_phi: Matrix3<f64>,
 }
 
-/// The rigid motion `p -> rotation p + translation` as an isometry.
-fn lateral_isometry(rotation: &UnitQuaternion<f64>, translation: &Vector3<f64>) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::from(*translation), *rotation)
+/// What the Jacobian rows of one observation need beyond the model.
+struct BlockTerms<'b> {
+    /// The target point's parameter and joint Jacobians and pose (before
+    /// the lateral motion G).
+    jac: &'b DMatrix<f64>,
+    twists: &'b Matrix6xX<f64>,
+    x_base_point: Isometry3<f64>,
+    /// Rotation of the target's frame (after the tool on the TCP), before G.
+    r_frame: Matrix3<f64>,
+    station: StationTerms,
 }
 
-/// Target positions `p_base_target` of the poses of `set` predicted by the
-/// robot at `xi` with target offset `x_tcp_target`: the points registered
-/// onto the measurements to start the measurement frame.
-///
-/// # Errors
-/// [`CalibError::Kinematics`] naming the pose.
-pub fn predicted_target_positions(
-    model: &Model,
-    set: &MeasurementSet,
-    xi: &[f64],
-    x_tcp_target: &Isometry3<f64>,
-) -> Result<Vec<Vector3<f64>>, CalibError> {
-    Ok(tcp_poses(model, set, xi)?
-        .iter()
-        .map(|x_base_tcp| (x_base_tcp * x_tcp_target * Point3::origin()).coords)
-        .collect())
-}
-
-/// The TCP pose `x_base_tcp` of every pose of `set` with the robot at `xi`.
-///
-/// # Errors
-/// [`CalibError::Kinematics`] naming the pose.
-fn tcp_poses(
-    model: &Model,
-    set: &MeasurementSet,
-    xi: &[f64],
-) -> Result<Vec<Isometry3<f64>>, CalibError> {
-    let mut data = Data::new(model);
-    set.measurements()
-        .iter()
-        .enumerate()
-        .map(|(k, m)| {
-            forward_pose(model, &mut data, &m.q, xi).map_err(|source| CalibError::Kinematics {
-                pose: k,
-                pose_id: m.label(k),
-                source,
+impl ErrorModel<'_> {
+    /// The Jacobian rows of the observations `blocks` (row 0 of `out` is
+    /// the first row of observation `blocks.start`): for factorisations
+    /// that stream the stacked Jacobian instead of holding it whole.
+    ///
+    /// # Errors
+    /// [`CalibError::Kinematics`] naming the pose.
+    pub fn jacobian_blocks(
+        &self,
+        x: &[f64],
+        blocks: std::ops::Range<usize>,
+        mut out: MatMut<'_, f64>,
+    ) -> Result<(), ProblemError> {
+        let np = self.model.n_params();
+        let xi = &x[..np];
+        let stations: Vec<StationTerms> = (0..self.n_stations())
+            .map(|s| {
+                let offset = self.station_frame_offset(s);
+                let quaternion = self.station_frame(x, s).rotation;
+                StationTerms {
+                    offset,
+                    quaternion,
+                    rotation: quaternion.to_rotation_matrix().into_inner(),
+                    jl_phi: left_jacobian(&Vector3::new(
+                        x[offset + 3],
+                        x[offset + 4],
+                        x[offset + 5],
+                    )),
+                }
             })
-        })
-        .collect()
-}
-
-/// Closed-form start of the target's orientation on the tool when
-/// orientations are measured: with the measurement frame `x_meas_base` and
-/// the robot at `xi`, each pose gives `R_tcp_target = (R_meas_base
-/// R_base_tcp)^T R_meas_target`; their mean rotation
-/// ([`crate::geometry::mean_rotation`]). A probe whose frame is turned
-/// against the one its nominal offset assumes (a quarter turn about the
-/// tool axis, say) then starts where the data put it.
-///
-/// # Errors
-/// [`CalibError::BadMeasurement`] when the set has no orientations, a model
-/// failure at a pose, a degenerate mean.
-pub fn register_target_rotation(
-    model: &Model,
-    set: &MeasurementSet,
-    xi: &[f64],
-    x_meas_base: &Isometry3<f64>,
-) -> Result<UnitQuaternion<f64>, CalibError> {
-    let rotations = set
-        .measurements()
-        .iter()
-        .zip(tcp_poses(model, set, xi)?)
-        .enumerate()
-        .map(|(k, (m, x_base_tcp))| {
-            let orientation = m.orientation.ok_or_else(|| CalibError::BadMeasurement {
-                source_name: set.source.clone(),
-                line: 0,
-                what: format!(
-                    "pose {}: no orientation to register the target's",
-                    m.label(k)
-                ),
-            })?;
-            Ok((x_meas_base.rotation * x_base_tcp.rotation).inverse()
-                * rotation_from_vector(&orientation))
-        })
-        .collect::<Result<Vec<_>, CalibError>>()?;
-    crate::geometry::mean_rotation(&rotations)
-}
-
-/// Closed-form start of the measurement frame: the rigid registration of the
-/// predicted target positions onto the measured ones.
-///
-/// # Errors
-/// [`CalibError::Kinematics`], [`CalibError::DegenerateRegistration`].
-pub fn register_measurement_frame(
-    model: &Model,
-    set: &MeasurementSet,
-    xi: &[f64],
-    x_tcp_target: &Isometry3<f64>,
-) -> Result<Isometry3<f64>, CalibError> {
-    let predicted = predicted_target_positions(model, set, xi, x_tcp_target)?;
-    let measured: Vec<Vector3<f64>> = set.measurements().iter().map(|m| m.position).collect();
-    crate::geometry::register_points(&measured, &predicted)
-}
-
-/// Per-pose errors of the error model `problem` at unknowns `x` (its frames
-/// included).
-///
-/// # Errors
-/// [`CalibError::Kinematics`] naming the pose.
-pub(crate) fn pose_errors(
-    problem: &GeometricErrorModel<'_>,
-    x: &[f64],
-) -> Result<Vec<PoseError>, CalibError> {
-    debug_assert_eq!(x.len(), problem.n_params());
-    // Every station's frame once, not once per pose.
-    let frames = problem.all_frames(x);
-    problem
-        .measurements()
-        .iter()
-        .enumerate()
-        .map(|(k, m)| {
-            let predicted = problem.predict_in(&frames, x, k)?;
-            let position_vector = m.position - predicted.translation.vector;
-            let orientation = if problem.rows_per_pose() == 6 {
-                let measured = rotation_from_vector(&m.orientation.unwrap_or_default());
-                Some(vector_from_rotation(&(predicted.rotation * measured.inverse())).norm())
+            .collect();
+        out.fill(0.0);
+        let robot_columns = self.robot_columns.get();
+        let mut data = self.data.borrow_mut();
+        let mut jacobians = self.jacobians.borrow_mut();
+        let PointJacobians {
+            params,
+            joints,
+            poses,
+        } = &mut *jacobians;
+        let mut state = self.deflection.borrow_mut();
+        let mut twists = self.twists.borrow_mut();
+        let eo = self.elastic_offset;
+        let row0 = self.block_rows[blocks.start];
+        let mut points: Vec<(usize, Isometry3<f64>)> = Vec::with_capacity(params.len());
+        let mut start = blocks.start;
+        // The blocks come pose by pose: one pass of the forward model for
+        // all the targets of a pose.
+        while start < blocks.end {
+            let k = self.blocks[start].pose;
+            let end = (start..blocks.end)
+                .find(|&b| self.blocks[b].pose != k)
+                .unwrap_or(blocks.end);
+            self.deflect(x, k, &mut state);
+            points.clear();
+            points.extend(
+                self.blocks[start..end]
+                    .iter()
+                    .map(|b| (self.targets[b.target].frame, self.point(x, b.target))),
+            );
+            if robot_columns {
+                frame_points_jacobians_into(
+                    self.model, &mut data, &state.q, xi, &points, params, joints, poses,
+                )
+                .map_err(self.kinematics_error(k))?;
             } else {
-                None
-            };
-            Ok(PoseError {
-                position: position_vector.norm(),
-                position_vector,
-                orientation,
-            })
-        })
-        .collect()
+                forward_frames(self.model, &mut data, &state.q, xi)
+                    .map_err(self.kinematics_error(k))?;
+                for (i, (frame, point)) in points.iter().enumerate() {
+                    poses[i] = data.frame_pose(*frame).expect("a checked frame") * point;
+                }
+            }
+            let station = stations[self.set.station_of(k)];
+            for (i, b) in (start..end).enumerate() {
+                let t = self.blocks[b].target;
+                let motion = self
+                    .elastic
+                    .lateral_motion(&x[eo..], k, self.lateral_mask(t));
+                if robot_columns && self.elastic.len() > 0 {
+                    self.elastic.twists(
+                        &x[eo..],
+                        k,
+                        self.lateral_mask(t),
+                        &state,
+                        &joints[i],
+                        motion.as_ref(),
+                        &poses[i].translation.vector,
+                        &mut twists,
+                    );
+                }
+                let frame = data
+                    .frame_pose(self.targets[t].frame)
+                    .expect("a checked frame");
+                let frame = if self.targets[t].on_tcp {
+                    frame * self.model.tool()
+                } else {
+                    frame
+                };
+                let terms = BlockTerms {
+                    jac: &params[i],
+                    twists: &twists,
+                    x_base_point: poses[i],
+                    r_frame: frame.rotation.to_rotation_matrix().into_inner(),
+                    station,
+                };
+                let rows = self.block_rows(b);
+                let r0 = rows.start - row0;
+                self.block_jacobian(
+                    x,
+                    b,
+                    &terms,
+                    motion.as_ref(),
+                    out.as_mut().subrows_mut(r0, rows.len()),
+                );
+            }
+            start = end;
+        }
+        Ok(())
+    }
+
+    /// The rows of observation `b` (3 or 6) into `out`, zero on entry.
+    fn block_jacobian(
+        &self,
+        x: &[f64],
+        b: usize,
+        terms: &BlockTerms<'_>,
+        motion: Option<&crate::elastic_terms::LateralMotion>,
+        mut out: MatMut<'_, f64>,
+    ) {
+        let np = self.model.n_params();
+        let eo = self.elastic_offset;
+        let t = self.blocks[b].target;
+        let StationTerms {
+            offset: fo,
+            quaternion: q_mb,
+            rotation: r_mb,
+            jl_phi,
+        } = terms.station;
+        // Motions before the lateral rotation G move the point by R_G times
+        // their motion.
+        let (r_g, p_base, q_point) = match motion {
+            Some(m) => (
+                m.rotation.to_rotation_matrix().into_inner(),
+                m.apply(&terms.x_base_point.translation.vector),
+                m.rotation * terms.x_base_point.rotation,
+            ),
+            None => (
+                Matrix3::identity(),
+                terms.x_base_point.translation.vector,
+                terms.x_base_point.rotation,
+            ),
+        };
+        let r_mbg = r_mb * r_g;
+        let robot_columns = self.robot_columns.get();
+        let n_twists = if robot_columns {
+            np + self.elastic.len()
+        } else {
+            0
+        };
+        // The twist (v at the point, w) of robot parameter or elastic unknown j.
+        let twist = |j: usize| -> (usize, Vector3<f64>, Vector3<f64>) {
+            if j < np {
+                let c = terms.jac.column(j);
+                (
+                    j,
+                    Vector3::new(c[0], c[1], c[2]),
+                    Vector3::new(c[3], c[4], c[5]),
+                )
+            } else {
+                let c = terms.twists.column(j - np);
+                (
+                    eo + j - np,
+                    Vector3::new(c[0], c[1], c[2]),
+                    Vector3::new(c[3], c[4], c[5]),
+                )
+            }
+        };
+        for j in 0..n_twists {
+            let (col, v, _) = twist(j);
+            let dp = r_mbg * v;
+            for i in 0..3 {
+                out[(i, col)] = dp[i];
+            }
+        }
+        // Measurement frame: translation, then the left rotation vector.
+        let d_rot = -skew(&(r_mb * p_base)) * jl_phi;
+        // Target offset: along the axes of the target's frame.
+        let to = self.targets[t].unknowns;
+        let d_offset = r_mbg * terms.r_frame;
+        for i in 0..3 {
+            out[(i, fo + i)] = 1.0;
+            for c in 0..3 {
+                out[(i, fo + 3 + c)] = d_rot[(i, c)];
+                out[(i, to + c)] = d_offset[(i, c)];
+            }
+        }
+        if !self.targets[t].orientation {
+            return;
+        }
+        let q_pred = q_mb * q_point;
+        let r_pred = q_pred.to_rotation_matrix().into_inner();
+        let measured = self.measured(b);
+        let residual = vector_from_rotation(
+            &(q_pred * rotation_from_vector(&measured.orientation.unwrap_or_default()).inverse()),
+        );
+        let jinv = left_jacobian_inverse(&residual);
+        let map = jinv * r_mbg;
+        for j in 0..n_twists {
+            let (col, _, w) = twist(j);
+            let dr = map * w;
+            for i in 0..3 {
+                out[(3 + i, col)] = dr[i];
+            }
+        }
+        let d_phi = jinv * jl_phi;
+        let psi = Vector3::new(x[to + 3], x[to + 4], x[to + 5]);
+        let d_psi = jinv * r_pred * left_jacobian(&psi).transpose();
+        for i in 0..3 {
+            for c in 0..3 {
+                out[(3 + i, fo + 3 + c)] = d_phi[(i, c)];
+                out[(3 + i, to + 3 + c)] = d_psi[(i, c)];
+            }
+        }
+    }
 }

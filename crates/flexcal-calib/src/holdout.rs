@@ -11,8 +11,8 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::CalibrationOptions;
 use crate::metrics::ErrorStatistics;
+use crate::options::CalibrationOptions;
 use crate::selection::{Selectable, SelectionOptions, calibrate_selected_in};
 use crate::targets::TargetMeasurementSet;
 use crate::{CalibError, MeasurementSet};

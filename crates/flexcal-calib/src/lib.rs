@@ -263,6 +263,7 @@
 #![deny(missing_docs)]
 
 pub mod accuracy;
+mod analysis;
 pub mod coverage;
 pub mod cross;
 mod elastic_terms;
@@ -271,11 +272,13 @@ pub mod error_model;
 pub mod geometry;
 pub mod gravity;
 pub mod holdout;
+pub mod identification;
 pub mod identify;
 pub mod identify_targets;
 pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
+pub mod options;
 mod prediction;
 pub mod report;
 pub mod residual;
@@ -284,6 +287,8 @@ pub mod select;
 pub mod selection;
 pub mod significance;
 pub mod split;
+pub mod spread;
+pub mod start;
 pub mod targets;
 pub mod temperature;
 mod unknown_kind;
@@ -294,8 +299,8 @@ pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
 pub use error_model::{
-    FRAME_PARAMETER_NAMES, GeometricErrorModel, TARGET_PARAMETER_NAMES, UnknownKind,
-    station_frame_names,
+    ErrorModel, FRAME_PARAMETER_NAMES, FrameStarts, TARGET_PARAMETER_NAMES, UnknownKind,
+    station_frame_names, target_unknown_names,
 };
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use flexcal_optim::CancelToken;
@@ -305,19 +310,19 @@ pub use gravity::{
 };
 pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
 pub use identify::{
-    Calibration, CalibrationOptions, Combination, FrameTreatment, IR663_PAPER_DEFERRED, Method,
-    ResidualNorms, SPREAD_REFERENCE_POSES, UnknownEstimate, UnknownStatus, WEAK_SPREAD_RATIO,
-    Weighting, calibrate, combination_check,
+    Calibration, Combination, ResidualNorms, UnknownEstimate, UnknownStatus, calibrate,
+    combination_check,
 };
 pub use identify_targets::{
     ObservationError, TargetCalibration, TargetErrors, TargetValidation, calibrate_targets,
-    observation_errors_csv, target_position_errors, target_unknown_names, validate_targets,
+    observation_errors_csv, target_position_errors, validate_targets,
 };
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{
     IPA_JOINT_COLUMNS, Measurement, MeasurementSet, PoseSet, read_configurations, read_transform_mm,
 };
 pub use metrics::{ErrorStatistics, PoseError, error_statistics};
+pub use options::{CalibrationOptions, FrameTreatment, IR663_PAPER_DEFERRED, Method, Weighting};
 pub use report::{
     CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ParameterJson, ResidualModelJson,
     StationHoldOutJson, StationJson, StatisticsJson, TargetStatisticsEntry, TargetStatisticsJson,
@@ -336,6 +341,7 @@ pub use selection::{
 };
 pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcome};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
+pub use spread::{SPREAD_REFERENCE_POSES, WEAK_SPREAD_RATIO};
 pub use targets::{
     TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
     targets_from_toml_str, targets_to_toml_string, write_targets,

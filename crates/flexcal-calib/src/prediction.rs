@@ -6,10 +6,14 @@
 use flexcal_kinematics::Model;
 use nalgebra::{DMatrix, Isometry3, Vector3};
 
+use std::borrow::Cow;
+
+use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
-use crate::error_model::GeometricErrorModel;
+use crate::error_model::{ErrorModel, FrameStarts};
 use crate::identify::{Calibration, UnknownEstimate, UnknownStatus};
-use crate::{CalibError, MeasurementSet};
+use crate::measurement::MeasurementSet;
+use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet};
 use flexcal_optim::{Jacobian, Residuals};
 
 /// One observation of a [`Linearised`] prediction: a target seen at a pose.
@@ -130,19 +134,22 @@ impl Calibration {
     pub fn error_model_at<'a>(
         &self,
         model: &'a Model,
-        set: &'a MeasurementSet,
-    ) -> Result<(GeometricErrorModel<'a>, Vec<f64>), CalibError> {
+        set: &MeasurementSet,
+    ) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
+        let mut targets = TargetMeasurementSet::from_measurement_set(set, TCP_FRAME)?;
+        targets = targets.with_targets(vec![Target {
+            rotation: self.x_tcp_target.rotation,
+            ..Target::new(TCP_FRAME, TCP_FRAME, self.x_tcp_target.translation.vector)
+        }])?;
         // The later stations' frames are unknowns of the identification
         // (their covariance is part of it), with no pose of `set`.
-        let mut problem =
-            GeometricErrorModel::new(model, set, false, self.x_meas_base, self.x_tcp_target)?
-                .with_station_frames(&self.station_frames)?;
-        if let Some((gravity, _)) = &self.elastic {
-            problem = problem.with_gravity(gravity)?;
-        }
-        if self.joint_terms.any() {
-            problem = problem.with_joint_terms(&self.joint_terms)?;
-        }
+        let mut starts = FrameStarts::nominal(&targets, self.x_meas_base, Some(false))?;
+        starts.stations = std::iter::once(self.x_meas_base)
+            .chain(self.station_frames.iter().copied())
+            .collect();
+        let gravity = self.elastic.as_ref().map(|(g, _)| g);
+        let problem = ErrorModel::new(model, Cow::Owned(targets), &starts)?
+            .with_elastic(gravity, &self.joint_terms)?;
         let n = problem.n_unknowns();
         if n != self.unknowns.len() {
             return Err(CalibError::InvalidOption {

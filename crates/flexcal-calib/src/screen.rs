@@ -576,6 +576,7 @@ mod tests {
             pose: format!("#{pose}"),
             target: target.into(),
             error: Vector3::new(0.0, mm * 1e-3, 0.0),
+            orientation_error: None,
         };
         let mut errors: Vec<ObservationError> = (0..19)
             .map(|k| error(k / 2, if k % 2 == 0 { "a" } else { "b" }, 0.1))

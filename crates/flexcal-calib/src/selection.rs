@@ -54,12 +54,13 @@ use flexcal_kinematics::{Model, Quantity};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-use crate::identify::{Calibration, CalibrationOptions, UnknownEstimate, UnknownStatus, calibrate};
+use crate::identify::{Calibration, UnknownEstimate, UnknownStatus, calibrate};
 use crate::identify_targets::{
     TargetCalibration, calibrate_targets, target_position_errors, validate_targets,
 };
 use crate::joint_law::JointLaw;
 use crate::metrics::ErrorStatistics;
+use crate::options::CalibrationOptions;
 use crate::prediction::Predicting;
 use crate::targets::TargetMeasurementSet;
 use crate::validate::FramePolicy;

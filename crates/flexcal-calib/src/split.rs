@@ -21,8 +21,9 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{CalibrationOptions, UnknownEstimate, UnknownStatus};
+use crate::identify::{UnknownEstimate, UnknownStatus};
 use crate::identify_targets::TargetCalibration;
+use crate::options::CalibrationOptions;
 use crate::prediction::{Predicting, prediction_variances};
 use crate::selection::Selectable;
 use crate::targets::TargetMeasurementSet;

@@ -14,6 +14,8 @@
 //! name = "left"             # letters, digits, '-' and '_'
 //! frame = "LH"              # a frame of the robot, or "tcp" (end frame + tool)
 //! offset_mm = [30, 0, 40]   # nominal offset in that frame (mm)
+//! rotation_deg = [0, 0, 90] # optional: nominal orientation in that frame,
+//!                           # a rotation vector (deg); default none
 //! identify = true           # default true; false keeps the offset fixed
 //! ```
 //!
@@ -29,13 +31,14 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use flexcal_io::{CsvOptions, CsvTable, write_atomic};
-use nalgebra::{Isometry3, Translation3, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::identify::FrameTreatment;
+use crate::geometry::{rotation_from_vector, vector_from_rotation};
 use crate::measurement::{
     PoseSet, StationPool, check_same_actuated, check_stations, first_to_pool, station_index,
 };
+use crate::options::FrameTreatment;
 use crate::{CalibError, MeasurementSet};
 
 /// The frame name that stands for the TCP: the end frame followed by the
@@ -52,19 +55,30 @@ pub struct Target {
     pub frame: String,
     /// Nominal offset of the target in that frame (m).
     pub offset: Vector3<f64>,
+    /// Nominal orientation of the target in that frame (identity by
+    /// default): what its measured orientations are relative to.
+    #[serde(default = "UnitQuaternion::identity")]
+    pub rotation: UnitQuaternion<f64>,
     /// Whether the offset is identified (default) or kept at its nominal value.
     pub treatment: FrameTreatment,
 }
 
 impl Target {
-    /// A target on `frame` at `offset` (m), identified.
+    /// A target on `frame` at `offset` (m), identified, its orientation
+    /// that of the frame.
     pub fn new(name: &str, frame: &str, offset: Vector3<f64>) -> Self {
         Self {
             name: name.to_string(),
             frame: frame.to_string(),
             offset,
+            rotation: UnitQuaternion::identity(),
             treatment: FrameTreatment::Identify,
         }
+    }
+
+    /// The nominal pose `x_frame_target` of the target in its frame.
+    pub fn pose(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(Translation3::from(self.offset), self.rotation)
     }
 }
 
@@ -175,6 +189,9 @@ fn check_targets(source: &str, targets: &[Target]) -> Result<(), CalibError> {
         }
         if !t.offset.iter().all(|v| v.is_finite()) {
             return Err(bad(format!("target `{}`: offset is not finite", t.name)));
+        }
+        if !t.rotation.coords.iter().all(|v| v.is_finite()) {
+            return Err(bad(format!("target `{}`: rotation is not finite", t.name)));
         }
     }
     Ok(())
@@ -401,16 +418,13 @@ impl TargetMeasurementSet {
     }
 
     /// The one-target set as a set of one target named `name` on the TCP
-    /// ([`TCP_FRAME`]), its nominal offset the translation of the set's
-    /// nominal target (zero without one).
+    /// ([`TCP_FRAME`]), its nominal pose the set's nominal target (the
+    /// identity without one), with the set's stations.
     ///
     /// # Errors
     /// As [`TargetMeasurementSet::new`] (a bad name).
     pub fn from_measurement_set(set: &MeasurementSet, name: &str) -> Result<Self, CalibError> {
-        let offset = set
-            .nominal_target
-            .map(|x| x.translation.vector)
-            .unwrap_or_else(Vector3::zeros);
+        let nominal = set.nominal_target.unwrap_or_else(Isometry3::identity);
         let poses = set
             .measurements()
             .iter()
@@ -425,11 +439,18 @@ impl TargetMeasurementSet {
                 })],
             })
             .collect();
-        Self::new(
-            &set.source,
-            vec![Target::new(name, TCP_FRAME, offset)],
-            poses,
-        )
+        let target = Target {
+            rotation: nominal.rotation,
+            ..Target::new(name, TCP_FRAME, nominal.translation.vector)
+        };
+        let mut converted = Self::new(&set.source, vec![target], poses)?;
+        // The stations as they are, also one a subset left without poses
+        // (its unknowns keep their names).
+        if set.n_stations() > 1 {
+            converted.stations = set.station_names().to_vec();
+            converted.station_of = (0..set.len()).map(|k| set.station_of(k)).collect();
+        }
+        Ok(converted)
     }
 
     /// The label of every pose, in order ([`TargetPose::label`]): what
@@ -486,6 +507,35 @@ impl TargetMeasurementSet {
         self.targets.iter().position(|t| t.name == name)
     }
     /// Number of observations (pose, target) in the set.
+    /// Whether target `t`'s observations carry orientations (all of them
+    /// or none, [`TargetMeasurementSet::new`]; false for a target no pose
+    /// sees).
+    pub fn target_has_orientation(&self, t: usize) -> bool {
+        self.observations_of(t).next().is_some()
+            && self.observations_of(t).all(|o| o.orientation.is_some())
+    }
+
+    /// Whether every observation carries position standard deviations
+    /// and, where `orientation[t]`, orientation ones: whether weights from
+    /// the file are absolute.
+    pub fn has_standard_deviations(&self, orientation: &[bool]) -> bool {
+        (0..self.targets.len()).all(|t| {
+            self.observations_of(t).all(|o| {
+                o.position_std.is_some()
+                    && (!orientation.get(t).copied().unwrap_or(false)
+                        || o.orientation_std.is_some())
+            })
+        })
+    }
+
+    /// The observations of target `t`, pose by pose where seen.
+    pub fn observations_of(&self, t: usize) -> impl Iterator<Item = &TargetObservation> + '_ {
+        self.poses
+            .iter()
+            .filter_map(move |p| p.observations.get(t).and_then(Option::as_ref))
+    }
+
+    /// Number of (pose, target) observations.
     pub fn n_observations(&self) -> usize {
         self.poses
             .iter()
@@ -840,18 +890,6 @@ impl TargetMeasurementSet {
     }
 }
 
-/// The point frame `x_frame_target` of a target at `offset` (m) on its
-/// frame: the offset alone, or for [`TCP_FRAME`] the tool transform then
-/// the offset.
-pub(crate) fn target_point(
-    tool: &Isometry3<f64>,
-    on_tcp: bool,
-    offset: &Vector3<f64>,
-) -> Isometry3<f64> {
-    let shift = Isometry3::from_parts(Translation3::from(*offset), Default::default());
-    if on_tcp { tool * shift } else { shift }
-}
-
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TargetsFile {
@@ -864,6 +902,8 @@ struct TargetFile {
     name: String,
     frame: String,
     offset_mm: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rotation_deg: Option<[f64; 3]>,
     #[serde(default = "identify_by_default")]
     identify: bool,
 }
@@ -897,6 +937,9 @@ pub fn targets_from_toml_str(text: &str, source: &str) -> Result<Vec<Target>, Ca
             name: t.name,
             frame: t.frame,
             offset: Vector3::from(t.offset_mm) * 1e-3,
+            rotation: rotation_from_vector(
+                &Vector3::from(t.rotation_deg.unwrap_or_default()).map(f64::to_radians),
+            ),
             treatment: if t.identify {
                 FrameTreatment::Identify
             } else {
@@ -929,6 +972,11 @@ pub fn targets_to_toml_string(targets: &[Target]) -> Result<String, CalibError> 
                 name: t.name.clone(),
                 frame: t.frame.clone(),
                 offset_mm: (t.offset * 1e3).into(),
+                rotation_deg: (t.rotation != UnitQuaternion::identity()).then(|| {
+                    vector_from_rotation(&t.rotation)
+                        .map(f64::to_degrees)
+                        .into()
+                }),
                 identify: t.treatment == FrameTreatment::Identify,
             })
             .collect(),

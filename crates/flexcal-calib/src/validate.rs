@@ -1,16 +1,20 @@
 //! Validation metrics: position and orientation errors before and after
 //! calibration, on the identification set or a separate validation set.
 
+use std::borrow::Cow;
+
 use flexcal_kinematics::Model;
 use flexcal_optim::{LevenbergMarquardt, ProblemSetup, Residuals};
 use nalgebra::Isometry3;
 
-use crate::error_model::{GeometricErrorModel, pose_errors, register_measurement_frame};
+use crate::error_model::{ErrorModel, FrameStarts};
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
 use crate::joint_law::JointTerms;
 pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
+use crate::start::{register_stations, target_frames};
+use crate::targets::{TCP_FRAME, TargetMeasurementSet};
 use crate::{CalibError, MeasurementSet};
 
 /// How the measurement frame is obtained when errors are evaluated.
@@ -105,50 +109,10 @@ fn evaluate_errors_at_stations(
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
-    // The error model at given robot unknowns: geometric or elasto-geometric.
-    let problem_at = |x_meas_base: Isometry3<f64>,
-                      station_frames: &[Isometry3<f64>],
-                      x_tcp_target: Isometry3<f64>|
-     -> Result<(GeometricErrorModel<'_>, Vec<f64>), CalibError> {
-        let mut problem =
-            GeometricErrorModel::new(model, set, use_orientation, x_meas_base, x_tcp_target)?
-                .with_station_frames(station_frames)?;
-        if let Some((gravity, _)) = elastic {
-            problem = problem.with_gravity(gravity)?;
-        }
-        if joint_terms.any() {
-            problem = problem.with_joint_terms(joint_terms)?;
-        }
-        let mut x = problem.initial_unknowns();
-        x[..model.n_params()].copy_from_slice(xi);
-        let joint_start = problem.joint_terms_offset().unwrap_or(x.len());
-        if joint_values.len() != x.len() - joint_start {
-            return Err(CalibError::InvalidOption {
-                name: "joint_terms",
-                reason: format!(
-                    "{} joint-term values given, the model has {}",
-                    joint_values.len(),
-                    x.len() - joint_start
-                ),
-            });
-        }
-        x[joint_start..].copy_from_slice(joint_values);
-        if let (Some((_, values)), Some(eo)) = (elastic, problem.elastic_offset()) {
-            if values.len() != joint_start - eo {
-                return Err(CalibError::InvalidOption {
-                    name: "elastic",
-                    reason: format!(
-                        "{} elastic values given, the model has {}",
-                        values.len(),
-                        joint_start - eo
-                    ),
-                });
-            }
-            x[eo..joint_start].copy_from_slice(values);
-        }
-        Ok((problem, x))
-    };
-    let (problem, x) = match policy {
+    let targets = TargetMeasurementSet::from_measurement_set(set, TCP_FRAME)?;
+    let mut starts = FrameStarts::nominal(&targets, Isometry3::identity(), Some(use_orientation))?;
+    starts.targets[0] = *x_tcp_target;
+    let refit_target = match policy {
         FramePolicy::Fixed(x_meas_base) => {
             if fixed_stations.len() + 1 < set.n_stations() {
                 return Err(CalibError::InvalidOption {
@@ -160,74 +124,115 @@ fn evaluate_errors_at_stations(
                     ),
                 });
             }
-            problem_at(x_meas_base, fixed_stations, *x_tcp_target)?
+            starts.stations = std::iter::once(x_meas_base)
+                .chain(fixed_stations.iter().copied())
+                .collect();
+            None
         }
         FramePolicy::Refit { refit_target } => {
             // Each station's frame from its own poses; a station a subset
             // left without poses keeps a placeholder that moves nothing.
-            let mut starts = Vec::with_capacity(set.n_stations());
-            for s in 0..set.n_stations() {
-                starts.push(match set.station_poses(s) {
-                    Some(poses) => {
-                        Some(register_measurement_frame(model, &poses, xi, x_tcp_target)?)
-                    }
-                    None => None,
-                });
-            }
-            let placeholder = starts
+            let frames = target_frames(model, &targets, xi)?;
+            let registered = register_stations(&targets, &frames, &starts.targets)?;
+            let placeholder = registered
                 .iter()
                 .flatten()
                 .next()
                 .copied()
                 .unwrap_or_else(Isometry3::identity);
-            let later: Vec<Isometry3<f64>> = starts[1..]
+            starts.stations = registered
                 .iter()
-                .map(|s| s.unwrap_or(placeholder))
+                .map(|r| r.unwrap_or(placeholder))
                 .collect();
-            let (problem, x0) =
-                problem_at(starts[0].unwrap_or(placeholder), &later, *x_tcp_target)?;
-            let n = problem.n_unknowns();
-            let to = problem.target_offset();
-            let mut fixed = vec![true; n];
-            for (s, start) in starts.iter().enumerate() {
-                if start.is_some() {
-                    let o = problem.station_frame_offset(s);
-                    fixed[o..o + 6].fill(false);
-                }
-            }
-            if refit_target {
-                fixed[to..to + 3].fill(false);
-                if use_orientation {
-                    fixed[to + 3..to + 6].fill(false);
-                }
-            }
-            let mut weights = Vec::with_capacity(problem.n_residuals());
-            for _ in 0..set.len() {
-                weights.extend([1.0; 3]);
-                if use_orientation {
-                    // 0.01 deg weighs like 50 um, as in the identification defaults.
-                    weights.extend([50e-6 / 0.01f64.to_radians(); 3]);
-                }
-            }
-            let setup = ProblemSetup {
-                row_weights: Some(weights),
-                fixed,
-                ..ProblemSetup::default()
-            };
-            // The robot is frozen: its parameter Jacobian is not needed.
-            problem.set_robot_columns(false);
-            let report = LevenbergMarquardt::params()
-                .solve(&problem, &x0, &setup, &mut ())
-                .map_err(CalibError::optim(
-                    "validation re-fit of the measurement frame",
-                ))?;
-            (problem, report.x)
+            Some((refit_target, registered))
         }
     };
+    let problem = ErrorModel::new(model, Cow::Owned(targets), &starts)?
+        .with_elastic(elastic.map(|(g, _)| g), joint_terms)?;
+    let mut x = problem.initial_unknowns();
+    x[..model.n_params()].copy_from_slice(xi);
+    set_elastic_values(&problem, &mut x, elastic.map(|(_, v)| v), joint_values)?;
+    if let Some((refit_target, registered)) = refit_target {
+        let n = problem.n_unknowns();
+        let to = problem.target_offset(0);
+        let mut fixed = vec![true; n];
+        for (s, start) in registered.iter().enumerate() {
+            if start.is_some() {
+                let o = problem.station_frame_offset(s);
+                fixed[o..o + 6].fill(false);
+            }
+        }
+        if refit_target {
+            fixed[to..to + 3].fill(false);
+            if use_orientation {
+                fixed[to + 3..to + 6].fill(false);
+            }
+        }
+        let mut weights = Vec::with_capacity(problem.n_residuals());
+        for _ in 0..set.len() {
+            weights.extend([1.0; 3]);
+            if use_orientation {
+                // 0.01 deg weighs like 50 um, as in the identification defaults.
+                weights.extend([50e-6 / 0.01f64.to_radians(); 3]);
+            }
+        }
+        let setup = ProblemSetup {
+            row_weights: Some(weights),
+            fixed,
+            ..ProblemSetup::default()
+        };
+        // The robot is frozen: its parameter Jacobian is not needed.
+        problem.set_robot_columns(false);
+        x = LevenbergMarquardt::params()
+            .solve(&problem, &x, &setup, &mut ())
+            .map_err(CalibError::optim(
+                "validation re-fit of the measurement frame",
+            ))?
+            .x;
+    }
     // The frame of the first station the poses come from.
     let first = (0..set.len()).map(|k| set.station_of(k)).min().unwrap_or(0);
     let x_meas_base = problem.station_frame(&x, first);
-    Ok((pose_errors(&problem, &x)?, x_meas_base))
+    Ok((problem.errors(&x)?, x_meas_base))
+}
+
+/// Writes the elastic unknowns `elastic` and the joint terms' `joint`
+/// into `x` at their places in `problem`.
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] when their numbers do not match the model.
+fn set_elastic_values(
+    problem: &ErrorModel<'_>,
+    x: &mut [f64],
+    elastic: Option<&[f64]>,
+    joint: &[f64],
+) -> Result<(), CalibError> {
+    let joint_start = problem.joint_terms_offset().unwrap_or(x.len());
+    if joint.len() != x.len() - joint_start {
+        return Err(CalibError::InvalidOption {
+            name: "joint_terms",
+            reason: format!(
+                "{} joint-term values given, the model has {}",
+                joint.len(),
+                x.len() - joint_start
+            ),
+        });
+    }
+    x[joint_start..].copy_from_slice(joint);
+    if let (Some(values), Some(eo)) = (elastic, problem.elastic_offset()) {
+        if values.len() != joint_start - eo {
+            return Err(CalibError::InvalidOption {
+                name: "elastic",
+                reason: format!(
+                    "{} elastic values given, the model has {}",
+                    values.len(),
+                    joint_start - eo
+                ),
+            });
+        }
+        x[eo..joint_start].copy_from_slice(values);
+    }
+    Ok(())
 }
 
 /// Errors on a validation set before (nominal robot with the target offset

@@ -2,8 +2,8 @@
 //! identification of a simulated serial robot with free frames, masks.
 
 use flexcal_calib::{
-    CalibError, CalibrationOptions, FrameTreatment, GeometricErrorModel, Measurement,
-    MeasurementSet, UnknownStatus, calibrate, rotation_from_vector, vector_from_rotation,
+    CalibError, CalibrationOptions, ErrorModel, FrameTreatment, Measurement, MeasurementSet,
+    UnknownStatus, calibrate, rotation_from_vector, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, RobotDescription, forward_pose};
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
@@ -76,7 +76,7 @@ fn jacobian_matches_central_differences() {
         } else {
             simulate(&model, model.nominal_params(), &frame, &target, 4, true, 3)
         };
-        let problem = GeometricErrorModel::new(&model, &set, true, frame, target).unwrap();
+        let problem = ErrorModel::one_target(&model, &set, true, frame, target).unwrap();
         let mut x = problem.initial_unknowns();
         // Away from zero so the frame Jacobians' exp-map terms are exercised.
         for v in x[model.n_params()..].iter_mut() {

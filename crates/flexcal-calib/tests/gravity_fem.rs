@@ -4,7 +4,7 @@
 //! as the calibration model predicts (joint springs, rigid links, first
 //! order in the deflection).
 
-use flexcal_calib::{GeometricErrorModel, GravityCompliance, Measurement, MeasurementSet};
+use flexcal_calib::{ErrorModel, GravityCompliance, JointTerms, Measurement, MeasurementSet};
 use flexcal_fem::{
     Beam, Factorization, Joint, LoadCase, NodeId, Section, SolverOptions, Structure,
     assemble_and_factor, load_vector,
@@ -131,7 +131,7 @@ fn gravity_deflection_matches_a_frame_model_with_joint_springs() {
             vec![Measurement::new(q.clone(), Vector3::zeros())],
         )
         .unwrap();
-        let problem = GeometricErrorModel::new(
+        let problem = ErrorModel::one_target(
             &model,
             &set,
             false,
@@ -139,7 +139,7 @@ fn gravity_deflection_matches_a_frame_model_with_joint_springs() {
             Isometry3::identity(),
         )
         .unwrap()
-        .with_gravity(&gravity)
+        .with_elastic(Some(&gravity), &JointTerms::default())
         .unwrap();
         let eo = problem.elastic_offset().unwrap();
         let mut x = problem.initial_unknowns();
@@ -147,7 +147,7 @@ fn gravity_deflection_matches_a_frame_model_with_joint_springs() {
         x[eo + 6] = gravity.payload_mass;
         let moment = gravity.payload_center * gravity.payload_mass;
         x[eo + 7..eo + 10].copy_from_slice(moment.as_slice());
-        let loaded = problem.predict(&x, 0).unwrap().translation.vector;
+        let loaded = problem.predict(&x).unwrap()[0].translation.vector;
         let rigid = tcp_pose.translation.vector;
         let model_deflection = loaded - rigid;
         assert!(

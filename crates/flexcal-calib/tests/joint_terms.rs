@@ -5,8 +5,8 @@
 //! equilibrium by Newton's method, the gravity torques by virtual work).
 
 use flexcal_calib::{
-    CalibrationOptions, FrameTreatment, GeometricErrorModel, GravityCompliance, JointLaw,
-    JointTerms, MeasurementSet, UnknownStatus, Weighting, calibrate, rotation_from_vector,
+    CalibrationOptions, ErrorModel, FrameTreatment, GravityCompliance, JointLaw, JointTerms,
+    MeasurementSet, UnknownStatus, Weighting, calibrate, rotation_from_vector,
 };
 use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -128,11 +128,9 @@ fn joint_term_columns_match_central_differences() {
         law: Some(JointLaw::default()),
         cyclic: true,
     };
-    let problem = GeometricErrorModel::new(&model, &set, true, frame, target)
+    let problem = ErrorModel::one_target(&model, &set, true, frame, target)
         .unwrap()
-        .with_gravity(&gravity)
-        .unwrap()
-        .with_joint_terms(&terms)
+        .with_elastic(Some(&gravity), &terms)
         .unwrap();
     let kinds = problem.kinds();
     assert_eq!(kinds.len(), problem.n_unknowns());

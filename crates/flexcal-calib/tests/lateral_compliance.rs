@@ -14,9 +14,9 @@
 //! these tests use.
 
 use flexcal_calib::{
-    CalibrationOptions, FrameTreatment, GeometricErrorModel, GravityCompliance, JointLaw,
-    JointTerms, LateralCompliance, Measurement, MeasurementSet, SelectionMethod, SelectionOptions,
-    TermGroup, UnknownStatus, Weighting, calibrate, rotation_from_vector, select_model,
+    CalibrationOptions, ErrorModel, FrameTreatment, GravityCompliance, JointLaw, JointTerms,
+    LateralCompliance, Measurement, MeasurementSet, SelectionMethod, SelectionOptions, TermGroup,
+    UnknownStatus, Weighting, calibrate, rotation_from_vector, select_model,
 };
 use flexcal_kinematics::{
     Data, ImportOptions, ImportedRobot, Model, PointLoad, RobotDescription, actuated_forces_into,
@@ -252,11 +252,9 @@ fn lateral_columns_match_central_differences() {
             law: Some(JointLaw::default()),
             cyclic: true,
         };
-        let problem = GeometricErrorModel::new(model, &set, true, frame, target)
+        let problem = ErrorModel::one_target(model, &set, true, frame, target)
             .unwrap()
-            .with_gravity(&gravity)
-            .unwrap()
-            .with_joint_terms(&terms)
+            .with_elastic(Some(&gravity), &terms)
             .unwrap();
         let kinds = problem.kinds();
         assert_eq!(kinds.len(), problem.n_unknowns());
@@ -277,20 +275,24 @@ fn lateral_columns_match_central_differences() {
             .count();
         assert!(nonzero >= 4, "{label}: {nonzero} lateral columns non-zero");
         // The prediction with zero lateral compliances is the model without them.
-        let plain = GeometricErrorModel::new(model, &set, true, frame, target)
+        let plain = ErrorModel::one_target(model, &set, true, frame, target)
             .unwrap()
-            .with_gravity(&GravityCompliance {
-                lateral: LateralCompliance::Off,
-                ..gravity.clone()
-            })
+            .with_elastic(
+                Some(&GravityCompliance {
+                    lateral: LateralCompliance::Off,
+                    ..gravity.clone()
+                }),
+                &JointTerms::default(),
+            )
             .unwrap();
         let mut x_plain = problem.initial_unknowns()[..plain.n_unknowns()].to_vec();
         x_plain[..eo].copy_from_slice(&x[..eo]);
         let mut x_zero = problem.initial_unknowns();
         x_zero[..eo].copy_from_slice(&x[..eo]);
-        for k in 0..set.len() {
-            let a = plain.predict(&x_plain, k).unwrap();
-            let b = problem.predict(&x_zero, k).unwrap();
+        let a = plain.predict(&x_plain).unwrap();
+        let b = problem.predict(&x_zero).unwrap();
+        assert_eq!(a.len(), set.len());
+        for (a, b) in a.iter().zip(&b) {
             assert!((a.translation.vector - b.translation.vector).norm() < 1e-12);
         }
     }
@@ -562,14 +564,15 @@ fn springs_on_named_frames_match_central_differences_and_bad_ones_are_named() {
         &ur10_draw,
     );
     let set = common::with_orientation(&set);
-    let problem = GeometricErrorModel::new(&model, &set, true, frame, target)
+    let problem = ErrorModel::one_target(&model, &set, true, frame, target)
         .unwrap()
-        .with_gravity(&gravity)
-        .unwrap()
-        .with_joint_terms(&JointTerms {
-            law: Some(JointLaw::default()),
-            cyclic: false,
-        })
+        .with_elastic(
+            Some(&gravity),
+            &JointTerms {
+                law: Some(JointLaw::default()),
+                cyclic: false,
+            },
+        )
         .unwrap();
     let lo = problem.lateral_offset().unwrap();
     assert_eq!(problem.names()[lo..lo + 2], names[..]);
@@ -588,9 +591,9 @@ fn springs_on_named_frames_match_central_differences_and_bad_ones_are_named() {
     // A frame the robot does not have, and one that carries nothing.
     let mut bad = gravity.clone();
     bad.springs[0].frame = "elbow".into();
-    let error = GeometricErrorModel::new(&model, &set, true, frame, target)
+    let error = ErrorModel::one_target(&model, &set, true, frame, target)
         .unwrap()
-        .with_gravity(&bad)
+        .with_elastic(Some(&bad), &JointTerms::default())
         .err()
         .expect("an unknown frame")
         .to_string();
@@ -609,9 +612,9 @@ fn springs_on_named_frames_match_central_differences_and_bad_ones_are_named() {
     let q = vec![0.1; two_arms.n_actuated()];
     let set =
         MeasurementSet::new("one pose", vec![Measurement::new(q, Vector3::zeros()); 3]).unwrap();
-    let error = GeometricErrorModel::new(&two_arms, &set, false, frame, target)
+    let error = ErrorModel::one_target(&two_arms, &set, false, frame, target)
         .unwrap()
-        .with_gravity(&lonely)
+        .with_elastic(Some(&lonely), &JointTerms::default())
         .err()
         .expect("a spring that carries nothing")
         .to_string();

@@ -150,10 +150,15 @@ fn true_unknowns(
     let mut x = truth.xi.clone();
     x.extend((truth.x_meas_base.translation.vector - start.translation.vector).iter());
     x.extend(vector_from_rotation(&(truth.x_meas_base.rotation * start.rotation.inverse())).iter());
+    // Six offset unknowns per target: position, then a rotation that
+    // positions alone leave at zero.
     for (t, target) in targets.iter().enumerate() {
         if target.treatment == FrameTreatment::Identify {
             x.extend((truth.offsets[t] - target.offset).iter());
+        } else {
+            x.extend([0.0; 3]);
         }
+        x.extend([0.0; 3]);
     }
     x
 }
@@ -338,7 +343,10 @@ fn a_target_on_a_frame_the_robot_lacks_is_a_named_error() {
     let err = calibrate_targets(&model, &set, &options)
         .unwrap_err()
         .to_string();
-    assert!(err.contains("use_orientation"), "{err}");
+    assert!(
+        err.contains("orientation asked for but target `left` has none"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -230,6 +230,10 @@ fn true_unknowns(
                     if name == format!("target.{}.{axis}", target.name) {
                         return truth.offsets[t][a] - target.offset[a];
                     }
+                    // Positions alone leave the markers' rotations at zero.
+                    if name == format!("target.{}.r{axis}", target.name) {
+                        return 0.0;
+                    }
                 }
             }
             if let Some(i) = joint(name, "compliance_", "") {

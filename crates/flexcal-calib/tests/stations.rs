@@ -5,9 +5,8 @@
 //! frame for two stations would cost.
 
 use flexcal_calib::{
-    CalibrationOptions, FrameTreatment, GeometricErrorModel, GravityCompliance, JointLaw,
-    JointTerms, Measurement, MeasurementSet, UnknownStatus, Weighting, calibrate,
-    rotation_from_vector,
+    CalibrationOptions, ErrorModel, FrameTreatment, GravityCompliance, JointLaw, JointTerms,
+    Measurement, MeasurementSet, UnknownStatus, Weighting, calibrate, rotation_from_vector,
 };
 use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -111,13 +110,11 @@ fn station_frame_columns_match_central_differences() {
         law: Some(JointLaw::default()),
         cyclic: true,
     };
-    let problem = GeometricErrorModel::new(&model, &pooled, true, frame, target)
+    let problem = ErrorModel::one_target(&model, &pooled, true, frame, target)
         .unwrap()
         .with_station_frames(&[second_station(), first_station()])
         .unwrap()
-        .with_gravity(&gravity)
-        .unwrap()
-        .with_joint_terms(&terms)
+        .with_elastic(Some(&gravity), &terms)
         .unwrap();
     assert_eq!(problem.kinds().len(), problem.n_unknowns());
     let (_, jac) = common::assert_elastic_jacobian_matches(

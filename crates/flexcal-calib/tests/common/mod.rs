@@ -4,8 +4,7 @@
 
 use faer::Mat;
 use flexcal_calib::{
-    GeometricErrorModel, GravityCompliance, Measurement, MeasurementSet, UnknownKind,
-    rotation_from_vector,
+    ErrorModel, GravityCompliance, Measurement, MeasurementSet, UnknownKind, rotation_from_vector,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, PointLoad, actuated_forces_into, forward_pose};
 use flexcal_optim::{Jacobian, Residuals};
@@ -19,7 +18,7 @@ use rand_distr::{Distribution, Normal};
 /// `tolerance(analytic column, central difference)`. Returns the Jacobian.
 pub fn assert_jacobian_matches(
     label: &str,
-    problem: &GeometricErrorModel<'_>,
+    problem: &ErrorModel<'_>,
     x: &[f64],
     step: &dyn Fn(usize) -> f64,
     tolerance: &dyn Fn(&[f64], f64) -> f64,
@@ -210,7 +209,7 @@ pub fn with_orientation(set: &MeasurementSet) -> MeasurementSet {
 pub fn assert_elastic_jacobian_matches(
     label: &str,
     model: &Model,
-    problem: &GeometricErrorModel<'_>,
+    problem: &ErrorModel<'_>,
     seed: u64,
 ) -> (Vec<f64>, Mat<f64>) {
     let kinds = problem.kinds();
