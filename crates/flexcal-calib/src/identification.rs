@@ -29,7 +29,7 @@ use flexcal_optim::{
 
 use crate::CalibError;
 use crate::analysis::{
-    AnalysisContext, Rounds, RoundsOutcome, UnknownFlags, analysis_index, noise_level,
+    AnalysisContext, NoiseAt, Rounds, RoundsOutcome, UnknownFlags, analysis_index, noise_level,
     unknown_estimates,
 };
 use crate::coverage::CoordinateCoverage;
@@ -491,7 +491,7 @@ fn fit_frames(
     context: &AnalysisContext<'_>,
     layout: &Layout,
     solver: &Solver<'_, '_>,
-    noise_at: &dyn Fn(&[f64], usize) -> Result<f64, CalibError>,
+    noise_at: &NoiseAt<'_>,
     x_start: Vec<f64>,
 ) -> Result<Vec<f64>, CalibError> {
     let problem = solver.problem;
@@ -565,7 +565,7 @@ impl Statistics<'_> {
         &self,
         model: &Model,
         outcome: &RoundsOutcome,
-        noise_at: &dyn Fn(&[f64], usize) -> Result<f64, CalibError>,
+        noise_at: &NoiseAt<'_>,
     ) -> Result<(Vec<UnknownEstimate>, Vec<Combination>, NoiseSource), CalibError> {
         let layout = self.layout;
         let n = layout.names.len();

@@ -143,6 +143,11 @@ pub struct TargetCalibration {
     pub targets: Vec<Target>,
     /// The targets with their offsets fitted for the nominal robot (the "before").
     pub targets_nominal_robot: Vec<Target>,
+    /// The targets where the identification started: their `target.*`
+    /// unknowns are increments on these (translation added in the target's
+    /// frame, rotation vector on the right; a rotation starts from the
+    /// data where orientations are fitted).
+    pub targets_initial: Vec<Target>,
     /// Every unknown: robot parameters, then `frame_*`, then `target.*`.
     pub unknowns: Vec<UnknownEstimate>,
     /// Identifiability of the free unknowns at the start point (nominal
@@ -457,6 +462,7 @@ pub fn calibrate_targets(
     };
     let targets = with_offsets(&x);
     let targets_nominal_robot = with_offsets(&found.x_nominal_robot);
+    let targets_initial = with_offsets(&problem.initial_unknowns());
     let frames = problem.station_frames(&x);
     let fe = problem.frames_end();
     let joint_start = problem.joint_terms_offset().unwrap_or(x.len());
@@ -489,6 +495,7 @@ pub fn calibrate_targets(
         measurement_frame_fixed: frame_fixed,
         targets,
         targets_nominal_robot,
+        targets_initial,
         unknowns,
         identifiability,
         combination_lines: combination_lines(&combinations),

@@ -16,7 +16,7 @@ use flexcal_calib::{
     rotation_from_vector, validate_targets, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, RobotDescription, forward_frame_pose};
-use nalgebra::{Isometry3, Translation3, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -42,6 +42,11 @@ struct Truth {
     xi: Vec<f64>,
     x_meas_base: Isometry3<f64>,
     offsets: Vec<Vector3<f64>>,
+    /// Each marker's true orientation on its hand (identity unless a test
+    /// measures orientations).
+    rotations: Vec<UnitQuaternion<f64>>,
+    /// Orientation noise per axis (rad); `None`: positions only.
+    orientation_noise: Option<f64>,
 }
 
 fn truth(model: &Model, nominal_offsets: &[Vector3<f64>], rng: &mut ChaCha8Rng) -> Truth {
@@ -58,14 +63,16 @@ fn truth(model: &Model, nominal_offsets: &[Vector3<f64>], rng: &mut ChaCha8Rng) 
         Translation3::new(2.5, -0.4, -0.9),
         rotation_from_vector(&Vector3::new(0.1, -0.2, 2.4)),
     );
-    let offsets = nominal_offsets
+    let offsets: Vec<Vector3<f64>> = nominal_offsets
         .iter()
         .map(|o| o + Vector3::from_fn(|_, _| rng.random_range(-1e-3..1e-3)))
         .collect();
     Truth {
         xi,
         x_meas_base,
+        rotations: vec![UnitQuaternion::identity(); offsets.len()],
         offsets,
+        orientation_noise: None,
     }
 }
 
@@ -118,14 +125,25 @@ fn measure_with(
                     }
                     let point = Isometry3::from_parts(
                         Translation3::from(truth.offsets[t]),
-                        Default::default(),
+                        truth.rotations[t],
                     );
                     let x_base_target =
                         forward_frame_pose(model, &mut data, &q, &truth.xi, frames[t], &point)
                             .unwrap();
-                    let p = (truth.x_meas_base * x_base_target).translation.vector
+                    let x_meas_target = truth.x_meas_base * x_base_target;
+                    let p = x_meas_target.translation.vector
                         + Vector3::from_fn(|_, _| noise.sample(rng));
-                    Some(TargetObservation::new(p))
+                    let orientation = truth.orientation_noise.map(|sigma| {
+                        let noise = Normal::new(0.0, sigma).unwrap();
+                        let turn = Vector3::from_fn(|_, _| noise.sample(rng));
+                        vector_from_rotation(
+                            &(rotation_from_vector(&turn) * x_meas_target.rotation),
+                        )
+                    });
+                    Some(TargetObservation {
+                        orientation,
+                        ..TargetObservation::new(p)
+                    })
                 })
                 .collect();
             TargetPose {
@@ -153,14 +171,133 @@ fn true_unknowns(
     // Six offset unknowns per target: position, then a rotation that
     // positions alone leave at zero.
     for (t, target) in targets.iter().enumerate() {
+        let start = &calibration.targets_initial[t];
         if target.treatment == FrameTreatment::Identify {
-            x.extend((truth.offsets[t] - target.offset).iter());
+            x.extend((truth.offsets[t] - start.offset).iter());
         } else {
             x.extend([0.0; 3]);
         }
-        x.extend([0.0; 3]);
+        // Increments on the right of the start; positions alone leave them
+        // at zero.
+        if truth.orientation_noise.is_some() {
+            x.extend(vector_from_rotation(&(start.rotation.inverse() * truth.rotations[t])).iter());
+        } else {
+            x.extend([0.0; 3]);
+        }
     }
     x
+}
+
+/// Markers with orientations (a 6-DOF target on each hand: 0.02 mm, 0.005
+/// deg per axis, a tracker with a 6-DOF probe): the identification fits
+/// their rotations with the robot and recovers the truth within 3 standard
+/// errors; it identifies what positions alone cannot: each marker's
+/// rotation, standing for its hand's orientation (the hand frame's alpha
+/// and theta and the last joint's theta offset, which no position sees
+/// but in combination with the markers' offsets).
+#[test]
+fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
+    let model = robot();
+    let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(0x3664_6f66);
+    let nominal: Vec<Vector3<f64>> = targets.iter().map(|t| t.offset).collect();
+    let mut truth = truth(&model, &nominal, &mut rng);
+    // Glued within a few degrees of the hand's axes.
+    truth.rotations = (0..targets.len())
+        .map(|_| rotation_from_vector(&Vector3::from_fn(|_, _| rng.random_range(-0.05..0.05))))
+        .collect();
+    truth.orientation_noise = Some(0.005f64.to_radians());
+    let set = measure(&model, &truth, &targets, 80, &mut rng);
+    let options = CalibrationOptions {
+        default_position_std: NOISE,
+        default_orientation_std: 0.005f64.to_radians(),
+        weighting: flexcal_calib::Weighting::Uniform,
+        ..CalibrationOptions::default()
+    };
+    let six = calibrate_targets(&model, &set, &options).unwrap();
+    let x_true = true_unknowns(&six, &truth, &targets);
+    assert_eq!(x_true.len(), six.unknowns.len());
+    let checks = six.combination_check(&x_true);
+    assert_eq!(checks.len(), six.rank());
+    for (name, true_value, identified, se) in &checks {
+        let se = se.unwrap_or_else(|| panic!("{name}: no standard error"));
+        let z = (identified - true_value) / se;
+        assert!(z.abs() < 3.0, "{name}: z = {z:.2}");
+    }
+    // The orientation errors are reported, target by target, at the noise.
+    for errors in &six.per_target_after {
+        let (_, rms, _) = errors
+            .statistics
+            .orientation_mean_rms_max
+            .expect("orientation errors of a 6-DOF marker");
+        assert!(
+            rms < 3.0 * 0.005f64.to_radians(),
+            "{}: {rms:e} rad",
+            errors.target
+        );
+    }
+    assert!(
+        six.observation_errors
+            .iter()
+            .all(|e| e.orientation_error.is_some())
+    );
+    // Positions alone (the same poses, orientations left out).
+    let positions = calibrate_targets(
+        &model,
+        &set,
+        &CalibrationOptions {
+            use_orientation: Some(false),
+            ..options.clone()
+        },
+    )
+    .unwrap();
+    let identified = |c: &TargetCalibration| -> Vec<String> {
+        c.unknowns
+            .iter()
+            .filter(|u| u.status == UnknownStatus::Identified)
+            .map(|u| u.name.clone())
+            .collect()
+    };
+    let by_positions = identified(&positions);
+    let only_with_orientation: Vec<String> = identified(&six)
+        .into_iter()
+        .filter(|name| !by_positions.contains(name))
+        .collect();
+    println!("identified only with orientations: {only_with_orientation:?}");
+    assert_eq!(
+        only_with_orientation,
+        [
+            "target.left.rx",
+            "target.left.ry",
+            "target.left.rz",
+            "target.right.rx",
+            "target.right.ry",
+            "target.right.rz",
+        ]
+    );
+    // What they stand for: each hand's orientation, the hand frame's
+    // alpha and theta and the last arm joint's theta offset, which no
+    // marker position sees (positions leave them in combination with the
+    // markers' positions only: `target.left.y_id = target.left.y - rL4 -
+    // 0.290 alphaLH + ...`).
+    for (marker, hand, last) in [("left", "LH", "L4"), ("right", "RH", "R4")] {
+        let turned: Vec<&String> = six
+            .combination_lines
+            .iter()
+            .filter(|l| l.starts_with(&format!("target.{marker}.r")))
+            .collect();
+        assert_eq!(turned.len(), 3, "{turned:?}");
+        for parameter in [
+            format!("alpha{hand}"),
+            format!("theta{hand}"),
+            format!("theta{last}"),
+        ] {
+            assert!(
+                turned.iter().any(|l| l.contains(&parameter)),
+                "{parameter}: {turned:?}"
+            );
+        }
+    }
 }
 
 #[test]
