@@ -45,11 +45,12 @@ use nalgebra::{DMatrix, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use crate::identify::{Calibration, UnknownStatus};
+use crate::identify::Calibration;
 use crate::identify_targets::{TargetCalibration, TargetValidation, validate_targets};
 use crate::prediction::{Predicting, covariance_of, covariance_size};
 use crate::split::SplitCheck;
 use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
+use crate::unknowns::UnknownStatus;
 use crate::validate::ValidationReport;
 use crate::{CalibError, Measurement, MeasurementSet};
 

@@ -1,4 +1,4 @@
-//! Step 6 of the identification ([`crate::identification`]): the
+//! Step 6 of the identification: the
 //! rank-revealing analysis and the solver rounds. Pivoted QR of the
 //! weighted stacked Jacobian (streamed, [`AnalysisContext::reduced`])
 //! decides which unknowns are exactly dependent on others (the paper's
@@ -17,8 +17,8 @@ use flexcal_optim::{
 
 use crate::CalibError;
 use crate::error_model::{ErrorModel, UnknownKind};
-use crate::identify::{Combination, UnknownEstimate, UnknownStatus};
 use crate::significance::{Judging, ScaleJudgement, ScaleOutcome, Solve, judge_compliances};
+use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// Maps an index of an analysis over a subset of unknowns back to the full vector.
 pub(crate) fn analysis_index(

@@ -27,7 +27,7 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{Calibration, UnknownStatus};
+use crate::identify::Calibration;
 use crate::identify_targets::TargetCalibration;
 use crate::options::CalibrationOptions;
 use crate::prediction::Predicting;
@@ -36,6 +36,7 @@ use crate::split::{
     SplitCheck, compared_unknowns, median, not_compared_note, reidentification_options, split_check,
 };
 use crate::targets::TargetMeasurementSet;
+use crate::unknowns::UnknownStatus;
 use crate::{CalibError, MeasurementSet};
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard

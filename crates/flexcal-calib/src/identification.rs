@@ -26,6 +26,7 @@ use flexcal_optim::{
     CancelToken, ColumnScaling, Control, Diagnosis, GaussNewton, IdentifiabilityReport,
     IterationState, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport, Termination,
 };
+use nalgebra::Vector3;
 
 use crate::CalibError;
 use crate::analysis::{
@@ -34,7 +35,6 @@ use crate::analysis::{
 };
 use crate::coverage::CoordinateCoverage;
 use crate::error_model::{ErrorModel, FrameStarts, UnknownKind};
-use crate::identify::{Combination, ResidualNorms, UnknownEstimate, noise_source, observation_std};
 use crate::metrics::PoseError;
 use crate::options::{
     CalibrationOptions, FrameTreatment, GEODESIC_ACCELERATION_LIMIT, Method, Weighting,
@@ -43,6 +43,20 @@ use crate::significance::{NoiseSource, barely_loaded};
 use crate::spread::{SpreadReference, spread_ratios};
 use crate::start::frame_starts;
 use crate::targets::TargetMeasurementSet;
+use crate::unknowns::{Combination, UnknownEstimate};
+
+/// Unweighted residual norms at one iterate of the identification (Figure 7
+/// plots these, position and orientation separately).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResidualNorms {
+    /// Cost `1/2 ||W r||^2` (weighted, dimensionless).
+    pub cost: f64,
+    /// RMS over the poses of the position error norm (m).
+    pub position_rms: f64,
+    /// RMS over the poses of the orientation error angle (rad), when
+    /// orientations are used.
+    pub orientation_rms: Option<f64>,
+}
 
 /// What an identification found, before a result type packs it.
 pub(crate) struct Identification<'a> {
@@ -629,4 +643,43 @@ impl Statistics<'_> {
         );
         Ok((unknowns, combinations, noise))
     }
+}
+
+/// Where the noise of an identification came from: the instrument when
+/// stated, the file's deviations when the weights are absolute, else the
+/// estimate `position_std` (m per axis) from the fit.
+fn noise_source(options: &CalibrationOptions, absolute: bool, position_std: f64) -> NoiseSource {
+    match (options.instrument_noise, absolute) {
+        (Some(noise), _) => NoiseSource::Instrument(noise),
+        (None, true) => NoiseSource::File,
+        (None, false) => NoiseSource::Estimated { position_std },
+    }
+}
+
+/// The standard deviations of one observation's position and orientation
+/// axes (m, rad) under `options`: the instrument's stated noise, else the
+/// file's (`from_file`) where it has them, else the defaults.
+fn observation_std(
+    options: &CalibrationOptions,
+    position_std: Option<Vector3<f64>>,
+    orientation_std: Option<Vector3<f64>>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    if let Some(noise) = options.instrument_noise {
+        let orientation = noise
+            .orientation_std
+            .unwrap_or(options.default_orientation_std);
+        return (
+            Vector3::repeat(noise.position_std),
+            Vector3::repeat(orientation),
+        );
+    }
+    let from_file = options.weighting == Weighting::FromFile;
+    let pick = |file: Option<Vector3<f64>>, default: f64| match (from_file, file) {
+        (true, Some(s)) => s,
+        _ => Vector3::repeat(default),
+    };
+    (
+        pick(position_std, options.default_position_std),
+        pick(orientation_std, options.default_orientation_std),
+    )
 }

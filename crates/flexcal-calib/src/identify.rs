@@ -6,105 +6,22 @@ use std::borrow::Cow;
 
 use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{IdentifiabilityReport, SolveReport};
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::Isometry3;
 
 use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
 use crate::error_model::UnknownKind;
 use crate::gravity::GravityCompliance;
-use crate::identification::{Identification, identify};
+use crate::identification::{Identification, ResidualNorms, identify};
 use crate::joint_law::JointTerms;
 use crate::measurement::MeasurementSet;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
-use crate::options::{CalibrationOptions, Weighting};
+use crate::options::CalibrationOptions;
 use crate::screen::DataChecks;
-use crate::significance::{MIN_TORQUE_SHARE, NoiseSource, ScaleJudgement, torque_magnitude};
+use crate::significance::{MIN_TORQUE_SHARE, NoiseSource, torque_magnitude};
 use crate::spread::WEAK_SPREAD_RATIO;
 use crate::targets::{TCP_FRAME, TargetMeasurementSet};
-
-/// What became of one unknown.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub enum UnknownStatus {
-    /// Identified (in the base set).
-    Identified,
-    /// Fixed by the user or by the frame treatment.
-    Fixed,
-    /// Not identifiable from these poses (beyond the numerical rank); kept at
-    /// its starting value, its effect absorbed by the identified combinations.
-    NonIdentifiable,
-    /// Identifiable in principle but its standard error would exceed the
-    /// limit of [`CalibrationOptions`]; kept at its starting value.
-    PoorlyIdentifiable,
-    /// Has no influence on what is measured (e.g. target rotation without
-    /// measured orientation); kept at its starting value.
-    NoInfluence,
-    /// Held at its physical bound (a compliance at zero): the
-    /// unconstrained fit put it beyond, by more than its standard error
-    /// ([`UnknownEstimate::judgement`] keeps what the fit gave).
-    AtBound,
-}
-
-impl UnknownStatus {
-    /// The status as reports and files write it (`identified`, `fixed`,
-    /// `non-identifiable`, `poorly-identifiable`, `no-influence`,
-    /// `at-bound`).
-    pub fn name(self) -> &'static str {
-        match self {
-            UnknownStatus::Identified => "identified",
-            UnknownStatus::Fixed => "fixed",
-            UnknownStatus::NonIdentifiable => "non-identifiable",
-            UnknownStatus::PoorlyIdentifiable => "poorly-identifiable",
-            UnknownStatus::NoInfluence => "no-influence",
-            UnknownStatus::AtBound => "at-bound",
-        }
-    }
-}
-
-/// One unknown of the identification, by name.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct UnknownEstimate {
-    /// Name (`d3`, `frame_rx`, `target_z`, `compliance_2`, ...).
-    pub name: String,
-    /// Length (m), angle (rad), compliance (rad/N.m or m/N), mass (kg) or
-    /// first moment (kg.m).
-    pub kind: UnknownKind,
-    /// Starting (nominal) value, in the unit of `kind` (0 for the frame
-    /// increments).
-    pub initial: f64,
-    /// Identified value, in the unit of `kind`.
-    pub value: f64,
-    /// Standard error, in the unit of `kind`, when identified.
-    pub standard_error: Option<f64>,
-    /// When identified: its standard error divided by the one that as many
-    /// poses drawn uniformly over the robot's joint ranges (revolute joints
-    /// over their limits, prismatic ones over the identification range)
-    /// would give with the same noise (dimensionless; 1 = as well determined
-    /// as by a spread design, 10 = ten times worse). Poses clustered in a small region
-    /// determine many parameters only in combinations that hold there: a
-    /// large ratio warns that predictions elsewhere are extrapolations even
-    /// when the standard error itself is small.
-    pub spread_ratio: Option<f64>,
-    /// What became of it.
-    pub status: UnknownStatus,
-    /// For a compliance: the fit that judged it on its own scale (value,
-    /// standard error, outcome), also when it was left out or held at its
-    /// bound ([`crate::significance`]); `None` for the other unknowns.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub judgement: Option<ScaleJudgement>,
-}
-
-/// Unweighted residual norms at one iterate of the identification (Figure 7
-/// plots these, position and orientation separately).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ResidualNorms {
-    /// Cost `1/2 ||W r||^2` (weighted, dimensionless).
-    pub cost: f64,
-    /// RMS over the poses of the position error norm (m).
-    pub position_rms: f64,
-    /// RMS over the poses of the orientation error angle (rad), when
-    /// orientations are used.
-    pub orientation_rms: Option<f64>,
-}
+use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// A fitted geometric calibration: the identified robot parameters, frames,
 /// the identifiability analysis and the solver's report.
@@ -528,49 +445,6 @@ fn compliance_sentence(
     ))
 }
 
-/// Where the noise of an identification came from: the instrument when
-/// stated, the file's deviations when the weights are absolute, else the
-/// estimate `position_std` (m per axis) from the fit.
-pub(crate) fn noise_source(
-    options: &CalibrationOptions,
-    absolute: bool,
-    position_std: f64,
-) -> NoiseSource {
-    match (options.instrument_noise, absolute) {
-        (Some(noise), _) => NoiseSource::Instrument(noise),
-        (None, true) => NoiseSource::File,
-        (None, false) => NoiseSource::Estimated { position_std },
-    }
-}
-
-/// The standard deviations of one observation's position and orientation
-/// axes (m, rad) under `options`: the instrument's stated noise, else the
-/// file's (`from_file`) where it has them, else the defaults.
-pub(crate) fn observation_std(
-    options: &CalibrationOptions,
-    position_std: Option<Vector3<f64>>,
-    orientation_std: Option<Vector3<f64>>,
-) -> (Vector3<f64>, Vector3<f64>) {
-    if let Some(noise) = options.instrument_noise {
-        let orientation = noise
-            .orientation_std
-            .unwrap_or(options.default_orientation_std);
-        return (
-            Vector3::repeat(noise.position_std),
-            Vector3::repeat(orientation),
-        );
-    }
-    let from_file = options.weighting == Weighting::FromFile;
-    let pick = |file: Option<Vector3<f64>>, default: f64| match (from_file, file) {
-        (true, Some(s)) => s,
-        _ => Vector3::repeat(default),
-    };
-    (
-        pick(position_std, options.default_position_std),
-        pick(orientation_std, options.default_orientation_std),
-    )
-}
-
 /// Identifies the robot parameters (and the measurement frame and target
 /// offset unless fixed) from a measurement set: equations (7)-(12) and
 /// (49)-(53) of the reference paper, with the frames of the note in the
@@ -669,37 +543,6 @@ pub(crate) fn combination_lines(combinations: &[Combination]) -> Vec<String> {
         .map(|c| c.to_text(1e-3))
         .filter(|l| !l.is_empty())
         .collect()
-}
-/// `name_id = name + sum_k coefficient_k * other_k`: what an identified
-/// unknown stands for when others are not identified (the paper's (C.1)).
-/// Coefficients are in physical units (m per m, m per rad, ...).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Combination {
-    /// The identified unknown.
-    pub name: String,
-    /// `(absorbed unknown, coefficient)`, largest magnitude first.
-    pub terms: Vec<(String, f64)>,
-}
-
-impl Combination {
-    /// `d4_id = d4 + 0.82 d9 - r8p`; empty when no coefficient reaches `threshold`.
-    pub fn to_text(&self, threshold: f64) -> String {
-        let mut line = format!("{}_id = {}", self.name, self.name);
-        let mut any = false;
-        for (other, k) in &self.terms {
-            if k.abs() < threshold {
-                continue;
-            }
-            any = true;
-            let sign = if *k < 0.0 { '-' } else { '+' };
-            if (k.abs() - 1.0).abs() < 5e-4 {
-                line.push_str(&format!(" {sign} {other}"));
-            } else {
-                line.push_str(&format!(" {sign} {:.3} {other}", k.abs()));
-            }
-        }
-        if any { line } else { String::new() }
-    }
 }
 
 /// The true value of each identified combination `xi_B + K xi_N` given a

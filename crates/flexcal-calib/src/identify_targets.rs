@@ -46,10 +46,7 @@ use crate::coverage::CoordinateCoverage;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, identify};
-use crate::identify::{
-    Combination, UnknownEstimate, UnknownStatus, combination_lines, elastic_notes,
-    is_elastic_unknown, weak_spread_note,
-};
+use crate::identify::{combination_lines, elastic_notes, is_elastic_unknown, weak_spread_note};
 use crate::joint_law::JointTerms;
 use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::options::{CalibrationOptions, FrameTreatment};
@@ -59,6 +56,7 @@ use crate::prediction::{
 use crate::screen::DataChecks;
 use crate::significance::NoiseSource;
 use crate::targets::{Target, TargetMeasurementSet};
+use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// Errors of one target over the poses where it was seen.
 #[derive(Debug, Clone, PartialEq, Serialize)]

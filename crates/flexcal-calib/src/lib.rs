@@ -292,6 +292,7 @@ pub mod start;
 pub mod targets;
 pub mod temperature;
 mod unknown_kind;
+pub mod unknowns;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy, bound_95};
@@ -309,10 +310,8 @@ pub use gravity::{
     FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
 };
 pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
-pub use identify::{
-    Calibration, Combination, ResidualNorms, UnknownEstimate, UnknownStatus, calibrate,
-    combination_check,
-};
+pub use identification::ResidualNorms;
+pub use identify::{Calibration, calibrate, combination_check};
 pub use identify_targets::{
     ObservationError, TargetCalibration, TargetErrors, TargetValidation, calibrate_targets,
     observation_errors_csv, target_position_errors, validate_targets,
@@ -346,4 +345,5 @@ pub use targets::{
     TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
     targets_from_toml_str, targets_to_toml_string, write_targets,
 };
+pub use unknowns::{Combination, UnknownEstimate, UnknownStatus};
 pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};

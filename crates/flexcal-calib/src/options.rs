@@ -1,4 +1,4 @@
-//! Step 1 of the identification ([`crate::identification`]): its settings,
+//! Step 1 of the identification: its settings,
 //! [`CalibrationOptions`], with the solver ([`Method`]), the weighting
 //! ([`Weighting`]) and whether each frame is identified
 //! ([`FrameTreatment`]); [`CalibrationOptions::check`] refuses values out

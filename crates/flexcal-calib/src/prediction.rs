@@ -11,9 +11,10 @@ use std::borrow::Cow;
 use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
 use crate::error_model::{ErrorModel, FrameStarts};
-use crate::identify::{Calibration, UnknownEstimate, UnknownStatus};
+use crate::identify::Calibration;
 use crate::measurement::MeasurementSet;
 use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet};
+use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use flexcal_optim::{Jacobian, Residuals};
 
 /// One observation of a [`Linearised`] prediction: a target seen at a pose.

@@ -6,9 +6,10 @@ use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
-use crate::identify::{Calibration, UnknownStatus};
+use crate::identify::Calibration;
 use crate::metrics::ErrorStatistics;
 use crate::screen::DataChecks;
+use crate::unknowns::UnknownStatus;
 use crate::validate::ValidationReport;
 
 /// Error figures in mm and deg.

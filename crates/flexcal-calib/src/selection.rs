@@ -54,7 +54,7 @@ use flexcal_kinematics::{Model, Quantity};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-use crate::identify::{Calibration, UnknownEstimate, UnknownStatus, calibrate};
+use crate::identify::{Calibration, calibrate};
 use crate::identify_targets::{
     TargetCalibration, calibrate_targets, target_position_errors, validate_targets,
 };
@@ -63,6 +63,7 @@ use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::prediction::Predicting;
 use crate::targets::TargetMeasurementSet;
+use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
 use crate::{CalibError, MeasurementSet, PoseSet};
 

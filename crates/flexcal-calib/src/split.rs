@@ -21,12 +21,12 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
-use crate::identify::{UnknownEstimate, UnknownStatus};
 use crate::identify_targets::TargetCalibration;
 use crate::options::CalibrationOptions;
 use crate::prediction::{Predicting, prediction_variances};
 use crate::selection::Selectable;
 use crate::targets::TargetMeasurementSet;
+use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::{CalibError, Calibration, MeasurementSet};
 
 /// A split error above this many standard errors is named in

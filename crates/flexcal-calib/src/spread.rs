@@ -1,4 +1,4 @@
-//! Step 7 of the identification ([`crate::identification`]), beyond the
+//! Step 7 of the identification, beyond the
 //! paper: each identified unknown's spread ratio
 //! ([`crate::UnknownEstimate::spread_ratio`]), its standard error over the
 //! one that as many poses drawn uniformly over the joint ranges would give

@@ -1,4 +1,4 @@
-//! Step 2 of the identification ([`crate::identification`]): where the
+//! Step 2 of the identification: where the
 //! frames start. Each station's measurement frame starts from a closed-form
 //! registration (Kabsch/Horn by SVD, [`crate::geometry::register_points`])
 //! of the nominal robot's target positions onto that station's measured
