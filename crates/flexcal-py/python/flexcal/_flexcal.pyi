@@ -255,7 +255,12 @@ class UnknownEstimate:
     standard_error: Optional[float]
     spread_ratio: Optional[float]
     status: Literal[
-        "identified", "fixed", "non-identifiable", "poorly-identifiable", "no-influence"
+        "identified",
+        "fixed",
+        "non-identifiable",
+        "poorly-identifiable",
+        "no-influence",
+        "at-bound",
     ]
 
 class ValidationResult:
