@@ -142,7 +142,10 @@ fn saved_command_line_and_report_re_run_to_the_same_figures() {
     ]);
     let gn = read_json(&gn);
     assert_eq!(gn["config"]["model"]["method"], "gn");
-    assert_eq!(gn["config"]["data"]["exclude"], serde_json::json!(["identification-4"]));
+    assert_eq!(
+        gn["config"]["data"]["exclude"],
+        serde_json::json!(["identification-4"])
+    );
     assert_eq!(
         gn["config"]["model"]["fixed_target"], true,
         "kept from the file"
