@@ -184,7 +184,11 @@ pub struct ModelSection {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_mm: Option<[f64; 3]>,
     /// Model selection: cv, bic or none (`--select`; default: cv from 100 poses).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "selection_name"
+    )]
     pub select: Option<SelectionMethod>,
     /// Fail instead of freezing non-identifiable parameters (`--strict`).
     #[serde(default, skip_serializing_if = "is_false")]
@@ -251,6 +255,32 @@ pub struct OutputsSection {
     /// The per-pose errors after calibration (`--residuals`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residuals: Option<PathBuf>,
+}
+
+/// A model selection by the command line's names: `cv`, `bic`, `none`.
+mod selection_name {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    use crate::calib::SelectionMethod;
+
+    pub(super) fn serialize<S: Serializer>(
+        method: &Option<SelectionMethod>,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        match method {
+            Some(SelectionMethod::CrossValidation) => serializer.serialize_str("cv"),
+            Some(SelectionMethod::Bic) => serializer.serialize_str("bic"),
+            Some(SelectionMethod::None) => serializer.serialize_str("none"),
+            None => serializer.serialize_none(),
+        }
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Option<SelectionMethod>, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        name.parse().map(Some).map_err(serde::de::Error::custom)
+    }
 }
 
 fn is_false(b: &bool) -> bool {

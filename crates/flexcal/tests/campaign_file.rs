@@ -235,3 +235,24 @@ fn settings_out_of_range_name_the_file_and_key() {
         "{err}"
     );
 }
+
+/// The full example of docs/file-formats.md parses, every key in it known.
+#[test]
+fn the_documented_example_parses() {
+    let doc = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/file-formats.md"),
+    )
+    .unwrap();
+    let section = &doc[doc.find("## Campaign file").expect("the section")..];
+    let start = section.find("```toml\n").expect("its example") + "```toml\n".len();
+    let example = &section[start..start + section[start..].find("```").unwrap()];
+    let campaign = Campaign::from_toml_str(example, Path::new("file-formats.md")).unwrap();
+    assert_eq!(campaign.robot.name.as_deref(), Some("ur10"));
+    assert_eq!(campaign.data.format, MeasurementFormat::Ipa);
+    assert_eq!(campaign.model.orientation, Some(false));
+    assert!(campaign.checks.split);
+    assert_eq!(
+        campaign.outputs.report.as_deref(),
+        Some(Path::new("out/report.json"))
+    );
+}
