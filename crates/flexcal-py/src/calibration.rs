@@ -383,6 +383,26 @@ pub struct CalibrationResult {
     options: Arc<CalibrationOptions>,
 }
 
+impl CalibrationResult {
+    /// The result of a calibration run of the facade (a campaign's), the
+    /// robot `nominal`, calibrated as `calibrated`.
+    pub(crate) fn from_run(
+        run: flexcal::calibration::CalibrationRun,
+        nominal: Arc<Model>,
+        calibrated: Robot,
+    ) -> Self {
+        Self {
+            calibration: Arc::new(run.calibration),
+            nominal,
+            calibrated,
+            selection: run.selection.map(Arc::new),
+            station_hold_out: Arc::new(run.station_hold_out),
+            split: run.split.map(Arc::new),
+            options: Arc::new(run.options),
+        }
+    }
+}
+
 #[pymethods]
 impl CalibrationResult {
     /// The calibrated robot (its nominal values are the identified ones).

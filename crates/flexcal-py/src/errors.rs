@@ -240,7 +240,8 @@ pub fn facade_error(e: &flexcal::Error) -> PyErr {
         flexcal::Error::UnknownRobot { .. } => UnknownRobotError::new_err(message),
         flexcal::Error::RobotFormat { .. }
         | flexcal::Error::Io(_)
-        | flexcal::Error::Json { .. } => FileError::new_err(message),
+        | flexcal::Error::Json { .. }
+        | flexcal::Error::Campaign { .. } => FileError::new_err(message),
         flexcal::Error::RobotBuild { source, .. } => kinematics_error_with(source, message),
         flexcal::Error::InvalidParameter { .. } => InputError::new_err(message),
         flexcal::Error::Kinematics(e) => kinematics_error(e),

@@ -561,8 +561,19 @@ impl Campaign {
     /// Those of [`Campaign::model`], [`Campaign::calibration_config`] and
     /// the calibration run.
     pub fn run(&self) -> Result<CampaignRun> {
+        self.run_cancellable(None)
+    }
+
+    /// [`Campaign::run`] that stops within one solver iteration once
+    /// `cancel` is cancelled (an interrupt from a caller's thread), with
+    /// [`calib::CalibError::Cancelled`] named by its step.
+    ///
+    /// # Errors
+    /// Those of [`Campaign::run`], and the cancellation.
+    pub fn run_cancellable(&self, cancel: Option<calib::CancelToken>) -> Result<CampaignRun> {
         let robot = self.model()?;
-        let config = self.calibration_config(&robot)?;
+        let mut config = self.calibration_config(&robot)?;
+        config.options.cancel = cancel;
         let result = if config.targets.is_some() {
             CampaignResult::Targets(Box::new(run_target_calibration(&robot, &config)?))
         } else {
