@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, CrossCheck,
     ErrorStatistics as Stats, FrameTreatment, GravityCompliance, Method, SelectionMethod,
@@ -12,7 +13,7 @@ use flexcal::calib::{
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 

@@ -17,6 +17,7 @@ library's one-line message. See docs/python.md in the repository.
 
 from ._flexcal import (
     AccuracyResult,
+    ArrayTypeError,
     CalibrationError,
     CalibrationResult,
     Campaign,
@@ -59,6 +60,7 @@ from ._flexcal import (
 
 __all__ = [
     "AccuracyResult",
+    "ArrayTypeError",
     "CalibrationError",
     "CalibrationResult",
     "Campaign",

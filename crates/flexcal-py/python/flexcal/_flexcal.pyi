@@ -27,6 +27,11 @@ class ShapeError(InputError):
 class NotFiniteError(InputError):
     """An input value is NaN or infinite (the message names the index)."""
 
+class ArrayTypeError(InputError, TypeError):
+    """An array argument holds strings or complex numbers where real numbers
+    are expected; the argument's name is in the exception's note
+    (``while processing 'q'``)."""
+
 class UnknownRobotError(InputError):
     """No built-in robot has this name."""
 
