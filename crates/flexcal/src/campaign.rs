@@ -398,6 +398,13 @@ impl Campaign {
             ));
         };
         let validation = self.validation.as_ref();
+        if self.checks.cross && validation.is_none() {
+            return Err(self.invalid(
+                "checks.cross",
+                "--cross-check",
+                "needs a validation set ([validation] file, --validate)",
+            ));
+        }
         let options = self.options(model)?;
         Ok(CalibrationConfig {
             format: self.data.format,
