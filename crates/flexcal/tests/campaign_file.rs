@@ -229,7 +229,10 @@ fn settings_out_of_range_name_the_file_and_key() {
     let mut campaign = parse("");
     campaign.checks.cross = true;
     let err = campaign.calibration_config(&model).unwrap_err().to_string();
-    assert!(err.starts_with("c.toml: checks.cross: needs a validation set"), "{err}");
+    assert!(
+        err.starts_with("c.toml: checks.cross: needs a validation set"),
+        "{err}"
+    );
     // Format own with orientation = true.
     let err = parse("orientation = true")
         .calibration_config(&model)
