@@ -1,60 +1,46 @@
 //! `flexcal calibrate`: geometric identification from a measurement file,
-//! with optional validation on another file.
+//! with optional validation on another file; the command line is a
+//! campaign ([`flexcal::campaign::Campaign`]), read from a file with
+//! `--config` (flags given with it override the file's values) and written
+//! to one with `--save-config`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Context;
-use flexcal::calib::{CalibrationOptions, FrameTreatment, Method, Weighting};
-use flexcal::calibration::{
-    CalibrationConfig, CalibrationOutputs, MeasurementFormat, run_calibration,
-};
-use flexcal::kinematics::Model;
-use flexcal::targets::run_target_calibration;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use flexcal::calibration::MeasurementFormat;
+use flexcal::campaign::{Campaign, ModelKind, SolverKind, ValidationSection, WeightsKind};
+use serde::de::DeserializeOwned;
 
-/// Measurement file formats.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DataFormat {
-    /// flexcal's CSV (q1..qn, x_mm, y_mm, z_mm, ...).
-    Own,
-    /// IPA laser-tracker export (`;`, decimal comma, T-Mac probe).
-    Ipa,
+/// A parser of the kebab-case names `names` of a campaign setting (the
+/// names its TOML spells), listed in `--help`.
+pub fn named<T>(names: &'static [&'static str]) -> impl TypedValueParser<Value = T>
+where
+    T: DeserializeOwned + Clone + Send + Sync + 'static,
+{
+    PossibleValuesParser::new(names).try_map(|name: String| {
+        T::deserialize(serde::de::value::StrDeserializer::<serde::de::value::Error>::new(&name))
+    })
 }
 
-/// Identification models.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ModelKind {
-    /// Geometric parameters (+ measurement frame and target offset).
-    Geometric,
-    /// Geometric parameters plus joint compliances under gravity and the
-    /// payload's mass and centre (mass table: --masses, a URDF's inertials,
-    /// or built-in for ur10).
-    ElastoGeometric,
-}
-
-/// Solvers.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SolverKind {
-    /// Levenberg-Marquardt.
-    Lm,
-    /// Gauss-Newton re-linearisation (the paper's iteration).
-    Gn,
-}
-
-/// Row weighting.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum WeightsKind {
-    /// 1/sigma from the file's standard deviations.
-    File,
-    /// Uniform (default for the IPA format, whose std columns are sample spreads).
-    Uniform,
-}
-
-/// Arguments of `flexcal calibrate`.
+/// Arguments of `flexcal calibrate`. Every setting can come from a campaign
+/// file (`--config`); a flag given with it wins over the file's value.
 #[derive(clap::Args, Debug)]
 pub struct CalibrateArgs {
-    /// Robot: a built-in name (ur10, ir663, puma560) or a robot file (.toml, .urdf, .par).
+    /// Campaign file (TOML, docs/file-formats.md; or a JSON report, whose
+    /// `config` section is the campaign it was run with): every setting of
+    /// the command line, paths relative to the file. Flags given as well
+    /// override the file's values (a list flag replaces the file's list; a
+    /// switch turns a setting on, it cannot turn the file's off).
     #[arg(long)]
-    pub robot: String,
+    pub config: Option<PathBuf>,
+    /// Write the campaign file this command line stands for (with
+    /// `--config`: the file's settings with the flags' over them), paths
+    /// relative to the file's folder, then run it.
+    #[arg(long)]
+    pub save_config: Option<PathBuf>,
+    /// Robot: a built-in name (ur10, ir663, puma560) or a robot file (.toml, .urdf, .par).
+    #[arg(long, required_unless_present = "config")]
+    pub robot: Option<String>,
     #[command(flatten)]
     pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Identification measurements. Give it again for each further station
@@ -62,11 +48,13 @@ pub struct CalibrateArgs {
     /// robot and target): the files are pooled, each with its own
     /// measurement frame (`frame_s2_x`, ...), and pose labels carry the
     /// station's number (`--exclude s2:line 534`).
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "config")]
     pub data: Vec<PathBuf>,
-    /// Format of the measurement files.
-    #[arg(long, value_enum, default_value = "own")]
-    pub format: DataFormat,
+    /// Format of the measurement files: own (flexcal's CSV: q1..qn,
+    /// x_mm, y_mm, z_mm, ...; the default) or ipa (IPA laser-tracker
+    /// export: `;`, decimal comma, T-Mac probe).
+    #[arg(long, value_parser = named::<MeasurementFormat>(&["own", "ipa"]))]
+    pub format: Option<MeasurementFormat>,
     /// Validation measurements (same format), ideally other poses.
     #[arg(long)]
     pub validate: Option<PathBuf>,
@@ -79,19 +67,25 @@ pub struct CalibrateArgs {
     /// separate them (default for ir663: the paper's six).
     #[arg(long, value_delimiter = ',')]
     pub defer: Vec<String>,
-    /// Identification model.
-    #[arg(long, value_enum, default_value = "geometric")]
-    pub model: ModelKind,
+    /// Identification model: geometric (the default: geometric parameters,
+    /// measurement frame, target offset) or elasto-geometric (plus joint
+    /// compliances under gravity and the payload's mass and centre; mass
+    /// table: --masses, a URDF's inertials, or built-in for ur10).
+    #[arg(long, value_parser = model_kind())]
+    pub model: Option<ModelKind>,
     /// Mass table of the elasto-geometric model (TOML, see the README);
     /// default: a URDF robot's `<inertial>` masses, else the robot's
     /// built-in table (ur10).
     #[arg(long)]
     pub masses: Option<PathBuf>,
-    /// Solver.
-    #[arg(long, value_enum, default_value = "lm")]
-    pub method: SolverKind,
-    /// Row weighting (default: file for the own format, uniform for ipa).
-    #[arg(long, value_enum)]
+    /// Solver: lm (Levenberg-Marquardt, the default) or gn (Gauss-Newton
+    /// re-linearisation, the paper's iteration).
+    #[arg(long, value_parser = named::<SolverKind>(&["lm", "gn"]))]
+    pub method: Option<SolverKind>,
+    /// Row weighting: file (1/sigma from the file's standard deviations)
+    /// or uniform (default: file for the own format, uniform for ipa, whose
+    /// std columns are sample spreads).
+    #[arg(long, value_parser = named::<WeightsKind>(&["file", "uniform"]))]
     pub weights: Option<WeightsKind>,
     /// Ignore measured orientations.
     #[arg(long)]
@@ -146,7 +140,7 @@ pub struct CalibrateArgs {
     pub noise_mm: Option<f64>,
     /// With --noise-mm and fitted orientations: the instrument's noise per
     /// orientation axis (deg).
-    #[arg(long, requires = "noise_mm", allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub noise_deg: Option<f64>,
     /// Fail instead of freezing non-identifiable parameters.
     #[arg(long)]
@@ -175,7 +169,7 @@ pub struct CalibrateArgs {
     /// Check what transfers: identify the same unknowns again on the
     /// validation set and compare them in combined standard errors
     /// (needs --validate).
-    #[arg(long, requires = "validate")]
+    #[arg(long)]
     pub cross_check: bool,
     /// Also fit a fuzzy residual model of the remaining position errors over
     /// these actuated coordinates (comma-separated, e.g. theta2,theta3), on
@@ -214,136 +208,160 @@ pub struct CalibrateArgs {
     pub residuals: Option<PathBuf>,
 }
 
-/// Runs `flexcal calibrate`: flags -> [`CalibrationConfig`] ->
-/// [`run_calibration`] (or [`run_target_calibration`] with `--targets`) ->
-/// print and write.
+/// The parser of `--model`.
+pub fn model_kind() -> impl TypedValueParser<Value = ModelKind> {
+    named::<ModelKind>(&["geometric", "elasto-geometric"])
+}
+
+/// Runs `flexcal calibrate`: flags (over `--config`'s campaign) ->
+/// [`Campaign`] -> [`Campaign::run`] -> print and write.
 pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
-    let model = crate::robot_arg::load_model(&args.robot, &args.robot_file)?;
-    let config = config(&args, &model)?;
-    let outputs = CalibrationOutputs {
-        residuals: args.residuals,
-        accuracy_grid: args.accuracy_map,
-        description: args.out,
-        report: args.report,
-        html: args.html,
-    };
-    let written = if config.targets.is_some() {
-        let run = run_target_calibration(&model, &config)?;
-        print!("{}", run.summary_text(&model));
-        run.write_outputs(&model, &outputs)?
-    } else {
-        let run = run_calibration(&model, &config)?;
-        print!("{}", run.summary_text(&model));
-        run.write_outputs(&model, &outputs)?
-    };
-    written.iter().for_each(|line| println!("{line}"));
+    let campaign = campaign(args.config.as_deref(), &args)?;
+    if let Some(path) = &args.save_config {
+        campaign.write(path)?;
+        println!("campaign written to {}", path.display());
+    }
+    let run = campaign.run()?;
+    print!("{}", run.summary_text());
+    run.write_outputs()?
+        .iter()
+        .for_each(|line| println!("{line}"));
     Ok(())
 }
 
-/// The validated configuration of a run from the flags.
-fn config(args: &CalibrateArgs, model: &Model) -> anyhow::Result<CalibrationConfig> {
-    if !args.exclude_validation.is_empty() && args.validate.is_none() {
-        crate::usage_bail!("--exclude-validation needs --validate");
-    }
-    let format = match args.format {
-        DataFormat::Own => MeasurementFormat::Own,
-        DataFormat::Ipa => MeasurementFormat::Ipa,
+/// The campaign of the command line: the file's (`config`: a campaign
+/// TOML, or a JSON report's embedded campaign) or an empty one, with the
+/// flags given over it.
+fn campaign(config: Option<&Path>, args: &CalibrateArgs) -> anyhow::Result<Campaign> {
+    let mut campaign = match config {
+        Some(path)
+            if path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("json")) =>
+        {
+            Campaign::from_report(path)?
+        }
+        Some(path) => Campaign::read(path)?,
+        None => Campaign::default(),
     };
-    let mut options = CalibrationOptions::for_model(model);
-    options.method = match args.method {
-        SolverKind::Lm => Method::LevenbergMarquardt,
-        SolverKind::Gn => Method::GaussNewton,
-    };
-    options.weighting = match args.weights {
-        Some(WeightsKind::File) => Weighting::FromFile,
-        Some(WeightsKind::Uniform) => Weighting::Uniform,
-        None => format.default_weighting(),
-    };
-    if args.with_orientation && args.format != DataFormat::Ipa {
-        crate::usage_bail!(
-            "--with-orientation is for --format ipa (flexcal's own files use their orientation columns when present)"
-        );
+    robot_flags(&mut campaign, args)?;
+    data_flags(&mut campaign, args)?;
+    model_flags(&mut campaign, args)?;
+    let checks = &mut campaign.checks;
+    checks.split |= args.split_check;
+    checks.hold_out_stations |= args.hold_out_stations;
+    checks.cross |= args.cross_check;
+    set_list(&mut checks.residual_model, &args.residual_model);
+    set(&mut checks.accuracy_map, &args.accuracy_map);
+    let outputs = &mut campaign.outputs;
+    set(&mut outputs.calibrated_robot, &args.out);
+    set(&mut outputs.report, &args.report);
+    set(&mut outputs.html, &args.html);
+    set(&mut outputs.residuals, &args.residuals);
+    Ok(campaign)
+}
+
+/// `value` over `slot` when given.
+fn set<T: Clone>(slot: &mut Option<T>, value: &Option<T>) {
+    if value.is_some() {
+        slot.clone_from(value);
     }
-    if args.position_only || !(args.with_orientation || format.uses_orientation_by_default()) {
-        options.use_orientation = Some(false);
+}
+
+/// A list flag's items over `slot` when given.
+fn set_list(slot: &mut Vec<String>, values: &[String]) {
+    let items = crate::list_items(values);
+    if !items.is_empty() {
+        *slot = items;
     }
-    options.fixed = crate::list_items(&args.fix);
-    if !args.defer.is_empty() {
-        options.deferred = args.defer.iter().map(|s| s.trim().to_string()).collect();
+}
+
+fn robot_flags(campaign: &mut Campaign, args: &CalibrateArgs) -> anyhow::Result<()> {
+    let robot = &mut campaign.robot;
+    if let Some(spec) = &args.robot {
+        match flexcal::RobotSpec::parse(spec)? {
+            flexcal::RobotSpec::Builtin(name) => (robot.name, robot.file) = (Some(name), None),
+            flexcal::RobotSpec::File(file) => (robot.name, robot.file) = (None, Some(file)),
+            other => anyhow::bail!("--robot: {other} is neither a built-in robot nor a file"),
+        }
     }
-    if args.fixed_frame {
-        options.measurement_frame = FrameTreatment::Fixed;
+    let file = &args.robot_file;
+    set(&mut robot.tip, &file.tip);
+    set(&mut robot.root, &file.root);
+    set(&mut robot.values, &file.values);
+    Ok(())
+}
+
+fn data_flags(campaign: &mut Campaign, args: &CalibrateArgs) -> anyhow::Result<()> {
+    let data = &mut campaign.data;
+    if !args.data.is_empty() {
+        data.files.clone_from(&args.data);
     }
-    if args.fixed_target {
-        options.target = FrameTreatment::Fixed;
+    if let Some(format) = args.format {
+        data.format = format;
     }
-    let target_mm = match args.target_mm[..] {
-        [] => None,
-        [x, y, z] => Some([x, y, z]),
+    set_list(&mut data.exclude, &args.exclude);
+    set(&mut data.targets, &args.targets);
+    if let Some(file) = &args.validate {
+        let validation = campaign
+            .validation
+            .get_or_insert_with(ValidationSection::default);
+        validation.file.clone_from(file);
+    }
+    match campaign.validation.as_mut() {
+        Some(validation) => {
+            set_list(&mut validation.exclude, &args.exclude_validation);
+            validation.refit_target |= args.refit_target;
+        }
+        None if !args.exclude_validation.is_empty() => {
+            crate::usage_bail!("--exclude-validation needs --validate")
+        }
+        None if args.cross_check => {
+            crate::usage_bail!("--cross-check needs --validate")
+        }
+        None => {}
+    }
+    Ok(())
+}
+
+fn model_flags(campaign: &mut Campaign, args: &CalibrateArgs) -> anyhow::Result<()> {
+    let m = &mut campaign.model;
+    if let Some(kind) = args.model {
+        m.kind = kind;
+    }
+    set(&mut m.masses, &args.masses);
+    if let Some(method) = args.method {
+        m.method = method;
+    }
+    set(&mut m.weights, &args.weights);
+    if args.position_only {
+        m.orientation = Some(false);
+    } else if args.with_orientation {
+        m.orientation = Some(true);
+    }
+    set_list(&mut m.fix, &args.fix);
+    set_list(&mut m.defer, &args.defer);
+    m.fixed_frame |= args.fixed_frame;
+    m.fixed_target |= args.fixed_target;
+    match args.target_mm[..] {
+        [] => {}
+        [x, y, z] => m.target_mm = Some([x, y, z]),
         _ => crate::usage_bail!(
             "--target-mm takes three values x,y,z (mm), got {}",
             args.target_mm.len()
         ),
-    };
-    options.require_full_rank = args.strict;
-    if let Some(v) = args.max_se_length_mm {
-        options.max_standard_error_length = v * 1e-3;
     }
-    if let Some(v) = args.max_se_angle_deg {
-        options.max_standard_error_angle = v.to_radians();
-    }
-    let positive = |flag: &str, v: f64| -> anyhow::Result<f64> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            crate::usage_bail!("{flag} must be a finite number > 0, got {v}")
-        }
-    };
-    if let Some(v) = args.max_se_compliance {
-        options.max_standard_error_compliance = positive("--max-se-compliance", v)? * 1e-6;
-    }
-    if let Some(v) = args.min_compliance_z {
-        options.min_compliance_z = positive("--min-compliance-z", v)?;
-    }
-    if let Some(v) = args.min_torque_share {
-        if !(0.0..1.0).contains(&v) {
-            crate::usage_bail!("--min-torque-share must be in [0, 1), got {v}");
-        }
-        options.min_torque_share = v;
-    }
-    if let Some(v) = args.noise_mm {
-        options.instrument_noise = Some(flexcal::calib::InstrumentNoise {
-            position_std: positive("--noise-mm", v)? * 1e-3,
-            orientation_std: args
-                .noise_deg
-                .map(|d| positive("--noise-deg", d).map(f64::to_radians))
-                .transpose()?,
-        });
-    }
-    if args.model == ModelKind::ElastoGeometric {
-        options.gravity = Some(
-            flexcal::RobotSpec::parse(&args.robot)?
-                .mass_table(&args.robot_file.options(), model, args.masses.as_deref())
-                .context("--model elasto-geometric")?,
-        );
-    } else if args.masses.is_some() {
-        crate::usage_bail!("--masses is for --model elasto-geometric");
-    }
-    Ok(CalibrationConfig {
-        format,
-        validate: args.validate.clone(),
-        exclude: crate::list_items(&args.exclude),
-        exclude_validation: crate::list_items(&args.exclude_validation),
-        target_mm,
-        refit_target: args.refit_target,
-        split_check: args.split_check,
-        hold_out_stations: args.hold_out_stations,
-        cross_check: args.cross_check,
-        residual_inputs: crate::list_items(&args.residual_model),
-        selection: args.select,
-        accuracy_grid: args.accuracy_map.clone(),
-        targets: args.targets.clone(),
-        station_data: args.data[1..].to_vec(),
-        ..CalibrationConfig::new(&args.data[0], options)
-    })
+    set(&mut m.select, &args.select);
+    m.strict |= args.strict;
+    set(&mut m.max_se_length_mm, &args.max_se_length_mm);
+    set(&mut m.max_se_angle_deg, &args.max_se_angle_deg);
+    set(
+        &mut m.max_se_compliance_urad_per_nm,
+        &args.max_se_compliance,
+    );
+    set(&mut m.min_compliance_z, &args.min_compliance_z);
+    set(&mut m.min_torque_share, &args.min_torque_share);
+    set(&mut m.noise_mm, &args.noise_mm);
+    set(&mut m.noise_deg, &args.noise_deg);
+    Ok(())
 }

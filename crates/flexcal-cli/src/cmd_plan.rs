@@ -13,7 +13,7 @@ use flexcal::kinematics::Model;
 use flexcal::plan::output::PlanOutputs;
 use flexcal::plan::{JointBox, PlanConfig, PoseSource, plan_campaign};
 
-use crate::cmd_calibrate::ModelKind;
+use flexcal::campaign::ModelKind;
 
 /// Arguments of `flexcal plan`.
 #[derive(clap::Args, Debug)]
@@ -24,7 +24,7 @@ pub struct PlanArgs {
     #[command(flatten)]
     pub robot_file: crate::robot_arg::RobotFileArgs,
     /// Identification model, as for `calibrate`.
-    #[arg(long, value_enum, default_value = "geometric")]
+    #[arg(long, value_parser = crate::cmd_calibrate::model_kind(), default_value = "geometric")]
     pub model: ModelKind,
     /// Mass table of the elasto-geometric model (TOML); default: a URDF
     /// robot's inertials, else the robot's built-in table (ur10).

@@ -396,7 +396,7 @@ fn bad_input_gives_clear_errors() {
     );
     let err = run(&deficient, &["--with-orientation"]);
     assert!(
-        err.contains("--with-orientation is for --format ipa"),
+        err.contains("--with-orientation") && err.contains("is for format ipa (--format ipa)"),
         "{err}"
     );
     let err = run(

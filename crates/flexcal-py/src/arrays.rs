@@ -3,11 +3,64 @@
 
 use std::borrow::Cow;
 
+pub use numpy::AllowTypeChange;
 use numpy::ndarray::{ArrayD, IxDyn};
-use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
+use numpy::{
+    Element, IntoPyArray, PyArrayDescrMethods, PyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
-use crate::errors::{NotFiniteError, ShapeError};
+use crate::errors::{NotFiniteError, ShapeError, array_type_error};
+
+/// An array argument of real numbers: numpy's [`numpy::PyArrayLikeDyn`]
+/// (an ndarray, a nested sequence or a scalar, converted as `np.asarray`
+/// does), but an array of strings or of complex numbers is refused with
+/// `flexcal.ArrayTypeError` (an `InputError` and a `TypeError`) saying
+/// what it holds, instead of numpy's `could not convert string to float`
+/// or a complex value cast with only a warning. The argument's name is in
+/// the exception's note (`while processing 'q'`, shown in tracebacks).
+/// Values are always converted (`C` is [`AllowTypeChange`], the only
+/// coercion the package uses; it stays in the type to keep numpy's
+/// spelling).
+#[derive(Debug)]
+pub struct PyArrayLikeDyn<'py, T: Element, C>(
+    numpy::PyArrayLikeDyn<'py, T, AllowTypeChange>,
+    std::marker::PhantomData<C>,
+);
+
+impl<'py, T: Element, C> std::ops::Deref for PyArrayLikeDyn<'py, T, C> {
+    type Target = numpy::PyArrayLikeDyn<'py, T, AllowTypeChange>;
+
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl<'py, C> FromPyObject<'_, 'py> for PyArrayLikeDyn<'py, f64, C> {
+    type Error = PyErr;
+
+    fn extract(ob: Borrowed<'_, 'py, PyAny>) -> PyResult<Self> {
+        let py = ob.py();
+        let array = if ob.cast::<PyUntypedArray>().is_ok() {
+            ob.to_owned()
+        } else {
+            py.import("numpy")?.call_method1("asarray", (ob,))?
+        };
+        let dtype = array.cast::<PyUntypedArray>()?.dtype();
+        let holds = match dtype.kind() {
+            b'U' | b'S' => "strings",
+            b'c' => "complex numbers",
+            _ => {
+                return numpy::PyArrayLikeDyn::extract(array.as_borrowed())
+                    .map(|inner| Self(inner, std::marker::PhantomData));
+            }
+        };
+        Err(array_type_error(
+            py,
+            format!("an array of {holds} (dtype {dtype}) where real numbers are expected"),
+        ))
+    }
+}
 
 /// Rows of equal width read from a 1-D (one row) or 2-D (n rows) array,
 /// row-major: the array's own memory when it is C-contiguous, else a copy.

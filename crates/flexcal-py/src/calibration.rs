@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CancelToken, CrossCheck,
     ErrorStatistics as Stats, FrameTreatment, GravityCompliance, Method, SelectionMethod,
@@ -12,7 +13,7 @@ use flexcal::calib::{
 };
 use flexcal::kinematics::Model;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -381,6 +382,26 @@ pub struct CalibrationResult {
     /// The options of the identified (selected) model, for the checks that
     /// identify it again.
     options: Arc<CalibrationOptions>,
+}
+
+impl CalibrationResult {
+    /// The result of a calibration run of the facade (a campaign's), the
+    /// robot `nominal`, calibrated as `calibrated`.
+    pub(crate) fn from_run(
+        run: flexcal::calibration::CalibrationRun,
+        nominal: Arc<Model>,
+        calibrated: Robot,
+    ) -> Self {
+        Self {
+            calibration: Arc::new(run.calibration),
+            nominal,
+            calibrated,
+            selection: run.selection.map(Arc::new),
+            station_hold_out: Arc::new(run.station_hold_out),
+            split: run.split.map(Arc::new),
+            options: Arc::new(run.options),
+        }
+    }
 }
 
 #[pymethods]

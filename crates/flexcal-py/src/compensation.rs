@@ -6,12 +6,13 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::compensation::{
     CommandedPath as Commanded, CompensationSetup, ElasticSpec, ProcessSpec, compensate_path_file,
     default_start_joints, load_elastic,
 };
 use nalgebra::Vector6;
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 
 use crate::arrays::{exact, to_numpy};

@@ -120,7 +120,43 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FuzzyModelError", py.get_type::<FuzzyModelError>())?;
     m.add("StructureError", py.get_type::<StructureError>())?;
     m.add("InternalError", py.get_type::<InternalError>())?;
+    m.add("ArrayTypeError", array_type_error_class(py)?)?;
     Ok(())
+}
+
+/// `flexcal.ArrayTypeError`, an `InputError` and a `TypeError`: an array
+/// argument holds strings or complex numbers where real numbers are
+/// expected. Made with Python's `type` (an exception class of two bases).
+fn array_type_error_class(py: Python<'_>) -> PyResult<&Bound<'_, pyo3::types::PyType>> {
+    static CLASS: pyo3::sync::PyOnceLock<Py<pyo3::types::PyType>> = pyo3::sync::PyOnceLock::new();
+    CLASS
+        .get_or_try_init(py, || {
+            let namespace = pyo3::types::PyDict::new(py);
+            namespace.set_item("__module__", "flexcal")?;
+            namespace.set_item(
+                "__doc__",
+                "An array argument holds strings or complex numbers where real numbers are expected.",
+            )?;
+            let bases = (
+                py.get_type::<InputError>(),
+                py.get_type::<pyo3::exceptions::PyTypeError>(),
+            );
+            Ok::<_, PyErr>(
+                py.get_type::<pyo3::types::PyType>()
+                    .call1(("ArrayTypeError", bases, namespace))?
+                    .cast_into::<pyo3::types::PyType>()?
+                    .unbind(),
+            )
+        })
+        .map(|class| class.bind(py))
+}
+
+/// A `flexcal.ArrayTypeError` with `message`.
+pub fn array_type_error(py: Python<'_>, message: String) -> PyErr {
+    match array_type_error_class(py) {
+        Ok(class) => PyErr::from_type(class.clone(), message),
+        Err(e) => e,
+    }
 }
 
 /// A failure of a computation that may run without the GIL (in a worker
@@ -240,7 +276,8 @@ pub fn facade_error(e: &flexcal::Error) -> PyErr {
         flexcal::Error::UnknownRobot { .. } => UnknownRobotError::new_err(message),
         flexcal::Error::RobotFormat { .. }
         | flexcal::Error::Io(_)
-        | flexcal::Error::Json { .. } => FileError::new_err(message),
+        | flexcal::Error::Json { .. }
+        | flexcal::Error::Campaign { .. } => FileError::new_err(message),
         flexcal::Error::RobotBuild { source, .. } => kinematics_error_with(source, message),
         flexcal::Error::InvalidParameter { .. } => InputError::new_err(message),
         flexcal::Error::Kinematics(e) => kinematics_error(e),

@@ -3,8 +3,9 @@
 
 use std::sync::Arc;
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::fuzzy::{Dataset, FuzzyModel as Model, FuzzyParams};
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 
 use crate::arrays::{exact, to_numpy};

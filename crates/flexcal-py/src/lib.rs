@@ -25,6 +25,7 @@
 mod accuracy;
 mod arrays;
 mod calibration;
+mod campaign;
 mod checks;
 mod compensation;
 pub mod errors;
@@ -58,6 +59,7 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
+    m.add_class::<campaign::Campaign>()?;
     m.add_class::<targets::TargetMeasurementSet>()?;
     m.add_class::<targets::TargetCalibrationResult>()?;
     m.add_class::<targets::TargetValidationResult>()?;

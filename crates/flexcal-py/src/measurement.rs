@@ -3,9 +3,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{Measurement, MeasurementSet as Set};
 use nalgebra::Vector3;
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 
 use crate::arrays::{exact, to_numpy};

@@ -2,10 +2,10 @@
 //! ([`flexcal::plan::plan_campaign`]), returned as the plan's JSON parsed
 //! into Python dicts and lists (the fields of `CampaignPlan`, docs/planning.md).
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{CalibrationOptions, FrameTreatment};
 use flexcal::plan::{JointBox, PlanConfig, PoseSource, plan_campaign};
 use flexcal::pose_file::Located;
-use numpy::{AllowTypeChange, PyArrayLikeDyn};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -4,13 +4,14 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::kinematics::{
     Data, ImportedRobot, InverseOptions, InverseTarget, KinematicsError as KinError, Model,
     ParamKind, RobotDescription, SerialChain, builtin_robot_names, forward_frame_pose,
     forward_pose, inverse_pose, joint_jacobian_into, param_jacobian_into,
 };
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn, PyArrayMethods};
+use numpy::{PyArrayDyn, PyArrayMethods};
 use pyo3::prelude::*;
 
 use crate::arrays::{Rows, exact, rows, to_numpy};

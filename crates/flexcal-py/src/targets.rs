@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
     CalibrationOptions, CancelToken, CrossCheck, FrameTreatment, SplitCheck, Target,
     TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
@@ -13,7 +14,7 @@ use flexcal::calib::{
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
 use nalgebra::Vector3;
-use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn};
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 

@@ -129,6 +129,18 @@ pub enum Error {
     /// Reading or writing files.
     #[error(transparent)]
     Io(#[from] flexcal_io::IoError),
+    /// A campaign file (or a report's embedded campaign) that cannot be
+    /// used: an unknown key, a value of the wrong type, an input file that
+    /// does not exist, a setting out of its range.
+    #[error("{origin}: {key}: {message}")]
+    Campaign {
+        /// The file, with `:line` when the parser knows it.
+        origin: String,
+        /// The key (`model.method`, `data.files[1]`).
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A JSON file that does not parse or a value that does not serialise.
     #[error("{context}: {source}")]
     Json {
@@ -147,7 +159,10 @@ impl Error {
     pub fn is_usage(&self) -> bool {
         matches!(
             self,
-            Self::InvalidParameter { .. } | Self::UnknownRobot { .. } | Self::RobotFormat { .. }
+            Self::InvalidParameter { .. }
+                | Self::UnknownRobot { .. }
+                | Self::RobotFormat { .. }
+                | Self::Campaign { .. }
         )
     }
 }

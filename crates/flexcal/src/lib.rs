@@ -54,6 +54,7 @@
 //! as a self-contained HTML page ([`report`]).
 
 pub mod calibration;
+pub mod campaign;
 pub mod compensation;
 mod error;
 pub mod forming;

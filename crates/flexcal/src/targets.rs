@@ -500,12 +500,17 @@ impl TargetCalibrationRun {
     /// # Errors
     /// [`Error::Calib`] when serialisation fails.
     pub fn to_json_string(&self) -> Result<String> {
-        #[derive(Serialize)]
-        struct WithSummary<'a> {
-            summary: calib::TargetSummaryJson,
-            #[serde(flatten)]
-            run: &'a TargetCalibrationRun,
-        }
+        serde_json::to_string_pretty(&self.json()).map_err(|e| {
+            Error::Calib(calib::CalibError::Serialise {
+                what: "multi-target calibration",
+                message: e.to_string(),
+            })
+        })
+    }
+
+    /// What [`TargetCalibrationRun::to_json_string`] writes, to be
+    /// serialised (or flattened into a larger document).
+    pub fn json(&self) -> TargetRunJson<'_> {
         let summary = calib::TargetSummaryJson::new(
             &self.calibration,
             self.validation
@@ -513,13 +518,18 @@ impl TargetCalibrationRun {
                 .zip(self.validation_set.as_ref())
                 .map(|(v, set)| (v, set.len())),
         );
-        serde_json::to_string_pretty(&WithSummary { summary, run: self }).map_err(|e| {
-            Error::Calib(calib::CalibError::Serialise {
-                what: "multi-target calibration",
-                message: e.to_string(),
-            })
-        })
+        TargetRunJson { summary, run: self }
     }
+}
+
+/// The JSON document of a multi-target run: its `summary`, then the run.
+#[derive(Debug, Serialize)]
+pub struct TargetRunJson<'a> {
+    /// Figures in the units and counts of the one-target report.
+    pub summary: calib::TargetSummaryJson,
+    /// The run itself (SI units).
+    #[serde(flatten)]
+    pub run: &'a TargetCalibrationRun,
 }
 
 #[cfg(test)]

@@ -17,8 +17,10 @@ library's one-line message. See docs/python.md in the repository.
 
 from ._flexcal import (
     AccuracyResult,
+    ArrayTypeError,
     CalibrationError,
     CalibrationResult,
+    Campaign,
     CommandedPath,
     CrossCheckResult,
     ErrorStatistics,
@@ -58,8 +60,10 @@ from ._flexcal import (
 
 __all__ = [
     "AccuracyResult",
+    "ArrayTypeError",
     "CalibrationError",
     "CalibrationResult",
+    "Campaign",
     "CommandedPath",
     "CrossCheckResult",
     "ErrorStatistics",

@@ -27,6 +27,11 @@ class ShapeError(InputError):
 class NotFiniteError(InputError):
     """An input value is NaN or infinite (the message names the index)."""
 
+class ArrayTypeError(InputError, TypeError):
+    """An array argument holds strings or complex numbers where real numbers
+    are expected; the argument's name is in the exception's note
+    (``while processing 'q'``)."""
+
 class UnknownRobotError(InputError):
     """No built-in robot has this name."""
 
@@ -536,6 +541,33 @@ def calibrate(
     max_se_compliance: absolute standard-error limit of the compliances (rad/N.m, default 1e-3).
     min_compliance_z: a compliance is kept when its value is at least this many standard errors (default 2).
     noise: the instrument's noise per position axis (m); default from the file or the fit."""
+
+class Campaign:
+    """A calibration campaign: everything one `flexcal calibrate` run takes
+    (robot, measurement files per station, model, checks, validation set,
+    outputs), read from a campaign file (docs/file-formats.md) or from the
+    `config` section of a JSON report."""
+
+    @staticmethod
+    def read(path: StrPath) -> Campaign:
+        """Reads a campaign file (TOML), paths relative to its folder; raises
+        FileError naming the file and the key (unknown key, wrong type, an
+        input file that does not exist)."""
+    @staticmethod
+    def from_report(path: StrPath) -> Campaign:
+        """Reads the campaign a JSON report carries (`config`), paths relative to the report."""
+    @property
+    def data(self) -> list[str]:
+        """The measurement files, one per station, as the program opens them."""
+    def to_toml(self, folder: Optional[StrPath] = None) -> str:
+        """The campaign file's text, paths relative to `folder` (default: the working directory)."""
+    def write(self, path: StrPath) -> None:
+        """Writes the campaign file (atomically), paths relative to its folder."""
+    def run(self, write_outputs: bool = True) -> CalibrationResult:
+        """Runs the campaign as `flexcal calibrate --config` does and returns what
+        `calibrate` returns; with `write_outputs` the files of its [outputs]
+        table are written too. A campaign with several targets per pose
+        raises InputError (use `calibrate_targets`)."""
 
 class TargetMeasurementSet:
     """Measured poses of several targets: q (rad, m) and, per target, its position (m)

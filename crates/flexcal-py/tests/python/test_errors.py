@@ -83,3 +83,36 @@ def test_missing_files(tmp_path):
         flexcal.MeasurementSet.read_csv(tmp_path / "absent.csv")
     with pytest.raises(flexcal.StructureError):
         flexcal.Structure.from_file(tmp_path / "absent.toml")
+
+
+@pytest.mark.parametrize(
+    "bad, holds",
+    [
+        (np.array([["0.1"] * 6]), "strings"),
+        ([["a", "b", "c", "d", "e", "f"]], "strings"),
+        (np.array([b"1"] * 6), "strings"),
+        (np.zeros(6) + 0.5j, "complex numbers"),
+        ([0.1, 0.2, 0.3, 0.4, 0.5, 1j], "complex numbers"),
+    ],
+)
+def test_strings_and_complex_arrays_are_refused_by_name(ur10, bad, holds):
+    with pytest.raises(flexcal.ArrayTypeError) as error:
+        ur10.fk(bad)
+    assert isinstance(error.value, flexcal.InputError)
+    assert isinstance(error.value, TypeError)
+    message = str(error.value)
+    assert f"an array of {holds}" in message and "real numbers are expected" in message, message
+    # The argument's name, in the note tracebacks show (Python 3.11+).
+    if hasattr(error.value, "__notes__"):
+        assert any("'q'" in note for note in error.value.__notes__), error.value.__notes__
+
+
+def test_the_array_check_names_each_argument(ur10):
+    q = np.zeros(6)
+    with pytest.raises(flexcal.ArrayTypeError) as error:
+        ur10.fk(q, xi=ur10.nominal.astype(complex))
+    if hasattr(error.value, "__notes__"):
+        assert any("'xi'" in note for note in error.value.__notes__), error.value.__notes__
+    # Real arrays of any real dtype, lists and scalars still convert.
+    np.testing.assert_allclose(ur10.fk([0, 0, 0, 0, 0, 0]), ur10.fk(np.zeros(6, dtype=np.float32)))
+    np.testing.assert_allclose(ur10.fk(np.zeros(6, dtype=int)), ur10.fk(q))
