@@ -15,7 +15,7 @@ use crate::calib::{
 };
 use crate::calibration::html::{
     calibration_page, check_sections, data_checks_section, errors_chart, statistics_row,
-    unknowns_section,
+    statistics_table, unknowns_section,
 };
 use crate::calibration::text::{
     coverage_line, cross_check_text, data_check_notes, extrapolation_line, split_check_text,
@@ -455,9 +455,10 @@ impl TargetCalibrationRun {
         if let Some(v) = &self.validation {
             push("validation", &v.per_target_before, &v.per_target_after);
         }
-        section.table(
-            "Position error of each target (mm), measurement frame fitted for the nominal robot",
-            &["set, target, robot", "count", "mean", "RMS", "max"],
+        statistics_table(
+            &mut section,
+            "Error of each target (position mm, orientation deg where measured), measurement frame fitted for the nominal robot",
+            "set, target, robot",
             rows,
         );
         let (name, set, errors) = match (&self.validation, &self.validation_set) {
@@ -540,7 +541,7 @@ mod tests {
 
     use super::*;
     use crate::calib::{CalibrationOptions, TargetObservation, TargetPose};
-    use crate::kinematics::{Data, RobotDescription, forward_frame_pose};
+    use crate::kinematics::{Data, Model, RobotDescription, forward_frame_pose};
 
     fn calib_data(name: &str) -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -549,10 +550,9 @@ mod tests {
     }
 
     /// The two-armed robot measured at its nominal geometry in its base
-    /// frame: the run's text names the robot and the file, and its outputs
-    /// are the description and the report (per-pose residuals refused).
-    #[test]
-    fn the_summary_names_the_file_and_the_outputs_are_written() {
+    /// frame, each hand's marker seen at 40 poses (and its orientation,
+    /// `oriented`), written to `dir`; the run's configuration.
+    fn two_arm_markers(dir: &std::path::Path, oriented: bool) -> (Model, CalibrationConfig) {
         let robot = RobotDescription::from_toml_file(&calib_data("two_arms.toml"))
             .unwrap()
             .build()
@@ -577,8 +577,12 @@ mod tests {
                         let point =
                             Isometry3::from_parts(Translation3::from(t.offset), Default::default());
                         let frame = robot.frame_index(&t.frame).unwrap();
-                        let x = forward_frame_pose(&robot, &mut data, &q, xi, frame, &point);
-                        Some(TargetObservation::new(x.unwrap().translation.vector))
+                        let x =
+                            forward_frame_pose(&robot, &mut data, &q, xi, frame, &point).unwrap();
+                        Some(TargetObservation {
+                            orientation: oriented.then(|| calib::vector_from_rotation(&x.rotation)),
+                            ..TargetObservation::new(x.translation.vector)
+                        })
                     })
                     .collect();
                 TargetPose {
@@ -588,8 +592,7 @@ mod tests {
                 }
             })
             .collect();
-        let dir = tempfile::tempdir().unwrap();
-        let measurements = dir.path().join("markers.csv");
+        let measurements = dir.join("markers.csv");
         TargetMeasurementSet::new("nominal", targets, poses)
             .unwrap()
             .write_csv(&measurements)
@@ -598,6 +601,67 @@ mod tests {
             targets: Some(targets_file),
             ..CalibrationConfig::new(&measurements, CalibrationOptions::for_model(&robot))
         };
+        (robot, config)
+    }
+
+    /// Markers with orientations: their orientation errors are in the
+    /// report's per-target figures (deg), in each observation's error and
+    /// on the page.
+    #[test]
+    fn orientations_of_several_targets_appear_in_the_report_and_the_page() {
+        let dir = tempfile::tempdir().unwrap();
+        let (robot, config) = two_arm_markers(dir.path(), true);
+        let run = run_target_calibration(&robot, &config).unwrap();
+        for target in &run.calibration.per_target_after {
+            let (_, rms, _) = target.statistics.orientation_mean_rms_max.unwrap();
+            assert!(rms < 1e-9, "{}: {rms:e} rad", target.target);
+        }
+        let outputs = CalibrationOutputs {
+            residuals: Some(dir.path().join("residuals.csv")),
+            accuracy_grid: None,
+            description: None,
+            report: Some(dir.path().join("report.json")),
+            html: Some(dir.path().join("report.html")),
+        };
+        run.write_outputs(&robot, &outputs).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+                .unwrap();
+        for entry in json["summary"]["identification"]["per_target"]
+            .as_array()
+            .unwrap()
+        {
+            assert!(
+                entry["orientation_rms_deg"].as_f64().unwrap() < 1e-6,
+                "{entry}"
+            );
+        }
+        let csv = std::fs::read_to_string(dir.path().join("residuals.csv")).unwrap();
+        assert!(
+            csv.lines()
+                .next()
+                .unwrap()
+                .ends_with(",orientation_error_deg"),
+            "{csv}"
+        );
+        let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+        for expected in [
+            "orientation mean (deg)",
+            "target.left.rx",
+            "target.right.rz",
+        ] {
+            assert!(page.contains(expected), "{expected} missing");
+        }
+    }
+
+    /// The two-armed robot measured at its nominal geometry in its base
+    /// frame: the run's text names the robot and the file, and its outputs
+    /// are the description and the report (per-pose residuals refused).
+    #[test]
+    fn the_summary_names_the_file_and_the_outputs_are_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let (robot, config) = two_arm_markers(dir.path(), false);
+        let measurements = config.data.clone();
         let run = run_target_calibration(&robot, &config).unwrap();
         let text = run.summary_text(&robot);
         assert!(

@@ -85,9 +85,10 @@ impl CalibrationRun {
             rows.push(statistics_row("validation, nominal", &v.before));
             rows.push(statistics_row("validation, calibrated", &v.after));
         }
-        section.table(
+        statistics_table(
+            &mut section,
             "Position error of the target (mm), measurement frame fitted for the nominal robot",
-            &["poses", "count", "mean", "RMS", "max"],
+            "poses",
             rows,
         );
         let (name, _, errors) = self.per_pose();
@@ -271,13 +272,38 @@ pub(crate) fn unknowns_section(
 
 /// A row of an errors table: count, mean, RMS and max (mm).
 pub(crate) fn statistics_row(label: &str, s: &ErrorStatistics) -> Vec<String> {
-    vec![
+    let mut row = vec![
         label.to_string(),
         s.n_poses.to_string(),
         format!("{:.4}", s.position_mean * 1e3),
         format!("{:.4}", s.position_rms * 1e3),
         format!("{:.4}", s.position_max * 1e3),
-    ]
+    ];
+    if let Some((mean, rms, max)) = s.orientation_mean_rms_max {
+        row.extend([mean, rms, max].map(|a| format!("{:.4}", a.to_degrees())));
+    }
+    row
+}
+
+/// A table of error statistics rows ([`statistics_row`]) under `caption`,
+/// the first column headed `label`: position mean, RMS and maximum (mm),
+/// and orientation ones (deg) when a row has them (`-` in the rows that
+/// do not).
+pub(crate) fn statistics_table(
+    section: &mut Section,
+    caption: &str,
+    label: &str,
+    mut rows: Vec<Vec<String>>,
+) {
+    let oriented = rows.iter().any(|r| r.len() > 5);
+    let mut header = vec![label, "count", "mean", "RMS", "max"];
+    if oriented {
+        header.extend(["orientation mean (deg)", "RMS (deg)", "max (deg)"]);
+        for row in &mut rows {
+            row.resize(8, "-".to_string());
+        }
+    }
+    section.table(caption, &header, rows);
 }
 
 /// The candidates of the model selection and the reasons of its steps.
