@@ -1,11 +1,11 @@
 //! Step 6 of the identification: the
 //! rank-revealing analysis and the solver rounds. Pivoted QR of the
-//! weighted stacked Jacobian (streamed, [`AnalysisContext::reduced`])
+//! weighted stacked Jacobian (streamed, `AnalysisContext::reduced`)
 //! decides which unknowns are exactly dependent on others (the paper's
 //! base parameters (11)) and which the noise leaves undetermined; the
 //! rounds solve the base set, estimate the noise again, check the joint
 //! terms' limits and judge the compliances on their own scale
-//! ([`crate::significance`]); [`unknown_estimates`] gives every unknown
+//! ([`crate::significance`]); `unknown_estimates` gives every unknown
 //! its status.
 
 use faer::Mat;
@@ -276,7 +276,7 @@ pub(crate) struct Rounds<'a> {
     pub partial_period: &'a [bool],
     /// Whether the row weights are absolute (the noise level is then 1).
     pub absolute: bool,
-    /// [`CalibrationOptions::require_full_rank`].
+    /// [`crate::CalibrationOptions::require_full_rank`].
     pub require_full_rank: bool,
     /// Number of unknowns not excluded.
     pub free_count: usize,
@@ -286,7 +286,7 @@ pub(crate) struct Rounds<'a> {
     /// The kind of every unknown (the compliances are judged on their own
     /// scale, [`crate::significance`]).
     pub kinds: &'a [UnknownKind],
-    /// [`CalibrationOptions::min_compliance_z`].
+    /// [`crate::CalibrationOptions::min_compliance_z`].
     pub min_compliance_z: f64,
 }
 

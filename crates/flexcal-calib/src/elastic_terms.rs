@@ -1,6 +1,6 @@
 //! The terms of the elasto-geometric model beyond geometry, shared by the
-//! one-target model ([`crate::GeometricErrorModel`]) and the multi-target
-//! one ([`crate::calibrate_targets`]): joint springs under gravity
+//! measurement model ([`crate::ErrorModel`]) of one target and of several
+//! alike: joint springs under gravity
 //! ([`crate::gravity`]), the payload, the lateral compliances, the joint
 //! law and the cyclic joint errors ([`crate::joint_law`]).
 //!

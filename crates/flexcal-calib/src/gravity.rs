@@ -49,7 +49,7 @@
 //! deflections of 0.3 mrad), and axes taken on the nominal geometry
 //! instead of the deflected one err by the product of a deflection and
 //! a geometric error (0.1 um for 0.1 mrad and 1 mm). The derivatives of
-//! this model are exact ([`crate::GeometricErrorModel`]).
+//! this model are exact ([`crate::ErrorModel`]).
 //!
 //! The rotation about the joint frame's y axis is not modelled: for
 //! perpendicular successive axes (`alpha = +-90 deg`) it is a rotation about

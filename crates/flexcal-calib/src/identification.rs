@@ -4,17 +4,17 @@
 //! 1. settings checked ([`crate::options`]);
 //! 2. frames started ([`crate::start`]): each station's measurement frame
 //!    registered, each target's orientation from the data;
-//! 3. the unknowns laid out ([`Layout`]): which are fixed, which cannot
+//! 3. the unknowns laid out (`Layout`): which are fixed, which cannot
 //!    move anything (a station or target without observations, a rotation
 //!    without orientations), their pivoting priorities;
-//! 4. the rows weighted ([`row_weights`]): `1/sigma` per axis from the
+//! 4. the rows weighted (`row_weights`): `1/sigma` per axis from the
 //!    instrument's stated noise, the file's deviations or the defaults;
 //! 5. the frames alone fitted on the nominal robot (the "before");
 //! 6. the rank-revealing analysis and the solver rounds
 //!    ([`crate::analysis`]): exact dependencies, the base set at the noise
 //!    level, the joint terms' limits, the compliances on their own scale
 //!    ([`crate::significance`]);
-//! 7. the statistics ([`Identification`]): combinations (C.1), spread
+//! 7. the statistics (`Identification`): combinations (C.1), spread
 //!    ratios ([`crate::spread`]), every unknown's status, the noise used,
 //!    the errors before and after.
 

@@ -34,6 +34,39 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## The pipeline
+//! One identification, for one target and for several
+//! ([`identification`]); each step in the module named for it:
+//!
+//! 1. **Settings** ([`options`]): [`CalibrationOptions`], checked by name.
+//! 2. **Measurements** ([`targets`], [`measurement`]): an observation is a
+//!    target (a named frame of the robot with an offset) seen at a pose,
+//!    with its position and, where the target carries one, its
+//!    orientation, each with its standard deviation; observations are
+//!    grouped by pose and by station. The one-target files (flexcal's CSV,
+//!    the IPA export) read into [`MeasurementSet`], one target `tcp` on the
+//!    TCP ([`TargetMeasurementSet::from_measurement_set`]); several targets
+//!    into [`TargetMeasurementSet`].
+//! 3. **Measurement model** ([`error_model`]): [`ErrorModel`], the stacked
+//!    residuals and their exact Jacobian, with the elasto-geometric terms
+//!    ([`gravity`], [`joint_law`]).
+//! 4. **Starting frames** ([`start`]): each station's measurement frame
+//!    registered in closed form, each target's orientation from the data.
+//! 5. **Identification** ([`identification`]): the unknowns laid out, the
+//!    rows weighted, the frames fitted on the nominal robot, then the
+//!    rank-revealing analysis and the solver rounds ([`mod@analysis`]:
+//!    pivoted QR, noise-aware base set, joint-term limits,
+//!    compliances on their own scale, [`significance`]), the statistics
+//!    ([`unknowns`], [`spread`]).
+//! 6. **Results**: [`calibrate`] packs one target's into [`Calibration`]
+//!    ([`identify`]), [`calibrate_targets`] several targets' into
+//!    [`TargetCalibration`] ([`identify_targets`]).
+//! 7. **Checks and reports**: validation ([`validate`],
+//!    [`validate_targets`]), data checks ([`screen`]), split-half
+//!    ([`split`]), cross-series ([`cross`]), station hold-out ([`holdout`]),
+//!    predicted accuracy ([`accuracy`]), model selection ([`selection`]),
+//!    the JSON report ([`report`]).
+//!
 //! ## Measurement model
 //! For pose k the target point (or frame) on the tool is seen in the
 //! measurement frame M: `x_meas_target = x_meas_base(tau) * FK(q_k, xi) *
@@ -46,8 +79,8 @@
 //! fixed ([`FrameTreatment`]), any parameter masked ([`CalibrationOptions::fixed`]).
 //! With orientations used and the target free, the target's rotation starts
 //! from the data, the mean over the poses of the rotation each implies
-//! ([`error_model::register_target_rotation`]), as the measurement frame
-//! starts from a registration of the positions.
+//! ([`start`]), as the measurement frame starts from a registration of the
+//! positions.
 //! Residuals are `predicted - measured` positions (m) and rotation vectors
 //! `log(R_pred R_meas^T)` (rad), weighted by `1/sigma` per axis.
 //!
@@ -70,11 +103,12 @@
 //! reflectors on a tool, a probe on a link), possibly occluded on some
 //! poses; its files are the CSV above with `<target>_x_mm..` columns and a
 //! TOML targets description ([`targets`]). [`calibrate_targets`] stacks the
-//! position residuals of every target on every pose, each with the
+//! residuals of every target on every pose, positions and, for a target
+//! with orientations (`<target>_rx_deg..`), rotations, each with the
 //! parameter Jacobian of its own frame
 //! ([`flexcal_kinematics::frame_param_jacobian`]), and identifies the robot,
-//! the measurement frame and the offsets `target.<name>.x|y|z` in one
-//! identification, with the identifiability analysis below
+//! the measurement frame and the offsets `target.<name>.x|y|z|rx|ry|rz` in
+//! one identification (the same as for one target), with the identifiability analysis below
 //! ([`TargetCalibration::identifiability_notes`] names what the targets
 //! cannot see: the other branch of a tree when its marker is missing, a
 //! marker's offset along its hand's axis against the hand frame's `r`).
@@ -246,8 +280,6 @@
 //!   weighting by them ([`Weighting::FromFile`]) over-trusts some poses; the
 //!   command line uses uniform weights for that format.
 //! - The whole stacked Jacobian is dense (fine for thousands of poses).
-//! - Several targets: positions only (orientation columns are read, not
-//!   fitted), Levenberg-Marquardt only.
 //! - Several stations share one target offset: a probe remounted between
 //!   campaigns is refused, not modelled; with the frames fixed
 //!   ([`FrameTreatment::Fixed`]) every station's frame is the identity.
@@ -263,7 +295,7 @@
 #![deny(missing_docs)]
 
 pub mod accuracy;
-mod analysis;
+pub mod analysis;
 pub mod coverage;
 pub mod cross;
 mod elastic_terms;

@@ -1,7 +1,7 @@
 //! Step 1 of the identification: its settings,
 //! [`CalibrationOptions`], with the solver ([`Method`]), the weighting
 //! ([`Weighting`]) and whether each frame is identified
-//! ([`FrameTreatment`]); [`CalibrationOptions::check`] refuses values out
+//! ([`FrameTreatment`]); their check refuses values out
 //! of range by name.
 
 use flexcal_kinematics::Model;
@@ -47,7 +47,7 @@ pub enum FrameTreatment {
     Fixed,
 }
 
-/// Settings of [`calibrate`]. Defaults suit a laser tracker or photogrammetry
+/// Settings of [`crate::calibrate`]. Defaults suit a laser tracker or photogrammetry
 /// campaign of a few tens to thousands of poses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationOptions {
@@ -86,11 +86,11 @@ pub struct CalibrationOptions {
     /// Relative rank tolerance of the pivoted QR of the stacked Jacobian, its
     /// columns scaled by their norms (default 1e-4: a column within 0.006 deg
     /// of the span of the others is taken as dependent; range (0, 1)).
-    /// Unknowns beyond this rank are [`UnknownStatus::NonIdentifiable`].
+    /// Unknowns beyond this rank are [`crate::UnknownStatus::NonIdentifiable`].
     pub rank_tolerance: f64,
     /// Noise-aware rank: a length unknown that could only be identified with a
     /// standard error above this limit is not identified but kept at its
-    /// starting value, [`UnknownStatus::PoorlyIdentifiable`] (m; default
+    /// starting value, [`crate::UnknownStatus::PoorlyIdentifiable`] (m; default
     /// 5e-3, several times the geometric errors of a machined robot: above it
     /// the data say nothing about the parameter; `> 0`).
     pub max_standard_error_length: f64,
@@ -106,9 +106,9 @@ pub struct CalibrationOptions {
     /// A compliance is kept when the data determine it on its own scale
     /// (the larger of its fitted value and its start): that scale at least
     /// this many standard errors (default 2; `> 0`). Below, it goes back
-    /// to its starting value, [`UnknownStatus::PoorlyIdentifiable`]; a
+    /// to its starting value, [`crate::UnknownStatus::PoorlyIdentifiable`]; a
     /// determined compliance the fit puts below zero by more than its
-    /// standard error is held at zero, [`UnknownStatus::AtBound`]
+    /// standard error is held at zero, [`crate::UnknownStatus::AtBound`]
     /// ([`crate::significance`]).
     pub min_compliance_z: f64,
     /// A joint whose gravity torque spans less than this share of the most
@@ -131,7 +131,7 @@ pub struct CalibrationOptions {
     /// 0.5 mrad of deflection is left linear; `> 0`).
     pub max_standard_error_hardening: f64,
     /// Compute each identified unknown's spread ratio
-    /// ([`UnknownEstimate::spread_ratio`]; default true). Off, the ratios
+    /// ([`crate::UnknownEstimate::spread_ratio`]; default true). Off, the ratios
     /// are `None` and the identification is faster (model selection's
     /// fold fits need no ratios).
     pub spread_reference: bool,

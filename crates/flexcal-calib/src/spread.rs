@@ -18,7 +18,7 @@ use crate::options::CalibrationOptions;
 use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
 
 /// Most poses drawn for the spread reference of
-/// [`UnknownEstimate::spread_ratio`] (its standard errors are rescaled to the
+/// [`crate::UnknownEstimate::spread_ratio`] (its standard errors are rescaled to the
 /// number of identification poses).
 pub const SPREAD_REFERENCE_POSES: usize = 256;
 /// Seed of the spread reference's draws: the same data give the same report.
@@ -210,7 +210,7 @@ pub(crate) fn spread_configurations(
     (drawn.len() == count).then_some(drawn)
 }
 
-/// [`UnknownEstimate::spread_ratio`] of each unknown of `identified`: the
+/// [`crate::UnknownEstimate::spread_ratio`] of each unknown of `identified`: the
 /// square root of its unit-noise variance `training` over the one of the
 /// reference's reduced factor `spread`, the reference's scaled by `scale`
 /// (its poses over the identification's: covariances go as 1 / poses).

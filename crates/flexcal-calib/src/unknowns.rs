@@ -16,7 +16,7 @@ pub enum UnknownStatus {
     /// its starting value, its effect absorbed by the identified combinations.
     NonIdentifiable,
     /// Identifiable in principle but its standard error would exceed the
-    /// limit of [`CalibrationOptions`]; kept at its starting value.
+    /// limit of [`crate::CalibrationOptions`]; kept at its starting value.
     PoorlyIdentifiable,
     /// Has no influence on what is measured (e.g. target rotation without
     /// measured orientation); kept at its starting value.
