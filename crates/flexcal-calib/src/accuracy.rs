@@ -45,14 +45,15 @@ use nalgebra::{DMatrix, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+use crate::error::CalibError;
 use crate::identify::Calibration;
 use crate::identify_targets::{TargetCalibration, TargetValidation, validate_targets};
+use crate::measurement::{Measurement, MeasurementSet};
 use crate::prediction::{Predicting, covariance_of, covariance_size};
 use crate::split::SplitCheck;
 use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
 use crate::unknowns::UnknownStatus;
 use crate::validate::ValidationReport;
-use crate::{CalibError, Measurement, MeasurementSet};
 
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;

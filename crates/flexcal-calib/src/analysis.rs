@@ -15,7 +15,7 @@ use flexcal_optim::{
     analyze_identifiability,
 };
 
-use crate::CalibError;
+use crate::error::CalibError;
 use crate::error_model::{ErrorModel, UnknownKind};
 use crate::significance::{Judging, ScaleJudgement, ScaleOutcome, Solve, judge_compliances};
 use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};

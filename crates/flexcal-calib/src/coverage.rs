@@ -23,7 +23,7 @@
 use flexcal_kinematics::{ActuatedKind, Model};
 use serde::{Deserialize, Serialize};
 
-use crate::MeasurementSet;
+use crate::measurement::MeasurementSet;
 
 /// The values of one coordinate that a set of poses covers: the interval
 /// `[lo, hi]` for a non-periodic coordinate, the arc from `lo` to `hi`

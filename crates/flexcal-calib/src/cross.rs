@@ -27,8 +27,10 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
+use crate::error::CalibError;
 use crate::identify::Calibration;
 use crate::identify_targets::TargetCalibration;
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
 use crate::prediction::Predicting;
 use crate::selection::Selectable;
@@ -37,7 +39,6 @@ use crate::split::{
 };
 use crate::targets::TargetMeasurementSet;
 use crate::unknowns::UnknownStatus;
-use crate::{CalibError, MeasurementSet};
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard
 /// normal `z` the probability is 0.27 %.

@@ -13,7 +13,7 @@
 use flexcal_kinematics::Model;
 use nalgebra::{Matrix6xX, UnitQuaternion, Vector3, Vector6};
 
-use crate::CalibError;
+use crate::error::CalibError;
 use crate::geometry::{left_jacobian, rotation_from_vector};
 use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTerms};
 use crate::joint_law::{JointTerms, cyclic_basis, cyclic_joints, joint_deflection};
@@ -246,7 +246,7 @@ impl ElasticTerms {
 
     /// Span of each actuated coordinate's gravity torque over the `n_poses`
     /// poses, with the starting payload (N.m or N); empty when geometric.
-    pub(crate) fn torque_ranges(&self, n_poses: usize) -> Vec<crate::CoordinateCoverage> {
+    pub(crate) fn torque_ranges(&self, n_poses: usize) -> Vec<crate::coverage::CoordinateCoverage> {
         let Some((terms, initial)) = &self.gravity else {
             return Vec::new();
         };
@@ -262,7 +262,7 @@ impl ElasticTerms {
         }
         ranges
             .into_iter()
-            .map(|(lo, hi)| crate::CoordinateCoverage {
+            .map(|(lo, hi)| crate::coverage::CoordinateCoverage {
                 lo,
                 hi,
                 period: None,

@@ -19,8 +19,8 @@ use flexcal_kinematics::{Data, Model, ParamKind, forward_frames, frame_points_ja
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, UnitQuaternion, Vector3};
 
-use crate::CalibError;
 use crate::elastic_terms::{ElasticTerms, JointState};
+use crate::error::CalibError;
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
@@ -295,7 +295,7 @@ impl<'a> ErrorModel<'a> {
     /// As [`ErrorModel::new`].
     pub fn one_target(
         model: &'a Model,
-        set: &crate::MeasurementSet,
+        set: &crate::measurement::MeasurementSet,
         use_orientation: bool,
         x_meas_base: Isometry3<f64>,
         x_tcp_target: Isometry3<f64>,
@@ -495,7 +495,7 @@ impl<'a> ErrorModel<'a> {
     }
     /// Span of each actuated coordinate's gravity torque over the poses,
     /// with the starting payload (N.m or N); empty when geometric.
-    pub fn torque_ranges(&self) -> Vec<crate::CoordinateCoverage> {
+    pub fn torque_ranges(&self) -> Vec<crate::coverage::CoordinateCoverage> {
         self.elastic.torque_ranges(self.set.len())
     }
     /// Whether [`Jacobian::jacobian`] computes the robot-parameter and

@@ -2,7 +2,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-use crate::CalibError;
+use crate::error::CalibError;
 
 /// Skew-symmetric matrix `[v]x` with `[v]x w = v x w`.
 pub(crate) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {

@@ -70,7 +70,9 @@ use nalgebra::{Matrix6xX, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use crate::{CalibError, MeasurementSet};
+use crate::error::CalibError;
+
+use crate::measurement::MeasurementSet;
 
 /// Standard gravity (m/s^2).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;

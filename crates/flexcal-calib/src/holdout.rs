@@ -11,11 +11,12 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
+use crate::error::CalibError;
+use crate::measurement::MeasurementSet;
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::selection::{Selectable, SelectionOptions, calibrate_selected_in};
 use crate::targets::TargetMeasurementSet;
-use crate::{CalibError, MeasurementSet};
 
 /// One station held out.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -28,12 +28,12 @@ use flexcal_optim::{
 };
 use nalgebra::Vector3;
 
-use crate::CalibError;
 use crate::analysis::{
     AnalysisContext, NoiseAt, Rounds, RoundsOutcome, UnknownFlags, analysis_index, noise_level,
     unknown_estimates,
 };
 use crate::coverage::CoordinateCoverage;
+use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts, UnknownKind};
 use crate::metrics::PoseError;
 use crate::options::{

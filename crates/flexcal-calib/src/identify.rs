@@ -8,8 +8,8 @@ use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{IdentifiabilityReport, SolveReport};
 use nalgebra::Isometry3;
 
-use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
+use crate::error::CalibError;
 use crate::error_model::UnknownKind;
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, ResidualNorms, identify};

@@ -41,14 +41,14 @@ use flexcal_optim::{
 use nalgebra::{DMatrix, Isometry3, Vector3};
 use serde::Serialize;
 
-use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
+use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, identify};
 use crate::identify::{combination_lines, elastic_notes, is_elastic_unknown, weak_spread_note};
 use crate::joint_law::JointTerms;
-use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::metrics::{ErrorStatistics, ObservationError, PoseError, error_statistics};
 use crate::options::{CalibrationOptions, FrameTreatment};
 use crate::prediction::{
     Linearised, Observed, Predicting, jacobian_and_residuals, residual_variance,
@@ -67,21 +67,6 @@ pub struct TargetErrors {
     pub frame: String,
     /// Mean, RMS and maximum position error (m) over its observations.
     pub statistics: ErrorStatistics,
-}
-
-/// The error of one observation: a target at a pose.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ObservationError {
-    /// The pose's label (`pose_id`, or `#k` from its index).
-    pub pose: String,
-    /// The target's name.
-    pub target: String,
-    /// Measured minus predicted position, in the measurement frame (m).
-    pub error: Vector3<f64>,
-    /// Angle of the orientation error (rad), for a target whose
-    /// orientations are fitted.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_error: Option<f64>,
 }
 
 /// `pose,target,position_error_mm,dx_mm,dy_mm,dz_mm`, one row per

@@ -154,7 +154,7 @@ pub const PERIOD_COVERAGE: f64 = 0.9;
 /// for the second), taken as an arc of the period's circle.
 pub fn partial_period_mask(
     model: &Model,
-    set: &crate::MeasurementSet,
+    set: &crate::measurement::MeasurementSet,
     names: &[String],
 ) -> Vec<bool> {
     let q: Vec<&[f64]> = set.measurements().iter().map(|m| m.q.as_slice()).collect();
@@ -167,7 +167,7 @@ pub(crate) fn partial_period_mask_of(model: &Model, q: &[&[f64]], names: &[Strin
     // [`crate::coverage`]): a joint turning more than once may span a
     // period on the line and still leave most of the circle unseen.
     let covered = |i: usize, period: f64| {
-        crate::CoordinateCoverage::of(q.iter().map(|q| q[i]), Some(period)).length()
+        crate::coverage::CoordinateCoverage::of(q.iter().map(|q| q[i]), Some(period)).length()
     };
     let turn = 2.0 * std::f64::consts::PI;
     names

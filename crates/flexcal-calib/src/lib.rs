@@ -345,14 +345,14 @@ pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
 pub use identification::ResidualNorms;
 pub use identify::{Calibration, calibrate, combination_check};
 pub use identify_targets::{
-    ObservationError, TargetCalibration, TargetErrors, TargetValidation, calibrate_targets,
-    observation_errors_csv, target_position_errors, validate_targets,
+    TargetCalibration, TargetErrors, TargetValidation, calibrate_targets, observation_errors_csv,
+    target_position_errors, validate_targets,
 };
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{
     IPA_JOINT_COLUMNS, Measurement, MeasurementSet, PoseSet, read_configurations, read_transform_mm,
 };
-pub use metrics::{ErrorStatistics, PoseError, error_statistics};
+pub use metrics::{ErrorStatistics, ObservationError, PoseError, error_statistics};
 pub use options::{CalibrationOptions, FrameTreatment, IR663_PAPER_DEFERRED, Method, Weighting};
 pub use report::{
     CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ParameterJson, ResidualModelJson,

@@ -7,7 +7,7 @@ use std::path::Path;
 use flexcal_io::{CsvOptions, CsvTable, write_atomic};
 use nalgebra::{Isometry3, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 
-use crate::CalibError;
+use crate::error::CalibError;
 use crate::geometry::vector_from_rotation;
 
 /// One measured pose: the actuated coordinates and what the measurement

@@ -3,6 +3,7 @@
 //! errors), the data checks and validation.
 
 use nalgebra::Vector3;
+use serde::Serialize;
 
 /// Errors of one pose: position error norm (m) and orientation error angle
 /// (rad) when orientations are used.
@@ -58,4 +59,19 @@ pub fn error_statistics(errors: &[PoseError]) -> ErrorStatistics {
         position_max,
         orientation_mean_rms_max,
     }
+}
+
+/// The error of one observation: a target at a pose.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ObservationError {
+    /// The pose's label (`pose_id`, or `#k` from its index).
+    pub pose: String,
+    /// The target's name.
+    pub target: String,
+    /// Measured minus predicted position, in the measurement frame (m).
+    pub error: Vector3<f64>,
+    /// Angle of the orientation error (rad), for a target whose
+    /// orientations are fitted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_error: Option<f64>,
 }

@@ -7,7 +7,7 @@
 use flexcal_kinematics::Model;
 use nalgebra::Isometry3;
 
-use crate::CalibError;
+use crate::error::CalibError;
 use crate::gravity::GravityCompliance;
 use crate::joint_law::JointTerms;
 use crate::significance::{InstrumentNoise, MIN_TORQUE_SHARE};

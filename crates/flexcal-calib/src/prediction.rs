@@ -8,8 +8,8 @@ use nalgebra::{DMatrix, Isometry3, Vector3};
 
 use std::borrow::Cow;
 
-use crate::CalibError;
 use crate::coverage::CoordinateCoverage;
+use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::identify::Calibration;
 use crate::measurement::MeasurementSet;

@@ -5,7 +5,7 @@ use std::path::Path;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
-use crate::CalibError;
+use crate::error::CalibError;
 use crate::identify::Calibration;
 use crate::metrics::ErrorStatistics;
 use crate::screen::DataChecks;
@@ -115,7 +115,7 @@ impl TargetStatisticsJson {
         poses: usize,
         after: &ErrorStatistics,
         before: &ErrorStatistics,
-        per_target: &[crate::TargetErrors],
+        per_target: &[crate::identify_targets::TargetErrors],
     ) -> Self {
         Self {
             after: StatisticsJson::of_observations(after, poses),
@@ -135,8 +135,8 @@ impl TargetSummaryJson {
     /// The summary of a multi-target identification and its validation
     /// (with the number of poses of the validation set).
     pub fn new(
-        calibration: &crate::TargetCalibration,
-        validation: Option<(&crate::TargetValidation, usize)>,
+        calibration: &crate::identify_targets::TargetCalibration,
+        validation: Option<(&crate::identify_targets::TargetValidation, usize)>,
     ) -> Self {
         Self {
             identification: TargetStatisticsJson::new(
@@ -156,7 +156,7 @@ impl TargetSummaryJson {
 }
 
 /// Every unknown in display units, for the reports.
-pub fn parameters_json(unknowns: &[crate::UnknownEstimate]) -> Vec<ParameterJson> {
+pub fn parameters_json(unknowns: &[crate::unknowns::UnknownEstimate]) -> Vec<ParameterJson> {
     unknowns
         .iter()
         .map(|u| {
@@ -222,9 +222,9 @@ pub struct NoiseJson {
     pub orientation_std_deg: Option<f64>,
 }
 
-impl From<&crate::NoiseSource> for NoiseJson {
-    fn from(noise: &crate::NoiseSource) -> Self {
-        use crate::NoiseSource;
+impl From<&crate::significance::NoiseSource> for NoiseJson {
+    fn from(noise: &crate::significance::NoiseSource) -> Self {
+        use crate::significance::NoiseSource;
         match noise {
             NoiseSource::Instrument(i) => Self {
                 source: "instrument",
@@ -253,7 +253,7 @@ pub struct JudgementJson {
     /// Its standard error in that fit (`unit`; `null` when the fit gave none).
     pub standard_error: Option<f64>,
     /// `kept`, `left-out` or `at-bound`.
-    pub outcome: crate::ScaleOutcome,
+    pub outcome: crate::significance::ScaleOutcome,
 }
 
 /// The `identification` object.
@@ -472,13 +472,13 @@ pub struct CalibrationReportJson {
     pub residual_model: Option<ResidualModelJson>,
     /// The split-half check of the standard errors, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub split_check: Option<crate::SplitCheck>,
+    pub split_check: Option<crate::split::SplitCheck>,
     /// The cross-series check against the validation set, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub cross_check: Option<crate::CrossCheck>,
+    pub cross_check: Option<crate::cross::CrossCheck>,
     /// The model selection that chose the identified groups, when run.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub selection: Option<crate::SelectionReport>,
+    pub selection: Option<crate::selection::SelectionReport>,
     /// Each station held out in turn ([`crate::hold_out_stations`]), when
     /// asked for.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -501,8 +501,8 @@ pub struct StationHoldOutJson {
     pub before: StatisticsJson,
 }
 
-impl From<&crate::StationHoldOut> for StationHoldOutJson {
-    fn from(h: &crate::StationHoldOut) -> Self {
+impl From<&crate::holdout::StationHoldOut> for StationHoldOutJson {
+    fn from(h: &crate::holdout::StationHoldOut) -> Self {
         Self {
             station: h.station.clone(),
             chosen: h.chosen.clone(),
@@ -530,7 +530,7 @@ impl ResidualModelJson {
     /// `names`, and its validation.
     pub fn new(
         names: &[String],
-        residual: &crate::ResidualModel,
+        residual: &crate::residual::ResidualModel,
         validation: Option<&ValidationReport>,
     ) -> Self {
         Self {

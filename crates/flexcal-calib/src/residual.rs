@@ -12,11 +12,12 @@ use flexcal_fuzzy::{Dataset, FitReport, FuzzyModel, FuzzyParams};
 use flexcal_kinematics::Model;
 use nalgebra::Vector3;
 
+use crate::error::CalibError;
 use crate::identify::Calibration;
+use crate::measurement::{Measurement, MeasurementSet};
 use crate::metrics::error_statistics;
 use crate::screen::DataChecks;
 use crate::validate::ValidationReport;
-use crate::{CalibError, Measurement, MeasurementSet};
 
 /// Share of the identification poses held out (seeded) to choose the fuzzy
 /// structures; the conclusions are then fitted on the rest.

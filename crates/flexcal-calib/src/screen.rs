@@ -24,8 +24,11 @@ use std::collections::HashMap;
 
 use serde::Serialize;
 
+use crate::error::CalibError;
+use crate::measurement::MeasurementSet;
+use crate::metrics::ObservationError;
 use crate::metrics::PoseError;
-use crate::{CalibError, MeasurementSet, ObservationError, TargetMeasurementSet};
+use crate::targets::TargetMeasurementSet;
 
 /// A pose whose position error exceeds this many times the set's RMS
 /// position error is reported as suspect.
@@ -437,7 +440,7 @@ impl TargetMeasurementSet {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Measurement;
+    use crate::measurement::Measurement;
     use nalgebra::Vector3;
 
     fn set() -> MeasurementSet {
@@ -537,7 +540,7 @@ mod tests {
     /// Two targets, four unlabelled poses: target `a` reads the same at
     /// poses 0 and 2 (other coordinates), target `b` never repeats.
     fn target_set() -> TargetMeasurementSet {
-        use crate::{Target, TargetObservation, TargetPose};
+        use crate::targets::{Target, TargetObservation, TargetPose};
         let o = |p: [f64; 3]| Some(TargetObservation::new(Vector3::from(p)));
         let pose = |q: f64, a: [f64; 3], b: [f64; 3]| TargetPose {
             pose_id: None,

@@ -8,7 +8,7 @@ use flexcal_optim::{
 };
 use nalgebra::DMatrix;
 
-use crate::CalibError;
+use crate::error::CalibError;
 
 /// Result of [`select_calibration_poses`].
 #[derive(Debug, Clone, PartialEq)]

@@ -54,18 +54,19 @@ use flexcal_kinematics::{Model, Quantity};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
+use crate::error::CalibError;
 use crate::identify::{Calibration, calibrate};
 use crate::identify_targets::{
     TargetCalibration, calibrate_targets, target_position_errors, validate_targets,
 };
 use crate::joint_law::JointLaw;
+use crate::measurement::{MeasurementSet, PoseSet};
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::prediction::Predicting;
 use crate::targets::TargetMeasurementSet;
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
-use crate::{CalibError, MeasurementSet, PoseSet};
 
 /// What model selection needs of a set of measurements: each pose's
 /// configuration and station (for the folds), subsets of the poses, and
@@ -475,14 +476,14 @@ fn candidate_options(
     if !on(TermGroup::Compliances) {
         options.gravity = None;
     } else if !on(TermGroup::Payload) {
-        for name in crate::PAYLOAD_PARAMETER_NAMES {
+        for name in crate::gravity::PAYLOAD_PARAMETER_NAMES {
             if !options.fixed.iter().any(|f| f == name) {
                 options.fixed.push(name.to_string());
             }
         }
     }
     if let (false, Some(gravity)) = (on(TermGroup::LateralCompliances), &mut options.gravity) {
-        gravity.lateral = crate::LateralCompliance::Off;
+        gravity.lateral = crate::gravity::LateralCompliance::Off;
     }
     options.joint_terms.law = if on(TermGroup::JointLaw) && options.gravity.is_some() {
         Some(base.joint_terms.law.unwrap_or_default())
@@ -492,7 +493,7 @@ fn candidate_options(
     options.joint_terms.cyclic = on(TermGroup::CyclicErrors);
     // Fixed names of groups switched off must exist in the candidate.
     let allowed: Vec<String> = {
-        let mut names = crate::GravityCompliance::unknown_names(model);
+        let mut names = crate::gravity::GravityCompliance::unknown_names(model);
         names.extend(crate::gravity::lateral_compliance_names(model));
         names.extend(
             crate::joint_law::JointTerms {
@@ -533,7 +534,7 @@ fn available_groups(model: &Model, base: &CalibrationOptions) -> Vec<TermGroup> 
             groups.push(TermGroup::Payload);
         }
         groups.push(TermGroup::JointLaw);
-        if gravity.lateral != crate::LateralCompliance::Off {
+        if gravity.lateral != crate::gravity::LateralCompliance::Off {
             groups.push(TermGroup::LateralCompliances);
         }
     }
@@ -1262,7 +1263,7 @@ mod tests {
                             c + rng.random_range(-0.5..0.5)
                         })
                         .collect();
-                    crate::Measurement::new(q, nalgebra::Vector3::zeros())
+                    crate::measurement::Measurement::new(q, nalgebra::Vector3::zeros())
                 })
                 .collect();
             MeasurementSet::new(name, poses).unwrap()

@@ -47,7 +47,7 @@
 
 use serde::Serialize;
 
-use crate::CalibError;
+use crate::error::CalibError;
 use flexcal_optim::SolveReport;
 
 /// The measurement instrument's stated noise, one standard deviation per
@@ -128,7 +128,7 @@ impl std::fmt::Display for NoiseSource {
 pub const MIN_TORQUE_SHARE: f64 = 0.05;
 
 /// The largest magnitude of a torque span (N.m).
-pub(crate) fn torque_magnitude(span: &crate::CoordinateCoverage) -> f64 {
+pub(crate) fn torque_magnitude(span: &crate::coverage::CoordinateCoverage) -> f64 {
     span.lo.abs().max(span.hi.abs())
 }
 
@@ -140,7 +140,7 @@ pub(crate) fn torque_magnitude(span: &crate::CoordinateCoverage) -> f64 {
 pub(crate) fn barely_loaded(
     mask: Vec<bool>,
     (names, actuated_names): (&[String], &[String]),
-    torque_ranges: &[crate::CoordinateCoverage],
+    torque_ranges: &[crate::coverage::CoordinateCoverage],
     share: f64,
 ) -> Vec<bool> {
     let largest = torque_ranges

@@ -21,13 +21,15 @@
 use flexcal_kinematics::Model;
 use serde::Serialize;
 
+use crate::error::CalibError;
+use crate::identify::Calibration;
 use crate::identify_targets::TargetCalibration;
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
 use crate::prediction::{Predicting, prediction_variances};
 use crate::selection::Selectable;
 use crate::targets::TargetMeasurementSet;
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
-use crate::{CalibError, Calibration, MeasurementSet};
 
 /// A split error above this many standard errors is named in
 /// [`SplitCheck::notes`]: with two splits and independent errors, the

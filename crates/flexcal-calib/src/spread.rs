@@ -10,9 +10,9 @@ use faer::Mat;
 use flexcal_kinematics::Model;
 use nalgebra::Vector3;
 
-use crate::CalibError;
 use crate::analysis::AnalysisContext;
 use crate::coverage::CoordinateCoverage;
+use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::options::CalibrationOptions;
 use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};

@@ -11,7 +11,7 @@
 use flexcal_kinematics::{Data, Model, forward_frames};
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
-use crate::CalibError;
+use crate::error::CalibError;
 use crate::error_model::FrameStarts;
 use crate::geometry::{mean_rotation, register_points, rotation_from_vector};
 use crate::options::CalibrationOptions;

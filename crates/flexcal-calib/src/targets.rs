@@ -34,12 +34,13 @@ use flexcal_io::{CsvOptions, CsvTable, write_atomic};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::error::CalibError;
 use crate::geometry::{rotation_from_vector, vector_from_rotation};
+use crate::measurement::MeasurementSet;
 use crate::measurement::{
     PoseSet, StationPool, check_same_actuated, check_stations, first_to_pool, station_index,
 };
 use crate::options::FrameTreatment;
-use crate::{CalibError, MeasurementSet};
 
 /// The frame name that stands for the TCP: the end frame followed by the
 /// robot's tool transform.

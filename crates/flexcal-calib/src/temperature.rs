@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::measurement::MeasurementSet;
-use crate::validate::PoseError;
+use crate::metrics::PoseError;
 
 /// The position error after calibration against the recorded temperature.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

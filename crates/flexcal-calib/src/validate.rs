@@ -7,15 +7,16 @@ use flexcal_kinematics::Model;
 use flexcal_optim::{LevenbergMarquardt, ProblemSetup, Residuals};
 use nalgebra::Isometry3;
 
+use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
 use crate::joint_law::JointTerms;
+use crate::measurement::MeasurementSet;
 pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
 use crate::start::{register_stations, target_frames};
 use crate::targets::{TCP_FRAME, TargetMeasurementSet};
-use crate::{CalibError, MeasurementSet};
 
 /// How the measurement frame is obtained when errors are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]
