@@ -298,7 +298,21 @@ impl TargetCalibration {
                 .filter(|n| !is_elastic_unknown(n))
                 .collect()
         };
-        let unseen = geometric(self.with_status(UnknownStatus::NoInfluence));
+        // A seen target's rotation moves nothing without its orientations:
+        // not worth a note.
+        let seen_rotation = |n: &str| {
+            n.strip_prefix("target.")
+                .and_then(|rest| rest.rsplit_once(".r"))
+                .is_some_and(|(target, _)| {
+                    !self
+                        .with_status(UnknownStatus::NoInfluence)
+                        .contains(&format!("target.{target}.x").as_str())
+                })
+        };
+        let unseen: Vec<&str> = geometric(self.with_status(UnknownStatus::NoInfluence))
+            .into_iter()
+            .filter(|n| !seen_rotation(n))
+            .collect();
         if !unseen.is_empty() {
             notes.push(format!(
                 "no measured target moves with these, they stay at nominal: {}",
