@@ -90,6 +90,11 @@ pub struct FrameStarts {
     /// Whether each target's orientation rows are fitted (every
     /// observation of the target then carries an orientation).
     pub orientation: Vec<bool>,
+    /// Whether each target has rotation unknowns: where its orientation
+    /// rows are fitted, and for a set's only target (`target_rx..`, which
+    /// one-target reports have always listed); without rows they move
+    /// nothing.
+    pub rotation: Vec<bool>,
 }
 
 impl FrameStarts {
@@ -123,9 +128,11 @@ impl FrameStarts {
                 }
             })
             .collect::<Result<Vec<_>, _>>()?;
+        let single = set.targets().len() == 1;
         Ok(Self {
             stations: vec![x_meas_base; set.n_stations()],
             targets: set.targets().iter().map(|t| t.pose()).collect(),
+            rotation: orientation.iter().map(|o| *o || single).collect(),
             orientation,
         })
     }
@@ -138,8 +145,11 @@ struct TargetTerms {
     frame: usize,
     /// Whether it sits after the tool ([`TCP_FRAME`]).
     on_tcp: bool,
-    /// First of its six unknowns.
+    /// First of its unknowns: 3 for its position, then 3 for its rotation
+    /// when it has them.
     unknowns: usize,
+    /// Whether it has rotation unknowns.
+    rotation: bool,
     /// Starting `x_frame_target`.
     start: Isometry3<f64>,
     /// Whether its orientation rows are fitted.
@@ -165,8 +175,9 @@ struct PointJacobians {
 /// least-squares problem in the unknowns
 /// `x = [xi; tau_1; o_1 .. o_T; tau_2 .. tau_S; elastic and joint terms]`:
 /// the robot's parameters, the first station's measurement frame (6), each
-/// target's offset (6: translation in its frame, rotation vector on the
-/// right of its starting rotation), the later stations' frames
+/// target's offset (3, its translation in its frame, then, where its
+/// orientations are fitted and for a set's only target, 3 for a rotation
+/// vector on the right of its starting rotation), the later stations' frames
 /// ([`station_frame_names`]) and, elasto-geometric
 /// ([`ErrorModel::with_elastic`]), the compliances, the payload, the
 /// lateral compliances and the joint terms.
@@ -238,14 +249,17 @@ impl<'a> ErrorModel<'a> {
                     ),
                 })?
             };
+            let rotation = starts.rotation[t];
             targets.push(TargetTerms {
                 frame,
                 on_tcp,
                 unknowns: names.len(),
+                rotation,
                 start: starts.targets[t],
                 orientation: starts.orientation[t],
             });
-            names.extend(target_unknown_names(&target.name, count));
+            let target_names = target_unknown_names(&target.name, count);
+            names.extend_from_slice(&target_names[..if rotation { 6 } else { 3 }]);
         }
         let stations_offset = names.len();
         for s in 1..starts.stations.len() {
@@ -284,6 +298,31 @@ impl<'a> ErrorModel<'a> {
             twists: RefCell::new(Matrix6xX::zeros(0)),
             set,
         })
+    }
+
+    /// The same model started from other frames (`starts` as for
+    /// [`ErrorModel::new`], with the same orientation and rotation flags):
+    /// the layout and the elastic terms are kept.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] for starts of another layout.
+    pub fn restarted(mut self, starts: &FrameStarts) -> Result<Self, CalibError> {
+        let same = starts.stations.len() == self.x_meas_base0.len()
+            && starts.targets.len() == self.targets.len()
+            && self.targets.iter().enumerate().all(|(t, terms)| {
+                terms.orientation == starts.orientation[t] && terms.rotation == starts.rotation[t]
+            });
+        if !same {
+            return Err(CalibError::InvalidOption {
+                name: "frame_starts",
+                reason: "the new starts do not match the model's stations and targets".into(),
+            });
+        }
+        self.x_meas_base0.clone_from(&starts.stations);
+        for (terms, start) in self.targets.iter_mut().zip(&starts.targets) {
+            terms.start = *start;
+        }
+        Ok(self)
     }
 
     /// The model of a one-target set ([`crate::MeasurementSet`]): its
@@ -365,7 +404,7 @@ impl<'a> ErrorModel<'a> {
         let set = &*self.set;
         let label = |k: usize| set.poses()[k].label(k);
         let poses = Configurations {
-            q: set.poses().iter().map(|p| p.q.as_slice()).collect(),
+            q: set.configurations(),
             label: &label,
         };
         let mut elastic = ElasticTerms::none(self.model);
@@ -426,7 +465,6 @@ impl<'a> ErrorModel<'a> {
     }
     /// Length, angle, compliance, ... per unknown.
     pub fn kinds(&self) -> Vec<UnknownKind> {
-        let frame = [[UnknownKind::Length; 3], [UnknownKind::Angle; 3]].concat();
         let mut kinds: Vec<UnknownKind> = self
             .model
             .params()
@@ -436,9 +474,14 @@ impl<'a> ErrorModel<'a> {
                 ParamKind::Angle => UnknownKind::Angle,
             })
             .collect();
-        // Measurement frames and target offsets alike: 3 lengths, 3 angles.
-        while kinds.len() < self.elastic_offset {
-            kinds.extend(&frame);
+        // Measurement frames and target offsets alike: 3 lengths, then 3
+        // angles (none for a target without rotation unknowns).
+        kinds.resize(self.elastic_offset, UnknownKind::Length);
+        for o in (0..self.n_stations()).map(|s| self.station_frame_offset(s)) {
+            kinds[o + 3..o + 6].fill(UnknownKind::Angle);
+        }
+        for target in self.targets.iter().filter(|t| t.rotation) {
+            kinds[target.unknowns + 3..target.unknowns + 6].fill(UnknownKind::Angle);
         }
         kinds.extend(self.elastic.kinds());
         kinds
@@ -523,32 +566,53 @@ impl<'a> ErrorModel<'a> {
     /// The pose `x_frame_target` of target `t` in its frame at `x` (after
     /// the tool for a target on the TCP).
     pub fn target_frame(&self, x: &[f64], t: usize) -> Isometry3<f64> {
-        let o = self.targets[t].unknowns;
-        let start = &self.targets[t].start;
+        let TargetTerms {
+            unknowns: o,
+            rotation,
+            start,
+            ..
+        } = &self.targets[t];
+        let o = *o;
+        let turn = if *rotation {
+            rotation_from_vector(&Vector3::new(x[o + 3], x[o + 4], x[o + 5]))
+        } else {
+            UnitQuaternion::identity()
+        };
         Isometry3::from_parts(
             Translation3::from(start.translation.vector + Vector3::new(x[o], x[o + 1], x[o + 2])),
-            start.rotation * rotation_from_vector(&Vector3::new(x[o + 3], x[o + 4], x[o + 5])),
+            start.rotation * turn,
         )
     }
+    /// Number of offset unknowns of target `t`: 3 for its position, 6 with
+    /// its rotation (where its orientations are fitted, and for a set's
+    /// only target).
+    pub fn target_unknowns(&self, t: usize) -> usize {
+        if self.targets[t].rotation { 6 } else { 3 }
+    }
 
-    /// The target's point on its frame: the offset, after the tool on the TCP.
-    fn point(&self, x: &[f64], t: usize) -> Isometry3<f64> {
-        let offset = self.target_frame(x, t);
-        if self.targets[t].on_tcp {
-            self.model.tool() * offset
-        } else {
-            offset
-        }
+    /// Each target's point on its frame at `x`: the offset, after the
+    /// tool on the TCP.
+    fn points(&self, x: &[f64]) -> Vec<Isometry3<f64>> {
+        (0..self.targets.len())
+            .map(|t| {
+                let offset = self.target_frame(x, t);
+                if self.targets[t].on_tcp {
+                    self.model.tool() * offset
+                } else {
+                    offset
+                }
+            })
+            .collect()
     }
 
     fn kinematics_error(
         &self,
         k: usize,
-    ) -> impl FnOnce(flexcal_kinematics::KinematicsError) -> CalibError {
-        let pose_id = self.set.poses()[k].label(k);
+    ) -> impl FnOnce(flexcal_kinematics::KinematicsError) -> CalibError + '_ {
+        // The label only when there is an error to name.
         move |source| CalibError::Kinematics {
             pose: k,
-            pose_id,
+            pose_id: self.set.poses()[k].label(k),
             source,
         }
     }
@@ -567,6 +631,8 @@ impl<'a> ErrorModel<'a> {
     pub fn predict(&self, x: &[f64]) -> Result<Vec<Isometry3<f64>>, CalibError> {
         let xi = &x[..self.model.n_params()];
         let frames = self.station_frames(x);
+        // Each target's point once per evaluation, not once per pose.
+        let points = self.points(x);
         let mut data = self.data.borrow_mut();
         let mut state = self.deflection.borrow_mut();
         let mut evaluated = None;
@@ -583,7 +649,7 @@ impl<'a> ErrorModel<'a> {
                 let frame = data
                     .frame_pose(self.targets[t].frame)
                     .expect("a checked frame");
-                let x_base_target = frame * self.point(x, t);
+                let x_base_target = frame * points[t];
                 let moved = match self.elastic.lateral_motion(
                     &x[self.elastic_offset..],
                     k,
@@ -666,6 +732,18 @@ fn check_starts(
                 set.n_stations(),
                 set.source
             ),
+        });
+    }
+    if starts.rotation.len() != count
+        || starts
+            .orientation
+            .iter()
+            .zip(&starts.rotation)
+            .any(|(o, r)| *o && !*r)
+    {
+        return Err(CalibError::InvalidOption {
+            name: "frame_starts",
+            reason: "every target whose orientations are fitted needs its rotation unknowns".into(),
         });
     }
     for (t, &used) in starts.orientation.iter().enumerate() {
@@ -780,6 +858,13 @@ impl ErrorModel<'_> {
         let mut twists = self.twists.borrow_mut();
         let eo = self.elastic_offset;
         let row0 = self.block_rows[blocks.start];
+        let target_points = self.points(x);
+        // Each target's rotation in its frame: the frame's rotation is the
+        // point's times its inverse.
+        let target_rotations: Vec<UnitQuaternion<f64>> = (0..self.targets.len())
+            .map(|t| self.target_frame(x, t).rotation)
+            .collect();
+        let with_joints = robot_columns && self.elastic.len() > 0;
         let mut points: Vec<(usize, Isometry3<f64>)> = Vec::with_capacity(params.len());
         let mut start = blocks.start;
         // The blocks come pose by pose: one pass of the forward model for
@@ -794,9 +879,11 @@ impl ErrorModel<'_> {
             points.extend(
                 self.blocks[start..end]
                     .iter()
-                    .map(|b| (self.targets[b.target].frame, self.point(x, b.target))),
+                    .map(|b| (self.targets[b.target].frame, target_points[b.target])),
             );
             if robot_columns {
+                // Joint Jacobians only for the elastic terms.
+                let joints: &mut [Matrix6xX<f64>] = if with_joints { joints } else { &mut [] };
                 frame_points_jacobians_into(
                     self.model, &mut data, &state.q, xi, &points, params, joints, poses,
                 )
@@ -814,7 +901,7 @@ impl ErrorModel<'_> {
                 let motion = self
                     .elastic
                     .lateral_motion(&x[eo..], k, self.lateral_mask(t));
-                if robot_columns && self.elastic.len() > 0 {
+                if with_joints {
                     self.elastic.twists(
                         &x[eo..],
                         k,
@@ -826,19 +913,12 @@ impl ErrorModel<'_> {
                         &mut twists,
                     );
                 }
-                let frame = data
-                    .frame_pose(self.targets[t].frame)
-                    .expect("a checked frame");
-                let frame = if self.targets[t].on_tcp {
-                    frame * self.model.tool()
-                } else {
-                    frame
-                };
+                let r_frame = poses[i].rotation * target_rotations[t].inverse();
                 let terms = BlockTerms {
                     jac: &params[i],
                     twists: &twists,
                     x_base_point: poses[i],
-                    r_frame: frame.rotation.to_rotation_matrix().into_inner(),
+                    r_frame: r_frame.to_rotation_matrix().into_inner(),
                     station,
                 };
                 let rows = self.block_rows(b);

@@ -147,14 +147,15 @@ impl Layout {
         }
         for (t, target) in set.targets().iter().enumerate() {
             let o = problem.target_offset(t);
-            priorities[o..o + 6].fill(1);
+            let own = o..o + problem.target_unknowns(t);
+            priorities[own.clone()].fill(1);
             if options.target == FrameTreatment::Fixed || target.treatment == FrameTreatment::Fixed
             {
-                fixed[o..o + 6].fill(true);
+                fixed[own.clone()].fill(true);
             }
             let seen = set.observations_of(t).next().is_some();
             let moves = |j: usize| seen && (j < o + 3 || problem.uses_orientation(t));
-            for j in o..o + 6 {
+            for j in own {
                 no_influence[j] = !fixed[j] && !moves(j);
             }
         }
@@ -392,20 +393,19 @@ pub(crate) fn identify<'a>(
         return Err(CalibError::Cancelled);
     }
     // Too few poses is the first thing to tell (before a registration that
-    // would fail on them for a less helpful reason).
-    {
-        let nominal = FrameStarts::nominal(
-            &set,
-            nalgebra::Isometry3::identity(),
-            options.use_orientation,
-        )?;
-        let probe = error_model(model, Cow::Borrowed(&*set), &nominal, options)?;
-        check_counts(&probe, &Layout::new(&probe, options)?)?;
-    }
-    let starts = frame_starts(model, &set, options)?;
-    let problem = error_model(model, set, &starts, options)?;
-    let layout = Layout::new(&problem, options)?;
-    let free_count = check_counts(&problem, &layout)?;
+    // would fail on them for a less helpful reason): the model laid out
+    // from the nominal starts, then started where the registration puts
+    // its frames.
+    let nominal = FrameStarts::nominal(
+        &set,
+        nalgebra::Isometry3::identity(),
+        options.use_orientation,
+    )?;
+    let laid_out = error_model(model, set, &nominal, options)?;
+    let layout = Layout::new(&laid_out, options)?;
+    let free_count = check_counts(&laid_out, &layout)?;
+    let starts = frame_starts(model, laid_out.set(), options)?;
+    let problem = laid_out.restarted(&starts)?;
     let (weights, absolute) = row_weights(&problem, options)?;
     let limits: Vec<f64> = layout
         .kinds
@@ -465,12 +465,7 @@ pub(crate) fn identify<'a>(
     let (unknowns, combinations, noise) = statistics.of(model, &outcome, &noise_at)?;
     let errors_before = problem.errors(&x_start)?;
     let errors_after = problem.errors(&outcome.report.x)?;
-    let q: Vec<&[f64]> = problem
-        .set()
-        .poses()
-        .iter()
-        .map(|p| p.q.as_slice())
-        .collect();
+    let q = problem.set().configurations();
     let actuated_ranges = CoordinateCoverage::of_configurations(model, &q);
     let torque_ranges = problem.torque_ranges();
     let Solver {
@@ -543,12 +538,7 @@ fn left_at_start(
     names: &[String],
     options: &CalibrationOptions,
 ) -> Vec<bool> {
-    let q: Vec<&[f64]> = problem
-        .set()
-        .poses()
-        .iter()
-        .map(|p| p.q.as_slice())
-        .collect();
+    let q = problem.set().configurations();
     barely_loaded(
         crate::joint_law::partial_period_mask_of(model, &q, names),
         (names, model.actuated_names()),
@@ -602,12 +592,7 @@ impl Statistics<'_> {
             .combinations(self.reduced_start, &identified, &absorbed)?;
         let problem = self.context.problem;
         let spread = if self.options.spread_reference {
-            let q: Vec<&[f64]> = problem
-                .set()
-                .poses()
-                .iter()
-                .map(|p| p.q.as_slice())
-                .collect();
+            let q = problem.set().configurations();
             spread_ratios(
                 &SpreadReference {
                     model,

@@ -9,10 +9,9 @@
 //! `x_M = x_meas_base(tau) * x_base_f(q_k, xi) * x_f_target(o_t)`
 //! ([`crate::ErrorModel`]), the paper's (7)-(10) with the parameter
 //! Jacobian (49)-(52) of frame f(t) instead of the TCP. Each target has
-//! six offset unknowns, `target.<name>.x|y|z` (m, in the target's frame)
-//! and `target.<name>.rx|ry|rz` (rad, on the right of its nominal
-//! rotation), the rotation identified where the target's orientations are
-//! measured. Rows are positions (m) and, for a target with orientations,
+//! offset unknowns `target.<name>.x|y|z` (m, in the target's frame) and,
+//! where its orientations are measured, `target.<name>.rx|ry|rz` (rad, on
+//! the right of its nominal rotation). Rows are positions (m) and, for a target with orientations,
 //! rotation vectors (rad), each weighted `1/sigma`.
 //!
 //! Identifiability is decided as for one target, by the same code:
@@ -43,7 +42,7 @@ use serde::Serialize;
 
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
-use crate::error_model::{ErrorModel, FrameStarts};
+use crate::error_model::{ErrorModel, FrameStarts, target_unknown_names};
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, identify};
 use crate::identify::{combination_lines, elastic_notes, is_elastic_unknown, weak_spread_note};
@@ -767,6 +766,16 @@ impl TargetCalibration {
         let calibrated = set.with_targets(self.targets.clone())?;
         let mut starts = FrameStarts::nominal(&calibrated, self.x_meas_base, Some(false))?;
         starts.stations = self.measurement_frames();
+        // The identification's rotation unknowns, without their rows.
+        let count = calibrated.targets().len();
+        starts.rotation = calibrated
+            .targets()
+            .iter()
+            .map(|t| {
+                let rx = &target_unknown_names(&t.name, count)[3];
+                self.unknowns.iter().any(|u| &u.name == rx)
+            })
+            .collect();
         let gravity = self.elastic.as_ref().map(|(g, _)| g);
         let problem = ErrorModel::new(model, Cow::Owned(calibrated), &starts)?
             .with_elastic(gravity, &self.joint_terms)?;

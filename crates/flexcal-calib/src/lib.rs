@@ -107,7 +107,7 @@
 //! with orientations (`<target>_rx_deg..`), rotations, each with the
 //! parameter Jacobian of its own frame
 //! ([`flexcal_kinematics::frame_param_jacobian`]), and identifies the robot,
-//! the measurement frame and the offsets `target.<name>.x|y|z|rx|ry|rz` in
+//! the measurement frame and the offsets `target.<name>.x|y|z` (and `.rx|ry|rz` where orientations are measured) in
 //! one identification (the same as for one target), with the identifiability analysis below
 //! ([`TargetCalibration::identifiability_notes`] names what the targets
 //! cannot see: the other branch of a tree when its marker is missing, a

@@ -536,6 +536,11 @@ impl TargetMeasurementSet {
             .filter_map(move |p| p.observations.get(t).and_then(Option::as_ref))
     }
 
+    /// The actuated coordinates of every pose (rad or m), in order.
+    pub fn configurations(&self) -> Vec<&[f64]> {
+        self.poses.iter().map(|p| p.q.as_slice()).collect()
+    }
+
     /// Number of (pose, target) observations.
     pub fn n_observations(&self) -> usize {
         self.poses

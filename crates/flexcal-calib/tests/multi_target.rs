@@ -168,8 +168,8 @@ fn true_unknowns(
     let mut x = truth.xi.clone();
     x.extend((truth.x_meas_base.translation.vector - start.translation.vector).iter());
     x.extend(vector_from_rotation(&(truth.x_meas_base.rotation * start.rotation.inverse())).iter());
-    // Six offset unknowns per target: position, then a rotation that
-    // positions alone leave at zero.
+    // Each target's offset, then its rotation where orientations are
+    // measured.
     for (t, target) in targets.iter().enumerate() {
         let start = &calibration.targets_initial[t];
         if target.treatment == FrameTreatment::Identify {
@@ -177,12 +177,10 @@ fn true_unknowns(
         } else {
             x.extend([0.0; 3]);
         }
-        // Increments on the right of the start; positions alone leave them
-        // at zero.
+        // Rotation unknowns where orientations are measured: increments on
+        // the right of the start.
         if truth.orientation_noise.is_some() {
             x.extend(vector_from_rotation(&(start.rotation.inverse() * truth.rotations[t])).iter());
-        } else {
-            x.extend([0.0; 3]);
         }
     }
     x

@@ -1309,7 +1309,8 @@ pub fn frame_param_and_joint_jacobians_into(
 /// it; its parameter Jacobian goes to `params_out[i]` (6 x n_params), its
 /// joint Jacobian to `joints_out[i]` (6 x n_actuated) and its pose
 /// `x_base_point` to `poses_out[i]`. The markers on both hands of a
-/// two-armed robot at one pose.
+/// two-armed robot at one pose. An empty `joints_out` skips the joint
+/// Jacobians (a geometric identification needs none).
 ///
 /// # Errors
 /// [`KinematicsError::WrongLength`] for a frame index out of range, output
@@ -1327,7 +1328,13 @@ pub fn frame_points_jacobians_into(
     poses_out: &mut [Isometry3<f64>],
 ) -> Result<(), KinematicsError> {
     let np = model.n_params();
-    let shortest = params_out.len().min(joints_out.len()).min(poses_out.len());
+    let with_joints = !joints_out.is_empty();
+    let shortest = params_out.len().min(poses_out.len());
+    let shortest = if with_joints {
+        shortest.min(joints_out.len())
+    } else {
+        shortest
+    };
     if shortest < points.len() {
         return Err(KinematicsError::WrongLength {
             what: "outputs of the points' Jacobians (one per point)".into(),
@@ -1337,7 +1344,9 @@ pub fn frame_points_jacobians_into(
     }
     for (i, (frame, _)) in points.iter().enumerate() {
         check_frame(model, *frame)?;
-        check_joint_columns(model, &joints_out[i])?;
+        if with_joints {
+            check_joint_columns(model, &joints_out[i])?;
+        }
         let params = &params_out[i];
         if params.nrows() != 6 || params.ncols() != np {
             return Err(KinematicsError::WrongLength {
@@ -1351,13 +1360,15 @@ pub fn frame_points_jacobians_into(
     for (i, (frame, x_frame_point)) in points.iter().enumerate() {
         let x_base_point =
             frame_param_columns(model, data, *frame, x_frame_point, &mut params_out[i]);
-        joint_columns_at(
-            model,
-            data,
-            std::iter::successors(Some(*frame), |&f| model.frames[f].parent),
-            &x_base_point.translation.vector,
-            &mut joints_out[i],
-        );
+        if with_joints {
+            joint_columns_at(
+                model,
+                data,
+                std::iter::successors(Some(*frame), |&f| model.frames[f].parent),
+                &x_base_point.translation.vector,
+                &mut joints_out[i],
+            );
+        }
         poses_out[i] = x_base_point;
     }
     Ok(())
