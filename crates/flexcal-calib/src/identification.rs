@@ -331,7 +331,18 @@ impl Solver<'_, '_> {
         let mut history = self.residual_history.borrow_mut();
         let before = history.len();
         let start_cost = report.cost_history.first().copied().unwrap_or(f64::NAN);
-        history.push(self.norms_at(x0, start_cost));
+        // The start's norms from the residuals the solver evaluated there.
+        let start: Vec<f64> = report
+            .start_weighted_residuals
+            .iter()
+            .zip(self.weights)
+            .map(|(r, w)| r / w)
+            .collect();
+        history.push(if start.len() == self.problem.n_residuals() {
+            residual_norms(self.problem, &start, start_cost)
+        } else {
+            self.norms_at(x0, start_cost)
+        });
         let last = iterates.last().copied();
         history.extend(iterates);
         // A solver that stops (no further decrease possible) records the

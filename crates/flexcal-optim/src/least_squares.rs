@@ -188,6 +188,10 @@ pub struct SolveReport {
     pub cost: f64,
     /// Cost at the start and after each iteration (length `iterations + 1`).
     pub cost_history: Vec<f64>,
+    /// Weighted residuals `W r` at the start (the `x0` given to the
+    /// solver): with `cost_history[0]`, the start of a convergence plot
+    /// without evaluating the model again.
+    pub start_weighted_residuals: Vec<f64>,
     /// Iterations performed.
     pub iterations: usize,
     /// Residual evaluations.
@@ -586,6 +590,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
         self.x_trial.copy_from_slice(&self.x);
         let mut cost = self.evaluate_trial()?;
         std::mem::swap(&mut self.residual, &mut self.residual_trial);
+        let start = self.residual.clone();
         let mut history = vec![cost];
         let mut iterations = 0;
         let mut damping = 0.0;
@@ -682,7 +687,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
         // When the loop stopped right after factorising at the final x with nothing
         // frozen, that factorisation is the one the report needs.
         let current = (linearised && !self.frozen.contains(&true)).then_some(rank);
-        self.finish(termination, cost, history, iterations, current)
+        self.finish(termination, cost, (history, start), iterations, current)
     }
 
     /// Writes `x_trial = x + t * S^-1 P dz` for the first `rank` permuted entries of `step`.
@@ -879,7 +884,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
         mut self,
         termination: Termination,
         cost: f64,
-        cost_history: Vec<f64>,
+        (cost_history, start_weighted_residuals): (Vec<f64>, Vec<f64>),
         iterations: usize,
         current_rank: Option<usize>,
     ) -> Result<SolveReport> {
@@ -975,6 +980,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
             parameter_names,
             cost,
             cost_history,
+            start_weighted_residuals,
             iterations,
             residual_evaluations: self.residual_evaluations,
             jacobian_evaluations: self.jacobian_evaluations,
