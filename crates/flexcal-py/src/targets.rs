@@ -44,9 +44,14 @@ impl TargetMeasurementSet {
     /// frame a frame of the robot or `"tcp"`, the nominal offset (3,) in it,
     /// m), `q` (n, dof) in rad or m, `positions` (n, n_targets, 3) in m with
     /// NaN for a target not seen on a pose; `fixed` the names of targets
-    /// whose offset is known (not identified); `pose_ids` n labels.
+    /// whose offset is known (not identified); `pose_ids` n labels;
+    /// `orientations` (n, n_targets, 3) rotation vectors in rad of each
+    /// target's measured orientation in the measurement frame, NaN where
+    /// not seen (a target whose orientations are all NaN has none: its
+    /// positions only are fitted).
     #[staticmethod]
-    #[pyo3(signature = (targets, q, positions, fixed = Vec::new(), pose_ids = None, source = "arrays"))]
+    #[pyo3(signature = (targets, q, positions, fixed = Vec::new(), pose_ids = None, source = "arrays", orientations = None))]
+    #[allow(clippy::too_many_arguments)]
     fn from_arrays<'py>(
         targets: Vec<(String, String, PyArrayLikeDyn<'py, f64, AllowTypeChange>)>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
@@ -54,6 +59,7 @@ impl TargetMeasurementSet {
         fixed: Vec<String>,
         pose_ids: Option<Vec<String>>,
         source: &str,
+        orientations: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     ) -> PyResult<Self> {
         let mut described = Vec::with_capacity(targets.len());
         for (name, frame, offset) in &targets {
@@ -95,15 +101,37 @@ impl TargetMeasurementSet {
                 )));
             }
         }
+        let turns = orientations.as_ref().map(|o| o.as_array());
+        if let Some(turns) = &turns {
+            if turns.shape() != [n, t, 3] {
+                return Err(ShapeError::new_err(format!(
+                    "orientations: expected shape ({n}, {t}, 3) (poses, targets, rotation vector), got {:?}",
+                    turns.shape()
+                )));
+            }
+        }
         let mut poses = Vec::with_capacity(n);
         for k in 0..n {
             let mut observations = Vec::with_capacity(t);
             for (j, target) in described.iter().enumerate() {
                 let p = Vector3::new(view[[k, j, 0]], view[[k, j, 1]], view[[k, j, 2]]);
+                let turn = turns
+                    .as_ref()
+                    .map(|o| Vector3::new(o[[k, j, 0]], o[[k, j, 1]], o[[k, j, 2]]))
+                    .filter(|r| !r.iter().all(|v| v.is_nan()));
+                if turn.is_some_and(|r| !r.iter().all(|v| v.is_finite())) {
+                    return Err(NotFiniteError::new_err(format!(
+                        "orientations[{k}, {j}] (target `{}`): all three NaN or all finite",
+                        target.name
+                    )));
+                }
                 let observation = if p.iter().all(|v| v.is_nan()) {
                     None
                 } else if p.iter().all(|v| v.is_finite()) {
-                    Some(TargetObservation::new(p))
+                    Some(TargetObservation {
+                        orientation: turn,
+                        ..TargetObservation::new(p)
+                    })
                 } else {
                     return Err(NotFiniteError::new_err(format!(
                         "positions[{k}, {j}] (target `{}`): all three NaN (not seen) or all finite, got {:?}",

@@ -581,9 +581,12 @@ class TargetMeasurementSet:
         fixed: Sequence[str] = (),
         pose_ids: Optional[Sequence[str]] = None,
         source: str = "arrays",
+        orientations: Optional[ArrayLike] = None,
     ) -> TargetMeasurementSet:
         """targets (name, frame, nominal offset (3,) m in that frame), q (n, dof) rad/m,
-        positions (n, n_targets, 3) m with NaN for a target not seen; fixed: targets whose offset is known."""
+        positions (n, n_targets, 3) m with NaN for a target not seen; fixed: targets whose offset is known;
+        orientations (n, n_targets, 3) rotation vectors (rad) of each target's measured orientation,
+        NaN where not seen (all NaN for a target: positions only); fitted where given."""
     @staticmethod
     def read_csv(path: StrPath, targets: StrPath) -> TargetMeasurementSet:
         """flexcal's CSV with per-target columns (mm), the targets described by a TOML file."""
