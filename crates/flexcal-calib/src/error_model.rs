@@ -1041,3 +1041,158 @@ impl ErrorModel<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gravity::LateralCompliance;
+    use crate::joint_law::JointLaw;
+    use crate::targets::{TargetPose, read_targets};
+    use faer::Mat;
+    use flexcal_kinematics::RobotDescription;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn data_file(name: &str) -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data")
+            .join(name)
+    }
+
+    /// Every column of the model of several targets with every elastic and
+    /// joint term (compliances, a payload on a link of the right arm,
+    /// lateral compliances of the torso and both arms, the joint law,
+    /// cyclic errors), two stations and the left marker's orientations,
+    /// against central differences, at unknowns away from the start.
+    #[test]
+    fn columns_of_oriented_markers_on_two_branches_match_central_differences() {
+        let model = RobotDescription::from_toml_file(&data_file("two_arms.toml"))
+            .unwrap()
+            .build()
+            .unwrap();
+        let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
+        let mut gravity =
+            GravityCompliance::from_toml_file(&data_file("two_arms_masses.toml")).unwrap();
+        gravity.lateral = LateralCompliance::AboutX;
+        gravity.payload_frame = Some("R3".into());
+        gravity.payload_center = Vector3::new(0.02, -0.01, 0.05);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x6664);
+        let poses: Vec<TargetPose> = (0..6)
+            .map(|k| TargetPose {
+                pose_id: Some(format!("p{k}")),
+                q: (0..model.n_actuated())
+                    .map(|_| rng.random_range(-1.5..1.5))
+                    .collect(),
+                observations: (0..targets.len())
+                    .map(|t| {
+                        let mut seen = TargetObservation::new(Vector3::from_fn(|_, _| {
+                            rng.random_range(-1.0..1.0)
+                        }));
+                        if t == 0 {
+                            seen.orientation =
+                                Some(Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)));
+                        }
+                        Some(seen)
+                    })
+                    .collect(),
+            })
+            .collect();
+        let set = TargetMeasurementSet::new("fd", targets, poses)
+            .unwrap()
+            .with_stations(vec!["a".into(), "b".into()], vec![0, 0, 0, 1, 1, 1])
+            .unwrap();
+        let terms = JointTerms {
+            law: Some(JointLaw::default()),
+            cyclic: true,
+        };
+        let mut starts = FrameStarts::nominal(&set, Isometry3::identity(), None).unwrap();
+        assert_eq!(starts.orientation, [true, false]);
+        starts.stations = vec![
+            Isometry3::from_parts(
+                Translation3::new(2.0, -0.3, 0.4),
+                rotation_from_vector(&Vector3::new(0.2, -0.1, 1.9)),
+            ),
+            Isometry3::from_parts(
+                Translation3::new(-1.5, 2.0, 0.3),
+                rotation_from_vector(&Vector3::new(-0.1, 0.3, -1.1)),
+            ),
+        ];
+        let problem = ErrorModel::new(&model, Cow::Borrowed(&set), &starts)
+            .unwrap()
+            .with_elastic(Some(&gravity), &terms)
+            .unwrap();
+        let kinds = problem.kinds();
+        let n = problem.n_unknowns();
+        assert_eq!(kinds.len(), n);
+        assert!(problem.names().contains(&"target.left.rz".to_string()));
+        assert!(!problem.names().contains(&"target.right.rx".to_string()));
+        // Away from the start, by kind.
+        let x: Vec<f64> = problem
+            .initial_unknowns()
+            .iter()
+            .zip(&kinds)
+            .map(|(v, kind)| {
+                v + match kind {
+                    UnknownKind::Length => rng.random_range(-1e-3..1e-3),
+                    UnknownKind::Angle => rng.random_range(-1e-2..1e-2),
+                    UnknownKind::Compliance => rng.random_range(2e-6..20e-6),
+                    UnknownKind::Mass => 0.3,
+                    UnknownKind::FirstMoment => rng.random_range(-0.02..0.02),
+                    UnknownKind::Hardening => rng.random_range(100.0..500.0),
+                }
+            })
+            .collect();
+        let rows = problem.n_residuals();
+        // Six poses: the left marker six rows each, the right one three.
+        assert_eq!(rows, 6 * 6 + 6 * 3);
+        let mut analytic = Mat::<f64>::zeros(rows, n);
+        problem.jacobian(&x, analytic.as_mut()).unwrap();
+        let (mut plus, mut minus) = (vec![0.0; rows], vec![0.0; rows]);
+        for j in 0..n {
+            let h = match kinds[j] {
+                UnknownKind::Compliance => 1e-8,
+                UnknownKind::Hardening => 1e-2,
+                UnknownKind::Mass => 1e-3,
+                UnknownKind::FirstMoment => 1e-4,
+                _ => 1e-7,
+            };
+            let mut xp = x.clone();
+            xp[j] += h;
+            problem.residuals(&xp, &mut plus).unwrap();
+            xp[j] -= 2.0 * h;
+            problem.residuals(&xp, &mut minus).unwrap();
+            let scale = (0..rows)
+                .map(|i| analytic[(i, j)].abs())
+                .fold(1e-12, f64::max);
+            for i in 0..rows {
+                let numeric = (plus[i] - minus[i]) / (2.0 * h);
+                assert!(
+                    (analytic[(i, j)] - numeric).abs() < 1e-6 * scale + 1e-9,
+                    "{}: row {i}, analytic {:e}, central difference {numeric:e}",
+                    problem.names()[j],
+                    analytic[(i, j)]
+                );
+            }
+        }
+        // Each frame moves its own station's observations only; the
+        // payload on the right arm loads the right arm's and the torso's
+        // joints only.
+        let station_of_row = |row: usize| {
+            let i = (0..problem.n_observations())
+                .find(|&i| problem.block_rows(i).contains(&row))
+                .unwrap();
+            set.station_of(problem.observation(i).0)
+        };
+        for s in 0..2 {
+            let o = problem.station_frame_offset(s);
+            let moved: Vec<usize> = (0..rows)
+                .filter(|&i| (o..o + 6).any(|j| analytic[(i, j)] != 0.0))
+                .map(station_of_row)
+                .collect();
+            assert!(
+                !moved.is_empty() && moved.iter().all(|&m| m == s),
+                "station {s}"
+            );
+        }
+    }
+}

@@ -16,7 +16,8 @@
 //! beams, joint springs, the weights as nodal loads): they agree to 0.2 %.
 //!
 //! The payload enters linearly through its mass `m` (kg) and first moment
-//! `m c` (kg.m, centre `c` in the TCP frame), so that
+//! `m c` (kg.m, centre `c` in the payload's frame: the TCP by default, or
+//! any named frame, [`GravityCompliance::payload_frame`]), so that
 //! `tau = tau_links + m a(q) + B(q) (m c)`; the torques are evaluated on the
 //! nominal geometry (a geometric error of a millimetre changes them by about
 //! 0.1 %, far below what gravity deflection can resolve).
@@ -64,9 +65,10 @@
 //! joints on its path (a joint of another branch has no influence on it).
 
 use flexcal_kinematics::{
-    Data, LinkMass, Model, PointLoad, actuated_forces_into, joint_jacobian_into,
+    Data, LinkMass, Model, PointLoad, actuated_forces_into, frame_points_jacobians_into,
+    joint_jacobian_into,
 };
-use nalgebra::{Matrix6xX, Vector3};
+use nalgebra::{DMatrix, Isometry3, Matrix6xX, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -102,8 +104,12 @@ pub struct GravityCompliance {
     pub masses: Vec<PointMass>,
     /// Starting payload mass (kg).
     pub payload_mass: f64,
-    /// Starting payload centre of mass in the TCP frame (m).
+    /// Starting payload centre of mass (m) in the payload's frame.
     pub payload_center: Vector3<f64>,
+    /// The frame the payload is fixed to (default `None`: the TCP, the end
+    /// frame followed by the tool): a load carried by a link, a tool
+    /// changer on a hand of a two-armed robot.
+    pub payload_frame: Option<String>,
     /// Starting joint compliance (rad/N.m or m/N): a plausible value, not
     /// zero, so that the payload's influence (proportional to the
     /// compliances) is seen by the identifiability analysis.
@@ -320,6 +326,7 @@ impl GravityCompliance {
             masses,
             payload_mass: 1.0,
             payload_center: Vector3::new(0.0, 0.0, 0.1),
+            payload_frame: None,
             initial_compliance: 10e-6,
             lateral: LateralCompliance::Off,
             springs: Vec::new(),
@@ -412,6 +419,32 @@ impl GravityCompliance {
             first_moment.y,
             first_moment.z,
         ]
+    }
+
+    /// The frame the payload is fixed to and the payload frame's pose in
+    /// it: the end frame and the tool for the TCP.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] naming a payload frame the robot does
+    /// not have.
+    pub(crate) fn payload_frame(
+        &self,
+        model: &Model,
+    ) -> Result<(usize, Isometry3<f64>), CalibError> {
+        match self.payload_frame.as_deref() {
+            None | Some(crate::targets::TCP_FRAME) => Ok((model.end_frame(), model.tool())),
+            Some(name) => model
+                .frame_index(name)
+                .map(|f| (f, Isometry3::identity()))
+                .ok_or_else(|| CalibError::InvalidOption {
+                    name: "gravity",
+                    reason: format!(
+                        "payload frame `{name}`: robot `{}` has no frame `{name}` (frames: {}, or `tcp`)",
+                        model.name(),
+                        model.frame_names().join(", ")
+                    ),
+                }),
+        }
     }
 
     fn check(&self, model: &Model) -> Result<Vec<PointLoad>, CalibError> {
@@ -514,13 +547,37 @@ impl GravityTerms {
         let mut jac = Matrix6xX::zeros(na);
         let xi = model.nominal_params();
         let g = gravity.gravity;
+        let on_tcp = gravity
+            .payload_frame
+            .as_deref()
+            .is_none_or(|f| f == crate::targets::TCP_FRAME);
+        let (frame, x_frame_payload) = gravity.payload_frame(model)?;
+        let mut params = [DMatrix::zeros(6, model.n_params())];
         for (k, q) in poses.q.iter().enumerate() {
             let block = &mut terms[k * stride..(k + 1) * stride];
             actuated_forces_into(model, &mut data, q, xi, &loads, &mut block[..na])
                 .map_err(poses.kinematics_error(k))?;
-            let x_base_tcp = joint_jacobian_into(model, &mut data, q, xi, &mut jac)
+            // The payload frame's joint Jacobian: the TCP's own, or that of
+            // a point on a named frame.
+            let x_base_payload = if on_tcp {
+                joint_jacobian_into(model, &mut data, q, xi, &mut jac)
+                    .map_err(poses.kinematics_error(k))?
+            } else {
+                let mut pose = [Isometry3::identity()];
+                frame_points_jacobians_into(
+                    model,
+                    &mut data,
+                    q,
+                    xi,
+                    &[(frame, x_frame_payload)],
+                    &mut params,
+                    std::slice::from_mut(&mut jac),
+                    &mut pose,
+                )
                 .map_err(poses.kinematics_error(k))?;
-            let r = x_base_tcp.rotation.to_rotation_matrix().into_inner();
+                pose[0]
+            };
+            let r = x_base_payload.rotation.to_rotation_matrix().into_inner();
             for i in 0..na {
                 let v = Vector3::new(jac[(0, i)], jac[(1, i)], jac[(2, i)]);
                 let w = Vector3::new(jac[(3, i)], jac[(4, i)], jac[(5, i)]);
@@ -657,7 +714,7 @@ impl LateralTerms {
                 return Err(invalid("the pivot must be finite".into()));
             }
             let carries = loads.iter().any(|l| model.moves_with(l.frame, frame))
-                || model.moves_with(model.end_frame(), frame);
+                || model.moves_with(gravity.payload_frame(model)?.0, frame);
             if !carries {
                 return Err(invalid(
                     "it carries no weight of the mass table and no payload: nothing loads it"
@@ -685,12 +742,21 @@ impl LateralTerms {
         let mut data = Data::new(model);
         let xi = model.nominal_params();
         let g = gravity.gravity;
-        let end = model.end_frame();
+        let on_tcp = gravity
+            .payload_frame
+            .as_deref()
+            .is_none_or(|f| f == crate::targets::TCP_FRAME);
+        let (end, x_frame_payload) = gravity.payload_frame(model)?;
         for (k, q) in poses.q.iter().enumerate() {
             let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, q, xi)
                 .map_err(poses.kinematics_error(k))?;
-            let p_tcp = x_base_tcp.translation.vector;
-            let r_tcp = x_base_tcp.rotation.to_rotation_matrix().into_inner();
+            let x_base_payload = if on_tcp {
+                x_base_tcp
+            } else {
+                data.frame_pose(end).expect("a checked frame") * x_frame_payload
+            };
+            let p_tcp = x_base_payload.translation.vector;
+            let r_tcp = x_base_payload.rotation.to_rotation_matrix().into_inner();
             for (s, hinge) in hinges.iter().enumerate() {
                 let frame = hinge.frame;
                 let pose = data.frame_pose(frame).expect("a frame of the model");
@@ -772,6 +838,8 @@ struct MassTableFile {
     gravity_m_s2: [f64; 3],
     payload_mass_kg: f64,
     payload_center_mm: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    payload_frame: Option<String>,
     initial_compliance_urad_per_nm: f64,
     #[serde(default, skip_serializing_if = "is_off")]
     lateral: LateralCompliance,
@@ -923,6 +991,7 @@ impl GravityCompliance {
             masses,
             payload_mass: file.payload_mass_kg,
             payload_center: Vector3::from(file.payload_center_mm) * 1e-3,
+            payload_frame: file.payload_frame.clone(),
             initial_compliance: file.initial_compliance_urad_per_nm * 1e-6,
             lateral: file.lateral,
             springs: springs_of(&file.spring, &bad)?,
@@ -947,6 +1016,7 @@ impl GravityCompliance {
             gravity_m_s2: self.gravity.into(),
             payload_mass_kg: self.payload_mass,
             payload_center_mm: (self.payload_center * 1e3).into(),
+            payload_frame: self.payload_frame.clone(),
             initial_compliance_urad_per_nm: self.initial_compliance * 1e6,
             lateral: self.lateral,
             mass: self

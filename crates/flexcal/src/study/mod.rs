@@ -619,6 +619,7 @@ pub fn ir663_mass_table(model: &Model) -> Result<GravityCompliance> {
         ],
         payload_mass: 10.0,
         payload_center: nalgebra::Vector3::zeros(),
+        payload_frame: None,
         initial_compliance: 1e-8,
         lateral: flexcal_calib::LateralCompliance::Off,
         springs: Vec::new(),
