@@ -427,7 +427,7 @@ impl GravityCompliance {
     /// # Errors
     /// [`CalibError::InvalidOption`] naming a payload frame the robot does
     /// not have.
-    pub(crate) fn payload_frame(
+    pub(crate) fn payload_attachment(
         &self,
         model: &Model,
     ) -> Result<(usize, Isometry3<f64>), CalibError> {
@@ -551,7 +551,7 @@ impl GravityTerms {
             .payload_frame
             .as_deref()
             .is_none_or(|f| f == crate::targets::TCP_FRAME);
-        let (frame, x_frame_payload) = gravity.payload_frame(model)?;
+        let (frame, x_frame_payload) = gravity.payload_attachment(model)?;
         let mut params = [DMatrix::zeros(6, model.n_params())];
         for (k, q) in poses.q.iter().enumerate() {
             let block = &mut terms[k * stride..(k + 1) * stride];
@@ -714,7 +714,7 @@ impl LateralTerms {
                 return Err(invalid("the pivot must be finite".into()));
             }
             let carries = loads.iter().any(|l| model.moves_with(l.frame, frame))
-                || model.moves_with(gravity.payload_frame(model)?.0, frame);
+                || model.moves_with(gravity.payload_attachment(model)?.0, frame);
             if !carries {
                 return Err(invalid(
                     "it carries no weight of the mass table and no payload: nothing loads it"
@@ -746,7 +746,7 @@ impl LateralTerms {
             .payload_frame
             .as_deref()
             .is_none_or(|f| f == crate::targets::TCP_FRAME);
-        let (end, x_frame_payload) = gravity.payload_frame(model)?;
+        let (end, x_frame_payload) = gravity.payload_attachment(model)?;
         for (k, q) in poses.q.iter().enumerate() {
             let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, q, xi)
                 .map_err(poses.kinematics_error(k))?;
