@@ -569,6 +569,25 @@ fn elasto_geometric_calibration_end_to_end() {
     let (_, stderr) = text(&out);
     assert!(!out.status.success() && !stderr.contains("panicked"));
     assert!(stderr.contains("bad.toml:2"), "{stderr}");
+    // A payload on a frame the robot does not have: named, nothing written.
+    std::fs::write(
+        &bad,
+        "payload_mass_kg = 1.0\npayload_center_mm = [0.0, 0.0, 0.0]\npayload_frame = \"flange\"\ninitial_compliance_urad_per_nm = 10.0\n[[mass]]\nname = \"arm\"\nframe = \"2\"\nmass_kg = 10.0\ncenter_mm = [300.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    let unwritten = path(d, "unwritten.json");
+    let out = calibrate_ur10(&[
+        "--model",
+        "elasto-geometric",
+        "--masses",
+        &bad,
+        "--report",
+        &unwritten,
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success() && !stderr.contains("panicked"));
+    assert!(stderr.contains("payload frame `flange`"), "{stderr}");
+    assert!(!std::path::Path::new(&unwritten).exists());
 
     // The fuzzy residual model, reported apart: these measurements are
     // exact, so it has nothing to add and the validation stays exact.
