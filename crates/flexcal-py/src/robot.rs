@@ -458,14 +458,17 @@ impl Robot {
     ///
     /// `output="matrix"` returns homogeneous matrices, shape (4, 4) or
     /// (n, 4, 4), translation in m; `output="pose"` returns a tuple
-    /// (positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w]).
+    /// (positions (n, 3) in m, quaternions (n, 4) in the order `quaternion`
+    /// names: `"xyzw"` (default, SciPy's `Rotation.from_quat`) or `"wxyz"`
+    /// (flexcal's files, the CLI's pose files and the JSON reports).
     /// `xi` (n_params,) replaces the nominal parameters (m, rad). `frame`
     /// names a frame or link of the robot (any of `frame_names`: a hand of a
     /// two-armed robot, a URDF link such as `"wrist_2_link"`) whose pose is
     /// returned instead of the TCP's (no tool transform). Batches run
     /// without the GIL on up to `threads` threads (default: all cores),
     /// and Ctrl-C interrupts them between batches of 16 384.
-    #[pyo3(signature = (q, xi = None, output = "matrix", threads = None, frame = None))]
+    #[pyo3(signature = (q, xi = None, output = "matrix", threads = None, frame = None, quaternion = "xyzw"))]
+    #[allow(clippy::too_many_arguments)]
     fn fk<'py>(
         &self,
         py: Python<'py>,
@@ -474,7 +477,18 @@ impl Robot {
         output: &str,
         threads: Option<usize>,
         frame: Option<&str>,
+        quaternion: &str,
     ) -> PyResult<Py<PyAny>> {
+        // Where the scalar part goes: last (x, y, z, w) or first (w, x, y, z).
+        let scalar_first = match quaternion {
+            "xyzw" => false,
+            "wxyz" => true,
+            other => {
+                return Err(InputError::new_err(format!(
+                    "quaternion: expected \"xyzw\" or \"wxyz\", got {other:?}"
+                )));
+            }
+        };
         let q = self.configurations(&q)?;
         let xi = self.xi(xi)?;
         let frame = frame
@@ -534,7 +548,18 @@ impl Robot {
                     Ok(())
                 })?;
                 let positions = out.chunks(7).flat_map(|r| r[..3].iter().copied()).collect();
-                let quaternions = out.chunks(7).flat_map(|r| r[3..].iter().copied()).collect();
+                // write_pose gives [x, y, z, w].
+                let quaternions = out
+                    .chunks(7)
+                    .flat_map(|r| {
+                        let v = [r[3], r[4], r[5], r[6]];
+                        if scalar_first {
+                            [v[3], v[0], v[1], v[2]]
+                        } else {
+                            v
+                        }
+                    })
+                    .collect();
                 let p = to_numpy(py, positions, &shape(&q, &[3]));
                 let r = to_numpy(py, quaternions, &shape(&q, &[4]));
                 Ok((p, r).into_pyobject(py)?.into_any().unbind())

@@ -148,6 +148,7 @@ class Robot:
         output: Literal["matrix"] = "matrix",
         threads: Optional[int] = None,
         frame: Optional[str] = None,
+        quaternion: Literal["xyzw", "wxyz"] = "xyzw",
     ) -> FloatArray:
         """TCP pose in the base frame: (4, 4) for q (dof,), (n, 4, 4) for q (n, dof); m.
 
@@ -160,8 +161,10 @@ class Robot:
         output: Literal["pose"] = ...,
         threads: Optional[int] = None,
         frame: Optional[str] = None,
+        quaternion: Literal["xyzw", "wxyz"] = "xyzw",
     ) -> tuple[FloatArray, FloatArray]:
-        """(positions (n, 3) in m, quaternions (n, 4) as [x, y, z, w])."""
+        """(positions (n, 3) in m, quaternions (n, 4)): [x, y, z, w] by default (SciPy's
+        order), [w, x, y, z] with quaternion="wxyz" (flexcal's files and reports)."""
     def jacobian(
         self, q: ArrayLike, xi: Optional[ArrayLike] = None, threads: Optional[int] = None
     ) -> FloatArray:

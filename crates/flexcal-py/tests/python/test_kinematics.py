@@ -49,6 +49,22 @@ def test_batched_fk_is_threads_independent(ur10):
     positions, quaternions = ur10.fk(q[:100], output="pose")
     np.testing.assert_allclose(positions, one[:100, :3, 3], atol=1e-15)
     np.testing.assert_allclose(np.linalg.norm(quaternions, axis=1), 1.0, atol=1e-12)
+    # flexcal's files put the scalar first; the keyword chooses.
+    _, scalar_first = ur10.fk(q[:100], output="pose", quaternion="wxyz")
+    np.testing.assert_array_equal(scalar_first, quaternions[:, [3, 0, 1, 2]])
+    # The rotation the quaternion stands for is the matrix's (scalar first:
+    # w = cos(angle / 2), R = ... from the standard formula).
+    w, x, y, z = scalar_first[0]
+    r = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    np.testing.assert_allclose(r, one[0, :3, :3], atol=1e-12)
+    with pytest.raises(flexcal.InputError, match="quaternion"):
+        ur10.fk(q[:2], output="pose", quaternion="zyxw")
 
 
 def rotation_vector(r):
