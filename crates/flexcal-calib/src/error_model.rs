@@ -21,13 +21,14 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, UnitQuatern
 
 use crate::elastic_terms::{ElasticTerms, JointState};
 use crate::error::CalibError;
+use crate::frames::{TCP_FRAME, resolve_frame};
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::joint_law::JointTerms;
 use crate::metrics::PoseError;
-use crate::targets::{TCP_FRAME, TargetMeasurementSet, TargetObservation};
+use crate::targets::{TargetMeasurementSet, TargetObservation};
 
 /// Names of the six unknowns of the measurement frame `x_meas_base`: a
 /// translation (m) added to the starting estimate and a rotation vector (rad)
@@ -233,22 +234,12 @@ impl<'a> ErrorModel<'a> {
         let count = set.targets().len();
         let mut targets = Vec::with_capacity(count);
         for (t, target) in set.targets().iter().enumerate() {
-            let on_tcp = target.frame == TCP_FRAME;
-            let frame = if on_tcp {
-                model.end_frame()
-            } else {
-                model.frame_index(&target.frame).ok_or_else(|| CalibError::BadMeasurement {
-                    source_name: set.source.clone(),
-                    line: 0,
-                    what: format!(
-                        "target `{}`: robot `{}` has no frame `{}` (frames: {}, or `{TCP_FRAME}`)",
-                        target.name,
-                        model.name(),
-                        target.frame,
-                        model.frame_names().join(", ")
-                    ),
-                })?
-            };
+            let (frame, on_tcp) = resolve_frame(
+                model,
+                &set.source,
+                &format!("target `{}`", target.name),
+                &target.frame,
+            )?;
             let rotation = starts.rotation[t];
             targets.push(TargetTerms {
                 frame,

@@ -432,7 +432,7 @@ impl GravityCompliance {
         model: &Model,
     ) -> Result<(usize, Isometry3<f64>), CalibError> {
         match self.payload_frame.as_deref() {
-            None | Some(crate::targets::TCP_FRAME) => Ok((model.end_frame(), model.tool())),
+            None | Some(crate::frames::TCP_FRAME) => Ok((model.end_frame(), model.tool())),
             Some(name) => model
                 .frame_index(name)
                 .map(|f| (f, Isometry3::identity()))
@@ -550,7 +550,7 @@ impl GravityTerms {
         let on_tcp = gravity
             .payload_frame
             .as_deref()
-            .is_none_or(|f| f == crate::targets::TCP_FRAME);
+            .is_none_or(|f| f == crate::frames::TCP_FRAME);
         let (frame, x_frame_payload) = gravity.payload_attachment(model)?;
         let mut params = [DMatrix::zeros(6, model.n_params())];
         for (k, q) in poses.q.iter().enumerate() {
@@ -745,7 +745,7 @@ impl LateralTerms {
         let on_tcp = gravity
             .payload_frame
             .as_deref()
-            .is_none_or(|f| f == crate::targets::TCP_FRAME);
+            .is_none_or(|f| f == crate::frames::TCP_FRAME);
         let (end, x_frame_payload) = gravity.payload_attachment(model)?;
         for (k, q) in poses.q.iter().enumerate() {
             let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, q, xi)

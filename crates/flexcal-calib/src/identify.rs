@@ -11,6 +11,7 @@ use nalgebra::Isometry3;
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::error_model::UnknownKind;
+use crate::frames::TCP_FRAME;
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, ResidualNorms, identify};
 use crate::joint_law::JointTerms;
@@ -20,7 +21,7 @@ use crate::options::CalibrationOptions;
 use crate::screen::DataChecks;
 use crate::significance::{MIN_TORQUE_SHARE, NoiseSource, torque_magnitude};
 use crate::spread::WEAK_SPREAD_RATIO;
-use crate::targets::{TCP_FRAME, TargetMeasurementSet};
+use crate::targets::TargetMeasurementSet;
 use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// A fitted geometric calibration: the identified robot parameters, frames,

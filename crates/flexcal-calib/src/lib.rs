@@ -301,6 +301,7 @@ pub mod cross;
 mod elastic_terms;
 mod error;
 pub mod error_model;
+pub mod frames;
 pub mod geometry;
 pub mod gravity;
 pub mod holdout;
@@ -337,6 +338,7 @@ pub use error_model::{
 };
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use flexcal_optim::CancelToken;
+pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
     FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
@@ -374,7 +376,7 @@ pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcom
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use spread::{SPREAD_REFERENCE_POSES, WEAK_SPREAD_RATIO};
 pub use targets::{
-    TCP_FRAME, Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
+    Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
     targets_from_toml_str, targets_to_toml_string, write_targets,
 };
 pub use unknowns::{Combination, UnknownEstimate, UnknownStatus};

@@ -11,9 +11,10 @@ use std::borrow::Cow;
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
+use crate::frames::TCP_FRAME;
 use crate::identify::Calibration;
 use crate::measurement::MeasurementSet;
-use crate::targets::{TCP_FRAME, Target, TargetMeasurementSet};
+use crate::targets::{Target, TargetMeasurementSet};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use flexcal_optim::{Jacobian, Residuals};
 

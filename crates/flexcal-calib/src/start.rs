@@ -13,10 +13,11 @@ use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
 use crate::error::CalibError;
 use crate::error_model::FrameStarts;
+use crate::frames::resolve_frame;
 use crate::geometry::{mean_rotation, register_points, rotation_from_vector};
 use crate::options::CalibrationOptions;
 use crate::options::FrameTreatment;
-use crate::targets::{TCP_FRAME, TargetMeasurementSet};
+use crate::targets::TargetMeasurementSet;
 
 /// The pose `x_base_f` of each target's frame (after the tool for a target
 /// on the TCP) at every pose of `set`, the robot rigid at `xi`: one entry
@@ -34,24 +35,12 @@ pub(crate) fn target_frames(
         .targets()
         .iter()
         .map(|t| {
-            if t.frame == TCP_FRAME {
-                Ok((model.end_frame(), true))
-            } else {
-                model
-                    .frame_index(&t.frame)
-                    .map(|f| (f, false))
-                    .ok_or_else(|| CalibError::BadMeasurement {
-                        source_name: set.source.clone(),
-                        line: 0,
-                        what: format!(
-                            "target `{}`: robot `{}` has no frame `{}` (frames: {}, or `{TCP_FRAME}`)",
-                            t.name,
-                            model.name(),
-                            t.frame,
-                            model.frame_names().join(", ")
-                        ),
-                    })
-            }
+            resolve_frame(
+                model,
+                &set.source,
+                &format!("target `{}`", t.name),
+                &t.frame,
+            )
         })
         .collect::<Result<Vec<_>, _>>()?;
     let mut data = Data::new(model);

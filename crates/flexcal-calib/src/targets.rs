@@ -35,16 +35,13 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CalibError;
+use crate::frames::TCP_FRAME;
 use crate::geometry::{rotation_from_vector, vector_from_rotation};
 use crate::measurement::MeasurementSet;
 use crate::measurement::{
     PoseSet, StationPool, check_same_actuated, check_stations, first_to_pool, station_index,
 };
 use crate::options::FrameTreatment;
-
-/// The frame name that stands for the TCP: the end frame followed by the
-/// robot's tool transform.
-pub const TCP_FRAME: &str = "tcp";
 
 /// A measured target fixed to a frame of the robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

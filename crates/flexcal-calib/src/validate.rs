@@ -9,6 +9,7 @@ use nalgebra::Isometry3;
 
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
+use crate::frames::TCP_FRAME;
 use crate::gravity::GravityCompliance;
 use crate::identify::Calibration;
 use crate::joint_law::JointTerms;
@@ -16,7 +17,7 @@ use crate::measurement::MeasurementSet;
 pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
 use crate::screen::DataChecks;
 use crate::start::{register_stations, target_frames};
-use crate::targets::{TCP_FRAME, TargetMeasurementSet};
+use crate::targets::TargetMeasurementSet;
 
 /// How the measurement frame is obtained when errors are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]
