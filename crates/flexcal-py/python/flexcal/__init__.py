@@ -52,8 +52,8 @@ from ._flexcal import (
     UnreachableError,
     ValidationResult,
     __version__,
-    calibrate,
-    calibrate_targets,
+    calibrate as _calibrate_one_target,
+    calibrate_targets as _calibrate_targets,
     compensate_path,
     plan,
 )
@@ -100,3 +100,29 @@ __all__ = [
     "compensate_path",
     "plan",
 ]
+
+
+def calibrate(robot, data, *args, **kwargs):
+    """Identifies the robot from a measurement set: a ``MeasurementSet``
+    (one target on the TCP) gives a ``CalibrationResult``, a
+    ``TargetMeasurementSet`` (several targets per pose, positions and,
+    where given, orientations) a ``TargetCalibrationResult``. Both run the
+    library's one identification; the keyword arguments are those of each
+    (docs/python.md)."""
+    if isinstance(data, TargetMeasurementSet):
+        return _calibrate_targets(robot, data, *args, **kwargs)
+    return _calibrate_one_target(robot, data, *args, **kwargs)
+
+
+def calibrate_targets(robot, data, *args, **kwargs):
+    """Deprecated alias of ``calibrate`` for a ``TargetMeasurementSet``,
+    kept for one release: ``flexcal.calibrate`` takes either kind of set."""
+    import warnings
+
+    warnings.warn(
+        "flexcal.calibrate_targets is deprecated and will be removed in the next release: "
+        "flexcal.calibrate takes a TargetMeasurementSet too",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return _calibrate_targets(robot, data, *args, **kwargs)

@@ -570,7 +570,7 @@ class Campaign:
         """Runs the campaign as `flexcal calibrate --config` does and returns what
         `calibrate` returns; with `write_outputs` the files of its [outputs]
         table are written too. A campaign with several targets per pose
-        raises InputError (use `calibrate_targets`)."""
+        raises InputError (use `flexcal.calibrate`, which takes a TargetMeasurementSet too)."""
 
 class TargetMeasurementSet:
     """Measured poses of several targets: q (rad, m) and, per target, its position (m)

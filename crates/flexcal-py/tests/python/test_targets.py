@@ -1,7 +1,8 @@
 """Several targets per pose from Python: a two-armed tree robot (a torso
 joint carrying two four-joint arms) with a marker on each hand, simulated
 with a known truth through `Robot.fk(..., frame=...)`, calibrated by
-`flexcal.calibrate_targets`, validated, written and read back."""
+`flexcal.calibrate` (which takes either kind of set), validated, written
+and read back."""
 
 import json
 
@@ -79,7 +80,7 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, source="two arms")
     assert len(data) == 120 and data.target_names == ["left", "right"]
     assert data.n_observations == int(np.sum(~np.isnan(positions[:, :, 0])))
-    result = flexcal.calibrate_targets(two_arms, data, select="none", split_check=True)
+    result = flexcal.calibrate(two_arms, data, select="none", split_check=True)
     assert result.model == "geometric" and result.selection is None
     # Independent noise and the truth's model: the halves differ as the
     # covariance says (two splits of some sixty unknowns: within 0.5 - 2).
@@ -186,7 +187,7 @@ def test_two_stations_of_markers_each_with_its_frame(two_arms):
     second = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q2, truth.measure(two_arms, q2), source="b")
     data = flexcal.TargetMeasurementSet.pooled([first, second])
     assert data.station_names == ["a", "b"] and data.station_of == [0] * 60 + [1] * 60
-    result = flexcal.calibrate_targets(two_arms, data, select="none", hold_out_stations=True)
+    result = flexcal.calibrate(two_arms, data, select="none", hold_out_stations=True)
     assert result.after.position_mean < 1.3 * 1.6 * NOISE, result.after
     # Each placement predicted by the robot calibrated on the other.
     held = result.station_hold_out
@@ -217,7 +218,7 @@ def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
     positions[17, 1, 2] += 2e-3
     data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions)
     assert data.labels[:2] == ["#0", "#1"]
-    result = flexcal.calibrate_targets(two_arms, data, select="none")
+    result = flexcal.calibrate(two_arms, data, select="none")
     checks = result.data_checks
     assert len(checks) == 1 and "1 observation" in checks[0] and "right at #17" in checks[0], checks
     kept = data.excluding(["#17"])
@@ -226,8 +227,8 @@ def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
     marker = data.excluding(["right at #17"])
     assert len(marker) == 80 and marker.n_observations == 159
     assert np.isnan(marker.positions[17, 1]).all() and not np.isnan(marker.positions[17, 0]).any()
-    assert flexcal.calibrate_targets(two_arms, marker, select="none").data_checks == []
-    clean = flexcal.calibrate_targets(two_arms, kept, select="none")
+    assert flexcal.calibrate(two_arms, marker, select="none").data_checks == []
+    clean = flexcal.calibrate(two_arms, kept, select="none")
     assert clean.data_checks == []
     assert clean.after.position_mean < 1.3 * 1.6 * NOISE < result.after.position_mean, (
         clean.after,
@@ -273,7 +274,7 @@ def test_the_elasto_geometric_model_with_two_markers(two_arms, tmp_path):
         .read_text()
         .replace("initial_compliance_urad_per_nm = 10.0", "initial_compliance_urad_per_nm = 0.0")
     )
-    result = flexcal.calibrate_targets(
+    result = flexcal.calibrate(
         two_arms,
         data,
         model="elasto-geometric",
@@ -300,7 +301,7 @@ def test_the_elasto_geometric_model_with_two_markers(two_arms, tmp_path):
     # told in the notes, kept or left out.
     assert any("compliance_thetaL1" in n for n in result.notes), result.notes
     # Cross-validation on the same poses drops the compliances.
-    selected = flexcal.calibrate_targets(
+    selected = flexcal.calibrate(
         two_arms, data, model="elasto-geometric", masses=DATA / "two_arms_masses.toml"
     )
     assert selected.selection is not None and selected.selection.method == "cv"
@@ -326,9 +327,9 @@ def test_bad_multi_target_input_is_a_named_error(two_arms):
         [("left", "LH", OFFSET), ("right", "XX", OFFSET)], q, good
     )
     with pytest.raises(flexcal.MeasurementError, match="no frame `XX`"):
-        flexcal.calibrate_targets(two_arms, data, select="none")
+        flexcal.calibrate(two_arms, data, select="none")
     with pytest.raises(flexcal.InputError, match="select"):
-        flexcal.calibrate_targets(two_arms, data, select="maybe")
+        flexcal.calibrate(two_arms, data, select="maybe")
 
 
 def rotation_vector(r):
@@ -355,7 +356,7 @@ def test_orientations_of_several_targets_are_fitted(two_arms):
         hand = truth.frame_rotation @ two_arms.fk(q, xi=truth.xi, frame=frame)[:, :3, :3]
         turns[:, t] = rotation_vector(hand) + truth.rng.normal(0.0, sigma, (len(q), 3))
     data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, orientations=turns)
-    result = flexcal.calibrate_targets(two_arms, data, select="none")
+    result = flexcal.calibrate(two_arms, data, select="none")
     status = {u.name: u.status for u in result.parameters}
     for name, _, _ in TARGETS:
         for axis in ("rx", "ry", "rz"):
@@ -363,9 +364,22 @@ def test_orientations_of_several_targets_are_fitted(two_arms):
     for name, errors in result.per_target_after.items():
         assert errors.orientation_rms is not None and errors.orientation_rms < 3 * sigma, name
     # Positions alone: the markers' rotations are not unknowns at all.
-    positions_only = flexcal.calibrate_targets(
+    positions_only = flexcal.calibrate(
         two_arms, flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions), select="none"
     )
     assert not any(u.name.startswith("target.left.r") for u in positions_only.parameters)
     with pytest.raises(flexcal.ShapeError, match="orientations"):
         flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, orientations=turns[:, :1])
+
+
+def test_calibrate_targets_is_a_deprecated_alias(two_arms):
+    """The old name still works for one release, and says so."""
+    truth = Truth(two_arms, seed=31)
+    q = configurations(two_arms, 40, seed=32)
+    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    with pytest.warns(DeprecationWarning, match="flexcal.calibrate takes a TargetMeasurementSet"):
+        old = flexcal.calibrate_targets(two_arms, data, select="none")
+    new = flexcal.calibrate(two_arms, data, select="none")
+    assert isinstance(new, flexcal.TargetCalibrationResult)
+    assert old.identified == new.identified
+
