@@ -443,7 +443,12 @@ pub(crate) fn identify<'a>(
     let x_initial = problem.initial_unknowns();
     let x_start = fit_frames(&context, &layout, &solver, &noise_at, x_initial.clone())?;
     let excluded = |j: usize| layout.excluded(j);
-    let partial_period = left_at_start(model, &problem, &layout.names, options);
+    // What the poses cover of each coordinate and of its gravity torque,
+    // once: the masks below, the spread reference and the report use them.
+    let q = problem.set().configurations();
+    let actuated_ranges = CoordinateCoverage::of_configurations(model, &q);
+    let torque_ranges = problem.torque_ranges();
+    let partial_period = left_at_start(model, (&q, &torque_ranges), &layout.names, options);
     let reduced_start = context.reduced(&x_start)?;
     let n = layout.names.len();
     let mut solve = |x0: &[f64], frozen: &[bool]| solver.solve(x0, frozen);
@@ -471,14 +476,12 @@ pub(crate) fn identify<'a>(
         x_start: &x_start,
         x_initial: &x_initial,
         starts: &starts,
+        actuated_ranges: &actuated_ranges,
         absolute,
     };
     let (unknowns, combinations, noise) = statistics.of(model, &outcome, &noise_at)?;
     let errors_before = problem.errors(&x_start)?;
     let errors_after = problem.errors(&outcome.report.x)?;
-    let q = problem.set().configurations();
-    let actuated_ranges = CoordinateCoverage::of_configurations(model, &q);
-    let torque_ranges = problem.torque_ranges();
     let Solver {
         cost_history,
         residual_history,
@@ -545,15 +548,14 @@ fn fit_frames(
 /// ([`CalibrationOptions::min_torque_share`]).
 fn left_at_start(
     model: &Model,
-    problem: &ErrorModel<'_>,
+    (q, torque_ranges): (&[&[f64]], &[CoordinateCoverage]),
     names: &[String],
     options: &CalibrationOptions,
 ) -> Vec<bool> {
-    let q = problem.set().configurations();
     barely_loaded(
-        crate::joint_law::partial_period_mask_of(model, &q, names),
+        crate::joint_law::partial_period_mask_of(model, q, names),
         (names, model.actuated_names()),
-        &problem.torque_ranges(),
+        torque_ranges,
         options.min_torque_share,
     )
 }
@@ -567,6 +569,8 @@ struct Statistics<'s> {
     x_start: &'s [f64],
     x_initial: &'s [f64],
     starts: &'s FrameStarts,
+    /// What the poses cover of each actuated coordinate.
+    actuated_ranges: &'s [CoordinateCoverage],
     absolute: bool,
 }
 
@@ -603,13 +607,12 @@ impl Statistics<'_> {
             .combinations(self.reduced_start, &identified, &absorbed)?;
         let problem = self.context.problem;
         let spread = if self.options.spread_reference {
-            let q = problem.set().configurations();
             spread_ratios(
                 &SpreadReference {
                     model,
                     set: problem.set(),
                     options: self.options,
-                    actuated_ranges: &CoordinateCoverage::of_configurations(model, &q),
+                    actuated_ranges: self.actuated_ranges,
                     starts: self.starts,
                     context: self.context,
                 },
