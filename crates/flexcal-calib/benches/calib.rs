@@ -25,8 +25,8 @@ use std::path::PathBuf;
 use criterion::{Criterion, criterion_group, criterion_main};
 use flexcal_calib::{
     CalibrationOptions, GravityCompliance, JointLaw, JointTerms, MeasurementSet, SelectionOptions,
-    TargetMeasurementSet, TargetObservation, TargetPose, Weighting, calibrate, calibrate_targets,
-    read_targets, rotation_from_vector, select_model, select_target_model,
+    TargetMeasurementSet, TargetObservation, TargetPose, Weighting, calibrate, read_targets,
+    rotation_from_vector, select_model, select_target_model,
 };
 use flexcal_kinematics::{
     Data, PointLoad, RobotDescription, actuated_forces_into, forward_frame_pose,
@@ -171,7 +171,7 @@ fn target_set(
 
 fn bench_targets(c: &mut Criterion) {
     let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
-    let mut group = c.benchmark_group("calibrate_targets");
+    let mut group = c.benchmark_group("calibrate");
     group.sample_size(10);
     for (robot, poses, compliance, noise) in [
         ("two_arms", 300, 0.0, 20e-6),
@@ -185,7 +185,7 @@ fn bench_targets(c: &mut Criterion) {
             ..CalibrationOptions::default()
         };
         group.bench_function(format!("{robot}_{poses}_poses_elasto_geometric"), |b| {
-            b.iter(|| calibrate_targets(&model, &set, &options).expect("identification succeeds"))
+            b.iter(|| calibrate(&model, &set, &options).expect("identification succeeds"))
         });
         group.bench_function(format!("{robot}_{poses}_poses_select_cv"), |b| {
             b.iter(|| {

@@ -35,7 +35,7 @@
 //! (extrapolation, another day's temperature), which no statistic of the
 //! training data can know.
 //!
-//! With several targets per pose ([`crate::TargetCalibration`]) the same
+//! With several targets per pose ([`crate::TargetMeasurementSet`]) the same
 //! holds for each target: `J_S` holds the position rows of that target's
 //! point (its offset's columns among them), N counts observations, and the
 //! map has one entry per pose and target ([`PoseAccuracy::target`]).
@@ -47,13 +47,12 @@ use std::path::Path;
 
 use crate::error::CalibError;
 use crate::identify::Calibration;
-use crate::identify_targets::{TargetCalibration, TargetValidation, validate_targets};
-use crate::measurement::{Measurement, MeasurementSet};
-use crate::prediction::{Predicting, covariance_of, covariance_size};
+use crate::prediction::{PredictedAt, covariance_of, covariance_size};
 use crate::split::SplitCheck;
+use crate::targets::{Observations, SetKind};
 use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
 use crate::unknowns::UnknownStatus;
-use crate::validate::ValidationReport;
+use crate::validate::{TargetValidation, ValidationReport, validate_targets};
 
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
@@ -72,7 +71,7 @@ pub struct PoseAccuracy {
     /// Pose label (`line N`, the pose id, or the row of a grid file).
     pub pose: String,
     /// The target this entry predicts, with several targets per pose
-    /// ([`crate::TargetCalibration::predicted_accuracy`]: one entry per
+    /// ([`crate::Calibration::predicted_accuracy`]: one entry per
     /// pose and target); `None` for the one target of a [`Calibration`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<String>,
@@ -181,86 +180,41 @@ impl AccuracyMap {
     }
 }
 
-impl Calibration {
-    /// Predicted accuracy at the configurations `configurations` (rad or
-    /// m), the covariance raised by `split`'s prediction ratio where it
-    /// understates (module docs).
-    ///
-    /// # Errors
-    /// [`CalibError::InvalidOption`] when the identification has no
-    /// covariance (as many equations as unknowns), a configuration of the
-    /// wrong size, a model failure at a pose.
-    pub fn predicted_accuracy(
-        &self,
-        model: &Model,
-        configurations: &[Vec<f64>],
-        split: Option<&SplitCheck>,
-    ) -> Result<AccuracyMap, CalibError> {
-        let measurements: Vec<Measurement> = configurations
+/// A validation of a calibration on a measured set, as the predicted
+/// accuracy compares its errors with the bounds:
+/// [`crate::ValidationReport`] (one target per pose) and
+/// [`crate::TargetValidation`] (several).
+pub trait ValidationErrors {
+    /// The position error (m) after calibration of every observation, in
+    /// the set's order.
+    fn position_errors(&self) -> Vec<f64>;
+}
+
+impl ValidationErrors for ValidationReport {
+    fn position_errors(&self) -> Vec<f64> {
+        self.after_per_pose.iter().map(|e| e.position).collect()
+    }
+}
+
+impl ValidationErrors for TargetValidation {
+    fn position_errors(&self) -> Vec<f64> {
+        self.observation_errors
             .iter()
-            .map(|q| Measurement::new(q.clone(), Vector3::zeros()))
-            .collect();
-        let set = MeasurementSet::new("accuracy grid", measurements)?;
-        accuracy_at(self, model, &set, &grid_row, None, split)
-    }
-
-    /// Predicted accuracy at the poses of the measured set `validation`,
-    /// with their measured errors after calibration (the measurement frame
-    /// re-fitted as in [`Calibration::validate`]) and the share within the
-    /// bound.
-    ///
-    /// # Errors
-    /// As [`Calibration::predicted_accuracy`] and [`Calibration::validate`].
-    pub fn accuracy_coverage(
-        &self,
-        model: &Model,
-        validation: &MeasurementSet,
-        split: Option<&SplitCheck>,
-    ) -> Result<AccuracyMap, CalibError> {
-        let report = self.validate(model, validation, false)?;
-        self.accuracy_coverage_of(model, validation, &report, split)
-    }
-
-    /// [`Calibration::accuracy_coverage`] from the validation `report` of
-    /// `validation` already made (by [`Calibration::validate`]), instead of
-    /// validating again.
-    ///
-    /// # Errors
-    /// As [`Calibration::predicted_accuracy`], and a report that is not
-    /// of `validation` (another number of poses).
-    pub fn accuracy_coverage_of(
-        &self,
-        model: &Model,
-        validation: &MeasurementSet,
-        report: &ValidationReport,
-        split: Option<&SplitCheck>,
-    ) -> Result<AccuracyMap, CalibError> {
-        let actual: Vec<f64> = report.after_per_pose.iter().map(|e| e.position).collect();
-        check_report_size(actual.len(), validation.len(), &validation.source)?;
-        let label = |k: usize| validation.measurements()[k].label(k);
-        accuracy_at(self, model, validation, &label, Some(&actual), split)
+            .map(|e| e.error.norm())
+            .collect()
     }
 }
 
-/// A validation report of `n` entries for a set of `expected`.
-fn check_report_size(n: usize, expected: usize, source: &str) -> Result<(), CalibError> {
-    if n == expected {
-        return Ok(());
-    }
-    Err(CalibError::InvalidOption {
-        name: "accuracy",
-        reason: format!("a validation report of {n} errors for the {expected} of {source}"),
-    })
-}
-
-impl TargetCalibration {
+impl Calibration {
     /// Predicted accuracy of every target at the configurations
     /// `configurations` (rad or m): one entry per configuration and
     /// target, in that order, the covariance raised by `split`'s
     /// prediction ratio where it understates (module docs).
     ///
     /// # Errors
-    /// As [`Calibration::predicted_accuracy`].
+    /// [`CalibError::InvalidOption`] when the identification has no
+    /// covariance (as many equations as unknowns), a configuration of the
+    /// wrong size, a model failure at a pose.
     pub fn predicted_accuracy(
         &self,
         model: &Model,
@@ -283,50 +237,61 @@ impl TargetCalibration {
     }
 
     /// Predicted accuracy at the observations of the measured set
-    /// `validation` (same targets by name), with their measured errors
-    /// after calibration (the measurement frame fitted again, as
-    /// [`validate_targets`] with `refit_frame`) and the share within the
-    /// bound.
+    /// `validation`, with their measured errors after calibration (the
+    /// measurement frame fitted again: [`Calibration::validate`] for one
+    /// target, [`crate::validate_targets`] with `refit_frame` for several)
+    /// and the share within the bound.
     ///
     /// # Errors
-    /// As [`TargetCalibration::predicted_accuracy`] and [`validate_targets`].
-    pub fn accuracy_coverage(
+    /// As [`Calibration::predicted_accuracy`] and the validation.
+    pub fn accuracy_coverage<S: Observations + ?Sized>(
         &self,
         model: &Model,
-        validation: &TargetMeasurementSet,
+        validation: &S,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        let report = validate_targets(model, self, validation, true)?;
-        self.accuracy_coverage_of(model, validation, &report, split)
+        match validation.kind() {
+            SetKind::OneTarget(set) => {
+                let report = self.validate(model, set, false)?;
+                self.accuracy_coverage_of(model, set, &report, split)
+            }
+            SetKind::Targets(set) => {
+                let report = validate_targets(model, self, set, true)?;
+                self.accuracy_coverage_of(model, set, &report, split)
+            }
+        }
     }
 
-    /// [`TargetCalibration::accuracy_coverage`] from the validation
-    /// `report` of `validation` already made (by [`validate_targets`] with
-    /// `refit_frame`), instead of validating again.
+    /// [`Calibration::accuracy_coverage`] from the validation `report` of
+    /// `validation` already made, instead of validating again.
     ///
     /// # Errors
-    /// As [`TargetCalibration::predicted_accuracy`], and a report that is
-    /// not of `validation` (another number of observations).
-    pub fn accuracy_coverage_of(
+    /// As [`Calibration::predicted_accuracy`], and a report that is not
+    /// of `validation` (another number of observations).
+    pub fn accuracy_coverage_of<S: Observations + ?Sized, R: ValidationErrors>(
         &self,
         model: &Model,
-        validation: &TargetMeasurementSet,
-        report: &TargetValidation,
+        validation: &S,
+        report: &R,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        let actual: Vec<f64> = report
-            .observation_errors
-            .iter()
-            .map(|e| e.error.norm())
-            .collect();
-        check_report_size(
-            actual.len(),
-            validation.n_observations(),
-            &validation.source,
-        )?;
-        let label = |k: usize| validation.poses()[k].label(k);
-        accuracy_at(self, model, validation, &label, Some(&actual), split)
+        let actual = report.position_errors();
+        let set = validation.observations()?;
+        check_report_size(actual.len(), set.n_observations(), &set.source)?;
+        let label = |k: usize| set.poses()[k].label(k);
+        accuracy_at(self, model, &*set, &label, Some(&actual), split)
     }
+}
+
+/// A validation report of `n` entries for a set of `expected`.
+fn check_report_size(n: usize, expected: usize, source: &str) -> Result<(), CalibError> {
+    if n == expected {
+        return Ok(());
+    }
+    Err(CalibError::InvalidOption {
+        name: "accuracy",
+        reason: format!("a validation report of {n} errors for the {expected} of {source}"),
+    })
 }
 
 /// The label of row `k` of an accuracy grid.
@@ -337,16 +302,16 @@ pub(crate) fn grid_row(k: usize) -> String {
 /// The accuracy map of `calibration` at the observations of `set`, pose `k`
 /// labelled `label(k)`, with the measured errors `actual` (m, one per
 /// observation) when `set` is measured.
-pub(crate) fn accuracy_at<P: Predicting>(
-    calibration: &P,
+pub(crate) fn accuracy_at<S: PredictedAt>(
+    calibration: &Calibration,
     model: &Model,
-    set: &P::Set,
+    set: &S,
     label: &dyn Fn(usize) -> String,
     actual: Option<&[f64]>,
     split: Option<&SplitCheck>,
 ) -> Result<AccuracyMap, CalibError> {
     let covariance = covariance_of(calibration)?;
-    let linearised = calibration.linearise(model, set)?;
+    let linearised = set.linearise(calibration, model)?;
     let jac = &linearised.jacobian;
     let n = jac.ncols();
     if covariance.nrows() != n {
@@ -372,7 +337,7 @@ pub(crate) fn accuracy_at<P: Predicting>(
         .map_or(1.0, |r| r.max(1.0));
     // The identified unknowns, the measurement frame's apart: the robot's
     // accuracy is its uncertainty with the frame known (conditioned on it).
-    let unknowns = calibration.estimates();
+    let unknowns = &calibration.unknowns;
     let identified = |j: &usize| unknowns[*j].status == UnknownStatus::Identified;
     let is_frame = |j: &usize| unknowns[*j].name.starts_with("frame_");
     let columns: Vec<usize> = (0..n).filter(|j| identified(j) && !is_frame(j)).collect();
@@ -388,7 +353,7 @@ pub(crate) fn accuracy_at<P: Predicting>(
         &block(&columns, &frame_columns),
         &block(&frame_columns, &frame_columns),
     );
-    let base_from_meas = calibration.measurement_frame().inverse();
+    let base_from_meas = calibration.x_meas_base.inverse();
     let s2 = calibration.residual_variance();
     let mut poses = Vec::with_capacity(linearised.observed.len());
     let mut within = 0usize;
@@ -405,9 +370,9 @@ pub(crate) fn accuracy_at<P: Predicting>(
         if actual_error.is_some_and(|e| e <= bound) {
             within += 1;
         }
-        let q = P::configuration(set, observed.pose);
+        let q = set.configuration(observed.pose);
         let outside_training_range: Vec<String> =
-            crate::coverage::outside(calibration.training_ranges(), q)
+            crate::coverage::outside(&calibration.actuated_ranges, q)
                 .map(|i| model.actuated_names()[i].clone())
                 .collect();
         if !outside_training_range.is_empty() {

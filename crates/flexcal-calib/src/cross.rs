@@ -29,15 +29,12 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::identify::Calibration;
-use crate::identify_targets::TargetCalibration;
-use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
-use crate::prediction::Predicting;
 use crate::selection::Selectable;
 use crate::split::{
     SplitCheck, compared_unknowns, median, not_compared_note, reidentification_options, split_check,
 };
-use crate::targets::TargetMeasurementSet;
+use crate::targets::{Observations, SetKind};
 use crate::unknowns::UnknownStatus;
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard
@@ -107,30 +104,17 @@ impl CrossCheck {
     /// kinematic failure naming the pose) or on its halves (but too few
     /// poses there, which leaves `z_split` unknown and says why in
     /// [`CrossCheck::other_split_failure`]).
-    pub fn new(
+    pub fn new<S: Observations + ?Sized>(
         model: &Model,
-        other: &MeasurementSet,
+        other: &S,
         options: &CalibrationOptions,
         calibration: &Calibration,
         split: Option<&SplitCheck>,
     ) -> Result<Self, CalibError> {
-        cross_check(model, other, options, calibration, split)
-    }
-
-    /// The check of a multi-target identification against another set of
-    /// the same targets: as [`CrossCheck::new`], with
-    /// [`SplitCheck::for_targets`] on the other set when `split` is given.
-    ///
-    /// # Errors
-    /// As [`CrossCheck::new`], from [`crate::calibrate_targets`].
-    pub fn for_targets(
-        model: &Model,
-        other: &TargetMeasurementSet,
-        options: &CalibrationOptions,
-        calibration: &TargetCalibration,
-        split: Option<&SplitCheck>,
-    ) -> Result<Self, CalibError> {
-        cross_check(model, other, options, calibration, split)
+        match other.kind() {
+            SetKind::OneTarget(other) => cross_check(model, other, options, calibration, split),
+            SetKind::Targets(other) => cross_check(model, other, options, calibration, split),
+        }
     }
 
     /// The unknowns whose `|z|` exceeds [`CROSS_Z_WARNING`].
@@ -197,15 +181,15 @@ impl CrossCheck {
     }
 }
 
-/// [`CrossCheck::new`] and [`CrossCheck::for_targets`].
+/// [`CrossCheck::new`] on either kind of set.
 fn cross_check<S: Selectable>(
     model: &Model,
     other: &S,
     options: &CalibrationOptions,
-    calibration: &S::Fitted,
+    calibration: &Calibration,
     split: Option<&SplitCheck>,
 ) -> Result<CrossCheck, CalibError> {
-    let other_options = reidentification_options(options, calibration.estimates());
+    let other_options = reidentification_options(options, &calibration.unknowns);
     let refit = other.fit(model, &other_options)?;
     // A set too small to halve gets no split check: z alone, and a note.
     let (other_split, other_split_failure) =
@@ -220,12 +204,12 @@ fn cross_check<S: Selectable>(
             .and_then(|c| c.unknowns.iter().find(|u| u.name == name))
             .and_then(|u| u.split_error)
     };
-    let unknowns = compared_unknowns(calibration.estimates())
+    let unknowns = compared_unknowns(&calibration.unknowns)
         .map(|(_, u)| {
             let (unit, scale) = u.kind.display_unit();
             // The same unknowns in the same order; found by name all the same.
             let other = refit
-                .estimates()
+                .unknowns
                 .iter()
                 .find(|o| o.name == u.name && o.status == UnknownStatus::Identified);
             let value = u.value * scale;

@@ -1,6 +1,6 @@
 //! Each station held out in turn: with measurements from several stations
-//! (tracker placements, campaigns of other days; [`MeasurementSet::pooled`],
-//! or with several targets [`TargetMeasurementSet::pooled`]), the
+//! (tracker placements, campaigns of other days; [`crate::MeasurementSet::pooled`],
+//! or with several targets [`crate::TargetMeasurementSet::pooled`]), the
 //! calibration identified from the other stations, its model selected
 //! on their poses alone, predicts the held-out station's poses with only
 //! that station's measurement frame re-fitted. It is the cross-series
@@ -12,11 +12,10 @@ use flexcal_kinematics::Model;
 use serde::Serialize;
 
 use crate::error::CalibError;
-use crate::measurement::MeasurementSet;
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::selection::{Selectable, SelectionOptions, calibrate_selected_in};
-use crate::targets::TargetMeasurementSet;
+use crate::targets::{Observations, SetKind};
 
 /// One station held out.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -36,40 +35,28 @@ pub struct StationHoldOut {
 }
 
 /// Every station of `set` held out in turn: identified on the others with
-/// `options` and `selection` ([`crate::calibrate_selected`]), validated on it.
+/// `options` and `selection` ([`crate::calibrate_selected`]), validated on it
+/// with its measurement frame fitted again; with several targets per pose
+/// ([`crate::TargetMeasurementSet::pooled`]) the errors are those of every
+/// observation.
 ///
 /// # Errors
 /// [`CalibError::InvalidOption`] for a set of one station; what
 /// [`crate::calibrate_selected`] and [`crate::Calibration::validate`] return,
 /// naming the held-out station.
-pub fn hold_out_stations(
+pub fn hold_out_stations<S: Observations + ?Sized>(
     model: &Model,
-    set: &MeasurementSet,
+    set: &S,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<Vec<StationHoldOut>, CalibError> {
-    hold_out(model, set, options, selection)
+    match set.kind() {
+        SetKind::OneTarget(set) => hold_out(model, set, options, selection),
+        SetKind::Targets(set) => hold_out(model, set, options, selection),
+    }
 }
 
-/// [`hold_out_stations`] for several targets per pose
-/// ([`TargetMeasurementSet::pooled`]): identified on the other stations
-/// with [`crate::calibrate_targets_selected`], validated on the held-out
-/// one with its measurement frame fitted again
-/// ([`crate::validate_targets`]); the errors are those of every
-/// observation.
-///
-/// # Errors
-/// As [`hold_out_stations`].
-pub fn hold_out_target_stations(
-    model: &Model,
-    set: &TargetMeasurementSet,
-    options: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<Vec<StationHoldOut>, CalibError> {
-    hold_out(model, set, options, selection)
-}
-
-/// [`hold_out_stations`] and [`hold_out_target_stations`].
+/// [`hold_out_stations`] on either kind of set.
 fn hold_out<S: Selectable>(
     model: &Model,
     set: &S,

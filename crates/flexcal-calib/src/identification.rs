@@ -1,5 +1,5 @@
 //! The one identification behind [`crate::calibrate`] and
-//! [`crate::calibrate_targets`], in the order it runs:
+//! [`crate::calibrate`], in the order it runs:
 //!
 //! 1. settings checked ([`crate::options`]);
 //! 2. frames started ([`crate::start`]): each station's measurement frame
@@ -47,7 +47,7 @@ use crate::unknowns::{Combination, UnknownEstimate};
 
 /// Unweighted residual norms at one iterate of the identification (Figure 7
 /// plots these, position and orientation separately).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ResidualNorms {
     /// Cost `1/2 ||W r||^2` (weighted, dimensionless).
     pub cost: f64,

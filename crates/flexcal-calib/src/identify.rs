@@ -7,26 +7,28 @@ use std::borrow::Cow;
 use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{IdentifiabilityReport, SolveReport};
 use nalgebra::Isometry3;
+use serde::Serialize;
 
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
-use crate::error_model::UnknownKind;
-use crate::frames::TCP_FRAME;
+use crate::error_model::{ErrorModel, UnknownKind};
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, ResidualNorms, identify};
 use crate::joint_law::JointTerms;
-use crate::measurement::MeasurementSet;
-use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::metrics::{
+    ErrorStatistics, ObservationError, PoseError, TargetErrors, error_statistics,
+};
 use crate::options::CalibrationOptions;
 use crate::screen::DataChecks;
 use crate::significance::{MIN_TORQUE_SHARE, NoiseSource, torque_magnitude};
 use crate::spread::WEAK_SPREAD_RATIO;
-use crate::targets::TargetMeasurementSet;
+use crate::targets::{Observations, Target, TargetMeasurementSet};
 use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
-/// A fitted geometric calibration: the identified robot parameters, frames,
-/// the identifiability analysis and the solver's report.
-#[derive(Debug, Clone)]
+/// A fitted calibration of one target or several: the identified robot
+/// parameters, frames and target offsets, the identifiability analysis,
+/// the solver's report and the errors target by target.
+#[derive(Debug, Clone, Serialize)]
 pub struct Calibration {
     /// Identified robot parameters xi (m, rad).
     pub xi: Vec<f64>,
@@ -35,41 +37,56 @@ pub struct Calibration {
     /// Identified (or fixed) measurement frame `x_meas_base` (of the first
     /// station, when the set has several).
     pub x_meas_base: Isometry3<f64>,
+    /// Starting measurement frame (registration of the nominal predictions
+    /// onto the measurements, or the given value): the `frame_*` unknowns
+    /// are increments on it (translation added, rotation vector on the left).
+    pub x_meas_base_initial: Isometry3<f64>,
+    /// Measurement frame fitted for the nominal robot (the "before").
+    pub x_meas_base_nominal_robot: Isometry3<f64>,
     /// Identified (or fixed) measurement frames of the second and later
     /// stations ([`MeasurementSet::pooled`]); empty for one station.
     pub station_frames: Vec<Isometry3<f64>>,
     /// Names of the stations, in order (one for a set from one file).
     pub station_names: Vec<String>,
-    /// Errors after identification of each station's poses, in the order
-    /// of `station_names` (one entry, equal to `training_after`, for one
-    /// station; a station a subset left out has zero poses).
+    /// Errors after identification of each station's observations, in the
+    /// order of `station_names` (one entry, equal to `training_after`, for
+    /// one station; a station a subset left out has zero observations).
     pub station_errors: Vec<ErrorStatistics>,
-    /// Identified (or fixed) target offset `x_tcp_target`.
-    pub x_tcp_target: Isometry3<f64>,
-    /// Starting target offset (nominal).
-    pub x_tcp_target_initial: Isometry3<f64>,
-    /// Target offset fitted together with the measurement frame for the
-    /// nominal robot (the "before" of the comparisons; equal to the starting
-    /// one when the target is fixed or not identifiable).
-    pub x_tcp_target_nominal_robot: Isometry3<f64>,
+    /// The targets with their identified (or fixed) offsets and rotations
+    /// (one target `tcp` on the TCP for a set of one target per pose,
+    /// [`TargetMeasurementSet::from_measurement_set`]).
+    pub targets: Vec<Target>,
+    /// The targets with their offsets fitted for the nominal robot (the
+    /// "before"; the starting ones when fixed or not identifiable).
+    pub targets_nominal_robot: Vec<Target>,
+    /// The targets where the identification started: their target
+    /// unknowns are increments on these (translation added in the target's
+    /// frame, rotation vector on the right; a rotation starts from the
+    /// data where orientations are fitted).
+    pub targets_initial: Vec<Target>,
     /// Whether the measurement frame was fixed.
     pub measurement_frame_fixed: bool,
-    /// Whether orientations were used.
+    /// Whether orientations were fitted (for some target).
     pub use_orientation: bool,
-    /// Every unknown, robot parameters first, then `frame_*`, then
-    /// `target_*`, then the later stations' frames (`frame_s2_*`, ...), then
-    /// (elasto-geometric) `compliance_*`, `payload_*` and,
-    /// when on, `lateral_compliance_*`, then the joint terms.
+    /// Every unknown, robot parameters first, then `frame_*`, then the
+    /// targets' (`target_*` for one target, `target.<name>.*` for
+    /// several), then the later stations' frames (`frame_s2_*`, ...), then
+    /// (elasto-geometric) `compliance_*`, `payload_*` and, when on,
+    /// `lateral_compliance_*`, then the joint terms.
     pub unknowns: Vec<UnknownEstimate>,
     /// The gravity loading when the model is elasto-geometric, with the
     /// identified elastic unknowns (compliances, payload mass, first moment,
     /// lateral compliances when on; order of
-    /// [`GravityCompliance::elastic_unknown_names`]).
+    /// [`GravityCompliance::elastic_unknown_names`]). Not serialised: the
+    /// values are in `unknowns` by name.
+    #[serde(skip)]
     pub elastic: Option<(GravityCompliance, Vec<f64>)>,
     /// The joint error terms of the model ([`crate::joint_law`]).
     pub joint_terms: JointTerms,
     /// Their identified values, in the order of
-    /// [`JointTerms::unknown_names`] (1/rad, rad).
+    /// [`JointTerms::unknown_names`] (1/rad, rad). Not serialised: the
+    /// values are in `unknowns` by name.
+    #[serde(skip)]
     pub joint_term_values: Vec<f64>,
     /// Numerical identifiability analysis of the free unknowns (exact
     /// dependencies, at [`CalibrationOptions::rank_tolerance`]) at the start point.
@@ -88,21 +105,28 @@ pub struct Calibration {
     /// The same iterates' unweighted position and orientation RMS errors
     /// (one entry per entry of `cost_history`).
     pub residual_history: Vec<ResidualNorms>,
-    /// Errors on the identification set with the nominal robot, its frames
-    /// fitted (before).
+    /// Errors of all observations with the nominal robot, its frames and
+    /// offsets fitted (before).
     pub training_before: ErrorStatistics,
-    /// Errors on the identification set after identification.
+    /// Errors of all observations after identification.
     pub training_after: ErrorStatistics,
-    /// Per-pose errors on the identification set after identification.
-    pub training_after_per_pose: Vec<PoseError>,
-    /// Repeated readings and suspect poses of the identification set
-    /// (after the fit).
+    /// Per-target errors before identification (nominal robot, frames fitted).
+    pub per_target_before: Vec<TargetErrors>,
+    /// Per-target errors after identification.
+    pub per_target_after: Vec<TargetErrors>,
+    /// The error of every observation after identification, pose by pose
+    /// (target by target within a pose).
+    pub observation_errors: Vec<ObservationError>,
+    /// Repeated readings and suspect observations of the identification
+    /// set (after the fit).
     pub data_checks: DataChecks,
     /// The noise the standard errors and identifiability judgements used
     /// ([`crate::significance`]).
     pub noise: NoiseSource,
     /// Number of poses used.
     pub n_poses: usize,
+    /// Number of (pose, target) observations used (`n_poses` for one target).
+    pub n_observations: usize,
     /// Names of the robot's actuated coordinates, in the order of
     /// [`Calibration::actuated_ranges`] and [`Calibration::torque_ranges`].
     pub actuated_names: Vec<String>,
@@ -117,6 +141,33 @@ pub struct Calibration {
     /// payload ([`GravityCompliance::joint_torques`]): the torques over which
     /// the compliances were identified. Empty for the geometric model.
     pub torque_ranges: Vec<CoordinateCoverage>,
+}
+
+impl Calibration {
+    /// The identified pose of the first target in its frame (for a set of
+    /// one target per pose: `x_tcp_target`, the target in the TCP frame).
+    pub fn x_tcp_target(&self) -> Isometry3<f64> {
+        self.targets[0].pose()
+    }
+    /// The first target's starting pose ([`Calibration::targets_initial`]).
+    pub fn x_tcp_target_initial(&self) -> Isometry3<f64> {
+        self.targets_initial[0].pose()
+    }
+    /// The first target's pose fitted for the nominal robot (the "before").
+    pub fn x_tcp_target_nominal_robot(&self) -> Isometry3<f64> {
+        self.targets_nominal_robot[0].pose()
+    }
+    /// The identified measurement frame of every station, the first's
+    /// ([`Calibration::x_meas_base`]) first.
+    pub fn measurement_frames(&self) -> Vec<Isometry3<f64>> {
+        std::iter::once(self.x_meas_base)
+            .chain(self.station_frames.iter().copied())
+            .collect()
+    }
+    /// Whether the set had several targets per pose.
+    pub fn has_several_targets(&self) -> bool {
+        self.targets.len() > 1
+    }
 }
 
 impl Calibration {
@@ -145,26 +196,14 @@ impl Calibration {
             .collect()
     }
     /// What the poses could not identify, in sentences for a report: robot
-    /// parameters left at nominal, the target (probe) offset and the
-    /// measurement frame components not identified (their error then stays
-    /// in every prediction away from these poses), and, elasto-geometric,
-    /// which joint compliances gravity loads enough to be identified.
+    /// parameters left at nominal, the target offsets and the measurement
+    /// frame components not identified (their error then stays in every
+    /// prediction away from these poses), each with the identified unknowns
+    /// that absorb it when there are several targets, and,
+    /// elasto-geometric, which joint compliances gravity loads enough to be
+    /// identified.
     pub fn identifiability_notes(&self) -> Vec<String> {
-        let not_identified = |u: &&UnknownEstimate| {
-            matches!(
-                u.status,
-                UnknownStatus::NonIdentifiable | UnknownStatus::PoorlyIdentifiable
-            )
-        };
-        let names = |prefix: &str| -> Vec<&str> {
-            self.unknowns
-                .iter()
-                .filter(|u| u.name.starts_with(prefix))
-                .filter(not_identified)
-                .map(|u| u.name.as_str())
-                .collect()
-        };
-        let mut notes = Vec::new();
+        let several = self.has_several_targets();
         let np = self.xi.len();
         let robot = |status: UnknownStatus| -> Vec<&str> {
             self.unknowns[..np]
@@ -173,12 +212,17 @@ impl Calibration {
                 .map(|u| u.name.as_str())
                 .collect()
         };
+        let mut notes = Vec::new();
         let exact = robot(UnknownStatus::NonIdentifiable);
         if !exact.is_empty() {
-            notes.push(format!(
-                "{} of {np} robot parameters are exactly dependent on others with these poses and stay at nominal ({}); the identified ones stand for the combinations listed",
-                exact.len(),
+            let names = if several {
+                self.with_absorbers(&exact)
+            } else {
                 exact.join(", ")
+            };
+            notes.push(format!(
+                "{} of {np} robot parameters are exactly dependent on others with these poses and stay at nominal ({names}); the identified ones stand for the combinations listed",
+                exact.len(),
             ));
         }
         let poor = robot(UnknownStatus::PoorlyIdentifiable);
@@ -193,17 +237,11 @@ impl Calibration {
             self.unknowns
                 .iter()
                 .enumerate()
-                .filter(|(j, u)| *j < np || u.name.starts_with("target_"))
+                .filter(|(j, u)| *j < np || u.name.starts_with("target"))
                 .map(|(_, u)| u),
         ));
-        let target = names("target_");
-        if !target.is_empty() {
-            notes.push(format!(
-                "the target (probe) offset is not identified along {}: it stays at its starting value, and its error goes into every prediction away from these poses (vary the tool orientation more to identify it, or start from an offset known from elsewhere)",
-                target.join(", ")
-            ));
-        }
-        let frame = names("frame_");
+        notes.extend(self.target_notes());
+        let frame = self.not_identified("frame_");
         if !frame.is_empty() && !self.measurement_frame_fixed {
             notes.push(format!(
                 "measurement frame components not separable from the robot's base parameters: {} (absorbed by the base parameters, harmless for predictions)",
@@ -219,6 +257,113 @@ impl Calibration {
             ));
         }
         notes
+    }
+
+    /// The unknowns named `prefix*` that are not identified (dependent or
+    /// seen too weakly).
+    fn not_identified(&self, prefix: &str) -> Vec<&str> {
+        self.unknowns
+            .iter()
+            .filter(|u| u.name.starts_with(prefix))
+            .filter(|u| {
+                matches!(
+                    u.status,
+                    UnknownStatus::NonIdentifiable | UnknownStatus::PoorlyIdentifiable
+                )
+            })
+            .map(|u| u.name.as_str())
+            .collect()
+    }
+
+    /// `names`, each with the identified unknowns whose combinations
+    /// absorb it: `a (in b, c)`.
+    fn with_absorbers(&self, names: &[&str]) -> String {
+        names
+            .iter()
+            .map(|n| {
+                let by: Vec<&str> = self
+                    .combinations
+                    .iter()
+                    .filter(|c| c.terms.iter().any(|(m, k)| m == n && k.abs() >= 1e-3))
+                    .map(|c| c.name.as_str())
+                    .collect();
+                if by.is_empty() {
+                    n.to_string()
+                } else {
+                    format!("{n} (in {})", by.join(", "))
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The targets' notes: for one target, the offset directions not
+    /// identified; for several, each target's directions with what absorbs
+    /// them, and what no measured target moves with (the other branch of a
+    /// tree when its marker is missing).
+    fn target_notes(&self) -> Vec<String> {
+        let target = self.not_identified("target_");
+        let mut notes: Vec<String> = (!target.is_empty()).then(|| format!(
+            "the target (probe) offset is not identified along {}: it stays at its starting value, and its error goes into every prediction away from these poses (vary the tool orientation more to identify it, or start from an offset known from elsewhere)",
+            target.join(", ")
+        )).into_iter().collect();
+        notes.extend(self.targets.iter().filter_map(|t| {
+                let blind = self.not_identified(&format!("target.{}.", t.name));
+                (!blind.is_empty()).then(|| {
+                    format!(
+                        "target `{}` on frame `{}`: offset not identified along {}; it stays at its starting value",
+                        t.name,
+                        t.frame,
+                        self.with_absorbers(&blind)
+                    )
+                })
+        }));
+        // A seen target's rotation moves nothing without its orientations:
+        // not worth a note; the elastic terms have their own sentences.
+        let no_influence = self.with_status(UnknownStatus::NoInfluence);
+        let seen_rotation = |n: &str| {
+            n.strip_prefix("target.")
+                .and_then(|rest| rest.rsplit_once(".r"))
+                .is_some_and(|(target, _)| {
+                    !no_influence.contains(&format!("target.{target}.x").as_str())
+                })
+        };
+        let unseen: Vec<&str> = no_influence
+            .iter()
+            .copied()
+            .filter(|n| !is_elastic_unknown(n) && !seen_rotation(n))
+            .collect();
+        if !unseen.is_empty() {
+            notes.push(format!(
+                "no measured target moves with these, they stay at nominal: {}",
+                unseen.join(", ")
+            ));
+        }
+        notes
+    }
+
+    /// The true value of each identified combination `x_B + K x_N` given a
+    /// full vector of true unknowns (`truth`, indexed like
+    /// [`Calibration::unknowns`]): `(name, true combination value,
+    /// identified value, standard error)`. Absorbed unknowns stay at their
+    /// starting values in the fit, so only their true deviation from there
+    /// is absorbed (their starting values, or zero for a compliance held at
+    /// its bound).
+    pub fn combination_check(&self, truth: &[f64]) -> Vec<(String, f64, f64, Option<f64>)> {
+        let index = |name: &str| self.unknowns.iter().position(|u| u.name == name);
+        self.combinations
+            .iter()
+            .filter_map(|c| {
+                let jb = index(&c.name)?;
+                let mut value = *truth.get(jb)?;
+                for (other, k) in &c.terms {
+                    let jn = index(other)?;
+                    value += k * (truth.get(jn)? - self.unknowns[jn].value);
+                }
+                let u = &self.unknowns[jb];
+                Some((u.name.clone(), value, u.value, u.standard_error))
+            })
+            .collect()
     }
 
     /// Number of identified unknowns (the rank used).
@@ -237,8 +382,13 @@ impl Calibration {
         let mut d = model
             .description_with_params(&self.xi)
             .map_err(CalibError::Description)?;
+        let targets = if self.has_several_targets() {
+            format!(" of {} targets", self.targets.len())
+        } else {
+            String::new()
+        };
         let note = format!(
-            "Calibrated by flexcal from {} poses: {} of {} unknowns identified.",
+            "Calibrated by flexcal from {} poses{targets}: {} of {} unknowns identified.",
             self.n_poses,
             self.rank(),
             self.unknowns.len()
@@ -446,34 +596,84 @@ fn compliance_sentence(
     ))
 }
 
-/// Identifies the robot parameters (and the measurement frame and target
-/// offset unless fixed) from a measurement set: equations (7)-(12) and
-/// (49)-(53) of the reference paper, with the frames of the note in the
-/// crate docs. The set is one target on the TCP
-/// ([`TargetMeasurementSet::from_measurement_set`]), identified by the
-/// steps of [`crate::identification`], as [`crate::calibrate_targets`]
-/// identifies several.
+/// Identifies the robot parameters, the measurement frames (unless fixed)
+/// and the offsets of the identified targets from every target on every
+/// pose, positions and, where a target carries them, orientations, with
+/// the elasto-geometric terms when `options.gravity` (and
+/// `options.joint_terms`) ask for them: equations (7)-(12) and (49)-(53)
+/// of the reference paper, with the frames of the note in the crate docs,
+/// by the steps of [`crate::identification`]. A set of one target per
+/// pose is one target `tcp` on the TCP
+/// ([`TargetMeasurementSet::from_measurement_set`]). `fixed` and
+/// `deferred` take robot, `frame_*`, target and elastic names; a starting
+/// offset (`target_value`) only for a set of one target.
 ///
 /// # Errors
-/// Mismatched coordinates, unknown names in `fixed`/`deferred`, too few
-/// poses, a degenerate registration, a model failure at a pose, a solver
-/// failure, [`CalibError::RankDeficient`] when `require_full_rank` is set,
+/// Mismatched coordinates, a target on an unknown frame, unknown names in
+/// `fixed`/`deferred`, an unsupported option, too few observations, a
+/// degenerate registration, a model failure at a pose, a solver failure,
+/// [`CalibError::RankDeficient`] when `require_full_rank` is set,
 /// [`CalibError::NothingToIdentify`].
-pub fn calibrate(
+pub fn calibrate<S: Observations + ?Sized>(
     model: &Model,
-    set: &MeasurementSet,
+    set: &S,
     options: &CalibrationOptions,
 ) -> Result<Calibration, CalibError> {
-    let targets = TargetMeasurementSet::from_measurement_set(set, TCP_FRAME)?;
-    let found = identify(model, Cow::Owned(targets), options)?;
+    let set = set.observations()?;
+    if options.target_value.is_some() && set.targets().len() > 1 {
+        return Err(CalibError::InvalidOption {
+            name: "target",
+            reason: "with several targets each target's offset is given in the targets description"
+                .into(),
+        });
+    }
+    let found = identify(model, Cow::Borrowed(&*set), options)?;
+    packed(model, &set, found, options)
+}
+
+/// The [`Calibration`] of what [`identify`] found on `set`.
+fn packed(
+    model: &Model,
+    set: &TargetMeasurementSet,
+    found: Identification<'_>,
+    options: &CalibrationOptions,
+) -> Result<Calibration, CalibError> {
     let problem = &found.problem;
     let x = found.report.x.clone();
-    let station_frames = problem.station_frames(&x);
-    let x_tcp_target = problem.target_frame(&x, 0);
-    let x_tcp_target_nominal_robot = problem.target_frame(&found.x_nominal_robot, 0);
-    let use_orientation = problem.uses_orientation(0);
+    let with_offsets = |x: &[f64]| -> Vec<Target> {
+        set.targets()
+            .iter()
+            .enumerate()
+            .map(|(t, target)| {
+                let pose = problem.target_frame(x, t);
+                Target {
+                    offset: pose.translation.vector,
+                    rotation: pose.rotation,
+                    ..target.clone()
+                }
+            })
+            .collect()
+    };
+    let targets = with_offsets(&x);
+    let targets_nominal_robot = with_offsets(&found.x_nominal_robot);
+    let targets_initial = with_offsets(&problem.initial_unknowns());
+    let frames = problem.station_frames(&x);
+    let use_orientation = (0..set.targets().len()).any(|t| problem.uses_orientation(t));
     let fe = problem.frames_end();
     let joint_start = problem.joint_terms_offset().unwrap_or(x.len());
+    let observation_errors = observation_errors(problem, &found.errors_after);
+    let per_target_before = per_target(problem, &found.errors_before);
+    let per_target_after = per_target(problem, &found.errors_after);
+    let x_meas_base_nominal_robot = problem.station_frame(&found.x_nominal_robot, 0);
+    let station_errors = (0..set.n_stations())
+        .map(|s| {
+            let of_station: Vec<PoseError> = (0..found.errors_after.len())
+                .filter(|&i| set.station_of(problem.observation(i).0) == s)
+                .map(|i| found.errors_after[i])
+                .collect();
+            error_statistics(&of_station)
+        })
+        .collect();
     let Identification {
         starts,
         frame_fixed,
@@ -490,25 +690,19 @@ pub fn calibrate(
         torque_ranges,
         ..
     } = found;
-    let station_errors = (0..set.n_stations())
-        .map(|s| {
-            let of_station: Vec<PoseError> = (0..set.len())
-                .filter(|&k| set.station_of(k) == s)
-                .map(|k| errors_after[k])
-                .collect();
-            error_statistics(&of_station)
-        })
-        .collect();
+    let norms: Vec<f64> = errors_after.iter().map(|e| e.position).collect();
     Ok(Calibration {
         xi: x[..model.n_params()].to_vec(),
         nominal_xi: model.nominal_params().to_vec(),
-        x_meas_base: station_frames[0],
-        station_frames: station_frames[1..].to_vec(),
+        x_meas_base: frames[0],
+        x_meas_base_initial: starts.stations[0],
+        x_meas_base_nominal_robot,
+        station_frames: frames[1..].to_vec(),
         station_names: set.station_names().to_vec(),
         station_errors,
-        x_tcp_target,
-        x_tcp_target_initial: starts.targets[0],
-        x_tcp_target_nominal_robot,
+        targets,
+        targets_nominal_robot,
+        targets_initial,
         measurement_frame_fixed: frame_fixed,
         use_orientation,
         unknowns,
@@ -526,14 +720,62 @@ pub fn calibrate(
         residual_history,
         training_before: error_statistics(&errors_before),
         training_after: error_statistics(&errors_after),
-        data_checks: DataChecks::new(set, &errors_after),
-        training_after_per_pose: errors_after,
+        per_target_before,
+        per_target_after,
+        data_checks: DataChecks::new(set, &norms)?,
+        observation_errors,
         noise,
         n_poses: set.len(),
+        n_observations: errors_after.len(),
         actuated_names: model.actuated_names().to_vec(),
         actuated_ranges,
         torque_ranges,
     })
+}
+
+/// `errors` (one per observation of `problem`, in its order) labelled by
+/// pose and target.
+pub(crate) fn observation_errors(
+    problem: &ErrorModel<'_>,
+    errors: &[PoseError],
+) -> Vec<ObservationError> {
+    let set = problem.set();
+    errors
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let (k, t) = problem.observation(i);
+            ObservationError {
+                pose: set.poses()[k].label(k),
+                target: set.targets()[t].name.clone(),
+                error: e.position_vector,
+                orientation_error: e.orientation,
+            }
+        })
+        .collect()
+}
+
+/// The statistics of `errors` (one per observation of `problem`) target by
+/// target.
+pub(crate) fn per_target(problem: &ErrorModel<'_>, errors: &[PoseError]) -> Vec<TargetErrors> {
+    let set = problem.set();
+    set.targets()
+        .iter()
+        .enumerate()
+        .map(|(t, target)| {
+            let mine: Vec<PoseError> = errors
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| problem.observation(*i).1 == t)
+                .map(|(_, e)| *e)
+                .collect();
+            TargetErrors {
+                target: target.name.clone(),
+                frame: target.frame.clone(),
+                statistics: error_statistics(&mine),
+            }
+        })
+        .collect()
 }
 
 /// The combinations (C.1) as text, one line per identified unknown that
@@ -543,33 +785,6 @@ pub(crate) fn combination_lines(combinations: &[Combination]) -> Vec<String> {
         .iter()
         .map(|c| c.to_text(1e-3))
         .filter(|l| !l.is_empty())
-        .collect()
-}
-
-/// The true value of each identified combination `xi_B + K xi_N` given a
-/// full vector of true unknowns (`truth`, indexed like
-/// [`Calibration::unknowns`]): `(name, true combination value, identified
-/// value, standard error)`. Absorbed unknowns stay where the fit left them
-/// (their starting values, or zero for a compliance held at its bound), so
-/// only their true deviation from there is absorbed.
-pub fn combination_check(
-    calibration: &Calibration,
-    truth: &[f64],
-) -> Vec<(String, f64, f64, Option<f64>)> {
-    let index = |name: &str| calibration.unknowns.iter().position(|u| u.name == name);
-    calibration
-        .combinations
-        .iter()
-        .filter_map(|c| {
-            let jb = index(&c.name)?;
-            let mut value = *truth.get(jb)?;
-            for (other, k) in &c.terms {
-                let jn = index(other)?;
-                value += k * (truth.get(jn)? - calibration.unknowns[jn].value);
-            }
-            let u = &calibration.unknowns[jb];
-            Some((u.name.clone(), value, u.value, u.standard_error))
-        })
         .collect()
 }
 

@@ -58,9 +58,10 @@
 //!    pivoted QR, noise-aware base set, joint-term limits,
 //!    compliances on their own scale, [`significance`]), the statistics
 //!    ([`unknowns`], [`spread`]).
-//! 6. **Results**: [`calibrate`] packs one target's into [`Calibration`]
-//!    ([`identify`]), [`calibrate_targets`] several targets' into
-//!    [`TargetCalibration`] ([`identify_targets`]).
+//! 6. **Results**: [`calibrate`] packs what it found into one
+//!    [`Calibration`] ([`identify`]), target by target, for a set of one
+//!    target per pose ([`MeasurementSet`]) or of several
+//!    ([`TargetMeasurementSet`]); both are [`Observations`].
 //! 7. **Checks and reports**: validation ([`validate`],
 //!    [`validate_targets`]), data checks ([`screen`]), split-half
 //!    ([`split`]), cross-series ([`cross`]), station hold-out ([`holdout`]),
@@ -102,14 +103,14 @@
 //! named frame of the robot (markers on the two hands of a two-armed robot,
 //! reflectors on a tool, a probe on a link), possibly occluded on some
 //! poses; its files are the CSV above with `<target>_x_mm..` columns and a
-//! TOML targets description ([`targets`]). [`calibrate_targets`] stacks the
+//! TOML targets description ([`targets`]). [`calibrate`] stacks the
 //! residuals of every target on every pose, positions and, for a target
 //! with orientations (`<target>_rx_deg..`), rotations, each with the
 //! parameter Jacobian of its own frame
 //! ([`flexcal_kinematics::frame_param_jacobian`]), and identifies the robot,
 //! the measurement frame and the offsets `target.<name>.x|y|z` (and `.rx|ry|rz` where orientations are measured) in
 //! one identification (the same as for one target), with the identifiability analysis below
-//! ([`TargetCalibration::identifiability_notes`] names what the targets
+//! ([`Calibration::identifiability_notes`] names what the targets
 //! cannot see: the other branch of a tree when its marker is missing, a
 //! marker's offset along its hand's axis against the hand frame's `r`).
 //! Reports give per-target figures ([`TargetErrors`], [`validate_targets`]).
@@ -117,10 +118,9 @@
 //! joint springs of each target's branch deflect it, and a torso's
 //! lateral tilt under both arms moves both hands. The checks and the
 //! predicted accuracy are those of one target, target by target: spread
-//! ratios, [`SplitCheck::for_targets`], [`CrossCheck::for_targets`],
-//! [`TargetCalibration::predicted_accuracy`] and
-//! [`TargetCalibration::accuracy_coverage`] (one entry per pose and
-//! target).
+//! ratios, [`SplitCheck::new`], [`CrossCheck::new`],
+//! [`Calibration::predicted_accuracy`] and
+//! [`Calibration::accuracy_coverage`] (one entry per pose and target).
 //! The one-target [`MeasurementSet`] is the case of one target on the TCP
 //! ([`TargetMeasurementSet::from_measurement_set`]).
 //!
@@ -183,8 +183,8 @@
 //!   measurement (a stale reading), and poses whose error after the fit
 //!   exceeds [`SUSPECT_ERROR_RATIO`] times the RMS error; poses are left out
 //!   by label with [`MeasurementSet::excluding`]. With several targets the
-//!   same checks run per observation ([`DataChecks::for_targets`], in
-//!   [`TargetCalibration::data_checks`] and [`TargetValidation::data_checks`])
+//!   same checks run per observation ([`DataChecks::new`], in
+//!   [`Calibration::data_checks`] and [`TargetValidation::data_checks`])
 //!   and [`TargetMeasurementSet::excluding`] leaves poses out.
 //! - Beyond the paper, a split-half check of the standard errors
 //!   ([`SplitCheck`]): the identified unknowns again on odd / even and first /
@@ -307,7 +307,6 @@ pub mod gravity;
 pub mod holdout;
 pub mod identification;
 pub mod identify;
-pub mod identify_targets;
 pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
@@ -328,7 +327,7 @@ mod unknown_kind;
 pub mod unknowns;
 pub mod validate;
 
-pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy, bound_95};
+pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
@@ -343,18 +342,17 @@ pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
     FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
 };
-pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
+pub use holdout::{StationHoldOut, hold_out_stations};
 pub use identification::ResidualNorms;
-pub use identify::{Calibration, calibrate, combination_check};
-pub use identify_targets::{
-    TargetCalibration, TargetErrors, TargetValidation, calibrate_targets, observation_errors_csv,
-    target_position_errors, validate_targets,
-};
+pub use identify::{Calibration, calibrate};
 pub use joint_law::{JointLaw, JointTerms};
 pub use measurement::{
     IPA_JOINT_COLUMNS, Measurement, MeasurementSet, PoseSet, read_configurations, read_transform_mm,
 };
-pub use metrics::{ErrorStatistics, ObservationError, PoseError, error_statistics};
+pub use metrics::{
+    ErrorStatistics, ObservationError, PoseError, TargetErrors, error_statistics,
+    observation_errors_csv,
+};
 pub use options::{CalibrationOptions, FrameTreatment, IR663_PAPER_DEFERRED, Method, Weighting};
 pub use report::{
     CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ParameterJson, ResidualModelJson,
@@ -364,7 +362,6 @@ pub use report::{
 pub use residual::{RESIDUAL_TEST_FRACTION, ResidualModel};
 pub use screen::{
     DataChecks, RepeatedReading, SUSPECT_ERROR_RATIO, SuspectPose, repeated_readings,
-    repeated_target_readings,
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
@@ -376,8 +373,11 @@ pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcom
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use spread::{SPREAD_REFERENCE_POSES, WEAK_SPREAD_RATIO};
 pub use targets::{
-    Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets,
-    targets_from_toml_str, targets_to_toml_string, write_targets,
+    Observations, SetKind, Target, TargetMeasurementSet, TargetObservation, TargetPose,
+    read_targets, targets_from_toml_str, targets_to_toml_string, write_targets,
 };
 pub use unknowns::{Combination, UnknownEstimate, UnknownStatus};
-pub use validate::{FramePolicy, ValidationReport, evaluate_errors, evaluate_errors_with_terms};
+pub use validate::{
+    FramePolicy, TargetValidation, ValidationReport, evaluate_errors, evaluate_errors_with_terms,
+    target_position_errors, validate_targets,
+};

@@ -75,3 +75,61 @@ pub struct ObservationError {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orientation_error: Option<f64>,
 }
+
+/// Errors of one target over the poses where it was seen.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetErrors {
+    /// Target name.
+    pub target: String,
+    /// Frame it is fixed to.
+    pub frame: String,
+    /// Mean, RMS and maximum position error (m) over its observations.
+    pub statistics: ErrorStatistics,
+}
+
+/// `pose,target,position_error_mm,dx_mm,dy_mm,dz_mm`, one row per
+/// observation (mm; a comma in a pose label written as `;`), and
+/// `orientation_error_deg` when some target's orientations are fitted: the
+/// per-observation error file of `flexcal calibrate --targets --residuals`,
+/// as `temperature::pose_errors_csv` is for one target
+/// without its target column.
+pub fn observation_errors_csv(errors: &[ObservationError]) -> String {
+    let oriented = errors.iter().any(|e| e.orientation_error.is_some());
+    let mut out = String::from("pose,target,position_error_mm,dx_mm,dy_mm,dz_mm");
+    out.push_str(if oriented {
+        ",orientation_error_deg\n"
+    } else {
+        "\n"
+    });
+    for e in errors {
+        let mm = e.error * 1e3;
+        out.push_str(&format!(
+            "{},{},{},{},{},{}",
+            e.pose.replace(',', ";"),
+            e.target,
+            mm.norm(),
+            mm.x,
+            mm.y,
+            mm.z
+        ));
+        if oriented {
+            out.push_str(&format!(
+                ",{}",
+                e.orientation_error
+                    .map_or(String::new(), |a| a.to_degrees().to_string())
+            ));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+impl From<&ObservationError> for PoseError {
+    fn from(e: &ObservationError) -> Self {
+        Self {
+            position: e.error.norm(),
+            position_vector: e.error,
+            orientation: e.orientation_error,
+        }
+    }
+}

@@ -115,7 +115,7 @@ impl TargetStatisticsJson {
         poses: usize,
         after: &ErrorStatistics,
         before: &ErrorStatistics,
-        per_target: &[crate::identify_targets::TargetErrors],
+        per_target: &[crate::metrics::TargetErrors],
     ) -> Self {
         Self {
             after: StatisticsJson::of_observations(after, poses),
@@ -135,8 +135,8 @@ impl TargetSummaryJson {
     /// The summary of a multi-target identification and its validation
     /// (with the number of poses of the validation set).
     pub fn new(
-        calibration: &crate::identify_targets::TargetCalibration,
-        validation: Option<(&crate::identify_targets::TargetValidation, usize)>,
+        calibration: &crate::identify::Calibration,
+        validation: Option<(&crate::validate::TargetValidation, usize)>,
     ) -> Self {
         Self {
             identification: TargetStatisticsJson::new(

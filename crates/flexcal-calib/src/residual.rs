@@ -204,7 +204,8 @@ impl Calibration {
                 self.errors_after(model, &corrected, policy)?;
         }
         report.after = error_statistics(&report.after_per_pose);
-        report.data_checks = DataChecks::new(set, &report.after_per_pose);
+        let norms: Vec<f64> = report.after_per_pose.iter().map(|e| e.position).collect();
+        report.data_checks = DataChecks::new(set, &norms)?;
         Ok(report)
     }
 }

@@ -26,9 +26,8 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::measurement::MeasurementSet;
-use crate::metrics::ObservationError;
-use crate::metrics::PoseError;
 use crate::targets::TargetMeasurementSet;
+use crate::targets::{Observations, SetKind};
 
 /// A pose whose position error exceeds this many times the set's RMS
 /// position error is reported as suspect.
@@ -85,23 +84,52 @@ pub struct DataChecks {
 }
 
 impl DataChecks {
-    /// Both checks on `set`, with `errors` its per-pose errors after a fit
-    /// (in the order of the set).
-    pub fn new(set: &MeasurementSet, errors: &[PoseError]) -> Self {
-        debug_assert_eq!(set.len(), errors.len());
-        let norms: Vec<f64> = errors.iter().map(|e| e.position).collect();
-        let label = |k: usize| (set.measurements()[k].label(k), None);
-        Self::from_errors(&norms, &label, repeated_readings(set))
-    }
-
-    /// Both checks on a set of several targets, with `errors` the error of
-    /// each of its observations after a fit
-    /// ([`crate::TargetCalibration::observation_errors`]): a suspect is one
-    /// observation, judged against the RMS over all observations.
-    pub fn for_targets(set: &TargetMeasurementSet, errors: &[ObservationError]) -> Self {
-        let norms: Vec<f64> = errors.iter().map(|e| e.error.norm()).collect();
-        let label = |i: usize| (errors[i].pose.clone(), Some(errors[i].target.clone()));
-        Self::from_errors(&norms, &label, repeated_target_readings(set))
+    /// Both checks on `set` (either kind, [`Observations`]), with `errors`
+    /// the position error (m) of each of its observations after a fit, in
+    /// its order (pose by pose, target by target): a suspect is one
+    /// observation, judged against the RMS over all observations, named
+    /// by its pose and, with several targets, its target.
+    ///
+    /// # Errors
+    /// As [`Observations::observations`]; [`CalibError::InvalidOption`]
+    /// when `errors` has another length than the observations.
+    pub fn new<S: Observations + ?Sized>(set: &S, errors: &[f64]) -> Result<Self, CalibError> {
+        // The one target of a set of one target per pose is not named.
+        let named = matches!(set.kind(), SetKind::Targets(_));
+        let set = set.observations()?;
+        let labels: Vec<(String, Option<String>)> = set
+            .poses()
+            .iter()
+            .enumerate()
+            .flat_map(|(k, p)| {
+                p.observations
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| o.is_some())
+                    .map(move |(t, _)| (k, t))
+            })
+            .map(|(k, t)| {
+                let target = named.then(|| set.targets()[t].name.clone());
+                (set.poses()[k].label(k), target)
+            })
+            .collect();
+        if labels.len() != errors.len() {
+            return Err(CalibError::InvalidOption {
+                name: "data_checks",
+                reason: format!(
+                    "{} errors for the {} observations of {}",
+                    errors.len(),
+                    labels.len(),
+                    set.source
+                ),
+            });
+        }
+        let label = |i: usize| labels[i].clone();
+        let mut repeated = repeated_readings(&set);
+        if !named {
+            repeated.iter_mut().for_each(|r| r.target = None);
+        }
+        Ok(Self::from_errors(errors, &label, repeated))
     }
 
     /// The checks from the position error (m) of every observation, the
@@ -265,26 +293,9 @@ fn reading_bits(
 }
 
 /// Pairs of poses of `set` whose actuated coordinates differ but whose
-/// measured position (and orientation, when measured) is bit-identical.
-pub fn repeated_readings(set: &MeasurementSet) -> Vec<RepeatedReading> {
-    let m = set.measurements();
-    repeated_pairs(
-        m.iter().enumerate().map(|(k, m)| {
-            (
-                k,
-                m.q.as_slice(),
-                reading_bits(&m.position, m.orientation.as_ref()),
-            )
-        }),
-        |k| m[k].label(k),
-        None,
-    )
-}
-
-/// The same for each target of a multi-target set: pairs of poses whose
-/// coordinates differ but whose observations of one target are
-/// bit-identical, target by target.
-pub fn repeated_target_readings(set: &TargetMeasurementSet) -> Vec<RepeatedReading> {
+/// measured position (and orientation, when measured) of one target is
+/// bit-identical (a stale reading), target by target.
+pub fn repeated_readings(set: &TargetMeasurementSet) -> Vec<RepeatedReading> {
     let poses = set.poses();
     set.targets()
         .iter()
@@ -301,7 +312,7 @@ pub fn repeated_target_readings(set: &TargetMeasurementSet) -> Vec<RepeatedReadi
                     })
                 }),
                 |k| poses[k].label(k),
-                Some(&target.name),
+                Some(target.name.as_str()),
             )
         })
         .collect()
@@ -462,14 +473,17 @@ mod tests {
 
     #[test]
     fn identical_readings_at_other_coordinates_are_found() {
-        let pairs = repeated_readings(&set());
+        let pairs = repeated_readings(&set().observations().unwrap());
         assert_eq!(
             pairs,
             vec![RepeatedReading {
                 poses: ["line 2".into(), "line 3".into()],
-                target: None,
+                target: Some(crate::TCP_FRAME.into()),
             }]
         );
+        // The data checks of a set of one target per pose do not name it.
+        let checks = DataChecks::new(&set(), &[1e-3; 4]).unwrap();
+        assert_eq!(checks.repeated_readings[0].target, None);
         // The same coordinates measured twice are not a repeated reading.
         let same = MeasurementSet::new(
             "t",
@@ -479,16 +493,12 @@ mod tests {
             ],
         )
         .unwrap();
-        assert!(repeated_readings(&same).is_empty());
+        assert!(repeated_readings(&same.observations().unwrap()).is_empty());
     }
 
     #[test]
     fn suspects_exceed_four_times_the_rms() {
-        let error = |mm: f64| PoseError {
-            position: mm * 1e-3,
-            position_vector: Vector3::new(mm * 1e-3, 0.0, 0.0),
-            orientation: None,
-        };
+        let error = |mm: f64| mm * 1e-3;
         // 19 poses at 0.1 mm and one at 2 mm: RMS = sqrt((19 * 0.01 + 4) / 20)
         // = 0.4577 mm, 2 mm is 4.37 times that.
         let mut errors = vec![error(0.1); 19];
@@ -500,9 +510,10 @@ mod tests {
                 .collect(),
         )
         .unwrap();
-        let checks = DataChecks::new(&set, &errors);
+        let checks = DataChecks::new(&set, &errors).unwrap();
         assert_eq!(checks.suspect_poses.len(), 1);
         assert_eq!(checks.suspect_poses[0].pose, "#19");
+        assert_eq!(checks.suspect_poses[0].target, None);
         assert!((checks.suspect_poses[0].ratio_to_rms - 2.0 / 0.209_5f64.sqrt()).abs() < 1e-9);
         let notes = checks.notes("validation");
         assert_eq!(notes.len(), 1);
@@ -510,10 +521,26 @@ mod tests {
         // Errors of round-off size are never suspect.
         let mut tiny = vec![error(1e-10); 19];
         tiny.push(error(1e-8));
-        assert!(DataChecks::new(&set, &tiny).suspect_poses.is_empty());
+        assert!(
+            DataChecks::new(&set, &tiny)
+                .unwrap()
+                .suspect_poses
+                .is_empty()
+        );
         // At 0.7 mm the outlier is 3.8 times the RMS: nothing to report.
         errors[19] = error(0.7);
-        assert!(DataChecks::new(&set, &errors).suspect_poses.is_empty());
+        assert!(
+            DataChecks::new(&set, &errors)
+                .unwrap()
+                .suspect_poses
+                .is_empty()
+        );
+        // One error per observation, or a named error.
+        let err = DataChecks::new(&set, &errors[..3]).unwrap_err().to_string();
+        assert!(
+            err.contains("3 errors for the 20 observations of u"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -540,12 +567,21 @@ mod tests {
     /// Two targets, four unlabelled poses: target `a` reads the same at
     /// poses 0 and 2 (other coordinates), target `b` never repeats.
     fn target_set() -> TargetMeasurementSet {
+        targets_at(4)
+    }
+
+    /// Two targets at `n` poses: target `a` reads the same at poses 0 and
+    /// 2 (other coordinates), target `b` never repeats.
+    fn targets_at(n: usize) -> TargetMeasurementSet {
         use crate::targets::{Target, TargetObservation, TargetPose};
         let o = |p: [f64; 3]| Some(TargetObservation::new(Vector3::from(p)));
-        let pose = |q: f64, a: [f64; 3], b: [f64; 3]| TargetPose {
-            pose_id: None,
-            q: vec![q, 0.0],
-            observations: vec![o(a), o(b)],
+        let pose = |k: usize| {
+            let a = if k == 2 { 0.0 } else { k as f64 };
+            TargetPose {
+                pose_id: None,
+                q: vec![0.1 * k as f64, 0.0],
+                observations: vec![o([1.0 + a, 0.0, 0.0]), o([2.0 + k as f64, 0.0, 0.0])],
+            }
         };
         TargetMeasurementSet::new(
             "m.csv",
@@ -553,39 +589,27 @@ mod tests {
                 Target::new("a", "tcp", Vector3::zeros()),
                 Target::new("b", "tcp", Vector3::zeros()),
             ],
-            vec![
-                pose(0.1, [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]),
-                pose(0.2, [1.1, 0.0, 0.0], [2.1, 0.0, 0.0]),
-                pose(0.3, [1.0, 0.0, 0.0], [2.2, 0.0, 0.0]),
-                pose(0.4, [1.3, 0.0, 0.0], [2.0, 0.0, 1e-12]),
-            ],
+            (0..n).map(pose).collect(),
         )
         .unwrap()
     }
 
     #[test]
     fn each_target_is_compared_with_its_own_readings() {
-        let set = target_set();
+        let set = targets_at(10);
         assert_eq!(
-            repeated_target_readings(&set),
+            repeated_readings(&set),
             vec![RepeatedReading {
                 poses: ["#0".into(), "#2".into()],
                 target: Some("a".into()),
             }]
         );
-        // 19 observations at 0.1 mm and one at 2 mm: as for one target, the
-        // 2 mm one is 4.37 times the RMS; it is named with its target.
-        let error = |pose: usize, target: &str, mm: f64| ObservationError {
-            pose: format!("#{pose}"),
-            target: target.into(),
-            error: Vector3::new(0.0, mm * 1e-3, 0.0),
-            orientation_error: None,
-        };
-        let mut errors: Vec<ObservationError> = (0..19)
-            .map(|k| error(k / 2, if k % 2 == 0 { "a" } else { "b" }, 0.1))
-            .collect();
-        errors.push(error(2, "a", 2.0));
-        let checks = DataChecks::for_targets(&set, &errors);
+        // 19 observations at 0.1 mm and one at 2 mm (target a at pose 2,
+        // the fifth observation): as for one target, the 2 mm one is 4.37
+        // times the RMS; it is named with its target.
+        let mut errors = vec![0.1e-3; 20];
+        errors[4] = 2e-3;
+        let checks = DataChecks::new(&set, &errors).unwrap();
         assert_eq!(checks.suspect_poses.len(), 1);
         assert_eq!(checks.suspect_poses[0].pose, "#2");
         assert_eq!(checks.suspect_poses[0].target.as_deref(), Some("a"));
@@ -604,8 +628,11 @@ mod tests {
             checks.exclude_hint("--exclude").as_deref(),
             Some("to compare without the suspect observations, run again with --exclude 'a at #2'")
         );
+        errors[4] = 0.1e-3;
         assert_eq!(
-            DataChecks::for_targets(&set, &errors[..19]).exclude_hint("--exclude"),
+            DataChecks::new(&set, &errors)
+                .unwrap()
+                .exclude_hint("--exclude"),
             None
         );
     }

@@ -56,29 +56,22 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::CalibError;
 use crate::identify::{Calibration, calibrate};
-use crate::identify_targets::{
-    TargetCalibration, calibrate_targets, target_position_errors, validate_targets,
-};
 use crate::joint_law::JointLaw;
 use crate::measurement::{MeasurementSet, PoseSet};
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
-use crate::prediction::Predicting;
+use crate::prediction::PredictedAt;
 use crate::targets::TargetMeasurementSet;
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
+use crate::validate::{target_position_errors, validate_targets};
 
 /// What model selection needs of a set of measurements: each pose's
 /// configuration and station (for the folds), subsets of the poses, and
 /// fits scored on held-out poses. One target per pose
-/// ([`MeasurementSet`], [`calibrate`]) and several
-/// ([`TargetMeasurementSet`], [`calibrate_targets`]) are selected alike.
-pub(crate) trait Selectable: PoseSet + Sync {
-    /// The identification of a candidate, whose predictions at this kind
-    /// of set carry an uncertainty.
-    type Fitted: Predicting<Set = Self>;
-    /// Actuated coordinates of pose `k` (rad, m).
-    fn configuration(&self, k: usize) -> &[f64];
+/// ([`MeasurementSet`]) and several ([`TargetMeasurementSet`]) are
+/// selected alike.
+pub(crate) trait Selectable: PoseSet + PredictedAt + Sync {
     /// Number of stations (measurement frames).
     fn n_stations(&self) -> usize {
         1
@@ -90,12 +83,12 @@ pub(crate) trait Selectable: PoseSet + Sync {
     /// The poses `indices`, in that order.
     fn subset(&self, indices: &[usize]) -> Result<Self, CalibError>;
     /// Identifies the candidate `options` on these poses.
-    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Self::Fitted, CalibError>;
+    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Calibration, CalibError>;
     /// Position errors (m) of `held_out` predicted by `fitted`, its
     /// measurement frame as identified (same instrument).
     fn held_out_errors(
         model: &Model,
-        fitted: &Self::Fitted,
+        fitted: &Calibration,
         held_out: &Self,
     ) -> Result<Vec<f64>, CalibError>;
     /// Name of station `s`.
@@ -108,18 +101,14 @@ pub(crate) trait Selectable: PoseSet + Sync {
     /// again on `held_out`: (before, after).
     fn held_out_statistics(
         model: &Model,
-        fitted: &Self::Fitted,
+        fitted: &Calibration,
         held_out: &Self,
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError>;
     /// The BIC of a fit.
-    fn bic(fitted: &Self::Fitted) -> f64;
+    fn bic(fitted: &Calibration) -> f64;
 }
 
 impl Selectable for MeasurementSet {
-    type Fitted = Calibration;
-    fn configuration(&self, k: usize) -> &[f64] {
-        &self.measurements()[k].q
-    }
     fn n_stations(&self) -> usize {
         MeasurementSet::n_stations(self)
     }
@@ -162,10 +151,6 @@ impl Selectable for MeasurementSet {
 }
 
 impl Selectable for TargetMeasurementSet {
-    type Fitted = TargetCalibration;
-    fn configuration(&self, k: usize) -> &[f64] {
-        &self.poses()[k].q
-    }
     fn n_stations(&self) -> usize {
         TargetMeasurementSet::n_stations(self)
     }
@@ -175,16 +160,12 @@ impl Selectable for TargetMeasurementSet {
     fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
         TargetMeasurementSet::subset(self, indices)
     }
-    fn fit(
-        &self,
-        model: &Model,
-        options: &CalibrationOptions,
-    ) -> Result<TargetCalibration, CalibError> {
-        calibrate_targets(model, self, options)
+    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Calibration, CalibError> {
+        calibrate(model, self, options)
     }
     fn held_out_errors(
         model: &Model,
-        fitted: &TargetCalibration,
+        fitted: &Calibration,
         held_out: &Self,
     ) -> Result<Vec<f64>, CalibError> {
         target_position_errors(model, fitted, held_out)
@@ -197,13 +178,13 @@ impl Selectable for TargetMeasurementSet {
     }
     fn held_out_statistics(
         model: &Model,
-        fitted: &TargetCalibration,
+        fitted: &Calibration,
         held_out: &Self,
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
         let validation = validate_targets(model, fitted, held_out, true)?;
         Ok((validation.before, validation.after))
     }
-    fn bic(fitted: &TargetCalibration) -> f64 {
+    fn bic(fitted: &Calibration) -> f64 {
         bic(
             3 * fitted.n_observations,
             fitted.solve.cost,
@@ -593,7 +574,7 @@ fn remove_unidentified_groups<D: Selectable>(
     let Ok(full) = set.fit(model, &options) else {
         return;
     };
-    let unknowns = full.estimates();
+    let unknowns = full.unknowns;
     let identified: Vec<&str> = unknowns
         .iter()
         .filter(|u| u.status == UnknownStatus::Identified)
@@ -807,9 +788,9 @@ fn run_fits<D: Selectable>(
 ) -> Vec<Vec<Result<FitOutcome, CalibError>>> {
     let per_candidate = folds.len().max(1);
     let jobs = candidates.len() * per_candidate;
-    let rank = |fitted: &D::Fitted| {
+    let rank = |fitted: &Calibration| {
         fitted
-            .estimates()
+            .unknowns
             .iter()
             .filter(|u| u.status == UnknownStatus::Identified)
             .count()
@@ -1178,23 +1159,16 @@ pub fn calibrate_selected(
 }
 
 /// [`calibrate_selected`] for measurements of several targets per pose
-/// ([`select_target_model`], then [`calibrate_targets`]).
+/// ([`select_target_model`], then [`calibrate`]).
 ///
 /// # Errors
-/// As [`select_target_model`] and [`calibrate_targets`].
+/// As [`select_target_model`] and [`calibrate`].
 pub fn calibrate_targets_selected(
     model: &Model,
     set: &TargetMeasurementSet,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
-) -> Result<
-    (
-        TargetCalibration,
-        Option<SelectionReport>,
-        CalibrationOptions,
-    ),
-    CalibError,
-> {
+) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
     calibrate_selected_in(model, set, options, selection)
 }
 
@@ -1204,7 +1178,7 @@ pub(crate) fn calibrate_selected_in<D: Selectable>(
     set: &D,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
-) -> Result<(D::Fitted, Option<SelectionReport>, CalibrationOptions), CalibError> {
+) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
     if selection.method == SelectionMethod::None {
         return Ok((set.fit(model, options)?, None, options.clone()));
     }

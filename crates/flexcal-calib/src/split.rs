@@ -23,12 +23,10 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::identify::Calibration;
-use crate::identify_targets::TargetCalibration;
-use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
-use crate::prediction::{Predicting, prediction_variances};
+use crate::prediction::prediction_variances;
 use crate::selection::Selectable;
-use crate::targets::TargetMeasurementSet;
+use crate::targets::{Observations, SetKind};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 
 /// A split error above this many standard errors is named in
@@ -129,29 +127,19 @@ impl SplitCheck {
     /// # Errors
     /// [`CalibError::TooFewPoses`] when a half has too few poses, or what
     /// [`crate::calibrate`] returns on a half.
-    pub fn new(
+    /// With several targets the halves are made of whole poses (every
+    /// target seen at a pose goes with it), the prediction space that of
+    /// every observation.
+    pub fn new<S: Observations + ?Sized>(
         model: &Model,
-        set: &MeasurementSet,
+        set: &S,
         options: &CalibrationOptions,
         calibration: &Calibration,
     ) -> Result<Self, CalibError> {
-        split_check(model, set, options, calibration)
-    }
-
-    /// The check of a multi-target identification: as [`SplitCheck::new`],
-    /// the halves made of whole poses (every target seen at a pose goes
-    /// with it), the prediction space that of every observation.
-    ///
-    /// # Errors
-    /// [`CalibError::TooFewPoses`] when a half has too few observations, or
-    /// what [`crate::calibrate_targets`] returns on a half.
-    pub fn for_targets(
-        model: &Model,
-        set: &TargetMeasurementSet,
-        options: &CalibrationOptions,
-        calibration: &TargetCalibration,
-    ) -> Result<Self, CalibError> {
-        split_check(model, set, options, calibration)
+        match set.kind() {
+            SetKind::OneTarget(set) => split_check(model, set, options, calibration),
+            SetKind::Targets(set) => split_check(model, set, options, calibration),
+        }
     }
 
     /// What the check found, in sentences.
@@ -193,14 +181,14 @@ impl SplitCheck {
     }
 }
 
-/// [`SplitCheck::new`] and [`SplitCheck::for_targets`].
+/// [`SplitCheck::new`] on either kind of set.
 pub(crate) fn split_check<S: Selectable>(
     model: &Model,
     set: &S,
     options: &CalibrationOptions,
-    calibration: &S::Fitted,
+    calibration: &Calibration,
 ) -> Result<SplitCheck, CalibError> {
-    let half_options = reidentification_options(options, calibration.estimates());
+    let half_options = reidentification_options(options, &calibration.unknowns);
     // Odd, even, first-half and second-half poses; with several
     // stations, the halves of each station's poses (every half fit
     // then places every station).
@@ -228,11 +216,11 @@ pub(crate) fn split_check<S: Selectable>(
             set.subset(&poses)?.fit(model, &half_options)
         })
         .collect::<Result<Vec<_>, CalibError>>()?;
-    let unknowns = compared_unknowns(calibration.estimates())
+    let unknowns = compared_unknowns(&calibration.unknowns)
         .map(|(j, u)| {
             let (unit, scale) = u.kind.display_unit();
             let half_values = [0, 1, 2, 3].map(|h| {
-                let v = &fits[h].estimates()[j];
+                let v = &fits[h].unknowns[j];
                 debug_assert_eq!(v.name, u.name);
                 (v.status == UnknownStatus::Identified).then_some(v.value * scale)
             });
@@ -265,20 +253,20 @@ pub(crate) fn split_check<S: Selectable>(
 
 /// [`SplitCheck::prediction_ratio`] from the four half fits (odd, even,
 /// first half, second half).
-fn prediction_ratio<P: Predicting>(
+fn prediction_ratio<S: Selectable>(
     model: &Model,
-    set: &P::Set,
-    calibration: &P,
-    fits: &[P],
+    set: &S,
+    calibration: &Calibration,
+    fits: &[Calibration],
 ) -> Result<Option<f64>, CalibError> {
-    if calibration.covariance().is_none() {
+    if calibration.solve.covariance.is_none() {
         return Ok(None);
     }
     let variances = prediction_variances(calibration, model, set)?;
     let mut squared_half_differences = 0.0;
     for pair in fits.chunks(2) {
-        let a = pair[0].predicted_positions(model, set)?;
-        let b = pair[1].predicted_positions(model, set)?;
+        let a = set.predicted_positions(&pair[0], model)?;
+        let b = set.predicted_positions(&pair[1], model)?;
         squared_half_differences += a
             .iter()
             .zip(&b)

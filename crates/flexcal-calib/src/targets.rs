@@ -27,6 +27,7 @@
 //! deviations) and `<name>_srx_deg..`. A target not seen on a pose has empty
 //! cells on that row (all of its cells).
 
+use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -997,4 +998,44 @@ pub fn targets_to_toml_string(targets: &[Target]) -> Result<String, CalibError> 
 pub fn write_targets(path: &Path, targets: &[Target]) -> Result<(), CalibError> {
     write_atomic(path, targets_to_toml_string(targets)?)?;
     Ok(())
+}
+
+/// The kind of a measurement set, as the checks that read it by pose need it.
+#[derive(Debug, Clone, Copy)]
+pub enum SetKind<'a> {
+    /// One target per pose, on the TCP.
+    OneTarget(&'a MeasurementSet),
+    /// Several targets per pose.
+    Targets(&'a TargetMeasurementSet),
+}
+
+/// A set of measurements [`calibrate`] and the checks take: one target per
+/// pose ([`MeasurementSet`], read as one target `tcp` on the TCP) or
+/// several ([`TargetMeasurementSet`]).
+pub trait Observations {
+    /// The observations as targets seen at poses.
+    ///
+    /// # Errors
+    /// As [`TargetMeasurementSet::from_measurement_set`].
+    fn observations(&self) -> Result<Cow<'_, TargetMeasurementSet>, CalibError>;
+    /// Which kind of set it is.
+    fn kind(&self) -> SetKind<'_>;
+}
+
+impl Observations for MeasurementSet {
+    fn observations(&self) -> Result<Cow<'_, TargetMeasurementSet>, CalibError> {
+        TargetMeasurementSet::from_measurement_set(self, TCP_FRAME).map(Cow::Owned)
+    }
+    fn kind(&self) -> SetKind<'_> {
+        SetKind::OneTarget(self)
+    }
+}
+
+impl Observations for TargetMeasurementSet {
+    fn observations(&self) -> Result<Cow<'_, TargetMeasurementSet>, CalibError> {
+        Ok(Cow::Borrowed(self))
+    }
+    fn kind(&self) -> SetKind<'_> {
+        SetKind::Targets(self)
+    }
 }

@@ -4,20 +4,25 @@
 use std::borrow::Cow;
 
 use flexcal_kinematics::Model;
-use flexcal_optim::{LevenbergMarquardt, ProblemSetup, Residuals};
+use flexcal_optim::{
+    ColumnScaling, Control, IterationState, LevenbergMarquardt, ProblemSetup, Residuals,
+};
 use nalgebra::Isometry3;
+use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::frames::TCP_FRAME;
 use crate::gravity::GravityCompliance;
-use crate::identify::Calibration;
+use crate::identify::{Calibration, observation_errors, per_target};
 use crate::joint_law::JointTerms;
 use crate::measurement::MeasurementSet;
 pub use crate::metrics::{ErrorStatistics, PoseError, error_statistics};
+use crate::metrics::{ObservationError, TargetErrors};
+use crate::options::FrameTreatment;
 use crate::screen::DataChecks;
 use crate::start::{register_stations, target_frames};
-use crate::targets::TargetMeasurementSet;
+use crate::targets::{Target, TargetMeasurementSet};
 
 /// How the measurement frame is obtained when errors are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -289,7 +294,7 @@ impl Calibration {
             &self.xi,
             self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
             (&self.joint_terms, &self.joint_term_values),
-            &self.x_tcp_target,
+            &self.x_tcp_target(),
             (policy, &self.station_frames),
             self.use_orientation,
         )
@@ -343,7 +348,7 @@ impl Calibration {
             set,
             &self.nominal_xi,
             None,
-            &self.x_tcp_target_nominal_robot,
+            &self.x_tcp_target_nominal_robot(),
             policy,
             self.use_orientation,
         )?;
@@ -360,11 +365,214 @@ impl Calibration {
         Ok(ValidationReport {
             before,
             after: error_statistics(&after_per_pose),
-            data_checks: DataChecks::new(set, &after_per_pose),
+            data_checks: DataChecks::new(
+                set,
+                &after_per_pose
+                    .iter()
+                    .map(|e| e.position)
+                    .collect::<Vec<_>>(),
+            )?,
             after_per_pose,
             measurement_frame,
             frame_note,
             extrapolated_coordinates,
         })
     }
+}
+
+/// Validation of a multi-target calibration on another set of the same
+/// targets: per-target errors of the nominal robot (frames and offsets as
+/// fitted for it) and of the calibrated robot and offsets. With
+/// `refit_frame` the measurement frame is fitted again on the set (the
+/// instrument was moved between the series), for the nominal robot and for
+/// the calibrated one alike; otherwise the calibration's frame is used for
+/// both (each its own: the one fitted with the nominal robot for the
+/// "before").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetValidation {
+    /// Errors of all observations with the nominal robot and offsets (before).
+    pub before: ErrorStatistics,
+    /// Errors of all observations with the calibrated robot and offsets (after).
+    pub after: ErrorStatistics,
+    /// Per-target errors before.
+    pub per_target_before: Vec<TargetErrors>,
+    /// Per-target errors after.
+    pub per_target_after: Vec<TargetErrors>,
+    /// Whether the measurement frame was fitted again on this set.
+    pub frame_refitted: bool,
+    /// The error of every observation after calibration, pose by pose.
+    pub observation_errors: Vec<ObservationError>,
+    /// Repeated readings and suspect observations of the validation set
+    /// (with the calibrated robot).
+    pub data_checks: DataChecks,
+    /// Actuated coordinates at which some validation poses leave the
+    /// identification poses' range, with the fraction of the poses that do
+    /// (the prediction there is an extrapolation), as for one target.
+    pub extrapolated_coordinates: Vec<(String, f64)>,
+}
+
+/// The model of `calibration` on `set` (whose targets carry the offsets to
+/// use), with the unknowns of the robot `xi`, the measurement frames
+/// (`first` for the first station: the calibration's other stations'
+/// frames when `set` has its stations, else `first` for every station of
+/// `set`) and the identified elastic and joint unknowns (`identified`), or
+/// their starting values (the model the identification started from).
+/// Orientations are fitted where `orientation` and the targets carry them.
+fn fitted_model<'a>(
+    model: &'a Model,
+    calibration: &Calibration,
+    set: &'a TargetMeasurementSet,
+    (xi, identified): (&[f64], bool),
+    first: Isometry3<f64>,
+    orientation: bool,
+) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
+    let gravity = calibration.elastic.as_ref().map(|(g, _)| g);
+    let mut starts = FrameStarts::nominal(set, first, (!orientation).then_some(false))?;
+    if set.n_stations() == 1 + calibration.station_frames.len() {
+        starts.stations[1..].copy_from_slice(&calibration.station_frames);
+    }
+    let problem = ErrorModel::new(model, Cow::Borrowed(set), &starts)?
+        .with_elastic(gravity, &calibration.joint_terms)?;
+    let mut x = problem.initial_unknowns();
+    x[..xi.len()].copy_from_slice(xi);
+    if identified {
+        let mut values = calibration
+            .elastic
+            .as_ref()
+            .map_or_else(Vec::new, |(_, v)| v.clone());
+        values.extend(&calibration.joint_term_values);
+        x[problem.frames_end()..].copy_from_slice(&values);
+    }
+    Ok((problem, x))
+}
+
+/// The position error (m) of every observation of `set` (same targets by
+/// name as `calibration`'s, in row order: pose by pose, target by target)
+/// predicted by `calibration`: its robot, elastic terms, target offsets and
+/// measurement frame (the same instrument, not fitted again). What model
+/// selection scores a held-out fold by.
+///
+/// # Errors
+/// Targets that differ from the calibration's by name, mismatched
+/// coordinates, a model failure at a pose.
+pub fn target_position_errors(
+    model: &Model,
+    calibration: &Calibration,
+    set: &TargetMeasurementSet,
+) -> Result<Vec<f64>, CalibError> {
+    let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
+    let (problem, x) = fitted_model(
+        model,
+        calibration,
+        &calibrated,
+        (&calibration.xi, true),
+        calibration.x_meas_base,
+        false,
+    )?;
+    Ok(problem.errors(&x)?.iter().map(|e| e.position).collect())
+}
+
+/// The targets with their offsets fixed at their values.
+fn fixed_offsets(targets: &[Target]) -> Vec<Target> {
+    targets
+        .iter()
+        .map(|t| Target {
+            treatment: FrameTreatment::Fixed,
+            ..t.clone()
+        })
+        .collect()
+}
+
+/// Evaluates `calibration` on `set` (same targets by name; see
+/// [`TargetValidation`]).
+///
+/// # Errors
+/// Targets that differ from the calibration's by name, mismatched
+/// coordinates, a model failure at a pose, a solver failure of the frame fit.
+pub fn validate_targets(
+    model: &Model,
+    calibration: &Calibration,
+    set: &TargetMeasurementSet,
+    refit_frame: bool,
+) -> Result<TargetValidation, CalibError> {
+    let nominal = set.with_targets(fixed_offsets(&calibration.targets_nominal_robot))?;
+    let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
+    let evaluate = |set: &TargetMeasurementSet,
+                    robot: (&[f64], bool),
+                    x_meas_base: Isometry3<f64>|
+     -> Result<
+        (ErrorStatistics, Vec<TargetErrors>, Vec<ObservationError>),
+        CalibError,
+    > {
+        let (problem, mut x) = fitted_model(model, calibration, set, robot, x_meas_base, true)?;
+        if refit_frame {
+            let mut frozen = vec![true; x.len()];
+            for s in 0..problem.n_stations() {
+                let o = problem.station_frame_offset(s);
+                frozen[o..o + 6].fill(false);
+            }
+            // 0.01 deg weighs like 50 um, as in the identification defaults.
+            let weights = (0..problem.n_observations())
+                .flat_map(|i| {
+                    let rows = problem.block_rows(i).len();
+                    (0..rows).map(|r| {
+                        if r < 3 {
+                            1.0
+                        } else {
+                            50e-6 / 0.01f64.to_radians()
+                        }
+                    })
+                })
+                .collect();
+            let setup = ProblemSetup {
+                row_weights: Some(weights),
+                weights_are_absolute: false,
+                fixed: frozen,
+                column_scaling: ColumnScaling::ColumnNorm,
+            };
+            let mut observer = |_: &IterationState| Control::Continue;
+            problem.set_robot_columns(false);
+            x = LevenbergMarquardt::params()
+                .max_iterations(100)
+                .solve(&problem, &x, &setup, &mut observer)
+                .map_err(CalibError::optim("validation frame fit"))?
+                .x;
+        }
+        let errors = problem.errors(&x)?;
+        Ok((
+            error_statistics(&errors),
+            per_target(&problem, &errors),
+            observation_errors(&problem, &errors),
+        ))
+    };
+    let (before, per_target_before, _) = evaluate(
+        &nominal,
+        (&calibration.nominal_xi, false),
+        calibration.x_meas_base_nominal_robot,
+    )?;
+    let (after, per_target_after, observation_errors) = evaluate(
+        &calibrated,
+        (&calibration.xi, true),
+        calibration.x_meas_base,
+    )?;
+    Ok(TargetValidation {
+        before,
+        after,
+        per_target_before,
+        per_target_after,
+        frame_refitted: refit_frame,
+        data_checks: DataChecks::new(
+            set,
+            &observation_errors
+                .iter()
+                .map(|e| e.error.norm())
+                .collect::<Vec<_>>(),
+        )?,
+        observation_errors,
+        extrapolated_coordinates: crate::coverage::extrapolated_coordinates(
+            model.actuated_names(),
+            &calibration.actuated_ranges,
+            set.poses().iter().map(|p| p.q.as_slice()),
+        ),
+    })
 }

@@ -1,5 +1,5 @@
 //! Cancellation of an identification through `CalibrationOptions::cancel`:
-//! a cancelled token ends `calibrate`, `calibrate_selected` and `calibrate_targets` with the
+//! a cancelled token ends `calibrate`, `calibrate_selected` and `calibrate` with the
 //! named error instead of a result. (That the solver stops within the
 //! iteration under way is tested where the check lives, in flexcal-optim's
 //! `a_cancelled_token_ends_the_solve_within_the_iteration_under_way`.)
@@ -76,9 +76,9 @@ fn a_cancelled_multi_target_identification_returns_the_named_error() {
     let token = CancelToken::new();
     let mut options = CalibrationOptions::for_model(&model);
     options.cancel = Some(token.clone());
-    let finished = flexcal_calib::calibrate_targets(&model, &targets, &options).unwrap();
+    let finished = flexcal_calib::calibrate(&model, &targets, &options).unwrap();
     assert!(finished.solve.termination.is_converged());
     token.cancel();
-    let e = flexcal_calib::calibrate_targets(&model, &targets, &options).unwrap_err();
+    let e = flexcal_calib::calibrate(&model, &targets, &options).unwrap_err();
     assert!(matches!(e, CalibError::Cancelled), "{e}");
 }

@@ -419,7 +419,7 @@ fn defaults_calibrate_the_compliant_torso_to_the_noise() {
     let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
     let mut geometric_options = CalibrationOptions::for_model(&model);
     geometric_options.spread_reference = false;
-    let geometric = flexcal_calib::calibrate_targets(&model, &train, &geometric_options).unwrap();
+    let geometric = flexcal_calib::calibrate(&model, &train, &geometric_options).unwrap();
     let geometric_held_out = validate_targets(&model, &geometric, &validation, false).unwrap();
     // The noise floor: the mean norm of a 3D Gaussian error of NOISE per
     // axis (measurement noise alone, a perfect model).

@@ -143,7 +143,7 @@ fn identifies_a_serial_robot_with_unknown_frames_exactly() {
         let a = forward_pose(&model, &mut d1, &m.q, &calibration.xi).unwrap();
         let b = forward_pose(&reloaded, &mut d2, &m.q, reloaded.nominal_params()).unwrap();
         assert!((a.translation.vector - b.translation.vector).norm() < 1e-9);
-        let p = calibration.x_meas_base * b * calibration.x_tcp_target * Point3::origin();
+        let p = calibration.x_meas_base * b * calibration.x_tcp_target() * Point3::origin();
         assert!((p.coords - m.position).norm() < 1e-8);
     }
 }
@@ -339,7 +339,7 @@ fn target_orientation_starts_where_the_data_put_it() {
     // The right quarter turn; what is left of it (0.15 mrad) is a turn
     // about the tool axis, which theta6 takes (their sum is what the
     // poses identify).
-    let off = calibration.x_tcp_target.rotation.inverse() * quarter(-1.0).rotation;
+    let off = calibration.x_tcp_target().rotation.inverse() * quarter(-1.0).rotation;
     assert!(
         off.angle() < 1e-3,
         "target orientation off by {} rad",
@@ -350,6 +350,6 @@ fn target_orientation_starts_where_the_data_put_it() {
     // Fixed, the target stays at the nominal turn and the fit cannot close.
     options.target = FrameTreatment::Fixed;
     let fixed = calibrate(&model, &nominal_set, &options).unwrap();
-    assert_eq!(fixed.x_tcp_target.rotation, quarter(1.0).rotation);
+    assert_eq!(fixed.x_tcp_target().rotation, quarter(1.0).rotation);
     assert!(fixed.training_after.orientation_mean_rms_max.unwrap().0 > 1.0);
 }

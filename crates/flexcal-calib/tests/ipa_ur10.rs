@@ -145,7 +145,7 @@ fn series_d_lacks_only_the_probe_offset() {
 
     let from_b = calibrate(&model, &set_b, &options).unwrap();
     let mut with_offset = options.clone();
-    with_offset.target_value = Some(from_b.x_tcp_target);
+    with_offset.target_value = Some(from_b.x_tcp_target());
     let from_d_with_offset = calibrate(&model, &set_d, &with_offset).unwrap();
     let helped = from_d_with_offset.validate(&model, &set_b, false).unwrap();
     println!(

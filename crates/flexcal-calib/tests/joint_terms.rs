@@ -251,9 +251,7 @@ fn identifies_a_hardening_joint_lost_motion_and_cyclic_errors() {
         })
         .collect();
     let mut checked = 0;
-    for (name, true_combination, value, se) in
-        flexcal_calib::combination_check(&rich, &truth_vector)
-    {
+    for (name, true_combination, value, se) in rich.combination_check(&truth_vector) {
         let joint_term = ["compliance_", "hardening_", "lost_motion_", "cyclic_"]
             .iter()
             .any(|p| name.starts_with(p));

@@ -341,9 +341,7 @@ fn check_within_three_standard_errors(
         })
         .collect();
     let mut checked = 0;
-    for (name, true_combination, value, se) in
-        flexcal_calib::combination_check(calibration, &truth_vector)
-    {
+    for (name, true_combination, value, se) in calibration.combination_check(&truth_vector) {
         let term = [
             "compliance_",
             "hardening_",

@@ -11,9 +11,9 @@
 //! a laser tracker's repeatability at a few metres.
 
 use flexcal_calib::{
-    CHI2_3_95, CalibrationOptions, FrameTreatment, TargetCalibration, TargetMeasurementSet,
-    TargetObservation, TargetPose, UnknownStatus, calibrate_targets, read_targets,
-    rotation_from_vector, validate_targets, vector_from_rotation,
+    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, TargetMeasurementSet,
+    TargetObservation, TargetPose, UnknownStatus, calibrate, read_targets, rotation_from_vector,
+    validate_targets, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, RobotDescription, forward_frame_pose};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -160,7 +160,7 @@ fn measure_with(
 /// parameters, measurement-frame increments on its starting frame, and the
 /// offsets' increments on the nominal offsets of `targets`.
 fn true_unknowns(
-    calibration: &TargetCalibration,
+    calibration: &Calibration,
     truth: &Truth,
     targets: &[flexcal_calib::Target],
 ) -> Vec<f64> {
@@ -212,7 +212,7 @@ fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
         weighting: flexcal_calib::Weighting::Uniform,
         ..CalibrationOptions::default()
     };
-    let six = calibrate_targets(&model, &set, &options).unwrap();
+    let six = calibrate(&model, &set, &options).unwrap();
     let x_true = true_unknowns(&six, &truth, &targets);
     assert_eq!(x_true.len(), six.unknowns.len());
     let checks = six.combination_check(&x_true);
@@ -240,7 +240,7 @@ fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
             .all(|e| e.orientation_error.is_some())
     );
     // Positions alone (the same poses, orientations left out).
-    let positions = calibrate_targets(
+    let positions = calibrate(
         &model,
         &set,
         &CalibrationOptions {
@@ -249,7 +249,7 @@ fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
         },
     )
     .unwrap();
-    let identified = |c: &TargetCalibration| -> Vec<String> {
+    let identified = |c: &Calibration| -> Vec<String> {
         c.unknowns
             .iter()
             .filter(|u| u.status == UnknownStatus::Identified)
@@ -307,7 +307,7 @@ fn two_markers_on_a_two_armed_tree_recover_the_truth_within_three_standard_error
     let truth = truth(&model, &nominal, &mut rng);
     let set = measure(&model, &truth, &targets, 80, &mut rng);
     let options = CalibrationOptions::default();
-    let calibration = calibrate_targets(&model, &set, &options).unwrap();
+    let calibration = calibrate(&model, &set, &options).unwrap();
 
     // Every unknown, true value by name.
     let x_true = true_unknowns(&calibration, &truth, &targets);
@@ -394,7 +394,7 @@ fn identifiability_names_what_two_markers_cannot_see() {
     let nominal: Vec<Vector3<f64>> = targets.iter().map(|t| t.offset).collect();
     let truth = truth(&model, &nominal, &mut rng);
     let set = measure(&model, &truth, &targets, 60, &mut rng);
-    let calibration = calibrate_targets(&model, &set, &CalibrationOptions::default()).unwrap();
+    let calibration = calibrate(&model, &set, &CalibrationOptions::default()).unwrap();
     let status = |name: &str| {
         calibration
             .unknowns
@@ -441,7 +441,7 @@ fn identifiability_names_what_two_markers_cannot_see() {
         })
         .collect();
     let one = TargetMeasurementSet::new("left only", targets[..1].to_vec(), left_only).unwrap();
-    let calibration = calibrate_targets(&model, &one, &CalibrationOptions::default()).unwrap();
+    let calibration = calibrate(&model, &one, &CalibrationOptions::default()).unwrap();
     let notes = calibration.identifiability_notes().join("\n");
     for p in model.params().iter().filter(|p| p.frame.starts_with('R')) {
         let u = calibration
@@ -463,7 +463,7 @@ fn a_target_on_a_frame_the_robot_lacks_is_a_named_error() {
     let truth = truth(&model, &nominal, &mut rng);
     let set = measure(&model, &truth, &targets, 20, &mut rng);
     targets[1].frame = "RX".into();
-    let err = calibrate_targets(
+    let err = calibrate(
         &model,
         &set.with_targets(targets).unwrap(),
         &CalibrationOptions::default(),
@@ -475,9 +475,7 @@ fn a_target_on_a_frame_the_robot_lacks_is_a_named_error() {
         use_orientation: Some(true),
         ..CalibrationOptions::default()
     };
-    let err = calibrate_targets(&model, &set, &options)
-        .unwrap_err()
-        .to_string();
+    let err = calibrate(&model, &set, &options).unwrap_err().to_string();
     assert!(
         err.contains("orientation asked for but target `left` has none"),
         "{err}"
@@ -516,7 +514,7 @@ fn one_target_on_the_tcp_matches_the_one_target_identification() {
     let options = CalibrationOptions::default();
     let single = calibrate(&model, &set, &options).unwrap();
     let multi_set = TargetMeasurementSet::from_measurement_set(&set, "probe").unwrap();
-    let multi = calibrate_targets(&model, &multi_set, &options).unwrap();
+    let multi = calibrate(&model, &multi_set, &options).unwrap();
     println!(
         "one target: {:.5} mm RMS, rank {}; as a target set: {:.5} mm RMS, rank {}",
         single.training_after.position_rms * 1e3,
@@ -532,7 +530,7 @@ fn one_target_on_the_tcp_matches_the_one_target_identification() {
     // The probe's identified position, in the end frame, agrees to well
     // within the noise.
     let multi_point = multi.targets[0].offset;
-    let single_point = single.x_tcp_target.translation.vector;
+    let single_point = single.x_tcp_target().translation.vector;
     assert!(
         (multi_point - single_point).norm() < 0.02e-3,
         "{multi_point:?} vs {single_point:?}"
@@ -589,8 +587,8 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
     let set = measure(&model, &truth, &targets, 160, &mut rng);
     let validation = measure(&model, &truth, &targets, 400, &mut rng);
     let options = CalibrationOptions::default();
-    let calibration = calibrate_targets(&model, &set, &options).unwrap();
-    let split = SplitCheck::for_targets(&model, &set, &options, &calibration).unwrap();
+    let calibration = calibrate(&model, &set, &options).unwrap();
+    let split = SplitCheck::new(&model, &set, &options, &calibration).unwrap();
     let ratio = split.prediction_ratio.unwrap();
     let map = calibration
         .accuracy_coverage(&model, &validation, Some(&split))
@@ -639,8 +637,7 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
     // every unknown (|z| of a standard normal: median 0.67); a campaign of
     // a robot whose left forearm is 0.3 mm longer (about 100 standard
     // errors) is named for that length.
-    let cross =
-        CrossCheck::for_targets(&model, &validation, &options, &calibration, Some(&split)).unwrap();
+    let cross = CrossCheck::new(&model, &validation, &options, &calibration, Some(&split)).unwrap();
     let mut z: Vec<f64> = cross
         .unknowns
         .iter()
@@ -658,8 +655,7 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
     let mut changed = truth.clone();
     changed.xi[model.param_index("dL3").unwrap()] += 0.3e-3;
     let other = measure(&model, &changed, &targets, 200, &mut rng);
-    let cross =
-        CrossCheck::for_targets(&model, &other, &options, &calibration, Some(&split)).unwrap();
+    let cross = CrossCheck::new(&model, &other, &options, &calibration, Some(&split)).unwrap();
     let named: Vec<&str> = cross.disagreeing().map(|u| u.name.as_str()).collect();
     println!("cross-series check, left forearm 0.3 mm longer: {named:?}");
     assert!(named.contains(&"dL3"), "{:?}", cross.notes());
@@ -706,7 +702,7 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
     let nominal: Vec<Vector3<f64>> = targets.iter().map(|t| t.offset).collect();
     let truth = truth(&model, &nominal, &mut rng);
     let options = CalibrationOptions::default();
-    let ratios = |calibration: &TargetCalibration, prefix: &str| -> Vec<(String, f64)> {
+    let ratios = |calibration: &Calibration, prefix: &str| -> Vec<(String, f64)> {
         calibration
             .unknowns
             .iter()
@@ -716,7 +712,7 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
             .collect()
     };
     let spread_set = measure(&model, &truth, &targets, 120, &mut rng);
-    let spread = calibrate_targets(&model, &spread_set, &options).unwrap();
+    let spread = calibrate(&model, &spread_set, &options).unwrap();
     let all = ratios(&spread, "");
     assert!(all.len() > 20, "{all:?}");
     let largest = all.iter().map(|(_, r)| *r).fold(0.0, f64::max);
@@ -745,7 +741,7 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
             })
             .collect()
     });
-    let held = calibrate_targets(&model, &held_set, &options).unwrap();
+    let held = calibrate(&model, &held_set, &options).unwrap();
     let left = ratios(&held, "L");
     let right = ratios(&held, "R");
     println!("left elbow held: left arm {left:?}; right arm {right:?}");
@@ -812,7 +808,7 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
     assert_eq!(set.n_stations(), 2);
     assert_eq!(set.poses()[60].pose_id.as_deref(), Some("s2:p0"));
     let options = CalibrationOptions::default();
-    let calibration = calibrate_targets(&model, &set, &options).unwrap();
+    let calibration = calibrate(&model, &set, &options).unwrap();
     assert_eq!(calibration.station_frames.len(), 1);
     // The truth of every unknown but the second frame's increments (its
     // start is a registration not kept), which no robot combination holds.
@@ -893,7 +889,7 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
         method: flexcal_calib::SelectionMethod::None,
         ..Default::default()
     };
-    let held = flexcal_calib::hold_out_target_stations(&model, &set, &options, &none).unwrap();
+    let held = flexcal_calib::hold_out_stations(&model, &set, &options, &none).unwrap();
     assert_eq!(held.len(), 2);
     for h in &held {
         println!(

@@ -30,10 +30,10 @@
 //!   measured value).
 
 use flexcal_calib::{
-    CalibrationOptions, GravityCompliance, LateralCompliance, SelectionOptions, TargetCalibration,
-    TargetMeasurementSet, TargetObservation, TargetPose, TermGroup, UnknownStatus,
-    calibrate_targets, calibrate_targets_selected, read_targets, rotation_from_vector,
-    validate_targets, vector_from_rotation,
+    Calibration, CalibrationOptions, GravityCompliance, LateralCompliance, SelectionOptions,
+    TargetMeasurementSet, TargetObservation, TargetPose, TermGroup, UnknownStatus, calibrate,
+    calibrate_targets_selected, read_targets, rotation_from_vector, validate_targets,
+    vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, PointLoad, RobotDescription, actuated_forces_into};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -194,7 +194,7 @@ fn measure(
 
 /// The true value of every unknown of `calibration` by name.
 fn true_unknowns(
-    calibration: &TargetCalibration,
+    calibration: &Calibration,
     model: &Model,
     gravity: &GravityCompliance,
     truth: &Truth,
@@ -267,7 +267,7 @@ fn true_unknowns(
 /// combinations); the unknowns `named` identified. Prints the worst ratio
 /// and the named unknowns against their truth.
 fn assert_truth_within_three_standard_errors(
-    calibration: &TargetCalibration,
+    calibration: &Calibration,
     x_true: &[f64],
     named: &[&str],
 ) {
@@ -333,7 +333,7 @@ fn markers_on_both_hands_recover_the_joint_springs_and_the_torso_tilt() {
         gravity: Some(gravity.clone()),
         ..CalibrationOptions::default()
     };
-    let calibration = calibrate_targets(&model, &training, &elastic_options).unwrap();
+    let calibration = calibrate(&model, &training, &elastic_options).unwrap();
     let x_true = true_unknowns(&calibration, &model, &gravity, &truth, &targets);
     assert_truth_within_three_standard_errors(
         &calibration,
@@ -356,7 +356,7 @@ fn markers_on_both_hands_recover_the_joint_springs_and_the_torso_tilt() {
     // Validation on other poses: the elasto-geometric model reaches the
     // noise (three axes of 0.02 mm: a mean error norm of about 0.032 mm);
     // the geometric one, identified on the same poses, does not.
-    let geometric = calibrate_targets(&model, &training, &CalibrationOptions::default()).unwrap();
+    let geometric = calibrate(&model, &training, &CalibrationOptions::default()).unwrap();
     let elastic_validation =
         validate_targets(&model, &calibration, &validation_set, false).unwrap();
     let geometric_validation =

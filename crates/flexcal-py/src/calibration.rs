@@ -648,7 +648,14 @@ impl CalibrationResult {
     /// shape (n,), m.
     #[getter]
     fn position_errors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
-        position_norms(py, &self.calibration.training_after_per_pose)
+        let errors: Vec<f64> = self
+            .calibration
+            .observation_errors
+            .iter()
+            .map(|e| e.error.norm())
+            .collect();
+        let n = errors.len();
+        to_numpy(py, errors, &[n])
     }
 
     /// The identified measurement frame x_meas_base (4 x 4, m); of the
@@ -672,7 +679,7 @@ impl CalibrationResult {
     /// The identified target pose in the TCP frame x_tcp_target (4 x 4, m).
     #[getter]
     fn target<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
-        matrix(py, &self.calibration.x_tcp_target)
+        matrix(py, &self.calibration.x_tcp_target())
     }
 
     /// Errors of the calibrated robot on another set: only the measurement
@@ -715,7 +722,7 @@ impl CalibrationResult {
         let check = run_cancellable(py, Some(cancel), move || {
             Ok(CrossCheck::new(
                 &model,
-                &set,
+                &*set,
                 &options,
                 &calibration,
                 split.as_deref(),
@@ -935,14 +942,14 @@ pub fn calibrate<'py>(
             let (calibration, report, chosen) =
                 calibrate_selected(&model, &set, &options, &selection)?;
             let split = split_check
-                .then(|| SplitCheck::new(&model, &set, &chosen, &calibration))
+                .then(|| SplitCheck::new(&model, &*set, &chosen, &calibration))
                 .transpose()?;
             let calibrated = calibration
                 .description(&model)?
                 .build()
                 .map_err(Failure::Kinematics)?;
             let held = if hold_out_stations {
-                flexcal::calib::hold_out_stations(&model, &set, &options, &selection)?
+                flexcal::calib::hold_out_stations(&model, &*set, &options, &selection)?
             } else {
                 Vec::new()
             };

@@ -9,7 +9,7 @@ use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
     CalibrationOptions, CancelToken, CrossCheck, FrameTreatment, SplitCheck, Target,
     TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
-    calibrate_targets_selected, hold_out_target_stations, read_targets, validate_targets,
+    calibrate_targets_selected, read_targets, validate_targets,
 };
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
@@ -618,7 +618,7 @@ impl TargetCalibrationResult {
         run_interruptible(py, move || {
             Ok(AccuracyResult::new(run.calibration.accuracy_coverage(
                 &model,
-                &set,
+                &*set,
                 run.split.as_ref(),
             )?))
         })
@@ -637,9 +637,9 @@ impl TargetCalibrationResult {
         let set = Arc::clone(&other.set);
         let (options, cancel) = cancellable(&self.options);
         let check = run_cancellable(py, Some(cancel), move || {
-            Ok(CrossCheck::for_targets(
+            Ok(CrossCheck::new(
                 &model,
-                &set,
+                &*set,
                 &options,
                 &run.calibration,
                 run.split.as_ref(),
@@ -747,10 +747,10 @@ pub fn calibrate_targets(
         let (calibration, report, chosen) =
             calibrate_targets_selected(&model, &set, &options, &selection)?;
         let split = split_check
-            .then(|| SplitCheck::for_targets(&model, &set, &chosen, &calibration))
+            .then(|| SplitCheck::new(&model, &*set, &chosen, &calibration))
             .transpose()?;
         let station_hold_out = if hold_out_stations {
-            hold_out_target_stations(&model, &set, &options, &selection)?
+            flexcal::calib::hold_out_stations(&model, &*set, &options, &selection)?
         } else {
             Vec::new()
         };

@@ -16,6 +16,7 @@
 //! [`CalibrationRun::html_report`] is the same run as an HTML page with its
 //! charts ([`html`]).
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -230,13 +231,19 @@ impl CalibrationRun {
     /// The per-pose errors after calibration: of the validation set when
     /// there is one, else of the identification set; with the set's name
     /// (`validation`, `identification`) and the set.
-    pub fn per_pose(&self) -> (&'static str, &MeasurementSet, &[PoseError]) {
+    pub fn per_pose(&self) -> (&'static str, &MeasurementSet, Cow<'_, [PoseError]>) {
         match (&self.validation, &self.validation_set) {
-            (Some(v), Some(set)) => ("validation", set, &v.after_per_pose),
+            (Some(v), Some(set)) => ("validation", set, Cow::Borrowed(&v.after_per_pose[..])),
             _ => (
                 "identification",
                 &self.data,
-                &self.calibration.training_after_per_pose,
+                Cow::Owned(
+                    self.calibration
+                        .observation_errors
+                        .iter()
+                        .map(PoseError::from)
+                        .collect(),
+                ),
             ),
         }
     }
@@ -293,7 +300,7 @@ impl CalibrationRun {
         let mut written = Vec::new();
         if let Some(path) = &outputs.residuals {
             let (name, set, errors) = self.per_pose();
-            calib::temperature::write_pose_errors(path, set, errors)?;
+            calib::temperature::write_pose_errors(path, set, &errors)?;
             written.push(format!(
                 "per-pose errors of the {name} set written to {}",
                 path.display()

@@ -10,7 +10,7 @@
 use serde::Serialize;
 
 use crate::calib::{
-    self, AccuracyMap, CrossCheck, SelectionReport, SplitCheck, TargetCalibration, TargetErrors,
+    self, AccuracyMap, Calibration, CrossCheck, SelectionReport, SplitCheck, TargetErrors,
     TargetMeasurementSet, TargetValidation, UnknownStatus,
 };
 use crate::calibration::html::{
@@ -46,12 +46,12 @@ pub struct TargetCalibrationRun {
     /// poses, as for one target).
     pub selection: Option<SelectionReport>,
     /// The identification (of the selected model).
-    pub calibration: TargetCalibration,
+    pub calibration: Calibration,
     /// The validation (the measurement frame fitted again on the validation
     /// set, as for one target: the instrument may have moved).
     pub validation: Option<TargetValidation>,
     /// The split-half check, when asked for ([`CalibrationConfig::split_check`];
-    /// [`SplitCheck::for_targets`]).
+    /// [`SplitCheck::new`]).
     pub split: Option<SplitCheck>,
     /// Predicted 95 % bounds at the validation observations and the share
     /// of them that the measured errors respect, with a validation set.
@@ -60,11 +60,11 @@ pub struct TargetCalibrationRun {
     /// [`CalibrationConfig::accuracy_grid`].
     pub accuracy_map: Option<AccuracyMap>,
     /// The cross-series check on the validation set, when asked for
-    /// ([`CalibrationConfig::cross_check`]; [`CrossCheck::for_targets`]).
+    /// ([`CalibrationConfig::cross_check`]; [`CrossCheck::new`]).
     pub cross: Option<CrossCheck>,
     /// Each station held out in turn, when asked for
     /// ([`CalibrationConfig::hold_out_stations`];
-    /// [`calib::hold_out_target_stations`]).
+    /// [`calib::hold_out_stations`]).
     pub station_hold_out: Vec<calib::StationHoldOut>,
 }
 
@@ -157,14 +157,14 @@ pub fn run_target_calibration(
     // Each station selects its own model on the other stations, from the
     // options before selection.
     let station_hold_out = if config.hold_out_stations {
-        calib::hold_out_target_stations(robot, &data, &config.options, &selection_options)
+        calib::hold_out_stations(robot, &data, &config.options, &selection_options)
             .map_err(step("each station held out"))?
     } else {
         Vec::new()
     };
     let split = config
         .split_check
-        .then(|| SplitCheck::for_targets(robot, &data, &options, &calibration))
+        .then(|| SplitCheck::new(robot, &data, &options, &calibration))
         .transpose()
         .map_err(step("split-half check on halves of the poses"))?;
     let validation = validation_set
@@ -184,7 +184,7 @@ pub fn run_target_calibration(
     })?;
     let cross = match (&validation_set, config.cross_check) {
         (Some(set), true) => Some(
-            CrossCheck::for_targets(robot, set, &options, &calibration, split.as_ref())
+            CrossCheck::new(robot, set, &options, &calibration, split.as_ref())
                 .map_err(step("cross-series check on the validation poses"))?,
         ),
         _ => None,

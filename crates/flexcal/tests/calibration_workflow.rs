@@ -187,7 +187,7 @@ fn workflow_on_the_twin_campaign() {
     for p in &map.poses {
         let pose = flexcal::kinematics::forward_pose(&robot, &mut data, &p.q, &run.calibration.xi)
             .unwrap()
-            * run.calibration.x_tcp_target;
+            * run.calibration.x_tcp_target();
         for k in 0..3 {
             let e = (p.position_mm[k] - pose.translation.vector[k] * 1e3).abs();
             assert!(e < 1e-6, "{}: axis {k} off by {e} mm", p.pose);

@@ -4,9 +4,7 @@ use flexcal::twin::geometric::{
     GeometricCampaignOptions, IR663_TRUE_ERRORS, geometric_campaign, write_geometric_campaign,
 };
 use flexcal::twin::truth::TruthSwitches;
-use flexcal_calib::{
-    CalibrationOptions, FrameTreatment, MeasurementSet, UnknownStatus, calibrate, combination_check,
-};
+use flexcal_calib::{CalibrationOptions, FrameTreatment, MeasurementSet, UnknownStatus, calibrate};
 use flexcal_kinematics::RobotDescription;
 
 /// The calibration on a twin whose only non-ideality is its geometry (and
@@ -76,7 +74,7 @@ fn calibration_recovers_the_true_geometry_of_a_purely_geometric_twin() {
     // r1, alpha1, theta1).
     let mut truth = campaign.true_xi.clone();
     truth.extend([0.0; 12]);
-    let checks = combination_check(&calibration, &truth);
+    let checks = calibration.combination_check(&truth);
     let robot_names: Vec<&str> = model.params().iter().map(|p| p.name.as_str()).collect();
     let checks: Vec<_> = checks
         .into_iter()

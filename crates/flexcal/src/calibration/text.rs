@@ -98,7 +98,7 @@ impl CalibrationRun {
             }
         }
         let (name, set, errors) = self.per_pose();
-        out += &temperature_text(name, set, errors);
+        out += &temperature_text(name, set, &errors);
         out
     }
 }
