@@ -46,7 +46,9 @@ use serde::{Deserialize, Serialize};
 
 pub use masses::{MASS_SCALES, MassEntry, ir663_mass_estimate, ir663_mass_table};
 pub use sections::study_report;
-pub use seeds::{LoadComparison, MultiSeedSummary, Spread, multi_seed_study};
+pub use seeds::{
+    LoadComparison, MassScaleSpread, MeanMax, MultiSeedSummary, Spread, multi_seed_study,
+};
 
 use crate::{Error, Result};
 
