@@ -62,7 +62,10 @@ fn steel_box_kg(width: f64, height: f64, wall: f64, length: f64) -> f64 {
 /// `wall` and length `length` (m).
 fn steel_tube_kg(diameter: f64, wall: f64, length: f64) -> f64 {
     let inner = diameter - 2.0 * wall;
-    std::f64::consts::FRAC_PI_4 * (diameter * diameter - inner * inner) * length * STEEL_DENSITY_KG_M3
+    std::f64::consts::FRAC_PI_4
+        * (diameter * diameter - inner * inner)
+        * length
+        * STEEL_DENSITY_KG_M3
 }
 
 /// The IR-663's estimated masses, in the frames of the built-in `ir663`

@@ -119,7 +119,13 @@ fn outside_and_masses_tables(s: &mut Section, g: &super::GeometricSummary) {
     }
     s.table(
         "Elasto-geometric calibration with every estimated mass scaled",
-        &["masses", "inside, mean [mm]", "inside, max [mm]", "outside, mean [mm]", "outside, max [mm]"],
+        &[
+            "masses",
+            "inside, mean [mm]",
+            "inside, max [mm]",
+            "outside, mean [mm]",
+            "outside, max [mm]",
+        ],
         rows,
     );
 }
