@@ -438,3 +438,31 @@ pub fn write_geometric_campaign(
 /// The twin's terms that a geometric campaign meets besides the geometric
 /// errors and the camera frame: what no geometric model contains.
 pub const NON_GEOMETRIC_TERMS: [&str; 3] = ["gravity", "drive_nonlinearity", "transmission_errors"];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distance_from_box_59_is_zero_inside_and_euclidean_outside() {
+        assert_eq!(distance_from_box_59(&Vector3::new(1.5, 0.0, 1.5)), 0.0);
+        // 0.3 beyond x and 0.4 below z: a corner distance of 0.5.
+        let d = distance_from_box_59(&Vector3::new(2.4, 0.1, 1.0));
+        assert!((d - 0.5).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
+    fn outside_poses_lie_in_their_region_and_clear_of_box_59() {
+        for seed in [1, 2, 3] {
+            let points = outside_points(seed, 40);
+            assert_eq!(points.len(), 40);
+            for p in &points {
+                assert!(distance_from_box_59(p) >= OUTSIDE_MARGIN, "{p:?}");
+                for (k, [lo, hi]) in OUTSIDE_BOX.iter().enumerate() {
+                    assert!((*lo..=*hi).contains(&p[k]), "{p:?}");
+                }
+            }
+            assert_eq!(points, outside_points(seed, 40), "seeded");
+        }
+    }
+}

@@ -187,6 +187,14 @@ mod tests {
     use rand::SeedableRng;
 
     #[test]
+    fn the_position_noise_is_one_leds_and_the_independent_derivation_divides_by_root_n() {
+        let p = Photogrammetry::default();
+        let s = 37e-6 / 3f64.sqrt();
+        assert!((p.position_std_per_axis() - s).abs() < 1e-15);
+        assert!((p.position_std_per_axis_independent_leds() - s / 3f64.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
     fn orientation_noise_matches_a_rigid_fit_of_noisy_leds() {
         // Fit the rotation of 3 noisy LEDs many times: the spread of the
         // fitted small rotation is what the formula says.
