@@ -73,7 +73,7 @@ fn outside_and_masses_tables(s: &mut Section, g: &super::GeometricSummary) {
     };
     let o = &g.outside_box;
     s.table(
-        &format!(
+        format!(
             "Validation on {} poses outside box (59), where the robot's weight loads the joints unlike any identification pose (noise floor {:.4} mm mean)",
             o.poses, g.noise_floor_position_mean_mm
         ),
