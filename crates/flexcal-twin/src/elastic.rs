@@ -9,8 +9,8 @@
 //! to 300, 600, 900 and 1100 N is not proportional, and depends on the
 //! order in which the cell loads and unloads), its transmission errors and
 //! geometric errors; the photogrammetry system of [`crate::truth::measurement`]
-//! measures every position (12.3 um per axis on the target origin, so a
-//! measured deflection, loaded minus unloaded, carries about 17 um per
+//! measures every position (21.4 um per axis on the target origin, so a
+//! measured deflection, loaded minus unloaded, carries about 30 um per
 //! axis). As in the paper the positions are expressed in R0 with the frame
 //! registered by the geometric campaign; the registration's own error (a
 //! few micrometres and 1e-5 rad over 27 poses) changes a 2 mm deflection by

@@ -13,7 +13,12 @@
 //! - Poses: the 3 x 3 x 3 grid of box (59) (x 1.4-2.1, y -0.3-0.3,
 //!   z 1.4-1.7 m) for identification and 16 seeded random points of the box
 //!   for validation, the tool pointing down tilted by up to
-//!   [`GeometricCampaignOptions::max_tilt`](crate::geometric::GeometricCampaignOptions::max_tilt) and turned at random about its axis.
+//!   [`GeometricCampaignOptions::max_tilt`](crate::geometric::GeometricCampaignOptions::max_tilt) and turned at random about its axis;
+//!   and a second validation set of 16 seeded random points **outside**
+//!   box (59) ([`OUTSIDE_BOX`]: x 1.3-2.15, y -0.5-0.5, z 0.95-2.05 m, at
+//!   least 0.1 m from the box), where the robot's own weight loads the
+//!   joints differently from every identification pose, so that what the
+//!   geometric model absorbed inside the box no longer holds.
 //!   The commanded q come from the nominal inverse model (as a controller
 //!   would), the measured poses from the twin.
 //! - Measurement system: the K600-10 class photogrammetry of
@@ -83,6 +88,8 @@ pub struct GeometricCampaignOptions {
     pub seed: u64,
     /// Number of random validation poses (default 16).
     pub n_validation: usize,
+    /// Number of random validation poses outside box (59) (default 16).
+    pub n_validation_outside: usize,
     /// Largest tilt of the tool axis away from vertical (rad; default 20 deg).
     pub max_tilt: f64,
     /// Which truth terms are on (default all but the temperature drift).
@@ -97,6 +104,7 @@ impl Default for GeometricCampaignOptions {
         Self {
             seed: 663,
             n_validation: 16,
+            n_validation_outside: 16,
             max_tilt: 20f64.to_radians(),
             switches: TruthSwitches::default(),
             camera: Photogrammetry::default(),
@@ -122,6 +130,31 @@ pub struct GeometricCampaign {
     pub identification: MeasurementSet,
     /// Random poses of box (59).
     pub validation: MeasurementSet,
+    /// Random poses outside box (59), inside [`OUTSIDE_BOX`].
+    pub validation_outside: MeasurementSet,
+}
+
+/// Box (59) of the paper, where the identification and the first
+/// validation poses lie: `[x, y, z]` ranges (m).
+pub const BOX_59: [[f64; 2]; 3] = [[1.4, 2.1], [-0.3, 0.3], [1.4, 1.7]];
+
+/// The region the outside validation poses are drawn from: `[x, y, z]`
+/// ranges (m), the reach of the elastic campaign's grid (65) widened
+/// sideways; a draw closer than [`OUTSIDE_MARGIN`] to box (59) is drawn
+/// again.
+pub const OUTSIDE_BOX: [[f64; 2]; 3] = [[1.3, 2.15], [-0.5, 0.5], [0.95, 2.05]];
+
+/// Smallest distance of an outside validation pose from box (59) (m).
+pub const OUTSIDE_MARGIN: f64 = 0.1;
+
+/// Distance (m) of `p` from box (59) (zero inside).
+pub fn distance_from_box_59(p: &Vector3<f64>) -> f64 {
+    let mut d2 = 0.0;
+    for (k, [lo, hi]) in BOX_59.iter().enumerate() {
+        let excess = (lo - p[k]).max(p[k] - hi).max(0.0);
+        d2 += excess * excess;
+    }
+    f64::sqrt(d2)
 }
 
 impl GeometricCampaign {
@@ -134,9 +167,11 @@ impl GeometricCampaign {
             "virtual IR-663 geometric campaign (seed {seed}): {} identification + {} validation poses, \
              truth.toml and truth.json written to {dir}\n\
              measurements in the camera frame, which the calibration registers (target = TCP): calibrate with \
-             `flexcal calibrate --robot ir663 --data {dir}/identification.csv --validate {dir}/validation.csv --fixed-target`\n",
+             `flexcal calibrate --robot ir663 --data {dir}/identification.csv --validate {dir}/validation.csv --fixed-target` \
+             ({} more validation poses outside box (59) in {dir}/validation_outside.csv)\n",
             self.identification.len(),
             self.validation.len(),
+            self.validation_outside.len(),
             dir = dir.display()
         )
     }
@@ -180,12 +215,12 @@ pub fn geometric_campaign(
         .description_with_params(&true_xi)
         .map_err(kin("true description"))?;
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    let steps = |lo: f64, hi: f64| [lo, 0.5 * (lo + hi), hi];
+    let steps = |[lo, hi]: [f64; 2]| [lo, 0.5 * (lo + hi), hi];
     // Serpentine order so each inverse solution seeds the next.
     let mut grid = Vec::new();
-    for (i, x) in steps(1.4, 2.1).into_iter().enumerate() {
-        for (j, y) in steps(-0.3, 0.3).into_iter().enumerate() {
-            let mut zs = steps(1.4, 1.7);
+    for (i, x) in steps(BOX_59[0]).into_iter().enumerate() {
+        for (j, y) in steps(BOX_59[1]).into_iter().enumerate() {
+            let mut zs = steps(BOX_59[2]);
             if (i + j) % 2 == 1 {
                 zs.reverse();
             }
@@ -195,15 +230,16 @@ pub fn geometric_campaign(
     let random: Vec<Vector3<f64>> = (0..options.n_validation)
         .map(|_| {
             Vector3::new(
-                rng.random_range(1.4..=2.1),
-                rng.random_range(-0.3..=0.3),
-                rng.random_range(1.4..=1.7),
+                rng.random_range(BOX_59[0][0]..=BOX_59[0][1]),
+                rng.random_range(BOX_59[1][0]..=BOX_59[1][1]),
+                rng.random_range(BOX_59[2][0]..=BOX_59[2][1]),
             )
         })
         .collect();
+    let outside = outside_points(options.seed, options.n_validation_outside);
     // Identification then validation, in measurement order (the
-    // temperature drift runs over both).
-    let total = (grid.len() + random.len()).max(2) as f64 - 1.0;
+    // temperature drift runs over all three sets).
+    let total = (grid.len() + random.len() + outside.len()).max(2) as f64 - 1.0;
     // The noise has its own stream, so that the poses do not depend on
     // whether the noise is on.
     let mut noise_rng = ChaCha8Rng::seed_from_u64(options.seed ^ NOISE_STREAM);
@@ -227,6 +263,18 @@ pub fn geometric_campaign(
         &mut noise_rng,
         "validation",
     )?;
+    // Its own pose stream, so that the other sets do not depend on it.
+    let mut outside_rng = ChaCha8Rng::seed_from_u64(options.seed ^ OUTSIDE_STREAM);
+    let validation_outside = measure(
+        &twin,
+        &outside,
+        grid.len() + random.len(),
+        total,
+        options,
+        &mut outside_rng,
+        &mut noise_rng,
+        "validation_outside",
+    )?;
     let x_meas_base = if options.switches.measurement_frame {
         options.camera.x_meas_base
     } else {
@@ -241,11 +289,28 @@ pub fn geometric_campaign(
         terms,
         identification,
         validation,
+        validation_outside,
     })
 }
 
 /// Mixed into the seed of the noise stream.
 const NOISE_STREAM: u64 = 0x6e6f_6973_6500;
+/// Mixed into the seed of the outside validation poses' stream.
+const OUTSIDE_STREAM: u64 = 0x6f75_7473_6964;
+
+/// `n` seeded points of [`OUTSIDE_BOX`] at least [`OUTSIDE_MARGIN`] from
+/// box (59).
+fn outside_points(seed: u64, n: usize) -> Vec<Vector3<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ OUTSIDE_STREAM ^ 1);
+    let mut points = Vec::with_capacity(n);
+    while points.len() < n {
+        let p = Vector3::from_fn(|k, _| rng.random_range(OUTSIDE_BOX[k][0]..=OUTSIDE_BOX[k][1]));
+        if distance_from_box_59(&p) >= OUTSIDE_MARGIN {
+            points.push(p);
+        }
+    }
+    points
+}
 
 #[allow(clippy::too_many_arguments)]
 fn measure(
@@ -316,7 +381,8 @@ fn measure(
     Ok(MeasurementSet::new(name, measurements)?)
 }
 
-/// Writes a campaign into `dir`: `identification.csv`, `validation.csv`
+/// Writes a campaign into `dir`: `identification.csv`, `validation.csv`,
+/// `validation_outside.csv`
 /// (flexcal's measurement format, poses in the camera frame), `truth.toml`
 /// (the true robot geometry) and `truth.json` (`{"robot": "ir663", "xi":
 /// {name: value}, "units": ...}` with lengths in mm and angles in deg, the
@@ -332,6 +398,9 @@ pub fn write_geometric_campaign(
         .identification
         .write_csv(&dir.join("identification.csv"))?;
     campaign.validation.write_csv(&dir.join("validation.csv"))?;
+    campaign
+        .validation_outside
+        .write_csv(&dir.join("validation_outside.csv"))?;
     flexcal_io::write_atomic(
         dir.join("truth.toml"),
         campaign.true_description.to_toml_string(),
@@ -369,3 +438,31 @@ pub fn write_geometric_campaign(
 /// The twin's terms that a geometric campaign meets besides the geometric
 /// errors and the camera frame: what no geometric model contains.
 pub const NON_GEOMETRIC_TERMS: [&str; 3] = ["gravity", "drive_nonlinearity", "transmission_errors"];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distance_from_box_59_is_zero_inside_and_euclidean_outside() {
+        assert_eq!(distance_from_box_59(&Vector3::new(1.5, 0.0, 1.5)), 0.0);
+        // 0.3 beyond x and 0.4 below z: a corner distance of 0.5.
+        let d = distance_from_box_59(&Vector3::new(2.4, 0.1, 1.0));
+        assert!((d - 0.5).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
+    fn outside_poses_lie_in_their_region_and_clear_of_box_59() {
+        for seed in [1, 2, 3] {
+            let points = outside_points(seed, 40);
+            assert_eq!(points.len(), 40);
+            for p in &points {
+                assert!(distance_from_box_59(p) >= OUTSIDE_MARGIN, "{p:?}");
+                for (k, [lo, hi]) in OUTSIDE_BOX.iter().enumerate() {
+                    assert!((*lo..=*hi).contains(&p[k]), "{p:?}");
+                }
+            }
+            assert_eq!(points, outside_points(seed, 40), "seeded");
+        }
+    }
+}

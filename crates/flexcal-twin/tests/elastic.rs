@@ -51,7 +51,7 @@ fn campaign_has_the_papers_shape_and_magnitudes() {
     }
 
     // Measured minus true deflection is the measurement noise: about
-    // 12.3 um * sqrt(2) per axis.
+    // 21.4 um * sqrt(2) per axis.
     let campaign = simulate_elastic_campaign(&options).unwrap();
     let z1100 = sets.iter().find(|s| s.name == "elastic_z_1100N").unwrap();
     let mut sum_sq = 0.0;

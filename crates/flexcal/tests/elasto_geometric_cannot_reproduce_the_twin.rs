@@ -19,7 +19,7 @@ fn the_elasto_geometric_model_cannot_reproduce_the_twin() {
         // drives' here: 0.3 +/- 15 nm/kN) stay at their start, so the
         // start is that member's, zero; and every loaded joint's
         // compliance is free, however little its torque.
-        let mut table = ir663_mass_table(model).unwrap();
+        let mut table = ir663_mass_table(model, 1.0).unwrap();
         table.initial_compliance = 0.0;
         options.gravity = Some(table);
         options.min_torque_share = 0.0;

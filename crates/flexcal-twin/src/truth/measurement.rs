@@ -12,20 +12,32 @@
 //!
 //! **Noise.** The K600-10's published single-point accuracy is 37 um (the
 //! paper, section 3.1, from the manufacturer), read here as the RMS of the
-//! 3D error of one LED: `s = 37 / sqrt(3) = 21.4 um` per axis, independent
-//! between LEDs. The tool carries a target of `n = 3` LEDs ("three or more",
-//! section 3.1) on a circle of radius `R = 60 mm` in the plane normal to the
-//! tool axis, centred on the TCP. A least-squares rigid fit of `n` points
-//! with independent isotropic noise `s` gives
-//! - the target origin (the LEDs' centroid) with `s / sqrt(n)` per axis:
-//!   12.3 um;
-//! - the rotation with covariance `s^2 (sum_i |r_i|^2 I - r_i r_i^T)^-1`
+//! 3D error of one LED: `s = 37 / sqrt(3) = 21.4 um` per axis. The tool
+//! carries a target of `n = 3` LEDs ("three or more", section 3.1) on a
+//! circle of radius `R = 60 mm` in the plane normal to the tool axis,
+//! centred on the TCP. Two derivations of the target's noise exist; the
+//! twin publishes both and uses the one that assumes nothing in its own
+//! favour for each quantity:
+//! - **position, used: `s` per axis (21.4 um).** A photogrammetry
+//!   system's single-point error is mostly systematic (the cameras'
+//!   calibration, refraction in the room's air, the LED's apparent
+//!   centre), so the errors of three LEDs 100 mm apart are strongly
+//!   correlated; their centroid is then no better than one LED. The
+//!   independent-LED derivation, `s / sqrt(n)` = 12.3 um per axis
+//!   ([`Photogrammetry::position_std_per_axis_independent_leds`]), holds
+//!   only if the three errors were independent, which the source does not
+//!   say; it is published, not used.
+//! - **orientation, used: the rigid fit of independent LEDs.** A least-squares
+//!   rigid fit of `n` points with independent isotropic noise `s` gives
+//!   the rotation with covariance `s^2 (sum_i |r_i|^2 I - r_i r_i^T)^-1`
 //!   (the small-rotation linearisation `dp_i = dphi x r_i` solved in least
 //!   squares). For `n >= 3` points evenly spaced on a circle,
 //!   `sum r_i r_i^T = (n R^2 / 2) diag(1, 1, 0)` in the target frame, so the
 //!   matrix is `diag(n R^2 / 2, n R^2 / 2, n R^2)`: `s / (R sqrt(n / 2))`
 //!   about the two in-plane axes (2.91e-4 rad, 0.0167 deg) and
 //!   `s / (R sqrt(n))` about the tool axis (2.06e-4 rad, 0.0118 deg).
+//!   Here independence is the pessimistic reading: errors common to the
+//!   three LEDs shift the target without turning it.
 //!
 //! These standard deviations go into the files (orientation per base axis:
 //! the in-plane value for x0 and y0, the axial one for z0, the tool pointing
@@ -73,8 +85,19 @@ impl Photogrammetry {
         self.single_point_accuracy_m / 3f64.sqrt()
     }
 
-    /// Standard deviation of each coordinate of the target origin (m).
+    /// Standard deviation of each coordinate of the target origin (m): one
+    /// LED's, since the LEDs' errors are mostly systematic and so
+    /// correlated over a small target (module docs, "Noise"); the value
+    /// the twin's measurements draw and write.
     pub fn position_std_per_axis(&self) -> f64 {
+        self.led_std_per_axis()
+    }
+
+    /// Standard deviation of each coordinate of the target origin (m) if
+    /// the LEDs' errors were independent: `s / sqrt(n)`. Published beside
+    /// [`Photogrammetry::position_std_per_axis`] as the optimistic
+    /// derivation; no measurement uses it.
+    pub fn position_std_per_axis_independent_leds(&self) -> f64 {
         self.led_std_per_axis() / (self.led_count.max(1) as f64).sqrt()
     }
 
@@ -143,10 +166,11 @@ impl Photogrammetry {
         TwinTerm {
             name: "measurement_noise".into(),
             magnitude: format!(
-                "{:.1} um per axis on the target origin ({:.0} um single-point accuracy, {} LEDs); orientation {:.4} deg about the in-plane axes and {:.4} deg about the tool axis, derived from the LED spread ({:.0} mm radius)",
+                "{:.1} um per axis on the target origin ({:.0} um single-point accuracy, the {} LEDs' errors taken as correlated; {:.1} um if they were independent, not used); orientation {:.4} deg about the in-plane axes and {:.4} deg about the tool axis, derived from the LED spread ({:.0} mm radius)",
                 self.position_std_per_axis() * 1e6,
                 self.single_point_accuracy_m * 1e6,
                 self.led_count,
+                self.position_std_per_axis_independent_leds() * 1e6,
                 so.x.to_degrees(),
                 so.z.to_degrees(),
                 self.led_radius_m * 1e3
@@ -161,6 +185,14 @@ impl Photogrammetry {
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    #[test]
+    fn the_position_noise_is_one_leds_and_the_independent_derivation_divides_by_root_n() {
+        let p = Photogrammetry::default();
+        let s = 37e-6 / 3f64.sqrt();
+        assert!((p.position_std_per_axis() - s).abs() < 1e-15);
+        assert!((p.position_std_per_axis_independent_leds() - s / 3f64.sqrt()).abs() < 1e-15);
+    }
 
     #[test]
     fn orientation_noise_matches_a_rigid_fit_of_noisy_leds() {

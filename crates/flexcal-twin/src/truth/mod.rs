@@ -9,7 +9,7 @@
 //! | drive non-linearity | [`drive`] | lost motion 1 arcmin with 1 arcmin hysteresis, K3/K1 ~ 2.5 | RV / strain-wave catalogues |
 //! | transmission errors | [`transmission`] | 0.35 + 0.15 arcmin harmonics | reducer catalogues |
 //! | measurement frame | [`measurement`] | 3.5 m, 155 deg away | the paper's registration step |
-//! | measurement noise | [`measurement`] | 12.3 um per axis, 0.017 / 0.012 deg | K600-10, 37 um |
+//! | measurement noise | [`measurement`] | 21.4 um per axis (LED errors correlated; 12.3 um if independent, not used), 0.017 / 0.012 deg | K600-10, 37 um |
 //! | temperature drift (off) | [`temperature`] | 2 K x 11.7e-6 /K | steel handbook |
 //! | bar modulus, thickness, clamp, tool tip, friction, payload | [`process`] | 70 GPa, +1 %, 1 t, 10 mm, mu 0.15, +0.5 % | Eurocode 9, EN 485-4, clamped-beam tests, tool sizes, friction tables, scale |
 //!

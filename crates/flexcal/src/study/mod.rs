@@ -14,6 +14,7 @@
 //! Everything a figure of the report shows is computed here; the report
 //! ([`study_report`]) only lays it out.
 
+pub mod masses;
 pub mod model_class;
 mod sections;
 mod seeds;
@@ -24,8 +25,8 @@ use std::time::Instant;
 
 use crate::forming::FormingResult;
 use flexcal_calib::{
-    Calibration, CalibrationOptions, ErrorStatistics, FrameTreatment, GravityCompliance,
-    MeasurementSet, PointMass, UnknownStatus, ValidationReport, calibrate,
+    Calibration, CalibrationOptions, ErrorStatistics, FrameTreatment, MeasurementSet,
+    UnknownStatus, ValidationReport, calibrate,
 };
 use flexcal_elastic::campaign::DeflectionSet;
 use flexcal_elastic::description::ElasticDescription;
@@ -43,8 +44,11 @@ use flexcal_twin::geometric::{
 use flexcal_twin::truth::{TruthSwitches, TwinTerm};
 use serde::{Deserialize, Serialize};
 
+pub use masses::{MASS_SCALES, MassEntry, ir663_mass_estimate, ir663_mass_table};
 pub use sections::study_report;
-pub use seeds::{LoadComparison, MultiSeedSummary, Spread, multi_seed_study};
+pub use seeds::{
+    LoadComparison, MassScaleSpread, MeanMax, MultiSeedSummary, Spread, multi_seed_study,
+};
 
 use crate::{Error, Result};
 
@@ -128,6 +132,45 @@ pub struct GeometricSummary {
     /// poses: the measurement noise (mm), `2 sqrt(2 / pi) sigma` for a
     /// Gaussian of `sigma` per axis.
     pub noise_floor_position_mean_mm: f64,
+    /// The measurement noise per axis the campaign's files state and the
+    /// twin draws (um): one LED's, the LEDs' errors taken as correlated.
+    pub noise_position_std_per_axis_um: f64,
+    /// The same if the LEDs' errors were independent (um): the optimistic
+    /// derivation, published, not used.
+    pub noise_position_std_per_axis_independent_leds_um: f64,
+    /// Validation on the poses outside box (59), where the robot's own
+    /// weight loads the joints unlike any identification pose.
+    pub outside_box: OutsideBoxFigures,
+    /// The mass table the elasto-geometric calibration starts from, each
+    /// figure with its source and assumed uncertainty.
+    pub mass_estimate: Vec<MassEntry>,
+    /// The elasto-geometric calibration again with every estimated mass
+    /// scaled (by [`MASS_SCALES`]), validated inside and outside box (59).
+    pub mass_scaled: Vec<MassScaleFigures>,
+}
+
+/// The geometric step's validation on the poses outside box (59).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct OutsideBoxFigures {
+    /// Number of validation poses.
+    pub poses: usize,
+    /// With the nominal robot (camera frame registered).
+    pub before: ValidationFigures,
+    /// With the geometric calibration.
+    pub geometric: ValidationFigures,
+    /// With the elasto-geometric calibration.
+    pub elasto_geometric: ValidationFigures,
+}
+
+/// The elasto-geometric calibration with every estimated mass scaled.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct MassScaleFigures {
+    /// The factor applied to every mass of the estimate.
+    pub scale: f64,
+    /// Validation inside box (59).
+    pub inside: ValidationFigures,
+    /// Validation outside box (59).
+    pub outside: ValidationFigures,
 }
 
 /// Table 5 figures of one load (mm).
@@ -502,15 +545,18 @@ fn geometric_step(
     observer: &mut dyn StudyObserver,
 ) -> Result<GeometricResults> {
     let dir = out.join("geometric");
-    observer.started("geometric campaign on the virtual IR-663 (27 + 16 poses)");
-    let campaign = geometric_campaign(&GeometricCampaignOptions {
+    observer.started("geometric campaign on the virtual IR-663 (27 + 16 + 16 poses)");
+    let campaign_options = GeometricCampaignOptions {
         seed,
         ..GeometricCampaignOptions::default()
-    })?;
+    };
+    let camera = campaign_options.camera.clone();
+    let campaign = geometric_campaign(&campaign_options)?;
     write_geometric_campaign(&campaign, &dir)?;
     // Read back what was written, as a user's own campaign would be.
     let identification = MeasurementSet::read_csv(&dir.join("identification.csv"))?;
     let validation_set = MeasurementSet::read_csv(&dir.join("validation.csv"))?;
+    let outside_set = MeasurementSet::read_csv(&dir.join("validation_outside.csv"))?;
     let model = campaign.model;
     observer.stage("geometric identification (Levenberg-Marquardt)");
     let mut calibration_options = CalibrationOptions::for_model(&model);
@@ -520,11 +566,24 @@ fn geometric_step(
     calibration_options.target = FrameTreatment::Fixed;
     let calibration = calibrate(&model, &identification, &calibration_options)?;
     let validation = calibration.validate(&model, &validation_set, false)?;
+    let validation_outside = calibration.validate(&model, &outside_set, false)?;
     observer.stage("elasto-geometric identification (geometry + joint compliances under gravity)");
     let mut elastic_options = calibration_options.clone();
-    elastic_options.gravity = Some(ir663_mass_table(&model)?);
+    elastic_options.gravity = Some(ir663_mass_table(&model, 1.0)?);
     let elasto_geometric = calibrate(&model, &identification, &elastic_options)?;
     let elasto_geometric_validation = elasto_geometric.validate(&model, &validation_set, false)?;
+    let elasto_geometric_outside = elasto_geometric.validate(&model, &outside_set, false)?;
+    observer.stage("elasto-geometric identification with the masses 25 % off");
+    let mut mass_scaled = Vec::with_capacity(MASS_SCALES.len());
+    for scale in MASS_SCALES {
+        elastic_options.gravity = Some(ir663_mass_table(&model, scale)?);
+        let scaled = calibrate(&model, &identification, &elastic_options)?;
+        mass_scaled.push(MassScaleFigures {
+            scale,
+            inside: (&scaled.validate(&model, &validation_set, false)?.after).into(),
+            outside: (&scaled.validate(&model, &outside_set, false)?.after).into(),
+        });
+    }
     let elasto_description = elasto_geometric.description(&model)?;
     flexcal_io::write_atomic(
         dir.join("calibrated_elasto_geometric.toml"),
@@ -559,9 +618,21 @@ fn geometric_step(
         validation_after: (&validation.after).into(),
         elasto_geometric: (&elasto_geometric_validation.after).into(),
         noise_floor_position_mean_mm,
+        noise_position_std_per_axis_um: camera.position_std_per_axis() * 1e6,
+        noise_position_std_per_axis_independent_leds_um: camera
+            .position_std_per_axis_independent_leds()
+            * 1e6,
+        outside_box: OutsideBoxFigures {
+            poses: outside_set.len(),
+            before: (&validation_outside.before).into(),
+            geometric: (&validation_outside.after).into(),
+            elasto_geometric: (&elasto_geometric_outside.after).into(),
+        },
+        mass_estimate: ir663_mass_estimate(),
+        mass_scaled,
     };
     observer.finished(&format!(
-        "geometric calibration: rank {} of {}, validation mean {:.3} mm / {:.3} deg -> geometric {:.3} mm / {:.3} deg, elasto-geometric {:.3} mm / {:.3} deg (noise floor {:.3} mm)",
+        "geometric calibration: rank {} of {}, validation mean {:.3} mm / {:.3} deg -> geometric {:.3} mm / {:.3} deg, elasto-geometric {:.3} mm / {:.3} deg (noise floor {:.3} mm); outside box (59) {:.3} -> geometric {:.3} mm, elasto-geometric {:.3} mm",
         summary.rank,
         summary.parameters,
         summary.validation_before.position_mean_mm,
@@ -570,7 +641,10 @@ fn geometric_step(
         summary.validation_after.orientation_mean_deg,
         summary.elasto_geometric.position_mean_mm,
         summary.elasto_geometric.orientation_mean_deg,
-        summary.noise_floor_position_mean_mm
+        summary.noise_floor_position_mean_mm,
+        summary.outside_box.before.position_mean_mm,
+        summary.outside_box.geometric.position_mean_mm,
+        summary.outside_box.elasto_geometric.position_mean_mm
     ));
     let identification_q: Vec<Vec<f64>> = identification
         .measurements()
@@ -590,53 +664,6 @@ fn geometric_step(
         sensitivity,
         summary,
     })
-}
-
-/// The IR-663's masses as a user would estimate them for the
-/// elasto-geometric calibration (kg, centres in the frames of the built-in
-/// `ir663`): the links as steel castings of the published arm lengths, the
-/// wrist motors behind the elbow, the wrist at its centre. Estimates, not
-/// the twin's values; the payload (the tool) is identified.
-///
-/// # Errors
-/// A robot without the `ir663` frames.
-pub fn ir663_mass_table(model: &Model) -> Result<GravityCompliance> {
-    let mass = |name: &str, frame: &str, kg: f64, center_mm: [f64; 3]| PointMass {
-        name: name.into(),
-        frame: frame.into(),
-        mass: kg,
-        center: nalgebra::Vector3::from(center_mm) * 1e-3,
-    };
-    let table = GravityCompliance {
-        gravity: nalgebra::Vector3::new(0.0, 0.0, -flexcal_calib::gravity::STANDARD_GRAVITY),
-        masses: vec![
-            mass("upper arm", "2", 190.0, [523.5, 0.0, 0.0]),
-            mass("forearm", "4", 160.0, [0.0, 0.0, -880.0]),
-            mass("wrist motors", "4", 70.0, [0.0, 0.0, -2000.0]),
-            mass("wrist", "4", 100.0, [0.0, 0.0, 0.0]),
-            mass("crank", "8", 40.0, [236.5, 0.0, 0.0]),
-            mass("coupler", "9", 30.0, [606.0, 0.0, 0.0]),
-        ],
-        payload_mass: 10.0,
-        payload_center: nalgebra::Vector3::zeros(),
-        payload_frame: None,
-        initial_compliance: 1e-8,
-        lateral: flexcal_calib::LateralCompliance::Off,
-        springs: Vec::new(),
-    };
-    for m in &table.masses {
-        if model.frame_index(&m.frame).is_none() {
-            return Err(Error::InvalidParameter {
-                parameter: "robot".into(),
-                message: format!(
-                    "the IR-663 mass table needs frame `{}`; robot `{}` has none",
-                    m.frame,
-                    model.name()
-                ),
-            });
-        }
-    }
-    Ok(table)
 }
 
 fn elastic_step(out: &Path, seed: u64, observer: &mut dyn StudyObserver) -> Result<ElasticResults> {

@@ -61,6 +61,75 @@ fn twin_section(twin: &super::TwinSummary) -> Section {
     s
 }
 
+/// The validation outside box (59), the mass estimate and the
+/// calibration with the masses 25 % off.
+fn outside_and_masses_tables(s: &mut Section, g: &super::GeometricSummary) {
+    let row = |name: &str, f: &ValidationFigures| {
+        vec![
+            name.to_string(),
+            format!("{:.4}", f.position_mean_mm),
+            format!("{:.4}", f.position_max_mm),
+        ]
+    };
+    let o = &g.outside_box;
+    s.table(
+        format!(
+            "Validation on {} poses outside box (59), where the robot's weight loads the joints unlike any identification pose (noise floor {:.4} mm mean)",
+            o.poses, g.noise_floor_position_mean_mm
+        ),
+        &["robot model", "mean position [mm]", "max position [mm]"],
+        vec![
+            row("nominal", &o.before),
+            row("geometric", &o.geometric),
+            row("elasto-geometric", &o.elasto_geometric),
+        ],
+    );
+    s.paragraph(format!(
+        "Measurement noise: {:.1} um per axis, one LED's share of the camera's 37 um single-point accuracy (the \
+         three LEDs' errors are mostly systematic, so taken as correlated); {:.1} um if they were independent \
+         (not used).",
+        g.noise_position_std_per_axis_um, g.noise_position_std_per_axis_independent_leds_um
+    ));
+    s.table(
+        "The mass table the elasto-geometric calibration starts from (an estimate from the outline and catalogues)",
+        &["mass", "frame", "kg", "centre [mm]", "uncertainty [%]", "source"],
+        g.mass_estimate
+            .iter()
+            .map(|m| {
+                vec![
+                    m.name.clone(),
+                    m.frame.clone(),
+                    format!("{:.1}", m.mass_kg),
+                    format!("{:.0}, {:.0}, {:.0}", m.center_mm[0], m.center_mm[1], m.center_mm[2]),
+                    format!("{:.0}", m.uncertainty_percent),
+                    m.source.clone(),
+                ]
+            })
+            .collect(),
+    );
+    let mut rows = vec![{
+        let mut r = row("x 1 (the estimate)", &g.elasto_geometric);
+        r.extend(row("", &o.elasto_geometric).into_iter().skip(1));
+        r
+    }];
+    for m in &g.mass_scaled {
+        let mut r = row(&format!("x {}", m.scale), &m.inside);
+        r.extend(row("", &m.outside).into_iter().skip(1));
+        rows.push(r);
+    }
+    s.table(
+        "Elasto-geometric calibration with every estimated mass scaled",
+        &[
+            "masses",
+            "inside, mean [mm]",
+            "inside, max [mm]",
+            "outside, mean [mm]",
+            "outside, max [mm]",
+        ],
+        rows,
+    );
+}
+
 fn unit_of(kind: ParamKind) -> (&'static str, f64) {
     match kind {
         ParamKind::Length => ("mm", 1e3),
@@ -115,6 +184,7 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
             ],
         ],
     );
+    outside_and_masses_tables(&mut s, &g.summary);
     let lines: Vec<Vec<String>> = c
         .combinations
         .iter()

@@ -88,6 +88,21 @@ pub struct MultiSeedSummary {
     pub elasto_geometric_better_max_seeds: usize,
     /// Noise floor of the validation mean (mm).
     pub noise_floor_mean_mm: Spread,
+    /// Outside box (59): validation mean before calibration (mm).
+    pub outside_before_mean_mm: Spread,
+    /// Outside box (59): validation mean and max, geometric model (mm).
+    pub outside_geometric_mm: MeanMax,
+    /// Outside box (59): validation mean and max, elasto-geometric model (mm).
+    pub outside_elasto_geometric_mm: MeanMax,
+    /// Outside box (59): seeds on which the elasto-geometric mean is below
+    /// the geometric one.
+    pub outside_elasto_geometric_better_mean_seeds: usize,
+    /// Outside box (59): seeds on which the elasto-geometric max is below
+    /// the geometric one.
+    pub outside_elasto_geometric_better_max_seeds: usize,
+    /// The elasto-geometric calibration with every estimated mass scaled:
+    /// validation inside and outside box (59), per scale.
+    pub mass_scaled: Vec<MassScaleSpread>,
     /// Table 5 per metric (`"plane_xz"`, `"three_d"` on the campaign's
     /// grid, `"held_out_plane_xz"`, `"held_out_three_d"` on the held-out
     /// configurations) and load (`"300"`, ..., `"all"`).
@@ -105,6 +120,59 @@ pub struct MultiSeedSummary {
     pub runtime_s: Spread,
     /// Every seed's summary.
     pub summaries: Vec<Summary>,
+}
+
+/// Mean and max position error of one validation over the seeds (mm).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MeanMax {
+    /// Mean position error (mm).
+    pub mean: Spread,
+    /// Max position error (mm).
+    pub max: Spread,
+}
+
+impl MeanMax {
+    fn of(figures: &[&super::ValidationFigures]) -> Self {
+        let pick = |get: fn(&super::ValidationFigures) -> f64| {
+            Spread::of(&figures.iter().map(|f| get(f)).collect::<Vec<_>>())
+        };
+        Self {
+            mean: pick(|f| f.position_mean_mm),
+            max: pick(|f| f.position_max_mm),
+        }
+    }
+}
+
+/// The elasto-geometric calibration with every mass scaled, over the seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MassScaleSpread {
+    /// The factor applied to every estimated mass.
+    pub scale: f64,
+    /// Validation inside box (59) (mm).
+    pub inside_mm: MeanMax,
+    /// Validation outside box (59) (mm).
+    pub outside_mm: MeanMax,
+}
+
+fn mass_scale_spreads(summaries: &[Summary]) -> Vec<MassScaleSpread> {
+    let scales: Vec<f64> = summaries
+        .first()
+        .map(|s| s.geometric.mass_scaled.iter().map(|m| m.scale).collect())
+        .unwrap_or_default();
+    scales
+        .into_iter()
+        .map(|scale| {
+            let runs: Vec<&super::MassScaleFigures> = summaries
+                .iter()
+                .filter_map(|s| s.geometric.mass_scaled.iter().find(|m| m.scale == scale))
+                .collect();
+            MassScaleSpread {
+                scale,
+                inside_mm: MeanMax::of(&runs.iter().map(|m| &m.inside).collect::<Vec<_>>()),
+                outside_mm: MeanMax::of(&runs.iter().map(|m| &m.outside).collect::<Vec<_>>()),
+            }
+        })
+        .collect()
 }
 
 /// One compensation's forming figures over the seeds.
@@ -241,6 +309,34 @@ impl MultiSeedSummary {
                 })
                 .count(),
             noise_floor_mean_mm: f(&|s| g(s).noise_floor_position_mean_mm),
+            outside_before_mean_mm: f(&|s| g(s).outside_box.before.position_mean_mm),
+            outside_geometric_mm: MeanMax::of(
+                &summaries
+                    .iter()
+                    .map(|s| &g(s).outside_box.geometric)
+                    .collect::<Vec<_>>(),
+            ),
+            outside_elasto_geometric_mm: MeanMax::of(
+                &summaries
+                    .iter()
+                    .map(|s| &g(s).outside_box.elasto_geometric)
+                    .collect::<Vec<_>>(),
+            ),
+            outside_elasto_geometric_better_mean_seeds: summaries
+                .iter()
+                .filter(|s| {
+                    let o = &g(s).outside_box;
+                    o.elasto_geometric.position_mean_mm < o.geometric.position_mean_mm
+                })
+                .count(),
+            outside_elasto_geometric_better_max_seeds: summaries
+                .iter()
+                .filter(|s| {
+                    let o = &g(s).outside_box;
+                    o.elasto_geometric.position_max_mm < o.geometric.position_max_mm
+                })
+                .count(),
+            mass_scaled: mass_scale_spreads(&summaries),
             table5,
             table5_noise_floor_mm: floors,
             forming_uncompensated_contact_mm: f(&|s| s.forming.uncompensated_contact_mm),
@@ -280,6 +376,49 @@ impl MultiSeedSummary {
             "Elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
             self.elasto_geometric_better_mean_seeds, self.elasto_geometric_better_max_seeds
         );
+        out += "| geometric step, validation outside box (59) | mean position [mm] | max position [mm] |\n|---|---|---|\n";
+        out += &format!(
+            "| nominal (frame registered) | {} | |\n",
+            self.outside_before_mean_mm.text(3)
+        );
+        for (name, figures) in [
+            ("geometric", &self.outside_geometric_mm),
+            ("elasto-geometric", &self.outside_elasto_geometric_mm),
+        ] {
+            out += &format!(
+                "| {name} | {} | {} |\n",
+                figures.mean.text(4),
+                figures.max.text(4)
+            );
+        }
+        out += &format!(
+            "| noise floor | {} | |\n\nOutside box (59), elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
+            self.noise_floor_mean_mm.text(4),
+            self.outside_elasto_geometric_better_mean_seeds,
+            self.outside_elasto_geometric_better_max_seeds
+        );
+        out += "| elasto-geometric, masses scaled | inside, mean [mm] | inside, max [mm] | outside, mean [mm] | outside, max [mm] |\n|---|---|---|---|---|\n";
+        let row = |scale: &str, inside: &MeanMax, outside: &MeanMax| {
+            format!(
+                "| {scale} | {} | {} | {} | {} |\n",
+                inside.mean.text(4),
+                inside.max.text(4),
+                outside.mean.text(4),
+                outside.max.text(4)
+            )
+        };
+        out += &row(
+            "x 1 (the estimate)",
+            &MeanMax {
+                mean: self.elasto_geometric_mean_mm,
+                max: self.elasto_geometric_max_mm,
+            },
+            &self.outside_elasto_geometric_mm,
+        );
+        for m in &self.mass_scaled {
+            out += &row(&format!("x {}", m.scale), &m.inside_mm, &m.outside_mm);
+        }
+        out += "\n";
         for (metric, loads) in &self.table5 {
             let floor = self.table5_noise_floor_mm.get(metric);
             out += &format!(
