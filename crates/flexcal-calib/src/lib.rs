@@ -341,7 +341,8 @@ pub use flexcal_optim::CancelToken;
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
-    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
+    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, Payload, PointMass,
+    Spring,
 };
 pub use holdout::{StationHoldOut, hold_out_stations, hold_out_target_stations};
 pub use identification::ResidualNorms;

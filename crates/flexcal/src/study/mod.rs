@@ -623,6 +623,7 @@ pub fn ir663_mass_table(model: &Model) -> Result<GravityCompliance> {
         initial_compliance: 1e-8,
         lateral: flexcal_calib::LateralCompliance::Off,
         springs: Vec::new(),
+        payloads: Vec::new(),
     };
     for m in &table.masses {
         if model.frame_index(&m.frame).is_none() {
