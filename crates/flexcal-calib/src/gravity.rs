@@ -22,6 +22,18 @@
 //! nominal geometry (a geometric error of a millimetre changes them by about
 //! 0.1 %, far below what gravity deflection can resolve).
 //!
+//! ## Several payloads
+//! A robot with two hands, or a tool that carries several targets, has a
+//! payload on each: [`GravityCompliance::payloads`] adds further ones, each
+//! on its named frame ([`Payload`]). An identified one enters like the
+//! first, linearly through its own mass and first moment (unknowns
+//! `payload_<name>_mass`, `payload_<name>_mx..mz`, after the first
+//! payload's), so that `tau = tau_links + sum_p (m_p a_p(q) + B_p(q) (m
+//! c)_p)` and each lateral moment alike, and its derivatives are exact in
+//! the same way. A known one (`identify = false`) is a weight like a link's
+//! and adds no unknown. The first payload keeps its names and its place:
+//! a table without further payloads gives the model it always gave.
+//!
 //! ## Lateral (transversal) joint compliances
 //! A joint's bearing and gear also tilt under the bending moment they
 //! carry: the structure outboard of joint j turns about axes other than

@@ -513,7 +513,8 @@ fn a_payload_on_each_hand_is_recovered_within_three_standard_errors() {
     // Two different payloads, one per hand, in the truth; the mass table
     // gives each hand a `[[payload]]` entry starting from 1 kg at the
     // flange (the table's own payload, weightless markers, is known: its
-    // unknowns are fixed). The full elastic model, without selection.
+    // unknowns are fixed). The full elastic model of the table, without
+    // selection.
     let model = robot();
     let (left_center, left_mass) = (Vector3::new(0.0, 0.01, -0.09), 1.5);
     let (right_center, right_mass) = (Vector3::new(0.02, -0.01, -0.07), 2.5);
@@ -525,8 +526,14 @@ fn a_payload_on_each_hand_is_recovered_within_three_standard_errors() {
     let table = std::fs::read_to_string(data_file("compliant_torso_masses.toml")).unwrap();
     let payloads = "\n[[payload]]\nname = \"left\"\nframe = \"LH\"\nmass_kg = 1.0\ncenter_mm = [0.0, 0.0, 0.0]\n\
          \n[[payload]]\nname = \"right\"\nframe = \"RH\"\nmass_kg = 1.0\ncenter_mm = [0.0, 0.0, 0.0]\n";
-    let gravity =
+    let mut gravity =
         GravityCompliance::from_toml_str(&format!("{table}{payloads}"), "masses").unwrap();
+    // A payload is seen through the sag it adds, which is proportional to
+    // the compliances: the identifiability analysis at the start judges it
+    // with the starting compliance, so a user who weighs payloads on a
+    // soft robot states a plausible one (the table's 10 urad/N.m is a
+    // stiff industrial arm's; this robot's joints are 100-415).
+    gravity.initial_compliance = 200e-6;
     let mut options = CalibrationOptions::for_model(&model);
     options.gravity = Some(gravity);
     options.fixed = flexcal_calib::PAYLOAD_PARAMETER_NAMES
@@ -541,7 +548,10 @@ fn a_payload_on_each_hand_is_recovered_within_three_standard_errors() {
         held_out.after.position_max * 1e3,
         floor * 1e3
     );
-    assert!(held_out.after.position_mean < 1.15 * floor);
+    for note in calibration.identifiability_notes() {
+        eprintln!("  note: {note}");
+    }
+    let mut misses = Vec::new();
     for (side, mass, center) in [
         ("left", left_mass, left_center),
         ("right", right_mass, right_center),
@@ -559,14 +569,16 @@ fn a_payload_on_each_hand_is_recovered_within_three_standard_errors() {
                 .iter()
                 .find(|u| u.name == name)
                 .unwrap_or_else(|| panic!("{name} is not among the unknowns"));
-            let se = u.standard_error.unwrap();
-            eprintln!("  {name} {:.4} +/- {:.4}, true {value:.4}", u.value, se);
-            assert_eq!(u.status, UnknownStatus::Identified, "{name}");
-            assert!(
-                (u.value - value).abs() < 3.0 * se,
-                "{name}: {} +/- {se}, true {value}",
-                u.value
+            let se = u.standard_error.unwrap_or(f64::NAN);
+            eprintln!(
+                "  {name} {:.4} +/- {:.4}, true {value:.4} ({:?})",
+                u.value, se, u.status
             );
+            if u.status != UnknownStatus::Identified || !((u.value - value).abs() < 3.0 * se) {
+                misses.push(name);
+            }
         }
     }
+    assert!(misses.is_empty(), "not recovered: {misses:?}");
+    assert!(held_out.after.position_mean < 1.15 * floor);
 }
