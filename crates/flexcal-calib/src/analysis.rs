@@ -17,7 +17,9 @@ use flexcal_optim::{
 
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, UnknownKind};
-use crate::significance::{Judging, ScaleJudgement, ScaleOutcome, Solve, judge_compliances};
+use crate::significance::{
+    Judging, ScaleJudgement, ScaleOutcome, Solve, hold_monotone_laws, judge_compliances,
+};
 use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// Maps an index of an analysis over a subset of unknowns back to the full vector.
@@ -288,6 +290,10 @@ pub(crate) struct Rounds<'a> {
     pub kinds: &'a [UnknownKind],
     /// [`crate::CalibrationOptions::min_compliance_z`].
     pub min_compliance_z: f64,
+    /// Per unknown, for a joint law's hardening: its compliance's index
+    /// and its joint's largest torque (the monotone bound,
+    /// [`crate::significance::hardening_floors`]).
+    pub hardening_floors: &'a [Option<(usize, f64)>],
 }
 
 /// What the rounds of [`AnalysisContext::identify_in_rounds`] found: the
@@ -312,7 +318,7 @@ impl AnalysisContext<'_> {
     /// checked again at the solution, and a term beyond them is put back
     /// to its starting value and the rest solved again. Last, the
     /// compliances are judged on their own scale
-    /// ([`crate::significance`]).
+    /// ([`crate::significance`]) and the joint laws held monotone.
     ///
     /// # Errors
     /// [`CalibError::NothingToIdentify`], [`CalibError::RankDeficient`]
@@ -421,6 +427,8 @@ impl AnalysisContext<'_> {
             (report, frozen),
             solve,
         )?;
+        let (report, frozen, judgements) =
+            hold_monotone_laws(r.hardening_floors, (report, frozen, judgements), solve)?;
         Ok(RoundsOutcome {
             report,
             frozen,

@@ -5,7 +5,8 @@
 //! law and the cyclic joint errors ([`crate::joint_law`]).
 //!
 //! Their unknowns form one block `x_b`, in this order: the compliances
-//! (`n_actuated`), the payload (4), the lateral compliances, then the
+//! (`n_actuated`), the payloads (4 per identified payload), the lateral
+//! compliances, then the
 //! law's hardening and lost motion (`n_actuated` each) and the cyclic
 //! amplitudes (4 per cyclic joint). A model puts the block after its
 //! frames; the offsets here are relative to the block's start.
@@ -72,6 +73,8 @@ impl LateralMotion {
 /// module docs); empty for the geometric model.
 pub(crate) struct ElasticTerms {
     na: usize,
+    /// Number of payload unknowns (4 per identified payload).
+    n_payload: usize,
     gravity: Option<(GravityTerms, Vec<f64>)>,
     lateral: Option<LateralTerms>,
     joint_terms: JointTerms,
@@ -86,6 +89,7 @@ impl ElasticTerms {
     pub(crate) fn none(model: &Model) -> Self {
         Self {
             na: model.n_actuated(),
+            n_payload: 0,
             gravity: None,
             lateral: None,
             joint_terms: JointTerms::default(),
@@ -114,6 +118,7 @@ impl ElasticTerms {
             });
         }
         let terms = GravityTerms::new(model, poses, gravity)?;
+        self.n_payload = terms.n_payload();
         self.gravity = Some((terms, gravity.initial_unknowns(model)));
         let lateral = LateralTerms::new(model, poses, gravity)?;
         self.lateral = (lateral.len() > 0).then_some(lateral);
@@ -164,11 +169,13 @@ impl ElasticTerms {
         self.gravity.is_some()
     }
 
-    /// Unknowns of the elastic part: compliances, payload and lateral
+    /// Unknowns of the elastic part: compliances, payloads and lateral
     /// compliances (none when geometric).
     fn n_elastic(&self) -> usize {
         match &self.gravity {
-            Some(_) => self.na + 4 + self.lateral.as_ref().map_or(0, LateralTerms::len),
+            Some(_) => {
+                self.na + self.n_payload + self.lateral.as_ref().map_or(0, LateralTerms::len)
+            }
             None => 0,
         }
     }
@@ -189,8 +196,10 @@ impl ElasticTerms {
         let mut kinds = Vec::with_capacity(self.len());
         if self.gravity.is_some() {
             kinds.extend(std::iter::repeat_n(UnknownKind::Compliance, self.na));
-            kinds.push(UnknownKind::Mass);
-            kinds.extend([UnknownKind::FirstMoment; 3]);
+            for _ in 0..self.n_payload / 4 {
+                kinds.push(UnknownKind::Mass);
+                kinds.extend([UnknownKind::FirstMoment; 3]);
+            }
             kinds.extend(std::iter::repeat_n(
                 UnknownKind::Compliance,
                 self.lateral.as_ref().map_or(0, LateralTerms::len),
@@ -220,7 +229,7 @@ impl ElasticTerms {
 
     /// Offset of the first lateral compliance in the block.
     pub(crate) fn lateral_offset(&self) -> Option<usize> {
-        self.lateral.as_ref().map(|_| self.na + 4)
+        self.lateral.as_ref().map(|_| self.na + self.n_payload)
     }
 
     /// Offset of the first joint-term unknown in the block.
@@ -251,7 +260,7 @@ impl ElasticTerms {
             return Vec::new();
         };
         let na = self.na;
-        let payload = &initial[na..na + 4];
+        let payload = &initial[na..na + self.n_payload];
         let mut tau = vec![0.0; na];
         let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); na];
         for k in 0..n_poses {
@@ -279,7 +288,7 @@ impl ElasticTerms {
         state.q.copy_from_slice(q);
         let na = self.na;
         if let Some((terms, _)) = &self.gravity {
-            terms.forces(k, &xb[na..na + 4], &mut state.tau);
+            terms.forces(k, &xb[na..na + self.n_payload], &mut state.tau);
             match (&self.joint_terms.law, self.law_offset()) {
                 (Some(law), Some(lo)) => {
                     for i in 0..na {
@@ -344,7 +353,7 @@ impl ElasticTerms {
     ) -> Option<LateralMotion> {
         let lateral = self.lateral.as_ref()?;
         let lo = self.lateral_offset()?;
-        let payload = &xb[self.na..self.na + 4];
+        let payload = &xb[self.na..self.na + self.n_payload];
         let mut deltas = Vec::with_capacity(lateral.len());
         let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
         for (s, &moves) in carried.iter().enumerate().take(lateral.len()) {

@@ -1051,7 +1051,8 @@ mod tests {
     }
 
     /// Every column of the model of several targets with every elastic and
-    /// joint term (compliances, a payload on a link of the right arm,
+    /// joint term (compliances, a payload on a link of the right arm, a
+    /// further one identified on the left arm and a known one,
     /// lateral compliances of the torso and both arms, the joint law,
     /// cyclic errors), two stations and the left marker's orientations,
     /// against central differences, at unknowns away from the start.
@@ -1067,6 +1068,23 @@ mod tests {
         gravity.lateral = LateralCompliance::AboutX;
         gravity.payload_frame = Some("R3".into());
         gravity.payload_center = Vector3::new(0.02, -0.01, 0.05);
+        // A further payload on the left arm, identified, and a known one.
+        gravity.payloads = vec![
+            crate::gravity::Payload {
+                name: "left".into(),
+                frame: "L3".into(),
+                mass: 1.5,
+                center: Vector3::new(-0.01, 0.03, 0.07),
+                identify: true,
+            },
+            crate::gravity::Payload {
+                name: "tool".into(),
+                frame: "tcp".into(),
+                mass: 0.7,
+                center: Vector3::new(0.0, 0.0, 0.05),
+                identify: false,
+            },
+        ];
         let mut rng = ChaCha8Rng::seed_from_u64(0x6664);
         let poses: Vec<TargetPose> = (0..6)
             .map(|k| TargetPose {

@@ -22,6 +22,18 @@
 //! nominal geometry (a geometric error of a millimetre changes them by about
 //! 0.1 %, far below what gravity deflection can resolve).
 //!
+//! ## Several payloads
+//! A robot with two hands, or a tool that carries several targets, has a
+//! payload on each: [`GravityCompliance::payloads`] adds further ones, each
+//! on its named frame ([`Payload`]). An identified one enters like the
+//! first, linearly through its own mass and first moment (unknowns
+//! `payload_<name>_mass`, `payload_<name>_mx..mz`, after the first
+//! payload's), so that `tau = tau_links + sum_p (m_p a_p(q) + B_p(q) (m
+//! c)_p)` and each lateral moment alike, and its derivatives are exact in
+//! the same way. A known one (`identify = false`) is a weight like a link's
+//! and adds no unknown. The first payload keeps its names and its place:
+//! a table without further payloads gives the model it always gave.
+//!
 //! ## Lateral (transversal) joint compliances
 //! A joint's bearing and gear also tilt under the bending moment they
 //! carry: the structure outboard of joint j turns about axes other than
@@ -122,6 +134,79 @@ pub struct GravityCompliance {
     /// any frame"): a passive or coupled joint's own axis, a fixed
     /// mounting's two bending axes, a base on a pivot (default none).
     pub springs: Vec<Spring>,
+    /// Further payloads beyond the one above, each on its named frame (one
+    /// per hand or target of a robot with several), each identified or
+    /// known (module docs, "Several payloads"; default none).
+    pub payloads: Vec<Payload>,
+}
+
+/// A further payload ([`GravityCompliance::payloads`]): a load fixed to a
+/// named frame, its mass and centre identified (unknowns
+/// `payload_<name>_mass`, kg, and `payload_<name>_mx..mz`, its first moment
+/// in that frame, kg.m) or known (then it loads the joints as a link of
+/// the mass table does, without unknowns).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Payload {
+    /// Its name, in its unknowns' names (letters, digits, `-` and `_`).
+    pub name: String,
+    /// The frame it is fixed to: a frame of the robot, or `tcp` (the end
+    /// frame followed by the tool).
+    pub frame: String,
+    /// Mass (kg, finite): the starting value when identified, the value
+    /// when known.
+    pub mass: f64,
+    /// Centre of mass in its frame (m): starting value or value, as the
+    /// mass.
+    pub center: Vector3<f64>,
+    /// Whether its mass and first moment are identified (`true`) or known.
+    pub identify: bool,
+}
+
+impl Payload {
+    /// Its unknowns' names: `payload_<name>_mass` (kg), then
+    /// `payload_<name>_mx`, `_my`, `_mz` (kg.m).
+    pub fn unknown_names(&self) -> [String; 4] {
+        ["mass", "mx", "my", "mz"].map(|q| format!("payload_{}_{q}", self.name))
+    }
+}
+
+/// Where an identified payload sits: the frame it is fixed to, its pose
+/// in that frame, and whether it is the TCP.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PayloadSite {
+    pub frame: usize,
+    pub x_frame_payload: Isometry3<f64>,
+    pub on_tcp: bool,
+}
+
+/// The frame a payload named to sit on `frame` is fixed to (`None` or
+/// `tcp`: the end frame followed by the tool).
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] naming a frame the robot does not have.
+fn payload_site(model: &Model, frame: Option<&str>) -> Result<PayloadSite, CalibError> {
+    match frame {
+        None | Some(crate::frames::TCP_FRAME) => Ok(PayloadSite {
+            frame: model.end_frame(),
+            x_frame_payload: model.tool(),
+            on_tcp: true,
+        }),
+        Some(name) => model
+            .frame_index(name)
+            .map(|f| PayloadSite {
+                frame: f,
+                x_frame_payload: Isometry3::identity(),
+                on_tcp: false,
+            })
+            .ok_or_else(|| CalibError::InvalidOption {
+                name: "gravity",
+                reason: format!(
+                    "payload frame `{name}`: robot `{}` has no frame `{name}` (frames: {}, or `tcp`)",
+                    model.name(),
+                    model.frame_names().join(", ")
+                ),
+            }),
+    }
 }
 
 /// An axis of a frame.
@@ -330,6 +415,7 @@ impl GravityCompliance {
             initial_compliance: 10e-6,
             lateral: LateralCompliance::Off,
             springs: Vec::new(),
+            payloads: Vec::new(),
         }
     }
 
@@ -347,12 +433,40 @@ impl GravityCompliance {
     }
 
     /// Every elastic unknown of this loading, in order: the compliances
-    /// and payload of [`GravityCompliance::unknown_names`], then
+    /// and payload of [`GravityCompliance::unknown_names`], the identified
+    /// further payloads' ([`Payload::unknown_names`]), then
     /// [`GravityCompliance::lateral_unknown_names`].
     pub fn elastic_unknown_names(&self, model: &Model) -> Vec<String> {
         let mut names = Self::unknown_names(model);
+        names.extend(self.identified_payloads().flat_map(Payload::unknown_names));
         names.extend(self.lateral_unknown_names(model));
         names
+    }
+
+    /// The names of every payload unknown: [`PAYLOAD_PARAMETER_NAMES`],
+    /// then each identified further payload's ([`Payload::unknown_names`]).
+    pub fn payload_unknown_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = PAYLOAD_PARAMETER_NAMES.map(String::from).to_vec();
+        names.extend(self.identified_payloads().flat_map(Payload::unknown_names));
+        names
+    }
+
+    /// The further payloads whose mass and centre are identified.
+    fn identified_payloads(&self) -> impl Iterator<Item = &Payload> {
+        self.payloads.iter().filter(|p| p.identify)
+    }
+
+    /// The sites of the identified payloads, in the order of their
+    /// unknowns: the first payload's, then each identified further one's.
+    ///
+    /// # Errors
+    /// [`CalibError::InvalidOption`] naming a payload frame the robot does
+    /// not have.
+    pub(crate) fn payload_sites(&self, model: &Model) -> Result<Vec<PayloadSite>, CalibError> {
+        std::iter::once(self.payload_frame.as_deref())
+            .chain(self.identified_payloads().map(|p| Some(p.frame.as_str())))
+            .map(|frame| payload_site(model, frame))
+            .collect()
     }
 
     /// Names of the elastic unknowns of `model`: `compliance_<joint>` per
@@ -369,8 +483,9 @@ impl GravityCompliance {
     }
 
     /// Starting values of the elastic unknowns, in the order of
-    /// [`GravityCompliance::elastic_unknown_names`] (compliances, payload
-    /// mass, first moment, lateral compliances at zero).
+    /// [`GravityCompliance::elastic_unknown_names`] (compliances, each
+    /// identified payload's mass and first moment, lateral compliances at
+    /// zero).
     pub fn initial_unknowns(&self, model: &Model) -> Vec<f64> {
         let mut x = vec![self.initial_compliance; model.n_actuated()];
         x.extend(self.payload_unknowns());
@@ -409,42 +524,17 @@ impl GravityCompliance {
             .collect())
     }
 
-    /// The starting payload as unknowns: `[m, m c_x, m c_y, m c_z]` (kg,
-    /// kg.m).
-    fn payload_unknowns(&self) -> [f64; 4] {
-        let first_moment = self.payload_center * self.payload_mass;
-        [
-            self.payload_mass,
-            first_moment.x,
-            first_moment.y,
-            first_moment.z,
-        ]
-    }
-
-    /// The frame the payload is fixed to and the payload frame's pose in
-    /// it: the end frame and the tool for the TCP.
-    ///
-    /// # Errors
-    /// [`CalibError::InvalidOption`] naming a payload frame the robot does
-    /// not have.
-    pub(crate) fn payload_attachment(
-        &self,
-        model: &Model,
-    ) -> Result<(usize, Isometry3<f64>), CalibError> {
-        match self.payload_frame.as_deref() {
-            None | Some(crate::frames::TCP_FRAME) => Ok((model.end_frame(), model.tool())),
-            Some(name) => model
-                .frame_index(name)
-                .map(|f| (f, Isometry3::identity()))
-                .ok_or_else(|| CalibError::InvalidOption {
-                    name: "gravity",
-                    reason: format!(
-                        "payload frame `{name}`: robot `{}` has no frame `{name}` (frames: {}, or `tcp`)",
-                        model.name(),
-                        model.frame_names().join(", ")
-                    ),
-                }),
-        }
+    /// The starting identified payloads as unknowns: `[m, m c_x, m c_y,
+    /// m c_z]` (kg, kg.m) of the first payload, then of each identified
+    /// further one.
+    fn payload_unknowns(&self) -> Vec<f64> {
+        std::iter::once((self.payload_mass, self.payload_center))
+            .chain(self.identified_payloads().map(|p| (p.mass, p.center)))
+            .flat_map(|(mass, center)| {
+                let first_moment = center * mass;
+                [mass, first_moment.x, first_moment.y, first_moment.z]
+            })
+            .collect()
     }
 
     fn check(&self, model: &Model) -> Result<Vec<PointLoad>, CalibError> {
@@ -463,7 +553,9 @@ impl GravityCompliance {
                 "initial compliance and payload mass must be finite".into(),
             ));
         }
-        self.masses
+        let mut loads = self.checked_payloads(model)?;
+        let links = self
+            .masses
             .iter()
             .map(|m| {
                 let frame = model.frame_index(&m.frame).ok_or_else(|| {
@@ -488,16 +580,71 @@ impl GravityCompliance {
                     force: self.gravity * m.mass,
                 })
             })
-            .collect()
+            .collect::<Result<Vec<_>, _>>()?;
+        loads.splice(0..0, links);
+        Ok(loads)
+    }
+
+    /// Checks the further payloads (names, frames, values) and returns the
+    /// weights of the known ones, which load the joints as links do.
+    fn checked_payloads(&self, model: &Model) -> Result<Vec<PointLoad>, CalibError> {
+        let mut loads = Vec::new();
+        for (k, payload) in self.payloads.iter().enumerate() {
+            let invalid = |reason: String| CalibError::InvalidOption {
+                name: "payloads",
+                reason: format!("payload `{}`: {reason}", payload.name),
+            };
+            if let Some(what) = payload_defect(payload, &self.payloads[..k]) {
+                return Err(invalid(what.into()));
+            }
+            let site =
+                payload_site(model, Some(&payload.frame)).map_err(|e| invalid(e.to_string()))?;
+            if !payload.identify {
+                loads.push(PointLoad {
+                    frame: site.frame,
+                    point: site
+                        .x_frame_payload
+                        .transform_point(&payload.center.into())
+                        .coords,
+                    force: self.gravity * payload.mass,
+                });
+            }
+        }
+        Ok(loads)
+    }
+}
+
+/// What is wrong with a further payload given after `earlier` (its name,
+/// its values; its frame is checked against the robot), if anything.
+fn payload_defect(payload: &Payload, earlier: &[Payload]) -> Option<&'static str> {
+    let valid_name = !payload.name.is_empty()
+        && payload
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if !valid_name {
+        Some("a name is one or more letters, digits, `-` or `_`")
+    } else if earlier.iter().any(|p| p.name == payload.name) {
+        Some("the name is given twice")
+    } else if !(payload.mass.is_finite() && payload.center.iter().all(|c| c.is_finite())) {
+        Some("mass and centre must be finite")
+    } else if !payload.identify && payload.mass < 0.0 {
+        Some("a known mass must be >= 0")
+    } else {
+        None
     }
 }
 
 /// The gravity terms of every pose of a measurement set, evaluated once on
-/// the nominal geometry: `tau = tau_links + m a + B (m c)` per pose.
+/// the nominal geometry: `tau = tau_links + sum_p (m_p a_p + B_p (m c)_p)`
+/// per pose, over the identified payloads `p`.
 #[derive(Debug, Clone)]
 pub(crate) struct GravityTerms {
     n_actuated: usize,
-    /// Per pose: `tau_links` (n), `a` (n), `B` row-major (n x 3).
+    /// Number of payload unknowns (4 per identified payload).
+    n_payload: usize,
+    /// Per pose: `tau_links` (n), then per joint i the derivatives of
+    /// `tau_i` by the payload unknowns (`n_payload`: `a_p`, `B_p` row).
     terms: Vec<f64>,
 }
 
@@ -540,106 +687,113 @@ impl GravityTerms {
         gravity: &GravityCompliance,
     ) -> Result<Self, CalibError> {
         let loads = gravity.check(model)?;
+        let sites = gravity.payload_sites(model)?;
         let na = model.n_actuated();
-        let stride = 5 * na;
+        let n_payload = 4 * sites.len();
+        let stride = na * (1 + n_payload);
         let mut terms = vec![0.0; poses.q.len() * stride];
         let mut data = Data::new(model);
         let mut jac = Matrix6xX::zeros(na);
         let xi = model.nominal_params();
         let g = gravity.gravity;
-        let on_tcp = gravity
-            .payload_frame
-            .as_deref()
-            .is_none_or(|f| f == crate::frames::TCP_FRAME);
-        let (frame, x_frame_payload) = gravity.payload_attachment(model)?;
         let mut params = [DMatrix::zeros(6, model.n_params())];
         for (k, q) in poses.q.iter().enumerate() {
             let block = &mut terms[k * stride..(k + 1) * stride];
             actuated_forces_into(model, &mut data, q, xi, &loads, &mut block[..na])
                 .map_err(poses.kinematics_error(k))?;
-            // The payload frame's joint Jacobian: the TCP's own, or that of
-            // a point on a named frame.
-            let x_base_payload = if on_tcp {
-                joint_jacobian_into(model, &mut data, q, xi, &mut jac)
-                    .map_err(poses.kinematics_error(k))?
-            } else {
-                let mut pose = [Isometry3::identity()];
-                frame_points_jacobians_into(
-                    model,
-                    &mut data,
-                    q,
-                    xi,
-                    &[(frame, x_frame_payload)],
-                    &mut params,
-                    std::slice::from_mut(&mut jac),
-                    &mut pose,
-                )
-                .map_err(poses.kinematics_error(k))?;
-                pose[0]
-            };
-            let r = x_base_payload.rotation.to_rotation_matrix().into_inner();
-            for i in 0..na {
-                let v = Vector3::new(jac[(0, i)], jac[(1, i)], jac[(2, i)]);
-                let w = Vector3::new(jac[(3, i)], jac[(4, i)], jac[(5, i)]);
-                // Weight m g at the TCP: work rate v . (m g).
-                block[na + i] = v.dot(&g);
-                // First moment: the force m g at p_tcp + R c adds the moment
-                // (R (m c)) x g about the TCP, whose work rate is w . moment.
-                for l in 0..3 {
-                    block[2 * na + 3 * i + l] = w.dot(&r.column(l).cross(&g));
+            for (p, site) in sites.iter().enumerate() {
+                // The payload frame's joint Jacobian: the TCP's own, or
+                // that of a point on a named frame.
+                let x_base_payload = if site.on_tcp {
+                    joint_jacobian_into(model, &mut data, q, xi, &mut jac)
+                        .map_err(poses.kinematics_error(k))?
+                } else {
+                    let mut pose = [Isometry3::identity()];
+                    frame_points_jacobians_into(
+                        model,
+                        &mut data,
+                        q,
+                        xi,
+                        &[(site.frame, site.x_frame_payload)],
+                        &mut params,
+                        std::slice::from_mut(&mut jac),
+                        &mut pose,
+                    )
+                    .map_err(poses.kinematics_error(k))?;
+                    pose[0]
+                };
+                let r = x_base_payload.rotation.to_rotation_matrix().into_inner();
+                for i in 0..na {
+                    let v = Vector3::new(jac[(0, i)], jac[(1, i)], jac[(2, i)]);
+                    let w = Vector3::new(jac[(3, i)], jac[(4, i)], jac[(5, i)]);
+                    let d = &mut block[na + i * n_payload + 4 * p..][..4];
+                    // Weight m g at the payload: work rate v . (m g).
+                    d[0] = v.dot(&g);
+                    // First moment: the force m g at p + R c adds the
+                    // moment (R (m c)) x g about p, whose work rate is
+                    // w . moment.
+                    for l in 0..3 {
+                        d[1 + l] = w.dot(&r.column(l).cross(&g));
+                    }
                 }
             }
         }
         Ok(Self {
             n_actuated: na,
+            n_payload,
             terms,
         })
     }
 
-    /// Generalised gravity forces of pose `k` for payload `[m, mc_x, mc_y,
-    /// mc_z]`, into `tau` (n_actuated).
+    /// Number of payload unknowns (4 per identified payload).
+    pub(crate) fn n_payload(&self) -> usize {
+        self.n_payload
+    }
+
+    /// Generalised gravity forces of pose `k` for the payload unknowns
+    /// `payload` (`[m, mc_x, mc_y, mc_z]` per identified payload), into
+    /// `tau` (n_actuated).
     pub(crate) fn forces(&self, k: usize, payload: &[f64], tau: &mut [f64]) {
         let na = self.n_actuated;
-        let block = &self.terms[k * 5 * na..(k + 1) * 5 * na];
+        let stride = na * (1 + self.n_payload);
+        let block = &self.terms[k * stride..(k + 1) * stride];
         for i in 0..na {
-            let b = &block[2 * na + 3 * i..2 * na + 3 * i + 3];
-            tau[i] = block[i]
-                + payload[0] * block[na + i]
-                + payload[1] * b[0]
-                + payload[2] * b[1]
-                + payload[3] * b[2];
+            let d = &block[na + i * self.n_payload..][..self.n_payload];
+            tau[i] = block[i] + d.iter().zip(payload).map(|(d, p)| d * p).sum::<f64>();
         }
     }
 
-    /// `d tau_i / d payload`: `[a_i, B_i0, B_i1, B_i2]` of pose `k`.
-    pub(crate) fn payload_derivatives(&self, k: usize, i: usize) -> [f64; 4] {
+    /// `d tau_i / d payload` of pose `k`: `[a_p, B_p0, B_p1, B_p2]` per
+    /// identified payload.
+    pub(crate) fn payload_derivatives(&self, k: usize, i: usize) -> &[f64] {
         let na = self.n_actuated;
-        let block = &self.terms[k * 5 * na..(k + 1) * 5 * na];
-        let b = &block[2 * na + 3 * i..2 * na + 3 * i + 3];
-        [block[na + i], b[0], b[1], b[2]]
+        let stride = na * (1 + self.n_payload);
+        &self.terms[k * stride + na + i * self.n_payload..][..self.n_payload]
     }
 }
 
-/// Values per lateral joint and pose in [`LateralTerms`]: axis (3), origin
-/// (3), `Mx_links`, `ax`, `bx` (3).
-const LATERAL_STRIDE: usize = 11;
+/// Values per lateral joint and pose in [`LateralTerms`] before the
+/// payload derivatives: axis (3), origin (3), `Mx_links`; then `ax`, `bx`
+/// (3) per identified payload.
+const LATERAL_HEAD: usize = 7;
 
 /// One lateral joint at one pose: what its rotation and its derivatives
 /// need (module docs, "Lateral joint compliances").
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct LateralJoint {
+pub(crate) struct LateralJoint<'a> {
     /// The x axis of the joint's frame in R0 (unit).
     pub axis: Vector3<f64>,
     /// The origin of the joint's frame in R0 (m).
     pub origin: Vector3<f64>,
-    /// `d Mx / d [m, mc_x, mc_y, mc_z]`: `[ax, bx]` (N.m/kg, N).
-    pub payload_derivatives: [f64; 4],
+    /// `d Mx / d [m, mc_x, mc_y, mc_z]` per identified payload: `[ax, bx]`
+    /// (N.m/kg, N).
+    pub payload_derivatives: &'a [f64],
     /// `Mx` of the links alone (N.m).
     links: f64,
 }
 
-impl LateralJoint {
-    /// `Mx` for payload `[m, mc_x, mc_y, mc_z]` (N.m).
+impl LateralJoint<'_> {
+    /// `Mx` for the payload unknowns `payload` (N.m).
     pub fn moment(&self, payload: &[f64]) -> f64 {
         self.links
             + self
@@ -666,6 +820,8 @@ struct Hinge {
 pub(crate) struct LateralTerms {
     /// The lateral joints' x axes, then the springs' axes.
     hinges: Vec<Hinge>,
+    /// Values per hinge and pose ([`LATERAL_HEAD`] and the payloads').
+    width: usize,
     terms: Vec<f64>,
 }
 
@@ -714,7 +870,10 @@ impl LateralTerms {
                 return Err(invalid("the pivot must be finite".into()));
             }
             let carries = loads.iter().any(|l| model.moves_with(l.frame, frame))
-                || model.moves_with(gravity.payload_attachment(model)?.0, frame);
+                || gravity
+                    .payload_sites(model)?
+                    .iter()
+                    .any(|site| model.moves_with(site.frame, frame));
             if !carries {
                 return Err(invalid(
                     "it carries no weight of the mass table and no payload: nothing loads it"
@@ -737,26 +896,28 @@ impl LateralTerms {
     ) -> Result<Self, CalibError> {
         let loads = gravity.check(model)?;
         let hinges = Self::hinges(model, gravity, &loads)?;
-        let stride = LATERAL_STRIDE * hinges.len();
+        let sites = gravity.payload_sites(model)?;
+        let width = LATERAL_HEAD + 4 * sites.len();
+        let stride = width * hinges.len();
         let mut terms = vec![0.0; poses.q.len() * stride];
         let mut data = Data::new(model);
         let xi = model.nominal_params();
         let g = gravity.gravity;
-        let on_tcp = gravity
-            .payload_frame
-            .as_deref()
-            .is_none_or(|f| f == crate::frames::TCP_FRAME);
-        let (end, x_frame_payload) = gravity.payload_attachment(model)?;
+        let mut at_payloads = vec![(Vector3::zeros(), nalgebra::Matrix3::zeros()); sites.len()];
         for (k, q) in poses.q.iter().enumerate() {
             let x_base_tcp = flexcal_kinematics::forward_pose(model, &mut data, q, xi)
                 .map_err(poses.kinematics_error(k))?;
-            let x_base_payload = if on_tcp {
-                x_base_tcp
-            } else {
-                data.frame_pose(end).expect("a checked frame") * x_frame_payload
-            };
-            let p_tcp = x_base_payload.translation.vector;
-            let r_tcp = x_base_payload.rotation.to_rotation_matrix().into_inner();
+            for (site, at) in sites.iter().zip(&mut at_payloads) {
+                let x_base_payload = if site.on_tcp {
+                    x_base_tcp
+                } else {
+                    data.frame_pose(site.frame).expect("a checked frame") * site.x_frame_payload
+                };
+                *at = (
+                    x_base_payload.translation.vector,
+                    x_base_payload.rotation.to_rotation_matrix().into_inner(),
+                );
+            }
             for (s, hinge) in hinges.iter().enumerate() {
                 let frame = hinge.frame;
                 let pose = data.frame_pose(frame).expect("a frame of the model");
@@ -768,23 +929,31 @@ impl LateralTerms {
                     let point = at.translation.vector + at.rotation * load.point;
                     links += axis.dot(&(point - origin).cross(&load.force));
                 }
-                let mut payload = [0.0; 4];
-                if model.moves_with(end, frame) {
-                    // The weight m g at p_tcp + R c: moment (p_tcp - o) x m g
-                    // plus (R (m c)) x g.
-                    payload[0] = axis.dot(&(p_tcp - origin).cross(&g));
-                    for l in 0..3 {
-                        payload[1 + l] = axis.dot(&r_tcp.column(l).cross(&g));
-                    }
-                }
-                let block = &mut terms[k * stride + s * LATERAL_STRIDE..][..LATERAL_STRIDE];
+                let block = &mut terms[k * stride + s * width..][..width];
                 block[..3].copy_from_slice(axis.as_slice());
                 block[3..6].copy_from_slice(origin.as_slice());
                 block[6] = links;
-                block[7..].copy_from_slice(&payload);
+                for (p, (site, (position, rotation))) in sites.iter().zip(&at_payloads).enumerate()
+                {
+                    let d = &mut block[LATERAL_HEAD + 4 * p..][..4];
+                    if !model.moves_with(site.frame, frame) {
+                        d.fill(0.0);
+                        continue;
+                    }
+                    // The weight m g at p + R c: moment (p - o) x m g plus
+                    // (R (m c)) x g.
+                    d[0] = axis.dot(&(position - origin).cross(&g));
+                    for l in 0..3 {
+                        d[1 + l] = axis.dot(&rotation.column(l).cross(&g));
+                    }
+                }
             }
         }
-        Ok(Self { hinges, terms })
+        Ok(Self {
+            hinges,
+            width,
+            terms,
+        })
     }
 
     /// Number of lateral joints and springs.
@@ -799,14 +968,14 @@ impl LateralTerms {
     }
 
     /// Lateral joint `s` at pose `k`.
-    pub(crate) fn joint(&self, k: usize, s: usize) -> LateralJoint {
-        let stride = LATERAL_STRIDE * self.hinges.len();
-        let b = &self.terms[k * stride + s * LATERAL_STRIDE..][..LATERAL_STRIDE];
+    pub(crate) fn joint(&self, k: usize, s: usize) -> LateralJoint<'_> {
+        let stride = self.width * self.hinges.len();
+        let b = &self.terms[k * stride + s * self.width..][..self.width];
         LateralJoint {
             axis: Vector3::new(b[0], b[1], b[2]),
             origin: Vector3::new(b[3], b[4], b[5]),
             links: b[6],
-            payload_derivatives: [b[7], b[8], b[9], b[10]],
+            payload_derivatives: &b[LATERAL_HEAD..],
         }
     }
 }
@@ -815,8 +984,8 @@ impl LateralTerms {
 ///
 /// ```toml
 /// gravity_m_s2 = [0.0, 0.0, -9.80665]   # in the robot base frame R0 (optional)
-/// payload_mass_kg = 1.0                 # starting value
-/// payload_center_mm = [0.0, 0.0, 100.0] # starting value, TCP frame
+/// payload_mass_kg = 1.0                 # starting value (optional; default 0)
+/// payload_center_mm = [0.0, 0.0, 100.0] # starting value, TCP frame (optional; default origin)
 /// initial_compliance_urad_per_nm = 1.0  # starting value, every joint (um/N for linear joints)
 /// lateral = "about-x"                   # lateral compliances about each joint's x axis (optional; default "off")
 ///
@@ -824,6 +993,13 @@ impl LateralTerms {
 /// frame = "T4"                          # a passive joint, a fixed mounting, the base...
 /// axes = ["z"]                          # "x", "y", "z": one unknown lateral_compliance_T4_z each
 /// pivot_mm = [0.0, 0.0, 0.0]            # the axes' point in that frame (optional)
+///
+/// [[payload]]                          # optional, any number: further payloads
+/// name = "left"                         # unknowns payload_left_mass, payload_left_mx..mz
+/// frame = "LH"                          # a frame of the robot, or "tcp"
+/// mass_kg = 1.5                         # starting value, or the value when known
+/// center_mm = [0.0, 0.0, 80.0]          # in that frame
+/// identify = true                       # optional; false: known, no unknowns
 ///
 /// [[mass]]
 /// name = "upper arm"
@@ -836,7 +1012,9 @@ impl LateralTerms {
 struct MassTableFile {
     #[serde(default = "default_gravity")]
     gravity_m_s2: [f64; 3],
+    #[serde(default)]
     payload_mass_kg: f64,
+    #[serde(default)]
     payload_center_mm: [f64; 3],
     #[serde(default, skip_serializing_if = "Option::is_none")]
     payload_frame: Option<String>,
@@ -847,6 +1025,23 @@ struct MassTableFile {
     mass: Vec<MassFile>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     spring: Vec<SpringFile>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    payload: Vec<PayloadFile>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PayloadFile {
+    name: String,
+    frame: String,
+    mass_kg: f64,
+    center_mm: [f64; 3],
+    #[serde(default = "identified")]
+    identify: bool,
+}
+
+fn identified() -> bool {
+    true
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -910,6 +1105,29 @@ fn springs_of(
         }
     }
     Ok(springs)
+}
+
+/// The further payloads of a mass table's `[[payload]]` entries: names
+/// checked here, frames when the table meets a robot.
+fn payloads_of(
+    files: &[PayloadFile],
+    bad: &dyn Fn(usize, String) -> CalibError,
+) -> Result<Vec<Payload>, CalibError> {
+    let mut payloads: Vec<Payload> = Vec::with_capacity(files.len());
+    for file in files {
+        let payload = Payload {
+            name: file.name.clone(),
+            frame: file.frame.clone(),
+            mass: file.mass_kg,
+            center: Vector3::from(file.center_mm) * 1e-3,
+            identify: file.identify,
+        };
+        if let Some(what) = payload_defect(&payload, &payloads) {
+            return Err(bad(0, format!("payload `{}`: {what}", file.name)));
+        }
+        payloads.push(payload);
+    }
+    Ok(payloads)
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -995,6 +1213,7 @@ impl GravityCompliance {
             initial_compliance: file.initial_compliance_urad_per_nm * 1e-6,
             lateral: file.lateral,
             springs: springs_of(&file.spring, &bad)?,
+            payloads: payloads_of(&file.payload, &bad)?,
         })
     }
 
@@ -1036,6 +1255,17 @@ impl GravityCompliance {
                     frame: spring.frame.clone(),
                     axes: vec![spring.axis],
                     pivot_mm: (spring.pivot * 1e3).into(),
+                })
+                .collect(),
+            payload: self
+                .payloads
+                .iter()
+                .map(|p| PayloadFile {
+                    name: p.name.clone(),
+                    frame: p.frame.clone(),
+                    mass_kg: p.mass,
+                    center_mm: (p.center * 1e3).into(),
+                    identify: p.identify,
                 })
                 .collect(),
         };

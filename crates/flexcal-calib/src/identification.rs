@@ -464,6 +464,11 @@ pub(crate) fn identify<'a>(
             joint_start: problem.joint_terms_offset().unwrap_or(n),
             kinds: &layout.kinds,
             min_compliance_z: options.min_compliance_z,
+            hardening_floors: &crate::significance::hardening_floors(
+                &layout.names,
+                model.actuated_names(),
+                &torque_ranges,
+            ),
         },
         &noise_at,
         &mut solve,

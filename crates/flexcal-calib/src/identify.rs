@@ -473,9 +473,17 @@ pub(crate) fn elastic_notes(
                 .filter(|u| u.name.starts_with(prefix) && u.status == UnknownStatus::Identified)
                 .map(|u| u.name.as_str())
                 .collect();
+            let held: Vec<&str> = unknowns
+                .iter()
+                .filter(|u| u.name.starts_with(prefix) && u.status == UnknownStatus::AtBound)
+                .map(|u| u.name.as_str())
+                .collect();
             notes.push(format!(
-                    "non-linear joint law, {what} identified: {}; the others stay at zero (not separable from the compliances and offsets, or too weakly seen, with these torques)",
-                    if identified.is_empty() { "none".to_string() } else { identified.join(", ") }
+                    "non-linear joint law, {what} identified: {}; the others stay at zero (not separable from the compliances and offsets, or too weakly seen, with these torques){}",
+                    if identified.is_empty() { "none".to_string() } else { identified.join(", ") },
+                    if held.is_empty() { String::new() } else {
+                        format!("; held at the bound that keeps the law monotone over the poses' torques (the fit softened the joint until it yielded): {}", held.join(", "))
+                    }
                 ));
         }
     }

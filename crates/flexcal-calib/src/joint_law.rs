@@ -31,6 +31,16 @@
 //! `eta < 0` whose spring would yield (`1 + 4 eta c |tau| < S_MIN^2`) is
 //! held at the yield slope (the derivatives are those of that branch).
 //!
+//! ## Bounds
+//! The law must be monotone: a spring that turned back under a growing
+//! load is not a spring. Its tangent stiffness is `s / c`, so the law is
+//! monotone over the poses' torques when the hardening is at least
+//! [`monotone_hardening_floor`] of the joint's compliance and largest
+//! gravity torque (with the starting payload). A fit below it is held
+//! there and the rest fitted again; the report gives the hardening the
+//! status at-bound, as for a negative compliance held at zero
+//! ([`crate::significance`]).
+//!
 //! Identifiability: the lost motion is seen only where the torque changes
 //! sign within the poses; where it keeps one sign `tanh` is constant and
 //! `beta_i` is a joint offset, which the identifiability analysis then
@@ -211,6 +221,22 @@ pub fn cyclic_error(q: f64, amplitudes: &[f64]) -> f64 {
         .sum()
 }
 
+/// The lowest hardening (1/rad) at which the law of a joint of
+/// compliance `compliance` (rad/N.m) stays on its own branch up to the
+/// torque `largest_torque` (N.m): `s = sqrt(1 + 4 eta c |tau|) >= S_MIN`,
+/// so that the torque-deflection curve is monotone with a tangent
+/// stiffness at least [`S_MIN`] times the zero-torque one (the tangent
+/// stiffness of the law is `s / c`). `None` when the compliance or the
+/// torque is not positive (no softening is then bounded).
+///
+/// A fit that puts a hardening below it softens the joint until it
+/// yields within the poses' torques: the identification holds it at this
+/// bound ([`crate::UnknownStatus::AtBound`], module docs "Bounds").
+pub fn monotone_hardening_floor(compliance: f64, largest_torque: f64) -> Option<f64> {
+    (compliance > 0.0 && largest_torque > 0.0)
+        .then(|| (S_MIN * S_MIN - 1.0) / (4.0 * compliance * largest_torque))
+}
+
 /// The deflection of one joint under the law and its exact derivatives.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointDeflection {
@@ -286,6 +312,34 @@ mod tests {
             }
             assert!((newton - e).abs() <= 1e-12 * e.abs().max(1e-12));
         }
+    }
+
+    /// At the floor the law is monotone up to the largest torque, with a
+    /// tangent stiffness of `S_MIN / c` there; below it the spring yields
+    /// within the torques (the held branch).
+    #[test]
+    fn the_monotone_floor_keeps_the_law_on_its_branch() {
+        for &(c, largest) in &[(12e-6, 120.0), (300e-6, 25.0), (1e-7, 3000.0)] {
+            let floor = monotone_hardening_floor(c, largest).unwrap();
+            assert!(floor < 0.0);
+            let n = 400;
+            let mut previous = f64::NEG_INFINITY;
+            for k in 0..=n {
+                let tau = largest * (2.0 * k as f64 / n as f64 - 1.0);
+                let d = joint_deflection(tau, c, floor, 0.0, 5.0);
+                assert!(d.deflection > previous, "not monotone at {tau} N.m");
+                previous = d.deflection;
+                // The tangent stiffness: the inverse of d dq / d tau.
+                assert!(c / d.by_torque >= S_MIN - 1e-12);
+            }
+            let edge = joint_deflection((1.0 - 1e-9) * largest, c, floor, 0.0, 5.0);
+            assert!((edge.by_torque - c / S_MIN).abs() < 1e-6 * c / S_MIN);
+            // Below the floor, the largest torque is past the yield.
+            let below = 1.0 + 4.0 * (1.5 * floor) * c * largest;
+            assert!(below < S_MIN * S_MIN);
+        }
+        assert_eq!(monotone_hardening_floor(0.0, 10.0), None);
+        assert_eq!(monotone_hardening_floor(1e-5, 0.0), None);
     }
 
     /// Every derivative against central finite differences.

@@ -132,7 +132,9 @@
 //! and of the payload ([`gravity`]): the joint-spring part of the paper's
 //! elastic model (13)-(16) with gravity as the load. The unknowns gain
 //! `compliance_<joint>` (rad/N.m, or m/N for linear joints), `payload_mass`
-//! (kg) and `payload_mx..mz` (first moment, kg.m, TCP frame); the same
+//! (kg) and `payload_mx..mz` (first moment, kg.m, in the payload's frame),
+//! and `payload_<name>_mass`, `_mx..mz` for each further identified payload
+//! on a named frame ([`GravityCompliance::payloads`], one per hand); the same
 //! identifiability analysis says which of them gravity alone identifies (a
 //! vertical joint axis never is loaded). With
 //! [`GravityCompliance::lateral`] each revolute joint also tilts about its
@@ -340,7 +342,8 @@ pub use flexcal_optim::CancelToken;
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
-    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
+    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, Payload, PointMass,
+    Spring,
 };
 pub use holdout::{StationHoldOut, hold_out_stations};
 pub use identification::ResidualNorms;

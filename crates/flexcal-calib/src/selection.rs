@@ -457,9 +457,15 @@ fn candidate_options(
     if !on(TermGroup::Compliances) {
         options.gravity = None;
     } else if !on(TermGroup::Payload) {
-        for name in crate::gravity::PAYLOAD_PARAMETER_NAMES {
-            if !options.fixed.iter().any(|f| f == name) {
-                options.fixed.push(name.to_string());
+        // Every identified payload's unknowns, the further payloads' too.
+        let names = options
+            .gravity
+            .as_ref()
+            .map(|g| g.payload_unknown_names())
+            .unwrap_or_default();
+        for name in names {
+            if !options.fixed.contains(&name) {
+                options.fixed.push(name);
             }
         }
     }

@@ -286,3 +286,157 @@ pub(crate) fn judge_compliances(
     }
     Ok((report, frozen, judgements))
 }
+
+/// For each unknown: when it is a joint law's hardening, the index of its
+/// joint's compliance unknown and the joint's largest gravity torque
+/// magnitude over the poses (N.m), from the names `names` and the torque
+/// spans `torque_ranges` (in the order of `actuated_names`).
+pub(crate) fn hardening_floors(
+    names: &[String],
+    actuated_names: &[String],
+    torque_ranges: &[crate::coverage::CoordinateCoverage],
+) -> Vec<Option<(usize, f64)>> {
+    names
+        .iter()
+        .map(|name| {
+            let joint = name.strip_prefix("hardening_")?;
+            let i = actuated_names.iter().position(|a| a == joint)?;
+            let compliance = format!("compliance_{joint}");
+            let c = names.iter().position(|n| *n == compliance)?;
+            Some((c, torque_magnitude(torque_ranges.get(i)?)))
+        })
+        .collect()
+}
+
+/// Holds each identified hardening that the fit puts below its monotone
+/// floor ([`crate::joint_law::monotone_hardening_floor`] of its joint's
+/// fitted compliance and largest torque, `floors` from
+/// [`hardening_floors`]) at that floor, status at-bound, and fits the rest
+/// again (at most three passes: a bound is computed from the compliance
+/// of the fit in which it binds).
+pub(crate) fn hold_monotone_laws(
+    floors: &[Option<(usize, f64)>],
+    (mut report, mut frozen, mut judgements): Judged,
+    solve: &mut Solve<'_>,
+) -> Result<Judged, CalibError> {
+    for _ in 0..3 {
+        let mut x0 = report.x.clone();
+        let mut held = false;
+        for (j, floor) in floors.iter().enumerate() {
+            let Some((c, largest)) = *floor else {
+                continue;
+            };
+            let bound = crate::joint_law::monotone_hardening_floor(report.x[c], largest);
+            if let Some(bound) = bound.filter(|b| !frozen[j] && report.x[j] < *b) {
+                judgements[j] = Some(ScaleJudgement {
+                    value: report.x[j],
+                    standard_error: report.standard_errors[j]
+                        .filter(|s| s.is_finite())
+                        .unwrap_or(f64::INFINITY),
+                    outcome: ScaleOutcome::AtBound,
+                });
+                frozen[j] = true;
+                x0[j] = bound;
+                held = true;
+            }
+        }
+        if !held {
+            break;
+        }
+        report = solve(&x0, &frozen)?;
+    }
+    Ok((report, frozen, judgements))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coverage::CoordinateCoverage;
+
+    fn report(x: Vec<f64>) -> SolveReport {
+        let n = x.len();
+        SolveReport {
+            standard_errors: vec![Some(1.0); n],
+            parameter_names: Vec::new(),
+            cost: 0.0,
+            cost_history: Vec::new(),
+            start_weighted_residuals: Vec::new(),
+            iterations: 1,
+            residual_evaluations: 1,
+            jacobian_evaluations: 1,
+            termination: flexcal_optim::Termination::SmallStep,
+            n_free: n,
+            rank: n,
+            not_identified: Vec::new(),
+            singular_values: Vec::new(),
+            condition_number: 1.0,
+            column_scales: Vec::new(),
+            sigma2: 1.0,
+            covariance: None,
+            x,
+        }
+    }
+
+    /// A softening the fit pushes past the yield is held at the floor of
+    /// the compliance it is fitted with, the rest solved again; one within
+    /// the bound and one of a joint without torque are left alone.
+    #[test]
+    fn a_hardening_below_the_monotone_floor_is_held_there() {
+        let names: Vec<String> = [
+            "compliance_a",
+            "compliance_b",
+            "hardening_a",
+            "hardening_b",
+            "theta_a",
+        ]
+        .map(String::from)
+        .to_vec();
+        let actuated = ["a", "b"].map(String::from).to_vec();
+        let span = |t: f64| CoordinateCoverage {
+            lo: -0.5 * t,
+            hi: t,
+            period: None,
+        };
+        let floors = hardening_floors(&names, &actuated, &[span(40.0), span(0.0)]);
+        assert_eq!(
+            floors,
+            vec![None, None, Some((0, 40.0)), Some((1, 0.0)), None]
+        );
+        let c = 300e-6;
+        let floor = crate::joint_law::monotone_hardening_floor(c, 40.0).unwrap();
+        // The fit: joint a softens beyond the yield, joint b too but it
+        // carries no torque.
+        let first = report(vec![c, c, 3.0 * floor, 5.0 * floor, 0.01]);
+        let mut calls = Vec::new();
+        let mut solve = |x0: &[f64], frozen: &[bool]| {
+            calls.push((x0.to_vec(), frozen.to_vec()));
+            // The refit moves the free unknowns a little.
+            let mut x = x0.to_vec();
+            for (v, f) in x.iter_mut().zip(frozen) {
+                if !f {
+                    *v *= 1.01;
+                }
+            }
+            Ok(report(x))
+        };
+        let (last, frozen, judgements) =
+            hold_monotone_laws(&floors, (first, vec![false; 5], vec![None; 5]), &mut solve)
+                .unwrap();
+        assert_eq!(calls.len(), 1);
+        assert_eq!(frozen, vec![false, false, true, false, false]);
+        assert!((last.x[2] - floor).abs() < 1e-12 * floor.abs());
+        let judged = judgements[2].unwrap();
+        assert_eq!(judged.outcome, ScaleOutcome::AtBound);
+        assert!((judged.value - 3.0 * floor).abs() < 1e-12 * floor.abs());
+        assert!(judgements[3].is_none());
+        // Within the bound: nothing held, no refit.
+        let within = report(vec![c, c, 0.5 * floor, 0.0, 0.0]);
+        let mut never = |_: &[f64], _: &[bool]| -> Result<SolveReport, CalibError> {
+            panic!("nothing to hold")
+        };
+        let (_, frozen, _) =
+            hold_monotone_laws(&floors, (within, vec![false; 5], vec![None; 5]), &mut never)
+                .unwrap();
+        assert!(frozen.iter().all(|f| !f));
+    }
+}

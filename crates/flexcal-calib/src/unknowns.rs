@@ -21,7 +21,9 @@ pub enum UnknownStatus {
     /// Has no influence on what is measured (e.g. target rotation without
     /// measured orientation); kept at its starting value.
     NoInfluence,
-    /// Held at its physical bound (a compliance at zero): the
+    /// Held at its physical bound (a compliance at zero, a joint law's
+    /// hardening at its monotone floor,
+    /// [`crate::joint_law::monotone_hardening_floor`]): the
     /// unconstrained fit put it beyond, by more than its standard error
     /// ([`UnknownEstimate::judgement`] keeps what the fit gave).
     AtBound,

@@ -588,6 +588,27 @@ fn elasto_geometric_calibration_end_to_end() {
     assert!(!out.status.success() && !stderr.contains("panicked"));
     assert!(stderr.contains("payload frame `flange`"), "{stderr}");
     assert!(!std::path::Path::new(&unwritten).exists());
+    // So is a further payload (`[[payload]]`) on such a frame.
+    std::fs::write(
+        &bad,
+        "payload_mass_kg = 1.0\npayload_center_mm = [0.0, 0.0, 0.0]\ninitial_compliance_urad_per_nm = 10.0\n[[mass]]\nname = \"arm\"\nframe = \"2\"\nmass_kg = 10.0\ncenter_mm = [300.0, 0.0, 0.0]\n[[payload]]\nname = \"gripper\"\nframe = \"hand\"\nmass_kg = 2.0\ncenter_mm = [0.0, 0.0, 50.0]\n",
+    )
+    .unwrap();
+    let out = calibrate_ur10(&[
+        "--model",
+        "elasto-geometric",
+        "--masses",
+        &bad,
+        "--report",
+        &unwritten,
+    ]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success() && !stderr.contains("panicked"));
+    assert!(
+        stderr.contains("payload `gripper`") && stderr.contains("no frame `hand`"),
+        "{stderr}"
+    );
+    assert!(!std::path::Path::new(&unwritten).exists());
 
     // The fuzzy residual model, reported apart: these measurements are
     // exact, so it has nothing to add and the validation stays exact.

@@ -186,6 +186,7 @@ pub fn ir663_mass_table(model: &Model, scale: f64) -> Result<GravityCompliance> 
         initial_compliance: 1e-8,
         lateral: flexcal_calib::LateralCompliance::Off,
         springs: Vec::new(),
+        payloads: Vec::new(),
     })
 }
 
