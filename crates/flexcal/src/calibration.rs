@@ -260,6 +260,11 @@ impl CalibrationRun {
             .map(calib::StationHoldOutJson::from)
             .collect();
         report.selection = self.selection.clone();
+        report.extrapolation = self
+            .coverage
+            .iter()
+            .chain(&self.accuracy_map)
+            .find_map(|map| map.extrapolation.clone());
         report.residual_model = self.residual.as_ref().map(|r| {
             ResidualModelJson::new(robot.actuated_names(), &r.model, r.validation.as_ref())
         });
