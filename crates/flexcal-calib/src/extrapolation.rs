@@ -162,8 +162,7 @@ impl AccuracyMap {
         let mut within = 0usize;
         let mut measured = 0usize;
         for p in &mut self.poses {
-            p.parts.extrapolation_mm =
-                (CHI2_3_95 * extrapolation.variance_at(&p.q)).sqrt() * 1e3;
+            p.parts.extrapolation_mm = (CHI2_3_95 * extrapolation.variance_at(&p.q)).sqrt() * 1e3;
             p.bound_95_mm = p.parts.bound_mm();
             if let Some(e) = p.actual_error_mm {
                 measured += 1;
@@ -226,9 +225,7 @@ fn check_training(expected: usize, n: usize) -> Result<(), CalibError> {
     }
     Err(CalibError::InvalidOption {
         name: "extrapolation",
-        reason: format!(
-            "a training set of {n} poses for a calibration identified on {expected}"
-        ),
+        reason: format!("a training set of {n} poses for a calibration identified on {expected}"),
     })
 }
 
@@ -271,10 +268,21 @@ fn extrapolation_model<S: Selectable>(
             let held: Vec<usize> = (0..training.n_poses())
                 .filter(|&k| {
                     let t = along(training.configuration(k));
-                    if end == "low" { t < cut } else { t > range.length() - cut }
+                    if end == "low" {
+                        t < cut
+                    } else {
+                        t > range.length() - cut
+                    }
                 })
                 .collect();
-            let fold = run_fold(model, training, options, &held, (j, &names[j], end), &mut excess)?;
+            let fold = run_fold(
+                model,
+                training,
+                options,
+                &held,
+                (j, &names[j], end),
+                &mut excess,
+            )?;
             if fold.skipped.is_none() {
                 reach[j] = reach[j].max(fold.max_distance);
             }
@@ -327,7 +335,9 @@ fn run_fold<S: Selectable>(
         ));
         return Ok(fold);
     }
-    let kept: Vec<usize> = (0..training.n_poses()).filter(|k| !held.contains(k)).collect();
+    let kept: Vec<usize> = (0..training.n_poses())
+        .filter(|k| !held.contains(k))
+        .collect();
     let fitted = training
         .subset(&kept)
         .and_then(|rest| rest.fit(model, options));
@@ -451,7 +461,10 @@ mod tests {
         let expected = rows.iter().zip(&y).map(|(r, y)| r[0] * y).sum::<f64>()
             / rows.iter().map(|r| r[0] * r[0]).sum::<f64>();
         assert_eq!(fitted[1], 0.0);
-        assert!((fitted[0] - expected.max(0.0)).abs() < 1e-9, "{fitted:?} {expected}");
+        assert!(
+            (fitted[0] - expected.max(0.0)).abs() < 1e-9,
+            "{fitted:?} {expected}"
+        );
         // A column that is zero everywhere gives zero.
         let zero = non_negative_least_squares(&[vec![0.0, 1.0], vec![0.0, 2.0]], &[1.0, 2.0], 2);
         assert_eq!(zero[0], 0.0);

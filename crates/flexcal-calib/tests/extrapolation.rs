@@ -121,5 +121,8 @@ fn the_bound_grows_where_the_shoulder_leaves_its_training_band() {
         .extrapolation(&model, &other, &options)
         .unwrap_err()
         .to_string();
-    assert!(err.contains("extrapolation") && err.contains("20 poses"), "{err}");
+    assert!(
+        err.contains("extrapolation") && err.contains("20 poses"),
+        "{err}"
+    );
 }

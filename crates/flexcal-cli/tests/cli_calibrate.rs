@@ -816,7 +816,14 @@ fn compliance_judgement_and_noise_flags() {
 fn extrapolation_folds_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let out = flexcal(&["twin", "geometric", "--out", &d.display().to_string(), "--seed", "7"]);
+    let out = flexcal(&[
+        "twin",
+        "geometric",
+        "--out",
+        &d.display().to_string(),
+        "--seed",
+        "7",
+    ]);
     assert!(out.status.success(), "{:?}", text(&out));
     // The validation poses as the map's grid: their q1..q6 columns (rad).
     let validation = std::fs::read_to_string(d.join("validation.csv")).unwrap();
@@ -850,8 +857,16 @@ fn extrapolation_folds_end_to_end() {
     );
     let report = read_json(d.join("report.json"));
     let extrapolation = &report["extrapolation"];
-    assert_eq!(extrapolation["growth"].as_array().unwrap().len(), 6, "{extrapolation}");
-    assert_eq!(extrapolation["folds"].as_array().unwrap().len(), 12, "{extrapolation}");
+    assert_eq!(
+        extrapolation["growth"].as_array().unwrap().len(),
+        6,
+        "{extrapolation}"
+    );
+    assert_eq!(
+        extrapolation["folds"].as_array().unwrap().len(),
+        12,
+        "{extrapolation}"
+    );
     for g in extrapolation["growth"].as_array().unwrap() {
         assert!(g["growth"].as_f64().unwrap() >= 0.0, "{g}");
     }
@@ -862,7 +877,10 @@ fn extrapolation_folds_end_to_end() {
         .expect("accuracy map written");
     let map = std::fs::read_to_string(map).unwrap();
     assert!(
-        map.lines().next().unwrap().contains("scatter_95_mm,parameters_95_mm,extrapolation_95_mm"),
+        map.lines()
+            .next()
+            .unwrap()
+            .contains("scatter_95_mm,parameters_95_mm,extrapolation_95_mm"),
         "{map}"
     );
 }
