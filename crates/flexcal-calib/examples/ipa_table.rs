@@ -201,7 +201,7 @@ fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
         "\nModel selection by cross-validation on the training series (positions only, all poses):"
     );
     println!(
-        "| pair | geometric | elasto-geometric, selected | dh | dh+g | within 95 % bound | chosen |\n|---|---|---|---|---|---|---|"
+        "| pair | geometric | elasto-geometric, selected | dh | dh+g | within 95 % bound, extrapolation included | without it | chosen |\n|---|---|---|---|---|---|---|---|"
     );
     for train_name in ["B", "C"] {
         let train = set(train_name);
@@ -232,6 +232,18 @@ fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
         print_lateral(train_name, &selected);
         let g = calibrate(model, train, geometric)?;
         let split = SplitCheck::new(model, train, &chosen, &selected)?;
+        let start = Instant::now();
+        let extrapolation = selected.extrapolation(model, train, &chosen)?;
+        eprintln!(
+            "{train_name}: held-out-range folds {:.2} s",
+            start.elapsed().as_secs_f64()
+        );
+        for fold in &extrapolation.folds {
+            eprintln!("{train_name}: fold {fold:?}");
+        }
+        for note in extrapolation.notes() {
+            eprintln!("{train_name}: {note}");
+        }
         let label = chosen_label(report.as_ref());
         for (t, v, [dh, dh_max, dhg, dhg_max]) in BASELINES {
             if t != train_name {
@@ -242,10 +254,13 @@ fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
             let s_report = selected.validate(model, validate, false)?;
             let map = selected.accuracy_coverage_of(model, validate, &s_report, Some(&split))?;
             let plain = selected.accuracy_coverage_of(model, validate, &s_report, None)?;
+            let beyond = map.clone().with_extrapolation(&extrapolation);
             println!(
-                "| {t} -> {v} | {} | {} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {}; {:.1} % / {:.2} mm without | {label} |",
+                "| {t} -> {v} | {} | {} | {dh:.3} / {dh_max:.2} | {dhg:.3} / {dhg_max:.2} | {}; {} | {}; {:.1} % / {:.2} mm without | {label} |",
                 mean_max(&g_report.after),
                 mean_max(&s_report.after),
+                bound_cell(&beyond),
+                extrapolation_share(&beyond),
                 bound_cell(&map),
                 100.0 * plain.coverage.unwrap_or(f64::NAN),
                 plain.mean_bound_95_mm
@@ -254,7 +269,7 @@ fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
             // shoulder and elbow (the joints that carry the arm's weight).
             let ranges = CoordinateCoverage::of_actuated(model, train);
             let mut counts = [[0usize; 2]; 2];
-            for p in &map.poses {
+            for p in &beyond.poses {
                 let outside = p.q[1..3]
                     .iter()
                     .zip(&ranges[1..3])
@@ -264,7 +279,7 @@ fn selected_table(study: &Study) -> Result<(), Box<dyn std::error::Error>> {
             }
             let share = |c: [usize; 2]| 100.0 * c[1] as f64 / (c[0] + c[1]).max(1) as f64;
             eprintln!(
-                "{t} -> {v}: within the bound {:.1} % of the {} poses inside the training ranges of joints 2 and 3, {:.1} % of the {} outside",
+                "{t} -> {v}: within the bound (extrapolation included) {:.1} % of the {} poses inside the training ranges of joints 2 and 3, {:.1} % of the {} outside",
                 share(counts[0]),
                 counts[0][0] + counts[0][1],
                 share(counts[1]),
@@ -350,6 +365,25 @@ fn bound_cell(map: &flexcal_calib::AccuracyMap) -> String {
         100.0 * map.coverage.unwrap_or(f64::NAN),
         map.mean_bound_95_mm,
         map.inflation
+    )
+}
+
+/// The share of the poses whose bound is dominated by its extrapolation
+/// part, and the largest such part.
+fn extrapolation_share(map: &flexcal_calib::AccuracyMap) -> String {
+    let dominated = map
+        .poses
+        .iter()
+        .filter(|p| p.parts.dominant() == "extrapolation")
+        .count();
+    let largest = map
+        .poses
+        .iter()
+        .map(|p| p.parts.extrapolation_mm)
+        .fold(0.0, f64::max);
+    format!(
+        "extrapolation dominates {:.1} % of the bounds (largest part {largest:.2} mm)",
+        100.0 * dominated as f64 / map.poses.len().max(1) as f64
     )
 }
 

@@ -87,12 +87,55 @@ pub struct PoseAccuracy {
     /// The calibrated model's target position at this pose, in the robot
     /// base frame (mm): where on the workspace the bound applies.
     pub position_mm: [f64; 3],
+    /// The 95 % bound's parts (mm): `bound_95_mm` is the root of the sum
+    /// of their squares.
+    #[serde(default)]
+    pub parts: BoundParts,
     /// The actuated coordinates (by name) at which this pose lies outside
     /// the identification poses' range: there the bound assumes that the
     /// model holds beyond the data, which no statistic of the training
     /// poses can check (empty: inside every range).
     #[serde(default)]
     pub outside_training_range: Vec<String>,
+}
+
+/// Where a pose's 95 % bound comes from, each part the 95 % bound it
+/// would be alone (mm): `bound_95_mm^2 = scatter^2 + parameters^2 +
+/// extrapolation^2`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct BoundParts {
+    /// What the model leaves at the training poses, the same at every pose:
+    /// measurement noise and every effect the model lacks,
+    /// `sqrt(chi2_3(0.95)) s` (mm).
+    pub scatter_mm: f64,
+    /// The identified unknowns' uncertainty at this pose (the split-half
+    /// inflation included), `sqrt(chi2_3(0.95) tr Sigma_pred / 3)` (mm).
+    pub parameters_mm: f64,
+    /// The model's own error beyond the training poses' ranges, grown with
+    /// the distance outside them as the held-out-range folds measured
+    /// ([`crate::ExtrapolationModel`]; 0 inside every range or without
+    /// that model) (mm).
+    pub extrapolation_mm: f64,
+}
+
+impl BoundParts {
+    /// The 95 % bound of the three parts together (mm).
+    pub fn bound_mm(&self) -> f64 {
+        (self.scatter_mm.powi(2) + self.parameters_mm.powi(2) + self.extrapolation_mm.powi(2))
+            .sqrt()
+    }
+
+    /// The part that dominates the bound: `scatter`, `parameters` or
+    /// `extrapolation`.
+    pub fn dominant(&self) -> &'static str {
+        if self.extrapolation_mm >= self.scatter_mm.max(self.parameters_mm) {
+            "extrapolation"
+        } else if self.parameters_mm >= self.scatter_mm {
+            "parameters"
+        } else {
+            "scatter"
+        }
+    }
 }
 
 /// Predicted accuracy over a set of poses (a workspace grid or a
@@ -118,6 +161,11 @@ pub struct AccuracyMap {
     /// with several targets, each pose counted once).
     #[serde(default)]
     pub extrapolated_poses: usize,
+    /// The growth of the model's error outside the training ranges whose
+    /// part the bounds include ([`AccuracyMap::with_extrapolation`];
+    /// `None`: the bounds assume that the model holds beyond the data).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extrapolation: Option<crate::ExtrapolationModel>,
 }
 
 impl AccuracyMap {
@@ -133,8 +181,9 @@ impl AccuracyMap {
     }
 
     /// The map as CSV:
-    /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm,outside_training_range`
-    /// (`x_mm,y_mm,z_mm`: [`PoseAccuracy::position_mm`]; the last column:
+    /// `pose,q1..qn,model_uncertainty_mm,bound_95_mm,actual_error_mm,scatter_95_mm,parameters_95_mm,extrapolation_95_mm,x_mm,y_mm,z_mm,outside_training_range`
+    /// (the three parts of the bound: [`PoseAccuracy::parts`];
+    /// `x_mm,y_mm,z_mm`: [`PoseAccuracy::position_mm`]; the last column:
     /// [`PoseAccuracy::outside_training_range`], names separated by `;`).
     /// With several targets a `target` column follows `pose`.
     pub fn to_csv_string(&self) -> String {
@@ -145,7 +194,7 @@ impl AccuracyMap {
             out.push_str(&format!(",q{i}"));
         }
         out.push_str(
-            ",model_uncertainty_mm,bound_95_mm,actual_error_mm,x_mm,y_mm,z_mm,outside_training_range\n",
+            ",model_uncertainty_mm,bound_95_mm,actual_error_mm,scatter_95_mm,parameters_95_mm,extrapolation_95_mm,x_mm,y_mm,z_mm,outside_training_range\n",
         );
         for p in &self.poses {
             out.push_str(&p.pose.replace(',', ";"));
@@ -158,11 +207,14 @@ impl AccuracyMap {
             }
             let [x, y, z] = p.position_mm;
             out.push_str(&format!(
-                ",{:.6},{:.6},{},{x:.4},{y:.4},{z:.4},{}\n",
+                ",{:.6},{:.6},{},{:.6},{:.6},{:.6},{x:.4},{y:.4},{z:.4},{}\n",
                 p.model_uncertainty_mm,
                 p.bound_95_mm,
                 p.actual_error_mm
                     .map_or(String::new(), |e| format!("{e:.6}")),
+                p.parts.scatter_mm,
+                p.parts.parameters_mm,
+                p.parts.extrapolation_mm,
                 p.outside_training_range.join(";").replace(',', ";")
             ));
         }
@@ -379,6 +431,11 @@ pub(crate) fn accuracy_at<S: PredictedAt>(
             extrapolated.insert(observed.pose);
         }
         poses.push(PoseAccuracy {
+            parts: BoundParts {
+                scatter_mm: bound_95(0.0, s2) * 1e3,
+                parameters_mm: bound_95(trace, 0.0) * 1e3,
+                extrapolation_mm: 0.0,
+            },
             outside_training_range,
             pose: label(observed.pose),
             target: observed.target,
@@ -398,6 +455,7 @@ pub(crate) fn accuracy_at<S: PredictedAt>(
         inflation,
         mean_bound_95_mm,
         extrapolated_poses: extrapolated.len(),
+        extrapolation: None,
     })
 }
 

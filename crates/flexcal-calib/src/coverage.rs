@@ -120,6 +120,26 @@ impl CoordinateCoverage {
         self.hi - self.lo
     }
 
+    /// How far `q` (rad or m) lies outside the covered interval or arc
+    /// (same unit; 0 inside, infinite for an empty coverage): for a
+    /// periodic coordinate the shorter way round to either end of the arc.
+    pub fn distance_outside(&self, q: f64) -> f64 {
+        if self.lo.partial_cmp(&self.hi).is_none_or(|o| o.is_gt()) {
+            return f64::INFINITY;
+        }
+        match self.period.filter(|p| *p > 0.0 && p.is_finite()) {
+            None => (self.lo - q).max(q - self.hi).max(0.0),
+            Some(p) => {
+                let ahead = (q - self.lo).rem_euclid(p);
+                if ahead <= self.length() {
+                    0.0
+                } else {
+                    (ahead - self.length()).min(p - ahead)
+                }
+            }
+        }
+    }
+
     /// Whether `q` (rad or m) lies in the covered interval or arc, allowing
     /// `margin` (same unit) beyond either end.
     pub fn contains(&self, q: f64, margin: f64) -> bool {
@@ -223,6 +243,30 @@ mod tests {
         let one = CoordinateCoverage::of([1.0], Some(2.0 * PI));
         assert_eq!(one.length(), 0.0);
         assert!(one.contains(1.0 + 2.0 * PI, 1e-9) && !one.contains(1.1, 0.0));
+    }
+
+    /// Seeded property: the distance outside is zero exactly where the
+    /// coverage contains the value, and the smallest margin that makes
+    /// `contains` true.
+    #[test]
+    fn the_distance_outside_is_the_margin_that_contains() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(29);
+        for _ in 0..500 {
+            let values: Vec<f64> = (0..rng.random_range(1..12))
+                .map(|_| rng.random_range(-4.0..4.0))
+                .collect();
+            let period = rng.random_bool(0.5).then_some(2.0 * PI);
+            let c = CoordinateCoverage::of(values.iter().copied(), period);
+            let q = rng.random_range(-12.0..12.0);
+            let d = c.distance_outside(q);
+            assert!(d >= 0.0 && d.is_finite(), "{c:?} {q} {d}");
+            assert_eq!(d == 0.0, c.contains(q, 0.0), "{c:?} {q} {d}");
+            assert!(c.contains(q, d + 1e-9), "{c:?} {q} {d}");
+            if d > 1e-6 {
+                assert!(!c.contains(q, d - 1e-6), "{c:?} {q} {d}");
+            }
+        }
+        assert!(CoordinateCoverage::of([f64::NAN], None).distance_outside(0.0) > 1e300);
     }
 
     /// Seeded property: every value lies in its own coverage, whichever turn

@@ -303,6 +303,7 @@ pub mod cross;
 mod elastic_terms;
 mod error;
 pub mod error_model;
+pub mod extrapolation;
 pub mod frames;
 pub mod geometry;
 pub mod gravity;
@@ -329,7 +330,7 @@ mod unknown_kind;
 pub mod unknowns;
 pub mod validate;
 
-pub use accuracy::{AccuracyMap, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
+pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
@@ -338,6 +339,9 @@ pub use error_model::{
     station_frame_names, target_unknown_names,
 };
 /// The cancellation token of [`CalibrationOptions::cancel`].
+pub use extrapolation::{
+    CoordinateGrowth, ExtrapolationFold, ExtrapolationModel, HELD_OUT_FRACTION, MIN_HELD_OUT_POSES,
+};
 pub use flexcal_optim::CancelToken;
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};

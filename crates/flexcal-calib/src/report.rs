@@ -483,6 +483,12 @@ pub struct CalibrationReportJson {
     /// asked for.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub station_hold_out: Vec<StationHoldOutJson>,
+    /// The model's error growth outside the training ranges that the
+    /// predicted bounds include (`--extrapolation`,
+    /// [`crate::ExtrapolationModel`]: growth per coordinate in m/rad or
+    /// m/m, every fold), when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extrapolation: Option<crate::extrapolation::ExtrapolationModel>,
 }
 
 /// One station held out, in the report's units.
@@ -653,6 +659,7 @@ impl CalibrationReportJson {
             cross_check: None,
             station_hold_out: Vec::new(),
             selection: None,
+            extrapolation: None,
         }
     }
 

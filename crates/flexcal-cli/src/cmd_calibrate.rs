@@ -160,6 +160,13 @@ pub struct CalibrateArgs {
     /// identification time).
     #[arg(long)]
     pub split_check: bool,
+    /// Bounds that hold beyond the training poses: hold out the ends of
+    /// each joint's range, identify again on the rest, and add to every
+    /// predicted 95 % bound the error growth measured outside the range
+    /// (two more identifications per joint; with --validate or
+    /// --accuracy-map).
+    #[arg(long)]
+    pub extrapolation: bool,
     /// With several --data files (stations): hold each out in turn,
     /// identify on the others (the model selected on them) and validate on
     /// it, its measurement frame re-fitted (one more identification per
@@ -249,6 +256,7 @@ fn campaign(config: Option<&Path>, args: &CalibrateArgs) -> anyhow::Result<Campa
     model_flags(&mut campaign, args)?;
     let checks = &mut campaign.checks;
     checks.split |= args.split_check;
+    checks.extrapolation |= args.extrapolation;
     checks.hold_out_stations |= args.hold_out_stations;
     checks.cross |= args.cross_check;
     set_list(&mut checks.residual_model, &args.residual_model);

@@ -829,3 +829,79 @@ fn compliance_judgement_and_noise_flags() {
     let json = read_json(&report);
     assert_eq!(json["identification"]["noise"]["source"], "estimated");
 }
+
+/// `--extrapolation`: the bounds include the model's growth outside the
+/// training ranges, said in the printed coverage line, the report's
+/// `extrapolation` object (two folds per joint) and the map's columns.
+#[test]
+fn extrapolation_folds_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = flexcal(&[
+        "twin",
+        "geometric",
+        "--out",
+        &d.display().to_string(),
+        "--seed",
+        "7",
+    ]);
+    assert!(out.status.success(), "{:?}", text(&out));
+    // The validation poses as the map's grid: their q1..q6 columns (rad).
+    let validation = std::fs::read_to_string(d.join("validation.csv")).unwrap();
+    let grid: String = validation
+        .lines()
+        .map(|l| l.split(',').skip(1).take(6).collect::<Vec<_>>().join(","))
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(grid.starts_with("q1,q2,q3,q4,q5,q6\n"), "{grid}");
+    std::fs::write(d.join("grid.csv"), grid + "\n").unwrap();
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ir663",
+        "--data",
+        &path(d, "identification.csv"),
+        "--validate",
+        &path(d, "validation.csv"),
+        "--fixed-target",
+        "--extrapolation",
+        "--accuracy-map",
+        &path(d, "grid.csv"),
+        "--report",
+        &path(d, "report.json"),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("the model's growth outside the training ranges included"),
+        "{stdout}"
+    );
+    let report = read_json(d.join("report.json"));
+    let extrapolation = &report["extrapolation"];
+    assert_eq!(
+        extrapolation["growth"].as_array().unwrap().len(),
+        6,
+        "{extrapolation}"
+    );
+    assert_eq!(
+        extrapolation["folds"].as_array().unwrap().len(),
+        12,
+        "{extrapolation}"
+    );
+    for g in extrapolation["growth"].as_array().unwrap() {
+        assert!(g["growth"].as_f64().unwrap() >= 0.0, "{g}");
+    }
+    let map = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.display().to_string().ends_with(".accuracy.csv"))
+        .expect("accuracy map written");
+    let map = std::fs::read_to_string(map).unwrap();
+    assert!(
+        map.lines()
+            .next()
+            .unwrap()
+            .contains("scatter_95_mm,parameters_95_mm,extrapolation_95_mm"),
+        "{map}"
+    );
+}

@@ -116,6 +116,12 @@ pub struct CalibrationConfig {
     /// Configurations (CSV `q1..qn`) at which to predict the accuracy of the
     /// calibrated robot ([`CalibrationRun::accuracy_map`]).
     pub accuracy_grid: Option<PathBuf>,
+    /// Add to the predicted bounds (validation coverage and accuracy map)
+    /// the model's error growth outside the training ranges, from folds
+    /// that hold out the ends of each coordinate's range
+    /// ([`calib::Calibration::extrapolation`]: two more identifications
+    /// per actuated coordinate).
+    pub extrapolation: bool,
     /// Targets description (TOML) of measurement files with several
     /// targets per pose (`docs/file-formats.md`): the run is then
     /// `targets::run_target_calibration`'s, and [`run_calibration`]
@@ -142,6 +148,7 @@ impl CalibrationConfig {
             residual_inputs: Vec::new(),
             selection: None,
             accuracy_grid: None,
+            extrapolation: false,
             targets: None,
         }
     }
@@ -260,6 +267,11 @@ impl CalibrationRun {
             .map(calib::StationHoldOutJson::from)
             .collect();
         report.selection = self.selection.clone();
+        report.extrapolation = self
+            .coverage
+            .iter()
+            .chain(&self.accuracy_map)
+            .find_map(|map| map.extrapolation.clone());
         report.residual_model = self.residual.as_ref().map(|r| {
             ResidualModelJson::new(robot.actuated_names(), &r.model, r.validation.as_ref())
         });
@@ -529,6 +541,15 @@ pub fn run_calibration(
     // The bounds against the errors of the validation just made, unless
     // that one re-fitted the target too (the bounds are for the target as
     // identified).
+    let extrapolation = (config.extrapolation
+        && (validation_set.is_some() || config.accuracy_grid.is_some()))
+    .then(|| calibration.extrapolation(robot, &data, &options))
+    .transpose()
+    .map_err(step("held-out-range folds"))?;
+    let with_extrapolation = |map: calib::AccuracyMap| match &extrapolation {
+        Some(e) => map.with_extrapolation(e),
+        None => map,
+    };
     let coverage = validation_set
         .as_ref()
         .zip(validation.as_ref())
@@ -540,9 +561,12 @@ pub fn run_calibration(
             }
         })
         .transpose()
-        .map_err(step("predicted accuracy at the validation poses"))?;
+        .map_err(step("predicted accuracy at the validation poses"))?
+        .map(with_extrapolation);
     let accuracy_map = grid_accuracy(config, |configurations| {
-        calibration.predicted_accuracy(robot, configurations, split.as_ref())
+        calibration
+            .predicted_accuracy(robot, configurations, split.as_ref())
+            .map(with_extrapolation)
     })?;
     let station_hold_out = if config.hold_out_stations {
         calib::hold_out_stations(robot, &data, &base_options, &selection_options)
@@ -605,6 +629,23 @@ pub fn run_calibration(
 pub(crate) fn extrapolation_note(map: &calib::AccuracyMap) -> String {
     if map.extrapolated_poses == 0 {
         return String::new();
+    }
+    if let Some(extrapolation) = &map.extrapolation {
+        let largest = map
+            .poses
+            .iter()
+            .map(|p| p.parts.extrapolation_mm)
+            .fold(0.0, f64::max);
+        let notes = extrapolation.notes();
+        return format!(
+            "; {} of them outside the identification poses' range of some coordinate, whose bounds include the model's error growth outside the range measured by held-out-range folds (largest part {largest:.3} mm, column extrapolation_95_mm; {})",
+            map.extrapolated_poses,
+            if notes.is_empty() {
+                "the folds found no growth".to_string()
+            } else {
+                notes.join("; ")
+            }
+        );
     }
     format!(
         "; {} of them outside the identification poses' range of some coordinate, where the bound assumes the model holds beyond the data (column outside_training_range)",

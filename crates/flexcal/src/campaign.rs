@@ -237,6 +237,10 @@ pub struct ChecksSection {
     /// (`--accuracy-map`), written beside it as `<name>.accuracy.csv`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accuracy_map: Option<PathBuf>,
+    /// Bounds that include the model's error growth outside the training
+    /// ranges, from held-out-range folds (`--extrapolation`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub extrapolation: bool,
 }
 
 /// The files a run writes.
@@ -419,6 +423,7 @@ impl Campaign {
             residual_inputs: self.checks.residual_model.clone(),
             selection: self.model.select,
             accuracy_grid: self.checks.accuracy_map.clone(),
+            extrapolation: self.checks.extrapolation,
             targets: self.data.targets.clone(),
             station_data: stations.to_vec(),
             ..CalibrationConfig::new(first, options)

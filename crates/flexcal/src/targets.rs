@@ -172,15 +172,27 @@ pub fn run_target_calibration(
         .map(|set| calib::validate_targets(robot, &calibration, set, true))
         .transpose()
         .map_err(step("validation"))?;
+    let extrapolation = (config.extrapolation
+        && (validation_set.is_some() || config.accuracy_grid.is_some()))
+    .then(|| calibration.extrapolation(robot, &data, &options))
+    .transpose()
+    .map_err(step("held-out-range folds"))?;
+    let with_extrapolation = |map: calib::AccuracyMap| match &extrapolation {
+        Some(e) => map.with_extrapolation(e),
+        None => map,
+    };
     // The bounds against the errors of the validation just made.
     let coverage = validation_set
         .as_ref()
         .zip(validation.as_ref())
         .map(|(set, report)| calibration.accuracy_coverage_of(robot, set, report, split.as_ref()))
         .transpose()
-        .map_err(step("predicted accuracy at the validation observations"))?;
+        .map_err(step("predicted accuracy at the validation observations"))?
+        .map(with_extrapolation);
     let accuracy_map = grid_accuracy(config, |configurations| {
-        calibration.predicted_accuracy(robot, configurations, split.as_ref())
+        calibration
+            .predicted_accuracy(robot, configurations, split.as_ref())
+            .map(with_extrapolation)
     })?;
     let cross = match (&validation_set, config.cross_check) {
         (Some(set), true) => Some(

@@ -67,6 +67,7 @@ fn full(dir: &Path) -> Campaign {
             cross: true,
             residual_model: vec!["theta2".into(), "theta3".into()],
             accuracy_map: Some(touch(dir, "grid.csv")),
+            extrapolation: true,
         },
         outputs: OutputsSection {
             calibrated_robot: Some(dir.join("out/calibrated.toml")),

@@ -348,10 +348,15 @@ pub(crate) fn station_hold_out_rows(held: &[crate::calib::StationHoldOut]) -> Ve
 /// targets).
 pub fn coverage_line(map: &crate::calib::AccuracyMap, entries: &str) -> String {
     format!(
-        "predicted 95 % bounds (mean {:.3} mm{}) cover {:.1} % of the validation {entries}",
+        "predicted 95 % bounds (mean {:.3} mm{}{}) cover {:.1} % of the validation {entries}",
         map.mean_bound_95_mm,
         map.inflation_note()
             .map_or(String::new(), |note| format!(", {note}")),
+        if map.extrapolation.is_some() {
+            ", the model's growth outside the training ranges included"
+        } else {
+            ""
+        },
         100.0 * map.coverage.unwrap_or(f64::NAN)
     )
 }
