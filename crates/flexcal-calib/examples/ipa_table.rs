@@ -33,8 +33,8 @@ use std::time::Instant;
 
 use flexcal_calib::{
     Calibration, CalibrationOptions, CoordinateCoverage, ErrorStatistics, GravityCompliance,
-    JointLaw, MeasurementSet, SelectOn, SelectionOptions, SplitCheck, UnknownStatus, Weighting, calibrate,
-    calibrate_selected,
+    JointLaw, MeasurementSet, SelectOn, SelectionOptions, SplitCheck, UnknownStatus, Weighting,
+    calibrate, calibrate_selected,
 };
 use flexcal_kinematics::Model;
 use flexcal_kinematics::RobotDescription;

@@ -244,7 +244,6 @@ pub(crate) fn balanced_kmeans(points: &[Vec<f64>], k: usize, seed: u64) -> Vec<u
     assignment
 }
 
-
 /// Gravity torque of every actuated coordinate at each of `q` (N.m or N,
 /// one row per pose): the links' weights and the mass table's starting
 /// payload on the nominal geometry at the commanded configuration, the

@@ -339,8 +339,8 @@ pub use error_model::{
 };
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use flexcal_optim::CancelToken;
-pub use frames::TCP_FRAME;
 pub use folds::{EXTRAPOLATION_END_SHARE, ExtrapolationFold, MIN_EXTRAPOLATION_HELD_OUT};
+pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
     FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, PointMass, Spring,
@@ -371,9 +371,8 @@ pub use screen::{
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
     CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectOn, SelectionMethod,
-    SelectionOptions,
-    SelectionReport, TermGroup, calibrate_selected, calibrate_targets_selected, default_method,
-    default_method_for, select_model, select_target_model,
+    SelectionOptions, SelectionReport, TermGroup, calibrate_selected, calibrate_targets_selected,
+    default_method, default_method_for, select_model, select_target_model,
 };
 pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcome};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};

@@ -1137,48 +1137,47 @@ fn select_in<D: Selectable>(
     // scored once (backward steps reach some twice); the candidates of one
     // step are fitted together (`run_fits`).
     let mut scored: Vec<(Vec<TermGroup>, Option<Score>)> = Vec::new();
-    let mut score_all = |trials: &[Vec<TermGroup>],
-                         report: &mut SelectionReport|
-     -> Vec<Option<Score>> {
-        let keys: Vec<Vec<TermGroup>> = trials
-            .iter()
-            .map(|t| {
-                let mut sorted = t.clone();
-                sorted.sort();
-                sorted
-            })
-            .collect();
-        let mut new: Vec<Vec<TermGroup>> = Vec::new();
-        for key in &keys {
-            if !scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
-                new.push(key.clone());
+    let mut score_all =
+        |trials: &[Vec<TermGroup>], report: &mut SelectionReport| -> Vec<Option<Score>> {
+            let keys: Vec<Vec<TermGroup>> = trials
+                .iter()
+                .map(|t| {
+                    let mut sorted = t.clone();
+                    sorted.sort();
+                    sorted
+                })
+                .collect();
+            let mut new: Vec<Vec<TermGroup>> = Vec::new();
+            for key in &keys {
+                if !scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
+                    new.push(key.clone());
+                }
             }
-        }
-        let options: Vec<CalibrationOptions> = new
-            .iter()
-            .map(|key| {
-                let mut options = candidate_options(model, base, key);
-                // Scores need no spread ratios.
-                options.spread_reference = false;
-                options
-            })
-            .collect();
-        let fits = run_fits(model, set, &folds, &options);
-        for (key, fits) in new.into_iter().zip(fits) {
-            let mut candidate = CandidateScore::unscored(key.clone());
-            let out = score_candidate(&mut candidate, fits, cv.then_some(ordinary), chosen_on);
-            report.candidates.push(candidate);
-            scored.push((key, out));
-        }
-        keys.iter()
-            .map(|key| {
-                scored
-                    .iter()
-                    .find(|(g, _)| g == key)
-                    .and_then(|(_, s)| s.clone())
-            })
-            .collect()
-    };
+            let options: Vec<CalibrationOptions> = new
+                .iter()
+                .map(|key| {
+                    let mut options = candidate_options(model, base, key);
+                    // Scores need no spread ratios.
+                    options.spread_reference = false;
+                    options
+                })
+                .collect();
+            let fits = run_fits(model, set, &folds, &options);
+            for (key, fits) in new.into_iter().zip(fits) {
+                let mut candidate = CandidateScore::unscored(key.clone());
+                let out = score_candidate(&mut candidate, fits, cv.then_some(ordinary), chosen_on);
+                report.candidates.push(candidate);
+                scored.push((key, out));
+            }
+            keys.iter()
+                .map(|key| {
+                    scored
+                        .iter()
+                        .find(|(g, _)| g == key)
+                        .and_then(|(_, s)| s.clone())
+                })
+                .collect()
+        };
     let mut chosen: Vec<TermGroup> = groups.clone();
     let Some(mut current) = score_all(std::slice::from_ref(&chosen), &mut report)
         .pop()
@@ -1343,4 +1342,3 @@ pub(crate) fn calibrate_selected_in<D: Selectable>(
     })?;
     Ok((set.fit(model, &chosen)?, Some(report), chosen))
 }
-

@@ -73,8 +73,9 @@ fn auto_chooses_on_extrapolating_folds_when_the_region_leaves_the_training_range
         .iter()
         .map(|s| s.to_string())
         .collect();
-    let configurations =
-        |set: &MeasurementSet| -> Vec<Vec<f64>> { set.measurements().iter().map(|m| m.q.clone()).collect() };
+    let configurations = |set: &MeasurementSet| -> Vec<Vec<f64>> {
+        set.measurements().iter().map(|m| m.q.clone()).collect()
+    };
     let selection = SelectionOptions {
         groups: Some(vec![
             TermGroup::JointOffsets,

@@ -873,7 +873,10 @@ fn select_on_flag_end_to_end() {
         stdout.contains("chosen on the ordinary (interpolating) scores: no region of use given"),
         "{stdout}"
     );
-    assert_eq!(read_json(&report)["selection"]["chosen_on"], "interpolation");
+    assert_eq!(
+        read_json(&report)["selection"]["chosen_on"],
+        "interpolation"
+    );
     std::fs::remove_file(&report).unwrap();
     let out = run("sideways");
     let (stdout, stderr) = text(&out);
