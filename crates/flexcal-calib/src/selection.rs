@@ -966,7 +966,7 @@ fn score_to_choose_on<D: Selectable>(
             } else {
                 let which: Vec<String> = outside
                     .iter()
-                    .map(|(name, share)| format!("{name} ({:.0} %)", 100.0 * share))
+                    .map(|(name, share)| format!("{name} ({:.1} %)", 100.0 * share))
                     .collect();
                 (
                     SelectOn::Extrapolation,
