@@ -294,7 +294,7 @@ fn on_coverage(values: &[f64], period: Option<f64>) -> (Vec<f64>, CoordinateCove
 fn at_ends(values: &[f64], period: Option<f64>) -> Vec<bool> {
     let (placed, coverage) = on_coverage(values, period);
     let length = coverage.length();
-    if !(length > 0.0) {
+    if length.is_nan() || length <= 0.0 {
         return vec![false; values.len()];
     }
     let (low, high) = (
