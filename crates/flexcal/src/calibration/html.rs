@@ -348,7 +348,7 @@ fn selection_section(selection: &SelectionReport) -> Section {
         rows,
     );
     if !selection.chosen_on_reason.is_empty() {
-        section.paragraph(&format!(
+        section.paragraph(format!(
             "Chosen on the {} scores: {}",
             selection.chosen_on.label(),
             selection.chosen_on_reason
