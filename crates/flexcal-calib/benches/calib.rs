@@ -26,7 +26,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use flexcal_calib::{
     CalibrationOptions, GravityCompliance, JointLaw, JointTerms, MeasurementSet, SelectionOptions,
     TargetMeasurementSet, TargetObservation, TargetPose, Weighting, calibrate, read_targets,
-    rotation_from_vector, select_model, select_target_model,
+    rotation_from_vector, select_model,
 };
 use flexcal_kinematics::{
     Data, PointLoad, RobotDescription, actuated_forces_into, forward_frame_pose,
@@ -189,7 +189,7 @@ fn bench_targets(c: &mut Criterion) {
         });
         group.bench_function(format!("{robot}_{poses}_poses_select_cv"), |b| {
             b.iter(|| {
-                select_target_model(&model, &set, &options, &SelectionOptions::default())
+                select_model(&model, &set, &options, &SelectionOptions::default())
                     .expect("selection succeeds")
             })
         });

@@ -62,7 +62,7 @@ pub const MIN_HELD_OUT_POSES: usize = 3;
 
 /// One end of one coordinate's range held out.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ExtrapolationFold {
+pub struct GrowthFold {
     /// The actuated coordinate whose end is held out.
     pub coordinate: String,
     /// `low` or `high`: the end of the range (for a revolute coordinate,
@@ -109,7 +109,7 @@ pub struct ExtrapolationModel {
     /// Per actuated coordinate, in the model's order.
     pub growth: Vec<CoordinateGrowth>,
     /// Every fold, used or skipped.
-    pub folds: Vec<ExtrapolationFold>,
+    pub folds: Vec<GrowthFold>,
     /// Number of held-out observations the growth was fitted to.
     pub n_observations: usize,
 }
@@ -309,8 +309,8 @@ fn run_fold<S: Selectable>(
     held: &[usize],
     (j, name, end): (usize, &str, &str),
     excess: &mut Excess,
-) -> Result<ExtrapolationFold, CalibError> {
-    let mut fold = ExtrapolationFold {
+) -> Result<GrowthFold, CalibError> {
+    let mut fold = GrowthFold {
         coordinate: name.to_string(),
         end: end.to_string(),
         held_out_poses: held.len(),

@@ -304,6 +304,7 @@ mod elastic_terms;
 mod error;
 pub mod error_model;
 pub mod extrapolation;
+pub mod folds;
 pub mod frames;
 pub mod geometry;
 pub mod gravity;
@@ -340,9 +341,10 @@ pub use error_model::{
 };
 /// The cancellation token of [`CalibrationOptions::cancel`].
 pub use extrapolation::{
-    CoordinateGrowth, ExtrapolationFold, ExtrapolationModel, HELD_OUT_FRACTION, MIN_HELD_OUT_POSES,
+    CoordinateGrowth, ExtrapolationModel, GrowthFold, HELD_OUT_FRACTION, MIN_HELD_OUT_POSES,
 };
 pub use flexcal_optim::CancelToken;
+pub use folds::{EXTRAPOLATION_END_SHARE, ExtrapolationFold, MIN_EXTRAPOLATION_HELD_OUT};
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
@@ -372,9 +374,9 @@ pub use screen::{
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
-    CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectionMethod, SelectionOptions,
-    SelectionReport, TermGroup, calibrate_selected, calibrate_targets_selected, default_method,
-    default_method_for, select_model, select_target_model,
+    CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectOn, SelectionMethod,
+    SelectionOptions, SelectionReport, TermGroup, calibrate_selected, default_method,
+    default_method_for, select_model,
 };
 pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcome};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};

@@ -45,23 +45,39 @@
 //! then cannot take it out (a test on a simulated robot shows it). The [`SelectionReport`] lists every
 //! candidate scored, with its score, and why the chosen model won.
 //!
+//! **Interpolation and extrapolation.** The ordinary folds hold out regions
+//! inside the training poses' ranges, where every reasonable candidate
+//! predicts alike and the simplest wins. A calibrated robot is used beyond
+//! them: in joint angles, and in the gravity load, which a campaign may
+//! apply from one side only. Every candidate is therefore also scored on
+//! **extrapolating folds** ([`crate::folds`]): one per joint, holding out
+//! the ends of its angle range and of its gravity-torque range. The report
+//! gives both scores side by side, and [`SelectOn`] says which the search
+//! chooses on: by default ([`SelectOn::Auto`]) the extrapolating ones when
+//! the region the robot is to be used in ([`SelectionOptions::region`]: the
+//! validation poses, the accuracy map's grid) leaves the training poses'
+//! range by the report's extrapolation check, else the ordinary ones.
+//!
 //! Measurements of several targets per pose are selected the same way
-//! ([`select_target_model`], [`calibrate_targets_selected`]): the folds
+//! ([`select_model`], [`calibrate_selected`] with either kind of set): the folds
 //! are clusters of poses, every target of a pose in the same fold, and a
 //! fold's score is the mean position error of its observations.
 
 use flexcal_kinematics::{Model, Quantity};
-use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
+use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
+use crate::folds::{
+    EXTRAPOLATION_END_SHARE, ExtrapolationFold, FoldPoses, extrapolating_folds, fold_assignment,
+};
 use crate::identify::{Calibration, calibrate};
 use crate::joint_law::JointLaw;
 use crate::measurement::{MeasurementSet, PoseSet};
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::prediction::PredictedAt;
-use crate::targets::TargetMeasurementSet;
+use crate::targets::{Observations, SetKind, TargetMeasurementSet};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
 use crate::validate::{target_position_errors, validate_targets};
@@ -239,6 +255,48 @@ pub enum FoldScheme {
     AcquisitionBlocks,
 }
 
+/// Which cross-validated score the search chooses on (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SelectOn {
+    /// The ordinary folds (clusters or blocks inside the training ranges).
+    Interpolation,
+    /// The extrapolating folds (the ends of each joint's angle and
+    /// gravity-torque ranges held out).
+    Extrapolation,
+    /// The extrapolating folds when [`SelectionOptions::region`] leaves the
+    /// training poses' range in some actuated coordinate, else the ordinary
+    /// ones (default).
+    #[default]
+    Auto,
+}
+
+impl SelectOn {
+    /// Name on the command line and in reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            SelectOn::Interpolation => "interpolation",
+            SelectOn::Extrapolation => "extrapolation",
+            SelectOn::Auto => "auto",
+        }
+    }
+}
+
+impl std::str::FromStr for SelectOn {
+    type Err = String;
+    /// `interpolation`, `extrapolation` or `auto`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "interpolation" => Ok(Self::Interpolation),
+            "extrapolation" => Ok(Self::Extrapolation),
+            "auto" => Ok(Self::Auto),
+            other => Err(format!(
+                "`{other}`: expected interpolation, extrapolation or auto"
+            )),
+        }
+    }
+}
+
 /// A group of unknowns that selection may switch on or off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -292,6 +350,13 @@ pub struct SelectionOptions {
     /// the law and the compliances only with a mass table, the lateral
     /// compliances only when its [`crate::GravityCompliance::lateral`] is on).
     pub groups: Option<Vec<TermGroup>>,
+    /// Which score the search chooses on (default [`SelectOn::Auto`]).
+    pub select_on: SelectOn,
+    /// Actuated configurations (rad or m, one per pose of use) of the
+    /// region the calibrated robot is to be used in: the validation poses,
+    /// the accuracy map's grid. Empty when unknown; [`SelectOn::Auto`] then
+    /// chooses on the ordinary folds.
+    pub region: Vec<Vec<f64>>,
 }
 
 impl Default for SelectionOptions {
@@ -302,6 +367,8 @@ impl Default for SelectionOptions {
             scheme: FoldScheme::JointClusters,
             seed: 1,
             groups: None,
+            select_on: SelectOn::Auto,
+            region: Vec::new(),
         }
     }
 }
@@ -335,6 +402,20 @@ pub struct CandidateScore {
     pub cv_standard_error_mm: Option<f64>,
     /// Mean held-out position error of each fold (mm).
     pub cv_fold_errors_mm: Vec<f64>,
+    /// Mean position error over the poses held out by the extrapolating
+    /// folds (mm; cross-validation).
+    #[serde(default)]
+    pub extrapolation_mean_error_mm: Option<f64>,
+    /// Its standard error, from the spread of the per-fold means (mm).
+    #[serde(default)]
+    pub extrapolation_standard_error_mm: Option<f64>,
+    /// Mean held-out position error of each extrapolating fold (mm), in the
+    /// order of [`SelectionReport::extrapolation_folds`].
+    #[serde(default)]
+    pub extrapolation_fold_errors_mm: Vec<f64>,
+    /// Why the extrapolating folds could not score it, if they could not.
+    #[serde(default)]
+    pub extrapolation_failure: Option<String>,
     /// BIC of the full fit (dimensionless), when scored by BIC.
     pub bic: Option<f64>,
     /// Identified unknowns of the full fit (BIC) or the mean over folds (CV).
@@ -351,6 +432,10 @@ impl CandidateScore {
             cv_mean_error_mm: None,
             cv_standard_error_mm: None,
             cv_fold_errors_mm: Vec::new(),
+            extrapolation_mean_error_mm: None,
+            extrapolation_standard_error_mm: None,
+            extrapolation_fold_errors_mm: Vec::new(),
+            extrapolation_failure: None,
             bic: None,
             identified: 0.0,
             failure: None,
@@ -388,6 +473,30 @@ pub struct SelectionReport {
     pub chosen: Vec<TermGroup>,
     /// Why the chosen model won, one sentence per search step.
     pub reasons: Vec<String>,
+    /// What the options asked to choose on.
+    #[serde(default)]
+    pub select_on: SelectOn,
+    /// The score the search chose on: [`SelectOn::Interpolation`] or
+    /// [`SelectOn::Extrapolation`].
+    #[serde(default = "interpolation")]
+    pub chosen_on: SelectOn,
+    /// Why that score, in one sentence.
+    #[serde(default)]
+    pub chosen_on_reason: String,
+    /// Share of each range held out at each end by the extrapolating folds
+    /// ([`EXTRAPOLATION_END_SHARE`]).
+    #[serde(default)]
+    pub extrapolation_end_share: f64,
+    /// The extrapolating folds, in the order of
+    /// [`CandidateScore::extrapolation_fold_errors_mm`].
+    #[serde(default)]
+    pub extrapolation_folds: Vec<ExtrapolationFold>,
+}
+
+/// Serde default of [`SelectionReport::chosen_on`] in reports written
+/// before the extrapolating folds.
+fn interpolation() -> SelectOn {
+    SelectOn::Interpolation
 }
 
 impl SelectionReport {
@@ -408,8 +517,19 @@ impl SelectionReport {
             }
             SelectionMethod::None => "No model selection.".into(),
         }];
+        if !self.extrapolation_folds.is_empty() {
+            lines.push(format!(
+                "Extrapolating folds (the outer {:.0} % of each end of a joint's angle or gravity-torque range held out): {}",
+                100.0 * self.extrapolation_end_share,
+                self.extrapolation_folds
+                    .iter()
+                    .map(ExtrapolationFold::label)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
         for c in &self.candidates {
-            let score = match (&c.failure, c.cv_mean_error_mm, c.bic) {
+            let mut score = match (&c.failure, c.cv_mean_error_mm, c.bic) {
                 (Some(f), _, _) => format!("not scored: {f}"),
                 (None, Some(e), _) => format!(
                     "held-out mean {e:.4} mm +/- {:.4}",
@@ -418,10 +538,28 @@ impl SelectionReport {
                 (None, None, Some(b)) => format!("BIC {b:.1}"),
                 _ => String::new(),
             };
+            match (&c.extrapolation_failure, c.extrapolation_mean_error_mm) {
+                (Some(f), _) => score.push_str(&format!("; extrapolating: not scored: {f}")),
+                (None, Some(e)) => score.push_str(&format!(
+                    "; extrapolating {e:.4} mm +/- {:.4}",
+                    c.extrapolation_standard_error_mm.unwrap_or(f64::NAN)
+                )),
+                _ => {}
+            }
             lines.push(format!(
                 "  {:<48} {score} ({:.0} identified)",
                 c.label(),
                 c.identified
+            ));
+        }
+        if !self.chosen_on_reason.is_empty() {
+            lines.push(format!(
+                "  chosen on the {} scores: {}",
+                match self.chosen_on {
+                    SelectOn::Extrapolation => "extrapolating",
+                    _ => "ordinary (interpolating)",
+                },
+                self.chosen_on_reason
             ));
         }
         lines.extend(self.reasons.iter().map(|r| format!("  {r}")));
@@ -602,172 +740,6 @@ fn remove_unidentified_groups<D: Selectable>(
     });
 }
 
-/// Fold of each pose (`0..folds`). With several stations each station's
-/// poses are shared out among the folds on their own: every training fold
-/// then holds poses of every station, whose measurement frame it needs to
-/// predict the held-out poses of that station.
-fn fold_assignment<D: Selectable>(
-    model: &Model,
-    set: &D,
-    folds: usize,
-    scheme: FoldScheme,
-    seed: u64,
-) -> Vec<usize> {
-    let n = set.n_poses();
-    let mut assignment = vec![0; n];
-    for s in 0..set.n_stations() {
-        let indices: Vec<usize> = (0..n).filter(|&k| set.station_of(k) == s).collect();
-        let within = if indices.len() >= folds {
-            station_folds(model, set, &indices, folds, scheme, seed)
-        } else {
-            (0..indices.len()).map(|k| k % folds).collect()
-        };
-        for (k, f) in indices.into_iter().zip(within) {
-            assignment[k] = f;
-        }
-    }
-    assignment
-}
-
-/// Fold of each pose of `indices` (the poses of one station, at least
-/// `folds` of them), in their order.
-fn station_folds<D: Selectable>(
-    model: &Model,
-    set: &D,
-    indices: &[usize],
-    folds: usize,
-    scheme: FoldScheme,
-    seed: u64,
-) -> Vec<usize> {
-    let n = indices.len();
-    match scheme {
-        FoldScheme::AcquisitionBlocks => (0..n).map(|k| k * folds / n).collect(),
-        FoldScheme::JointClusters => {
-            let na = model.n_actuated();
-            // Coordinates scaled by their range over the poses.
-            let (lo, hi): (Vec<f64>, Vec<f64>) = (0..na)
-                .map(|i| {
-                    indices
-                        .iter()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &k| {
-                            let q = set.configuration(k)[i];
-                            (a.min(q), b.max(q))
-                        })
-                })
-                .unzip();
-            let points: Vec<Vec<f64>> = indices
-                .iter()
-                .map(|&k| {
-                    let q = set.configuration(k);
-                    (0..na)
-                        .map(|i| {
-                            let span = hi[i] - lo[i];
-                            if span > 0.0 {
-                                (q[i] - lo[i]) / span
-                            } else {
-                                0.0
-                            }
-                        })
-                        .collect()
-                })
-                .collect();
-            balanced_kmeans(&points, folds, seed)
-        }
-    }
-}
-
-/// k-means (Lloyd, k-means++ start, seeded), then balanced: clusters larger
-/// than `ceil(n / k)` hand their poses farthest from their centre to the
-/// nearest cluster with room, so that no fold is too small to validate or
-/// too large to leave a training set.
-fn balanced_kmeans(points: &[Vec<f64>], k: usize, seed: u64) -> Vec<usize> {
-    let n = points.len();
-    let distance =
-        |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum() };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut centres: Vec<Vec<f64>> = vec![points[rng.random_range(0..n)].clone()];
-    while centres.len() < k {
-        let d: Vec<f64> = points
-            .iter()
-            .map(|p| {
-                centres
-                    .iter()
-                    .map(|c| distance(p, c))
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .collect();
-        let total: f64 = d.iter().sum();
-        let mut pick = rng.random_range(0.0..total.max(f64::MIN_POSITIVE));
-        let mut chosen = n - 1;
-        for (i, v) in d.iter().enumerate() {
-            if pick < *v {
-                chosen = i;
-                break;
-            }
-            pick -= v;
-        }
-        centres.push(points[chosen].clone());
-    }
-    let mut assignment = vec![0; n];
-    for _ in 0..50 {
-        let mut changed = false;
-        for (i, p) in points.iter().enumerate() {
-            let best = (0..k)
-                .min_by(|&a, &b| distance(p, &centres[a]).total_cmp(&distance(p, &centres[b])))
-                .unwrap_or(0);
-            if best != assignment[i] {
-                assignment[i] = best;
-                changed = true;
-            }
-        }
-        for (c, centre) in centres.iter_mut().enumerate() {
-            let members: Vec<&Vec<f64>> = points
-                .iter()
-                .zip(&assignment)
-                .filter(|(_, a)| **a == c)
-                .map(|(p, _)| p)
-                .collect();
-            if members.is_empty() {
-                continue;
-            }
-            for (d, v) in centre.iter_mut().enumerate() {
-                *v = members.iter().map(|p| p[d]).sum::<f64>() / members.len() as f64;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
-    // Balance: at most ceil(n / k) per fold.
-    let cap = n.div_ceil(k);
-    let mut counts = vec![0usize; k];
-    for &a in &assignment {
-        counts[a] += 1;
-    }
-    for c in 0..k {
-        while counts[c] > cap {
-            let (far, _) = points
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| assignment[*i] == c)
-                .map(|(i, p)| (i, distance(p, &centres[c])))
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .expect("a non-empty cluster");
-            let target = (0..k)
-                .filter(|&o| counts[o] < cap)
-                .min_by(|&a, &b| {
-                    distance(&points[far], &centres[a])
-                        .total_cmp(&distance(&points[far], &centres[b]))
-                })
-                .expect("room in some fold");
-            assignment[far] = target;
-            counts[c] -= 1;
-            counts[target] += 1;
-        }
-    }
-    assignment
-}
-
 /// The subset of `set` whose poses have `keep(k)`.
 fn subset<D: Selectable>(set: &D, keep: impl Fn(usize) -> bool) -> Result<D, CalibError> {
     let indices: Vec<usize> = (0..set.n_poses()).filter(|&k| keep(k)).collect();
@@ -880,6 +852,196 @@ fn bic(rows: usize, cost: f64, unknowns: &[UnknownEstimate]) -> f64 {
     n * (2.0 * cost / n).max(f64::MIN_POSITIVE).ln() + p * n.ln()
 }
 
+/// The training and held-out parts of every fold of cross-validation:
+/// the ordinary folds ([`SelectionOptions::scheme`]) first, then the
+/// extrapolating ones ([`crate::folds`]); with the number of ordinary
+/// ones. Records the folds in `report`.
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] for fewer than 2 folds or more folds than
+/// poses; what the gravity torques of the extrapolating folds return.
+fn build_folds<D: Selectable>(
+    model: &Model,
+    set: &D,
+    base: &CalibrationOptions,
+    selection: &SelectionOptions,
+    report: &mut SelectionReport,
+) -> Result<(Vec<(D, D)>, usize), CalibError> {
+    if selection.folds < 2 || selection.folds > set.n_poses() {
+        return Err(CalibError::InvalidOption {
+            name: "folds",
+            reason: format!(
+                "must be between 2 and the number of poses ({}), found {}",
+                set.n_poses(),
+                selection.folds
+            ),
+        });
+    }
+    let poses = fold_poses(set);
+    let assignment = fold_assignment(
+        model,
+        &poses,
+        selection.folds,
+        selection.scheme,
+        selection.seed,
+    );
+    let mut folds = Vec::new();
+    for f in 0..selection.folds {
+        let train = subset(set, |k| assignment[k] != f)?;
+        let held_out = subset(set, |k| assignment[k] == f)?;
+        report.fold_sizes.push(held_out.n_poses());
+        folds.push((train, held_out));
+    }
+    report.extrapolation_end_share = EXTRAPOLATION_END_SHARE;
+    for (fold, held_out) in
+        extrapolating_folds(model, &poses, base.gravity.as_ref(), base.min_torque_share)?
+    {
+        folds.push((
+            subset(set, |k| !held_out[k])?,
+            subset(set, |k| held_out[k])?,
+        ));
+        report.extrapolation_folds.push(fold);
+    }
+    Ok((folds, selection.folds))
+}
+
+/// The configurations and stations of `set`'s poses.
+fn fold_poses<D: Selectable>(set: &D) -> FoldPoses<'_> {
+    FoldPoses {
+        q: (0..set.n_poses()).map(|k| set.configuration(k)).collect(),
+        station: (0..set.n_poses()).map(|k| set.station_of(k)).collect(),
+        n_stations: set.n_stations(),
+    }
+}
+
+/// The score the search chooses on, and why: what
+/// [`SelectionOptions::select_on`] asks, [`SelectOn::Auto`] decided by
+/// whether [`SelectionOptions::region`] leaves the training poses' range
+/// (the check of the validation report,
+/// [`crate::ValidationReport::extrapolated_coordinates`]).
+fn score_to_choose_on<D: Selectable>(
+    model: &Model,
+    set: &D,
+    selection: &SelectionOptions,
+    has_extrapolating: bool,
+) -> (SelectOn, String) {
+    if !has_extrapolating {
+        let why = "no joint's range or torque range has ends of enough poses to hold out";
+        return (SelectOn::Interpolation, why.into());
+    }
+    match selection.select_on {
+        SelectOn::Interpolation => (SelectOn::Interpolation, "asked for".into()),
+        SelectOn::Extrapolation => (SelectOn::Extrapolation, "asked for".into()),
+        SelectOn::Auto if selection.region.is_empty() => (
+            SelectOn::Interpolation,
+            "no region of use given (validation poses, accuracy map), so none known to leave the training range".into(),
+        ),
+        SelectOn::Auto => {
+            let q: Vec<&[f64]> = (0..set.n_poses()).map(|k| set.configuration(k)).collect();
+            let ranges = CoordinateCoverage::of_configurations(model, &q);
+            let outside = crate::coverage::extrapolated_coordinates(
+                model.actuated_names(),
+                &ranges,
+                selection.region.iter().map(Vec::as_slice),
+            );
+            let n = selection.region.len();
+            if outside.is_empty() {
+                (
+                    SelectOn::Interpolation,
+                    format!("the {n} poses of the region of use lie within the training poses' ranges"),
+                )
+            } else {
+                let which: Vec<String> = outside
+                    .iter()
+                    .map(|(name, share)| format!("{name} ({:.1} %)", 100.0 * share))
+                    .collect();
+                (
+                    SelectOn::Extrapolation,
+                    format!(
+                        "the {n} poses of the region of use leave the training poses' range in {} (share of the poses)",
+                        which.join(", ")
+                    ),
+                )
+            }
+        }
+    }
+}
+
+/// Mean over the held-out poses, the per-fold means, the mean rank and the
+/// standard error of the mean (from the spread of the fold means), of one
+/// candidate's fits on some folds.
+fn fold_summary(
+    fits: Vec<Result<FitOutcome, CalibError>>,
+) -> Result<(f64, Vec<f64>, f64, f64), CalibError> {
+    let (per_pose, fold_means, rank) = cross_validation_score(fits)?;
+    let k = fold_means.len() as f64;
+    let mean = per_pose.iter().sum::<f64>() / per_pose.len().max(1) as f64;
+    let fm = fold_means.iter().sum::<f64>() / k;
+    let sd = (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
+    Ok((mean, fold_means, rank, sd / k.sqrt()))
+}
+
+/// Fills `candidate` from its fits (cross-validation: the first `ordinary`
+/// fits are the ordinary folds, the rest the extrapolating ones; BIC, `None`:
+/// one fit) and returns the score the search chooses on (`on`), `None`
+/// when that score failed (the reason in the candidate).
+fn score_candidate(
+    candidate: &mut CandidateScore,
+    mut fits: Vec<Result<FitOutcome, CalibError>>,
+    ordinary: Option<usize>,
+    on: SelectOn,
+) -> Option<Score> {
+    let Some(ordinary) = ordinary else {
+        let fit = fits.into_iter().next().expect("one fit per candidate");
+        return match fit {
+            Ok((_, rank, b)) => {
+                candidate.bic = Some(b);
+                candidate.identified = rank as f64;
+                Some((b, Vec::new(), rank as f64))
+            }
+            Err(e) => {
+                candidate.failure = Some(e.to_string());
+                None
+            }
+        };
+    };
+    let extrapolating = fits.split_off(ordinary);
+    let interpolation = match fold_summary(fits) {
+        Ok((mean, fold_means, rank, se)) => {
+            candidate.cv_mean_error_mm = Some(mean * 1e3);
+            candidate.cv_standard_error_mm = Some(se * 1e3);
+            candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
+            candidate.identified = rank;
+            Some((mean, fold_means, rank))
+        }
+        Err(e) => {
+            candidate.failure = Some(e.to_string());
+            None
+        }
+    };
+    let extrapolation = if extrapolating.is_empty() {
+        None
+    } else {
+        match fold_summary(extrapolating) {
+            Ok((mean, fold_means, rank, se)) => {
+                candidate.extrapolation_mean_error_mm = Some(mean * 1e3);
+                candidate.extrapolation_standard_error_mm = Some(se * 1e3);
+                candidate.extrapolation_fold_errors_mm =
+                    fold_means.iter().map(|v| v * 1e3).collect();
+                Some((mean, fold_means, rank))
+            }
+            Err(e) => {
+                candidate.extrapolation_failure = Some(e.to_string());
+                None
+            }
+        }
+    };
+    match on {
+        SelectOn::Extrapolation => extrapolation,
+        _ => interpolation,
+    }
+}
+
 /// Chooses from `set` alone which groups of unknowns to identify (module
 /// docs), starting from `base` (the richest model the user allows: its
 /// mass table makes compliances and the law available). Returns the
@@ -888,29 +1050,22 @@ fn bic(rows: usize, cost: f64, unknowns: &[UnknownEstimate]) -> f64 {
 /// # Errors
 /// [`CalibError::InvalidOption`] for fewer than 2 folds or more folds than
 /// poses; what [`calibrate`] returns when even the base model fails.
-pub fn select_model(
-    model: &Model,
-    set: &MeasurementSet,
-    base: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
-    select_in(model, set, base, selection)
-}
-
-/// [`select_model`] for measurements of several targets per pose: the
-/// folds are clusters of poses (every target of a pose in the same fold),
-/// the score the mean position error over the held-out observations.
 ///
-/// # Errors
-/// As [`select_model`], and a fold that leaves a target unobserved in its
-/// training or held-out part (the candidate fails, named in the report).
-pub fn select_target_model(
+/// With several targets per pose the folds are clusters of poses (every
+/// target of a pose in the same fold) and the score the mean position
+/// error over the held-out observations; a fold that leaves a target
+/// unobserved in its training or held-out part fails its candidate, named
+/// in the report.
+pub fn select_model<S: Observations + ?Sized>(
     model: &Model,
-    set: &TargetMeasurementSet,
+    set: &S,
     base: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
-    select_in(model, set, base, selection)
+    match set.kind() {
+        SetKind::OneTarget(set) => select_in(model, set, base, selection),
+        SetKind::Targets(set) => select_in(model, set, base, selection),
+    }
 }
 
 /// The search of [`select_model`] over any [`Selectable`] set.
@@ -932,6 +1087,11 @@ fn select_in<D: Selectable>(
         candidates: Vec::new(),
         chosen: Vec::new(),
         reasons: Vec::new(),
+        select_on: selection.select_on,
+        chosen_on: SelectOn::Interpolation,
+        chosen_on_reason: String::new(),
+        extrapolation_end_share: 0.0,
+        extrapolation_folds: Vec::new(),
     };
     if selection.method != SelectionMethod::None {
         remove_unidentified_groups(model, set, base, &mut groups, &mut report.reasons);
@@ -944,113 +1104,71 @@ fn select_in<D: Selectable>(
         return Ok((report, candidate_options(model, base, &groups)));
     }
     let cv = selection.method == SelectionMethod::CrossValidation;
-    let mut folds = Vec::new();
-    if cv {
-        if selection.folds < 2 || selection.folds > set.n_poses() {
-            return Err(CalibError::InvalidOption {
-                name: "folds",
-                reason: format!(
-                    "must be between 2 and the number of poses ({}), found {}",
-                    set.n_poses(),
-                    selection.folds
-                ),
-            });
-        }
-        let assignment = fold_assignment(
-            model,
-            set,
-            selection.folds,
-            selection.scheme,
-            selection.seed,
-        );
-        for f in 0..selection.folds {
-            let train = subset(set, |k| assignment[k] != f)?;
-            let held_out = subset(set, |k| assignment[k] == f)?;
-            report.fold_sizes.push(held_out.n_poses());
-            folds.push((train, held_out));
-        }
-    }
+    // Ordinary folds first, then the extrapolating ones: one queue of fits.
+    let (folds, ordinary) = if cv {
+        build_folds(model, set, base, selection, &mut report)?
+    } else {
+        (Vec::new(), 0)
+    };
+    let (chosen_on, why) = score_to_choose_on(model, set, selection, folds.len() > ordinary);
+    report.chosen_on = chosen_on;
+    report.chosen_on_reason = if cv { why } else { String::new() };
     // Score of a candidate: (score, per-fold means). Each set of groups is
     // scored once (backward steps reach some twice); the candidates of one
     // step are fitted together (`run_fits`).
     let mut scored: Vec<(Vec<TermGroup>, Option<Score>)> = Vec::new();
-    let mut score_all = |trials: &[Vec<TermGroup>],
-                         report: &mut SelectionReport|
-     -> Vec<Option<Score>> {
-        let keys: Vec<Vec<TermGroup>> = trials
-            .iter()
-            .map(|t| {
-                let mut sorted = t.clone();
-                sorted.sort();
-                sorted
-            })
-            .collect();
-        let mut new: Vec<Vec<TermGroup>> = Vec::new();
-        for key in &keys {
-            if !scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
-                new.push(key.clone());
-            }
-        }
-        let options: Vec<CalibrationOptions> = new
-            .iter()
-            .map(|key| {
-                let mut options = candidate_options(model, base, key);
-                // Scores need no spread ratios.
-                options.spread_reference = false;
-                options
-            })
-            .collect();
-        let fits = run_fits(model, set, &folds, &options);
-        for (key, fits) in new.into_iter().zip(fits) {
-            let mut candidate = CandidateScore::unscored(key.clone());
-            let result = if cv {
-                cross_validation_score(fits).map(|(per_pose, fold_means, rank)| {
-                    let k = fold_means.len() as f64;
-                    let mean = per_pose.iter().sum::<f64>() / per_pose.len().max(1) as f64;
-                    let fm = fold_means.iter().sum::<f64>() / k;
-                    let sd = (fold_means.iter().map(|v| (v - fm).powi(2)).sum::<f64>() / (k - 1.0))
-                        .sqrt();
-                    candidate.cv_mean_error_mm = Some(mean * 1e3);
-                    candidate.cv_standard_error_mm = Some(sd / k.sqrt() * 1e3);
-                    candidate.cv_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
-                    candidate.identified = rank;
-                    (mean, fold_means, rank)
+    let mut score_all =
+        |trials: &[Vec<TermGroup>], report: &mut SelectionReport| -> Vec<Option<Score>> {
+            let keys: Vec<Vec<TermGroup>> = trials
+                .iter()
+                .map(|t| {
+                    let mut sorted = t.clone();
+                    sorted.sort();
+                    sorted
                 })
-            } else {
-                fits.into_iter()
-                    .next()
-                    .expect("one fit per candidate")
-                    .map(|(_, rank, b)| {
-                        candidate.bic = Some(b);
-                        candidate.identified = rank as f64;
-                        (b, Vec::new(), rank as f64)
-                    })
-            };
-            let out = match result {
-                Ok(v) => Some(v),
-                Err(e) => {
-                    candidate.failure = Some(e.to_string());
-                    None
+                .collect();
+            let mut new: Vec<Vec<TermGroup>> = Vec::new();
+            for key in &keys {
+                if !scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
+                    new.push(key.clone());
                 }
-            };
-            report.candidates.push(candidate);
-            scored.push((key, out));
-        }
-        keys.iter()
-            .map(|key| {
-                scored
-                    .iter()
-                    .find(|(g, _)| g == key)
-                    .and_then(|(_, s)| s.clone())
-            })
-            .collect()
-    };
+            }
+            let options: Vec<CalibrationOptions> = new
+                .iter()
+                .map(|key| {
+                    let mut options = candidate_options(model, base, key);
+                    // Scores need no spread ratios.
+                    options.spread_reference = false;
+                    options
+                })
+                .collect();
+            let fits = run_fits(model, set, &folds, &options);
+            for (key, fits) in new.into_iter().zip(fits) {
+                let mut candidate = CandidateScore::unscored(key.clone());
+                let out = score_candidate(&mut candidate, fits, cv.then_some(ordinary), chosen_on);
+                report.candidates.push(candidate);
+                scored.push((key, out));
+            }
+            keys.iter()
+                .map(|key| {
+                    scored
+                        .iter()
+                        .find(|(g, _)| g == key)
+                        .and_then(|(_, s)| s.clone())
+                })
+                .collect()
+        };
     let mut chosen: Vec<TermGroup> = groups.clone();
     let Some(mut current) = score_all(std::slice::from_ref(&chosen), &mut report)
         .pop()
         .flatten()
     else {
-        let failure = report.candidates[0].failure.clone().unwrap_or_default();
+        let first = &report.candidates[0];
+        let failure = first
+            .failure
+            .clone()
+            .or_else(|| first.extrapolation_failure.clone())
+            .unwrap_or_default();
         return Err(CalibError::InvalidOption {
             name: "select",
             reason: format!("the model with every group could not be scored: {failure}"),
@@ -1155,27 +1273,16 @@ fn select_in<D: Selectable>(
 ///
 /// # Errors
 /// As [`select_model`] and [`calibrate`].
-pub fn calibrate_selected(
+pub fn calibrate_selected<S: Observations + ?Sized>(
     model: &Model,
-    set: &MeasurementSet,
+    set: &S,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
-    calibrate_selected_in(model, set, options, selection)
-}
-
-/// [`calibrate_selected`] for measurements of several targets per pose
-/// ([`select_target_model`], then [`calibrate`]).
-///
-/// # Errors
-/// As [`select_target_model`] and [`calibrate`].
-pub fn calibrate_targets_selected(
-    model: &Model,
-    set: &TargetMeasurementSet,
-    options: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
-    calibrate_selected_in(model, set, options, selection)
+    match set.kind() {
+        SetKind::OneTarget(set) => calibrate_selected_in(model, set, options, selection),
+        SetKind::Targets(set) => calibrate_selected_in(model, set, options, selection),
+    }
 }
 
 /// [`calibrate_selected`] over any [`Selectable`] set.
@@ -1196,79 +1303,4 @@ pub(crate) fn calibrate_selected_in<D: Selectable>(
         }
     })?;
     Ok((set.fit(model, &chosen)?, Some(report), chosen))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn balanced_clusters_cover_every_point_within_the_cap() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
-        let points: Vec<Vec<f64>> = (0..103)
-            .map(|i| {
-                let centre = (i % 3) as f64 * 5.0;
-                vec![
-                    centre + rng.random_range(0.0..1.0),
-                    rng.random_range(0.0..1.0),
-                ]
-            })
-            .collect();
-        let a = balanced_kmeans(&points, 5, 1);
-        let mut counts = [0usize; 5];
-        for f in &a {
-            counts[*f] += 1;
-        }
-        assert!(counts.iter().all(|c| *c > 0 && *c <= 21), "{counts:?}");
-        assert_eq!(a, balanced_kmeans(&points, 5, 1));
-    }
-
-    #[test]
-    fn every_fold_holds_poses_of_every_station() {
-        // Two stations seeing apart regions of joint space (as two tracker
-        // placements do): clusters over the pooled poses would put each
-        // station in folds of its own, and a training fold without a
-        // station could not place its held-out poses.
-        let model = flexcal_kinematics::RobotDescription::builtin("ur10")
-            .unwrap()
-            .build()
-            .unwrap();
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
-        let station = |name: &str, centre: f64, n: usize, rng: &mut rand_chacha::ChaCha8Rng| {
-            let poses = (0..n)
-                .map(|_| {
-                    let q = (0..6)
-                        .map(|i| {
-                            let c = if i == 0 { centre } else { 0.0 };
-                            c + rng.random_range(-0.5..0.5)
-                        })
-                        .collect();
-                    crate::measurement::Measurement::new(q, nalgebra::Vector3::zeros())
-                })
-                .collect();
-            MeasurementSet::new(name, poses).unwrap()
-        };
-        let pooled = MeasurementSet::pooled(&[
-            station("west", -2.0, 60, &mut rng),
-            station("east", 2.0, 23, &mut rng),
-        ])
-        .unwrap();
-        for scheme in [FoldScheme::JointClusters, FoldScheme::AcquisitionBlocks] {
-            let folds = fold_assignment(&model, &pooled, 5, scheme, 1);
-            for f in 0..5 {
-                for s in 0..2 {
-                    let held_out = (0..pooled.len())
-                        .filter(|&k| folds[k] == f && pooled.station_of(k) == s)
-                        .count();
-                    let of_station = (0..pooled.len())
-                        .filter(|&k| pooled.station_of(k) == s)
-                        .count();
-                    assert!(
-                        held_out > 0 && held_out < of_station / 2,
-                        "{scheme:?}: fold {f} holds {held_out} of station {s}'s {of_station} poses"
-                    );
-                }
-            }
-        }
-    }
 }

@@ -30,7 +30,7 @@
 
 use flexcal_calib::{
     CalibrationOptions, GravityCompliance, SelectionOptions, TargetMeasurementSet,
-    TargetObservation, TargetPose, UnknownStatus, calibrate_targets_selected, default_method_for,
+    TargetObservation, TargetPose, UnknownStatus, calibrate_selected, default_method_for,
     read_targets, rotation_from_vector, validate_targets,
 };
 use flexcal_kinematics::{Data, Model, RobotDescription};
@@ -425,7 +425,7 @@ fn defaults_calibrate_the_compliant_torso_to_the_noise() {
         ..SelectionOptions::default()
     };
     let (calibration, report, _) =
-        calibrate_targets_selected(&model, &train, &options, &selection).unwrap();
+        calibrate_selected(&model, &train, &options, &selection).unwrap();
     let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
     let mut geometric_options = CalibrationOptions::for_model(&model);
     geometric_options.spread_reference = false;

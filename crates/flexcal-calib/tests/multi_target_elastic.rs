@@ -32,8 +32,7 @@
 use flexcal_calib::{
     Calibration, CalibrationOptions, GravityCompliance, LateralCompliance, SelectionOptions,
     TargetMeasurementSet, TargetObservation, TargetPose, TermGroup, UnknownStatus, calibrate,
-    calibrate_targets_selected, read_targets, rotation_from_vector, validate_targets,
-    vector_from_rotation,
+    calibrate_selected, read_targets, rotation_from_vector, validate_targets, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, PointLoad, RobotDescription, actuated_forces_into};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -403,8 +402,7 @@ fn selection_with_two_markers_keeps_the_shoulder_law_and_the_torso_tilt() {
         ..CalibrationOptions::default()
     };
     let (calibration, report, _) =
-        calibrate_targets_selected(&model, &training, &options, &SelectionOptions::default())
-            .unwrap();
+        calibrate_selected(&model, &training, &options, &SelectionOptions::default()).unwrap();
     let report = report.unwrap();
     for line in report.lines() {
         println!("{line}");

@@ -190,6 +190,14 @@ pub struct CalibrateArgs {
     /// poses, else none).
     #[arg(long)]
     pub select: Option<flexcal::calib::SelectionMethod>,
+    /// Which cross-validated score the selection chooses on:
+    /// interpolation (folds inside the training ranges), extrapolation
+    /// (folds holding out the ends of each joint's angle and gravity-torque
+    /// ranges) or auto (default: extrapolation when the --validate poses or
+    /// the --accuracy-map grid leave the training range). The report gives
+    /// both scores.
+    #[arg(long)]
+    pub select_on: Option<flexcal::calib::SelectOn>,
     /// Predicted accuracy at the configurations of this CSV (columns
     /// q1..qn), written beside it as `<name>.accuracy.csv`.
     #[arg(long)]
@@ -360,6 +368,7 @@ fn model_flags(campaign: &mut Campaign, args: &CalibrateArgs) -> anyhow::Result<
         ),
     }
     set(&mut m.select, &args.select);
+    set(&mut m.select_on, &args.select_on);
     m.strict |= args.strict;
     set(&mut m.max_se_length_mm, &args.max_se_length_mm);
     set(&mut m.max_se_angle_deg, &args.max_se_angle_deg);

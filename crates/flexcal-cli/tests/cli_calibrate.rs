@@ -905,3 +905,84 @@ fn extrapolation_folds_end_to_end() {
         "{map}"
     );
 }
+
+/// `--select-on`: the selection's report gives the ordinary and the
+/// extrapolating scores of every candidate and says which it chose on and
+/// why; a bad value is named and nothing is written.
+#[test]
+fn select_on_flag_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let train = ur10_measurements(d, "train", 120, 0.0, &|[x, y, z]| {
+        [x + 3000.0, y - 200.0, z + 100.0]
+    });
+    let report = path(d, "report.json");
+    let run = |select_on: &str| {
+        flexcal(&[
+            "calibrate",
+            "--robot",
+            "ur10",
+            "--data",
+            &train,
+            "--select",
+            "cv",
+            "--select-on",
+            select_on,
+            "--report",
+            &report,
+        ])
+    };
+    let out = run("extrapolation");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("Extrapolating folds"), "{stdout}");
+    assert!(
+        stdout.contains("chosen on the extrapolating scores: asked for"),
+        "{stdout}"
+    );
+    let json = read_json(&report);
+    let selection = &json["selection"];
+    assert_eq!(selection["select_on"], "extrapolation", "{selection}");
+    assert_eq!(selection["chosen_on"], "extrapolation", "{selection}");
+    let folds = selection["extrapolation_folds"].as_array().unwrap();
+    assert!(!folds.is_empty(), "{selection}");
+    for candidate in selection["candidates"].as_array().unwrap() {
+        assert!(candidate["cv_mean_error_mm"].is_f64(), "{candidate}");
+        assert!(
+            candidate["extrapolation_mean_error_mm"].is_f64(),
+            "{candidate}"
+        );
+        assert_eq!(
+            candidate["extrapolation_fold_errors_mm"]
+                .as_array()
+                .unwrap()
+                .len(),
+            folds.len()
+        );
+    }
+    // Default (auto) without --validate or --accuracy-map: no region of
+    // use known, the ordinary scores.
+    std::fs::remove_file(&report).unwrap();
+    let out = run("auto");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("chosen on the ordinary (interpolating) scores: no region of use given"),
+        "{stdout}"
+    );
+    assert_eq!(
+        read_json(&report)["selection"]["chosen_on"],
+        "interpolation"
+    );
+    std::fs::remove_file(&report).unwrap();
+    let out = run("sideways");
+    let (stdout, stderr) = text(&out);
+    assert!(!out.status.success(), "{stdout}");
+    assert!(
+        stderr.contains("--select-on")
+            && stderr.contains("sideways")
+            && stderr.contains("expected interpolation, extrapolation or auto"),
+        "{stderr}"
+    );
+    assert!(!Path::new(&report).exists());
+}

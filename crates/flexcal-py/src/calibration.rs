@@ -270,6 +270,11 @@ pub struct SelectionCandidate {
     pub cv_standard_error: Option<f64>,
     /// Mean held-out position error of each fold (m).
     pub cv_fold_errors: Vec<f64>,
+    /// Mean position error over the poses held out by the extrapolating
+    /// folds (m; cross-validation).
+    pub extrapolation_mean_error: Option<f64>,
+    /// Its standard error, from the spread of the per-fold means (m).
+    pub extrapolation_standard_error: Option<f64>,
     /// BIC of the full fit (dimensionless), when scored by BIC.
     pub bic: Option<f64>,
     /// Identified unknowns of the full fit (BIC) or their mean over the
@@ -333,10 +338,35 @@ impl SelectionResult {
                 cv_mean_error: c.cv_mean_error_mm.map(|e| e * 1e-3),
                 cv_standard_error: c.cv_standard_error_mm.map(|e| e * 1e-3),
                 cv_fold_errors: c.cv_fold_errors_mm.iter().map(|e| e * 1e-3).collect(),
+                extrapolation_mean_error: c.extrapolation_mean_error_mm.map(|e| e * 1e-3),
+                extrapolation_standard_error: c.extrapolation_standard_error_mm.map(|e| e * 1e-3),
                 bic: c.bic,
                 identified: c.identified,
                 failure: c.failure.clone(),
             })
+            .collect()
+    }
+
+    /// The score the search chose on: `"interpolation"` (the ordinary
+    /// folds) or `"extrapolation"` (the extrapolating folds).
+    #[getter]
+    fn chosen_on(&self) -> &'static str {
+        self.report.chosen_on.label()
+    }
+
+    /// Why that score, in one sentence.
+    #[getter]
+    fn chosen_on_reason(&self) -> String {
+        self.report.chosen_on_reason.clone()
+    }
+
+    /// The extrapolating folds, each as `joint (which ends, N poses)`.
+    #[getter]
+    fn extrapolation_folds(&self) -> Vec<String> {
+        self.report
+            .extrapolation_folds
+            .iter()
+            .map(|f| f.label())
             .collect()
     }
 
@@ -820,6 +850,11 @@ impl CalibrationResult {
 /// `result.selection`. `hold_out_stations` (a set of several stations,
 /// `MeasurementSet.pooled`): also each station held out in turn, identified
 /// on the others and validated on it (`result.station_hold_out`).
+/// `select_on`: which cross-validated score the selection chooses on,
+/// `"interpolation"`, `"extrapolation"` or `"auto"` (default: the
+/// extrapolating folds when `region`, configurations (n, n_actuated) in rad
+/// or m where the calibrated robot is to be used, leaves the training
+/// poses' range; without `region`, the ordinary folds).
 /// `split_check`: identify again on odd / even and first / second halves of
 /// the poses (four more identifications; `result.split_check`), which
 /// raises the predicted 95 % bounds where the standard errors understate.
@@ -830,7 +865,7 @@ impl CalibrationResult {
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None, select_on = None, region = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -856,9 +891,30 @@ pub fn calibrate<'py>(
     max_se_compliance: Option<f64>,
     min_compliance_z: Option<f64>,
     noise: Option<f64>,
+    select_on: Option<&str>,
+    region: Option<Vec<Vec<f64>>>,
 ) -> PyResult<CalibrationResult> {
     let nominal = Arc::clone(&robot.model);
-    let selection = selection_options(select, data.set.len())?;
+    let mut selection = selection_options(select, data.set.len())?;
+    if let Some(name) = select_on {
+        selection.select_on = name
+            .parse()
+            .map_err(|e: String| InputError::new_err(format!("select_on: {e}")))?;
+    }
+    if let Some(region) = region {
+        let na = nominal.n_actuated();
+        if let Some((k, q)) = region
+            .iter()
+            .enumerate()
+            .find(|(_, q)| q.len() != na || !q.iter().all(|v| v.is_finite()))
+        {
+            return Err(InputError::new_err(format!(
+                "region: row {k} has {} values, expected {na} finite ones (rad or m)",
+                q.len()
+            )));
+        }
+        selection.region = region;
+    }
     let mut options = CalibrationOptions::for_model(&nominal);
     options.method = match method {
         "lm" => Method::LevenbergMarquardt,
@@ -940,7 +996,7 @@ pub fn calibrate<'py>(
     let (calibration, selection, calibrated, held, split, chosen) =
         run_cancellable(py, Some(cancel), move || {
             let (calibration, report, chosen) =
-                calibrate_selected(&model, &set, &options, &selection)?;
+                calibrate_selected(&model, &*set, &options, &selection)?;
             let split = split_check
                 .then(|| SplitCheck::new(&model, &*set, &chosen, &calibration))
                 .transpose()?;

@@ -9,7 +9,7 @@ use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
     CalibrationOptions, CancelToken, CrossCheck, FrameTreatment, SplitCheck, Target,
     TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
-    calibrate_targets_selected, read_targets, validate_targets,
+    calibrate_selected, read_targets, validate_targets,
 };
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
@@ -745,7 +745,7 @@ pub fn calibrate_targets(
     let model = Arc::clone(&nominal);
     let (run, calibrated, chosen) = run_cancellable(py, Some(cancel), move || {
         let (calibration, report, chosen) =
-            calibrate_targets_selected(&model, &set, &options, &selection)?;
+            calibrate_selected(&model, &*set, &options, &selection)?;
         let split = split_check
             .then(|| SplitCheck::new(&model, &*set, &chosen, &calibration))
             .transpose()?;

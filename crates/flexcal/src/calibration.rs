@@ -113,6 +113,11 @@ pub struct CalibrationConfig {
     /// from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`] poses, else none; see
     /// [`calib::default_method`]).
     pub selection: Option<calib::SelectionMethod>,
+    /// Which cross-validated score the selection chooses on (default
+    /// [`calib::SelectOn::Auto`]: the extrapolating folds when the
+    /// validation poses or the accuracy map's grid leave the training
+    /// poses' range, [`calib::SelectionOptions::region`]).
+    pub select_on: calib::SelectOn,
     /// Configurations (CSV `q1..qn`) at which to predict the accuracy of the
     /// calibrated robot ([`CalibrationRun::accuracy_map`]).
     pub accuracy_grid: Option<PathBuf>,
@@ -147,6 +152,7 @@ impl CalibrationConfig {
             cross_check: false,
             residual_inputs: Vec::new(),
             selection: None,
+            select_on: calib::SelectOn::Auto,
             accuracy_grid: None,
             extrapolation: false,
             targets: None,
@@ -380,6 +386,22 @@ pub(crate) fn station_files(config: &CalibrationConfig) -> Result<Vec<&PathBuf>>
 /// The accuracy map at the configurations of
 /// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
 /// `predict`.
+/// The configurations the calibrated robot is to be used at, as far as
+/// the run knows them: the validation poses and the accuracy map's grid
+/// ([`calib::SelectionOptions::region`]).
+fn region_of_use(
+    config: &CalibrationConfig,
+    validation: Option<&MeasurementSet>,
+) -> Result<Vec<Vec<f64>>> {
+    let mut region: Vec<Vec<f64>> = validation
+        .map(|set| set.measurements().iter().map(|m| m.q.clone()).collect())
+        .unwrap_or_default();
+    if let Some(grid) = &config.accuracy_grid {
+        region.extend(calib::read_configurations(grid).map_err(step("--accuracy-map"))?);
+    }
+    Ok(region)
+}
+
 pub(crate) fn grid_accuracy(
     config: &CalibrationConfig,
     predict: impl FnOnce(&[Vec<f64>]) -> std::result::Result<calib::AccuracyMap, calib::CalibError>,
@@ -520,6 +542,8 @@ pub fn run_calibration(
         method: config
             .selection
             .unwrap_or_else(|| calib::default_method(&data)),
+        select_on: config.select_on,
+        region: region_of_use(config, validation_set.as_ref())?,
         ..Default::default()
     };
     // The options before selection, for the stations held out (each

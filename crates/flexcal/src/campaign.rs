@@ -190,6 +190,12 @@ pub struct ModelSection {
         with = "selection_name"
     )]
     pub select: Option<SelectionMethod>,
+    /// Which cross-validated score the selection chooses on: interpolation,
+    /// extrapolation or auto (`--select-on`; default auto: extrapolation
+    /// when the validation poses or the accuracy map leave the training
+    /// range).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub select_on: Option<crate::calib::SelectOn>,
     /// Fail instead of freezing non-identifiable parameters (`--strict`).
     #[serde(default, skip_serializing_if = "is_false")]
     pub strict: bool,
@@ -422,6 +428,7 @@ impl Campaign {
             cross_check: self.checks.cross,
             residual_inputs: self.checks.residual_model.clone(),
             selection: self.model.select,
+            select_on: self.model.select_on.unwrap_or_default(),
             accuracy_grid: self.checks.accuracy_map.clone(),
             extrapolation: self.checks.extrapolation,
             targets: self.data.targets.clone(),

@@ -1,7 +1,7 @@
 //! The calibration workflow with several measured targets per pose (markers
 //! on the hands of a two-armed robot, reflectors on a tool): read the
 //! targets description and the measurements, select the model and
-//! identify it ([`calib::calibrate_targets_selected`]), check the standard
+//! identify it ([`calib::calibrate_selected`]), check the standard
 //! errors on halves of the poses, validate on a second set with the
 //! predicted 95 % bounds of every observation, predict the accuracy of
 //! every target over a grid, in one call that returns typed, serialisable
@@ -152,7 +152,7 @@ pub fn run_target_calibration(
         ..Default::default()
     };
     let (calibration, selection, options) =
-        calib::calibrate_targets_selected(robot, &data, &config.options, &selection_options)
+        calib::calibrate_selected(robot, &data, &config.options, &selection_options)
             .map_err(step("identification"))?;
     // Each station selects its own model on the other stations, from the
     // options before selection.

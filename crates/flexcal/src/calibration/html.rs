@@ -321,6 +321,8 @@ fn selection_section(selection: &SelectionReport) -> Section {
                 c.label(),
                 fmt(c.cv_mean_error_mm, 4),
                 fmt(c.cv_standard_error_mm, 4),
+                fmt(c.extrapolation_mean_error_mm, 4),
+                fmt(c.extrapolation_standard_error_mm, 4),
                 fmt(c.bic, 1),
                 format!("{:.0}", c.identified),
                 match &c.failure {
@@ -337,12 +339,21 @@ fn selection_section(selection: &SelectionReport) -> Section {
             "groups",
             "held-out mean",
             "std error",
+            "extrapolating mean",
+            "std error",
             "BIC",
             "identified",
             "",
         ],
         rows,
     );
+    if !selection.chosen_on_reason.is_empty() {
+        section.paragraph(format!(
+            "Chosen on the {} scores: {}",
+            selection.chosen_on.label(),
+            selection.chosen_on_reason
+        ));
+    }
     for reason in &selection.reasons {
         section.paragraph(reason);
     }
