@@ -285,6 +285,12 @@ impl Calibration {
             })
             .collect();
         let set = TargetMeasurementSet::new("accuracy grid", self.targets.clone(), poses)?;
+        if self.has_implicit_target() {
+            // The one target of a set of one target per pose is not named.
+            let mut map = accuracy_at(self, model, &set, &grid_row, None, split)?;
+            map.poses.iter_mut().for_each(|p| p.target = None);
+            return Ok(map);
+        }
         accuracy_at(self, model, &set, &grid_row, None, split)
     }
 

@@ -1,4 +1,4 @@
-//! The folds of model selection ([`crate::selection`]): which training
+//! The folds of model selection (`selection`): which training
 //! poses each fit leaves out to score a candidate model on.
 //!
 //! - **Ordinary folds** ([`crate::FoldScheme`]): k-means clusters in joint
@@ -26,7 +26,18 @@ use serde::{Deserialize, Serialize};
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::gravity::{Configurations, GravityCompliance, GravityTerms};
-use crate::selection::FoldScheme;
+
+/// How the poses are split into folds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FoldScheme {
+    /// k-means clusters in the actuated coordinates scaled by their ranges
+    /// (default).
+    #[default]
+    JointClusters,
+    /// Contiguous blocks in file (acquisition) order.
+    AcquisitionBlocks,
+}
 
 /// Share of a range held out at each of its ends by an extrapolating fold
 /// (0.1: the outer 10 % below and the outer 10 % above, 20 % of the range

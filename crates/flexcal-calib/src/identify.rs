@@ -12,6 +12,7 @@ use serde::Serialize;
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, UnknownKind};
+use crate::frames::TCP_FRAME;
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, ResidualNorms, identify};
 use crate::joint_law::JointTerms;
@@ -22,7 +23,7 @@ use crate::options::CalibrationOptions;
 use crate::screen::DataChecks;
 use crate::significance::{MIN_TORQUE_SHARE, NoiseSource, torque_magnitude};
 use crate::spread::WEAK_SPREAD_RATIO;
-use crate::targets::{Observations, Target, TargetMeasurementSet};
+use crate::targets::{Observations, SetKind, Target, TargetMeasurementSet};
 use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// A fitted calibration of one target or several: the identified robot
@@ -44,7 +45,7 @@ pub struct Calibration {
     /// Measurement frame fitted for the nominal robot (the "before").
     pub x_meas_base_nominal_robot: Isometry3<f64>,
     /// Identified (or fixed) measurement frames of the second and later
-    /// stations ([`MeasurementSet::pooled`]); empty for one station.
+    /// stations ([`crate::MeasurementSet::pooled`]); empty for one station.
     pub station_frames: Vec<Isometry3<f64>>,
     /// Names of the stations, in order (one for a set from one file).
     pub station_names: Vec<String>,
@@ -163,6 +164,11 @@ impl Calibration {
         std::iter::once(self.x_meas_base)
             .chain(self.station_frames.iter().copied())
             .collect()
+    }
+    /// Whether the set was one of one target per pose ([`crate::MeasurementSet`]):
+    /// its one target, `tcp` on the TCP, is not named in reports.
+    pub fn has_implicit_target(&self) -> bool {
+        self.targets.len() == 1 && self.targets[0].name == TCP_FRAME
     }
     /// Whether the set had several targets per pose.
     pub fn has_several_targets(&self) -> bool {
@@ -624,10 +630,10 @@ fn compliance_sentence(
 /// [`CalibError::NothingToIdentify`].
 pub fn calibrate<S: Observations + ?Sized>(
     model: &Model,
-    set: &S,
+    original: &S,
     options: &CalibrationOptions,
 ) -> Result<Calibration, CalibError> {
-    let set = set.observations()?;
+    let set = original.observations()?;
     if options.target_value.is_some() && set.targets().len() > 1 {
         return Err(CalibError::InvalidOption {
             name: "target",
@@ -636,7 +642,9 @@ pub fn calibrate<S: Observations + ?Sized>(
         });
     }
     let found = identify(model, Cow::Borrowed(&*set), options)?;
-    packed(model, &set, found, options)
+    // The one target of a set of one target per pose is not named.
+    let named = matches!(original.kind(), SetKind::Targets(_));
+    packed(model, &set, found, options, named)
 }
 
 /// The [`Calibration`] of what [`identify`] found on `set`.
@@ -645,6 +653,7 @@ fn packed(
     set: &TargetMeasurementSet,
     found: Identification<'_>,
     options: &CalibrationOptions,
+    named: bool,
 ) -> Result<Calibration, CalibError> {
     let problem = &found.problem;
     let x = found.report.x.clone();
@@ -730,7 +739,7 @@ fn packed(
         training_after: error_statistics(&errors_after),
         per_target_before,
         per_target_after,
-        data_checks: DataChecks::new(set, &norms)?,
+        data_checks: DataChecks::of(set, &norms, named)?,
         observation_errors,
         noise,
         n_poses: set.len(),

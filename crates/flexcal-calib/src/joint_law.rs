@@ -39,7 +39,7 @@
 //! gravity torque (with the starting payload). A fit below it is held
 //! there and the rest fitted again; the report gives the hardening the
 //! status at-bound, as for a negative compliance held at zero
-//! ([`crate::significance`]).
+//! (the compliance judgement, `significance`).
 //!
 //! Identifiability: the lost motion is seen only where the torque changes
 //! sign within the poses; where it keeps one sign `tanh` is constant and

@@ -344,7 +344,9 @@ pub use extrapolation::{
     CoordinateGrowth, ExtrapolationModel, GrowthFold, HELD_OUT_FRACTION, MIN_HELD_OUT_POSES,
 };
 pub use flexcal_optim::CancelToken;
-pub use folds::{EXTRAPOLATION_END_SHARE, ExtrapolationFold, MIN_EXTRAPOLATION_HELD_OUT};
+pub use folds::{
+    EXTRAPOLATION_END_SHARE, ExtrapolationFold, FoldScheme, MIN_EXTRAPOLATION_HELD_OUT,
+};
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
@@ -374,9 +376,9 @@ pub use screen::{
 };
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
-    CandidateScore, FoldScheme, MIN_POSES_FOR_CROSS_VALIDATION, SelectOn, SelectionMethod,
-    SelectionOptions, SelectionReport, TermGroup, calibrate_selected, default_method,
-    default_method_for, select_model,
+    CandidateScore, MIN_POSES_FOR_CROSS_VALIDATION, SelectOn, SelectionMethod, SelectionOptions,
+    SelectionReport, TermGroup, calibrate_selected, default_method, default_method_for,
+    select_model,
 };
 pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcome};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};

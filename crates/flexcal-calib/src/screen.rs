@@ -96,7 +96,16 @@ impl DataChecks {
     pub fn new<S: Observations + ?Sized>(set: &S, errors: &[f64]) -> Result<Self, CalibError> {
         // The one target of a set of one target per pose is not named.
         let named = matches!(set.kind(), SetKind::Targets(_));
-        let set = set.observations()?;
+        Self::of(&*set.observations()?, errors, named)
+    }
+
+    /// [`DataChecks::new`] on `set`, its targets `named` in the findings or
+    /// not.
+    pub(crate) fn of(
+        set: &TargetMeasurementSet,
+        errors: &[f64],
+        named: bool,
+    ) -> Result<Self, CalibError> {
         let labels: Vec<(String, Option<String>)> = set
             .poses()
             .iter()
@@ -125,7 +134,7 @@ impl DataChecks {
             });
         }
         let label = |i: usize| labels[i].clone();
-        let mut repeated = repeated_readings(&set);
+        let mut repeated = repeated_readings(set);
         if !named {
             repeated.iter_mut().for_each(|r| r.target = None);
         }

@@ -69,7 +69,8 @@ use serde::{Deserialize, Serialize};
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::folds::{
-    EXTRAPOLATION_END_SHARE, ExtrapolationFold, FoldPoses, extrapolating_folds, fold_assignment,
+    EXTRAPOLATION_END_SHARE, ExtrapolationFold, FoldPoses, FoldScheme, extrapolating_folds,
+    fold_assignment,
 };
 use crate::identify::{Calibration, calibrate};
 use crate::joint_law::JointLaw;
@@ -241,18 +242,6 @@ impl std::str::FromStr for SelectionMethod {
             other => Err(format!("`{other}`: expected cv, bic or none")),
         }
     }
-}
-
-/// How the poses are split into folds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FoldScheme {
-    /// k-means clusters in the actuated coordinates scaled by their ranges
-    /// (default).
-    #[default]
-    JointClusters,
-    /// Contiguous blocks in file (acquisition) order.
-    AcquisitionBlocks,
 }
 
 /// Which cross-validated score the search chooses on (module docs).

@@ -193,9 +193,9 @@ pub struct CalibrateArgs {
     /// Which cross-validated score the selection chooses on:
     /// interpolation (folds inside the training ranges), extrapolation
     /// (folds holding out the ends of each joint's angle and gravity-torque
-    /// ranges) or auto (default: extrapolation when the --validate poses or
-    /// the --accuracy-map grid leave the training range). The report gives
-    /// both scores.
+    /// ranges) or auto (default: extrapolation when the --accuracy-map grid
+    /// leaves the training range; the --validate poses never choose). The
+    /// report gives both scores.
     #[arg(long)]
     pub select_on: Option<flexcal::calib::SelectOn>,
     /// Predicted accuracy at the configurations of this CSV (columns

@@ -115,8 +115,9 @@ pub struct CalibrationConfig {
     pub selection: Option<calib::SelectionMethod>,
     /// Which cross-validated score the selection chooses on (default
     /// [`calib::SelectOn::Auto`]: the extrapolating folds when the
-    /// validation poses or the accuracy map's grid leave the training
-    /// poses' range, [`calib::SelectionOptions::region`]).
+    /// accuracy map's grid, where the robot is to be used, leaves the
+    /// training poses' range, [`calib::SelectionOptions::region`]; the
+    /// validation poses never choose the model).
     pub select_on: calib::SelectOn,
     /// Configurations (CSV `q1..qn`) at which to predict the accuracy of the
     /// calibrated robot ([`CalibrationRun::accuracy_map`]).
@@ -387,19 +388,15 @@ pub(crate) fn station_files(config: &CalibrationConfig) -> Result<Vec<&PathBuf>>
 /// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
 /// `predict`.
 /// The configurations the calibrated robot is to be used at, as far as
-/// the run knows them: the validation poses and the accuracy map's grid
-/// ([`calib::SelectionOptions::region`]).
-fn region_of_use(
-    config: &CalibrationConfig,
-    validation: Option<&MeasurementSet>,
-) -> Result<Vec<Vec<f64>>> {
-    let mut region: Vec<Vec<f64>> = validation
-        .map(|set| set.measurements().iter().map(|m| m.q.clone()).collect())
-        .unwrap_or_default();
-    if let Some(grid) = &config.accuracy_grid {
-        region.extend(calib::read_configurations(grid).map_err(step("--accuracy-map"))?);
+/// the run knows them: the accuracy map's grid
+/// ([`calib::SelectionOptions::region`]). The validation poses are not
+/// part of it: a validation set judges the model and never chooses it
+/// (given with `--validate`, it would otherwise change the calibration).
+fn region_of_use(config: &CalibrationConfig) -> Result<Vec<Vec<f64>>> {
+    match &config.accuracy_grid {
+        Some(grid) => calib::read_configurations(grid).map_err(step("--accuracy-map")),
+        None => Ok(Vec::new()),
     }
-    Ok(region)
 }
 
 pub(crate) fn grid_accuracy(
@@ -543,7 +540,7 @@ pub fn run_calibration(
             .selection
             .unwrap_or_else(|| calib::default_method(&data)),
         select_on: config.select_on,
-        region: region_of_use(config, validation_set.as_ref())?,
+        region: region_of_use(config)?,
         ..Default::default()
     };
     // The options before selection, for the stations held out (each

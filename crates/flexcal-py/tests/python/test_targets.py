@@ -104,7 +104,7 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
             checked += 1
     assert checked > 20
     # What two markers cannot see is named.
-    assert any("cannot be told apart" in note for note in result.notes), result.notes
+    assert any("exactly dependent on others" in note and "(in " in note for note in result.notes), result.notes
     # The markers' offsets: within 4 standard errors of the truth where
     # identified.
     offsets = result.target_offsets
