@@ -219,6 +219,10 @@ impl Selectable for TargetMeasurementSet {
 /// is what a small campaign cannot check (BIC stays available).
 pub const MIN_POSES_FOR_CROSS_VALIDATION: usize = 100;
 
+/// A difference of cross-validated scores (m) below which two candidates
+/// tie: round-off of noise-free data, far below any instrument's noise.
+const ROUND_OFF_SCORE: f64 = 1e-9;
+
 /// How the candidate models are scored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -1206,7 +1210,10 @@ fn select_in<D: Selectable>(
             let d: Vec<f64> = s.1.iter().zip(&current.1).map(|(a, b)| a - b).collect();
             let k = d.len() as f64;
             let m = d.iter().sum::<f64>() / k;
-            (d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0)).sqrt() / k.sqrt()
+            // A difference below 1 nm in a mean position error is
+            // round-off (noise-free data), not a loss.
+            ((d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0)).sqrt() / k.sqrt())
+                .max(ROUND_OFF_SCORE)
         } else {
             2.0
         };
