@@ -1009,7 +1009,7 @@ pub enum SetKind<'a> {
     Targets(&'a TargetMeasurementSet),
 }
 
-/// A set of measurements [`calibrate`] and the checks take: one target per
+/// A set of measurements `calibrate` and the checks take: one target per
 /// pose ([`MeasurementSet`], read as one target `tcp` on the TCP) or
 /// several ([`TargetMeasurementSet`]).
 pub trait Observations {
