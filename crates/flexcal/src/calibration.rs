@@ -387,6 +387,25 @@ pub(crate) fn station_files(config: &CalibrationConfig) -> Result<Vec<&PathBuf>>
 /// The accuracy map at the configurations of
 /// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
 /// `predict`.
+/// The growth of `calibration`'s error outside its training ranges
+/// ([`calib::Calibration::extrapolation`]) when the configuration asks for
+/// it and there are bounds to widen (a validation set, an accuracy grid).
+pub(crate) fn extrapolation_growth<S: calib::Observations + ?Sized>(
+    config: &CalibrationConfig,
+    has_validation: bool,
+    (robot, calibration, data, options): (
+        &crate::kinematics::Model,
+        &calib::Calibration,
+        &S,
+        &calib::CalibrationOptions,
+    ),
+) -> Result<Option<calib::ExtrapolationModel>> {
+    (config.extrapolation && (has_validation || config.accuracy_grid.is_some()))
+        .then(|| calibration.extrapolation(robot, data, options))
+        .transpose()
+        .map_err(step("held-out-range folds"))
+}
+
 /// The configurations the calibrated robot is to be used at, as far as
 /// the run knows them: the accuracy map's grid
 /// ([`calib::SelectionOptions::region`]). The validation poses are not
@@ -562,11 +581,11 @@ pub fn run_calibration(
     // The bounds against the errors of the validation just made, unless
     // that one re-fitted the target too (the bounds are for the target as
     // identified).
-    let extrapolation = (config.extrapolation
-        && (validation_set.is_some() || config.accuracy_grid.is_some()))
-    .then(|| calibration.extrapolation(robot, &data, &options))
-    .transpose()
-    .map_err(step("held-out-range folds"))?;
+    let extrapolation = extrapolation_growth(
+        config,
+        validation_set.is_some(),
+        (robot, &calibration, &data, &options),
+    )?;
     let with_extrapolation = |map: calib::AccuracyMap| match &extrapolation {
         Some(e) => map.with_extrapolation(e),
         None => map,

@@ -23,7 +23,7 @@ use crate::calibration::text::{
 };
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, Exclusion, MeasurementFormat, exclude,
-    extrapolation_note, grid_accuracy, station_files,
+    extrapolation_growth, extrapolation_note, grid_accuracy, station_files,
 };
 use crate::report::svg::Series;
 use crate::report::{Report, Section};
@@ -172,11 +172,11 @@ pub fn run_target_calibration(
         .map(|set| calib::validate_targets(robot, &calibration, set, true))
         .transpose()
         .map_err(step("validation"))?;
-    let extrapolation = (config.extrapolation
-        && (validation_set.is_some() || config.accuracy_grid.is_some()))
-    .then(|| calibration.extrapolation(robot, &data, &options))
-    .transpose()
-    .map_err(step("held-out-range folds"))?;
+    let extrapolation = extrapolation_growth(
+        config,
+        validation_set.is_some(),
+        (robot, &calibration, &data, &options),
+    )?;
     let with_extrapolation = |map: calib::AccuracyMap| match &extrapolation {
         Some(e) => map.with_extrapolation(e),
         None => map,
