@@ -487,7 +487,7 @@ mod tests {
             pairs,
             vec![RepeatedReading {
                 poses: ["line 2".into(), "line 3".into()],
-                target: Some(crate::TCP_FRAME.into()),
+                target: Some(crate::frames::TCP_FRAME.into()),
             }]
         );
         // The data checks of a set of one target per pose do not name it.

@@ -156,6 +156,135 @@ pub struct TargetMeasurementSet {
     station_of: Vec<usize>,
 }
 
+/// Every `<name>_x_mm` column of `table` names a target of `targets`.
+fn check_target_columns(
+    table: &CsvTable,
+    source: &str,
+    targets: &[Target],
+) -> Result<(), CalibError> {
+    for h in table.header() {
+        let Some(prefix) = h.strip_suffix("_x_mm") else {
+            continue;
+        };
+        if !targets.iter().any(|t| t.name == prefix) {
+            return Err(CalibError::BadMeasurement {
+                source_name: source.to_string(),
+                line: 1,
+                what: format!(
+                    "column `{h}`: no target `{prefix}` in the targets description (targets: {})",
+                    targets
+                        .iter()
+                        .map(|t| t.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The columns of one target in the CSV format: position (required),
+/// orientation, position and orientation standard deviations (optional,
+/// each all three or none).
+struct TargetColumns {
+    position: [usize; 3],
+    orientation: Option<[usize; 3]>,
+    position_std: Option<[usize; 3]>,
+    orientation_std: Option<[usize; 3]>,
+}
+
+/// A cell error of the table (`Ok`), or what is wrong with a target's
+/// cells on a row (`Err`, for the caller to name the target and line).
+type CellProblem = Result<CalibError, String>;
+
+impl TargetColumns {
+    /// The columns of `target` in `table`.
+    fn find(table: &CsvTable, target: &Target) -> Result<Self, CalibError> {
+        let names = |suffixes: [&str; 3]| suffixes.map(|s| format!("{}_{s}", target.name));
+        let required = |suffixes: [&str; 3]| -> Result<[usize; 3], CalibError> {
+            let names = names(suffixes);
+            let mut out = [0; 3];
+            for (i, n) in names.iter().enumerate() {
+                out[i] = table.column_index(n)?;
+            }
+            Ok(out)
+        };
+        let optional = |suffixes: [&str; 3]| -> Result<Option<[usize; 3]>, CalibError> {
+            if names(suffixes)
+                .iter()
+                .all(|n| table.find_column(n).is_none())
+            {
+                return Ok(None);
+            }
+            required(suffixes).map(Some)
+        };
+        Ok(Self {
+            position: required(["x_mm", "y_mm", "z_mm"])?,
+            orientation: optional(["rx_deg", "ry_deg", "rz_deg"])?,
+            position_std: optional(["sx_mm", "sy_mm", "sz_mm"])?,
+            orientation_std: optional(["srx_deg", "sry_deg", "srz_deg"])?,
+        })
+    }
+
+    /// The target's observation on `row` (SI units), `None` when all its
+    /// cells are empty (not seen).
+    fn observation(
+        &self,
+        table: &CsvTable,
+        row: usize,
+    ) -> Result<Option<TargetObservation>, CellProblem> {
+        let all: Vec<usize> = std::iter::once(&self.position)
+            .chain(&self.orientation)
+            .chain(&self.position_std)
+            .chain(&self.orientation_std)
+            .flatten()
+            .copied()
+            .collect();
+        let empty = all
+            .iter()
+            .filter(|&&c| table.cell(row, c).is_empty())
+            .count();
+        if empty == all.len() {
+            return Ok(None);
+        }
+        if empty > 0 {
+            return Err(Err(
+                "some of its cells are empty (leave all of them empty when it is not seen)".into(),
+            ));
+        }
+        let deg = 1f64.to_radians();
+        let vec3 = |cols: &[usize; 3], scale: f64| -> Result<Vector3<f64>, CellProblem> {
+            let at = |c: usize| table.f64_at(row, c).map_err(|e| Ok(CalibError::from(e)));
+            Ok(Vector3::new(at(cols[0])?, at(cols[1])?, at(cols[2])?) * scale)
+        };
+        let o = TargetObservation {
+            position: vec3(&self.position, 1e-3)?,
+            orientation: self
+                .orientation
+                .as_ref()
+                .map(|c| vec3(c, deg))
+                .transpose()?,
+            position_std: self
+                .position_std
+                .as_ref()
+                .map(|c| vec3(c, 1e-3))
+                .transpose()?,
+            orientation_std: self
+                .orientation_std
+                .as_ref()
+                .map(|c| vec3(c, deg))
+                .transpose()?,
+        };
+        for s in [o.position_std, o.orientation_std].into_iter().flatten() {
+            if s.iter().any(|v| *v <= 0.0) {
+                return Err(Err("standard deviations must be > 0".into()));
+            }
+        }
+        Ok(Some(o))
+    }
+}
+
 fn valid_target_name(name: &str) -> bool {
     !name.is_empty()
         && name
@@ -648,142 +777,44 @@ impl TargetMeasurementSet {
         if q_columns.is_empty() {
             table.column_index("q1")?;
         }
-        for h in table.header() {
-            let Some(prefix) = h.strip_suffix("_x_mm") else {
-                continue;
-            };
-            if !targets.iter().any(|t| t.name == prefix) {
-                return Err(CalibError::BadMeasurement {
-                    source_name: source.clone(),
-                    line: 1,
-                    what: format!(
-                        "column `{h}`: no target `{prefix}` in the targets description (targets: {})",
-                        targets
-                            .iter()
-                            .map(|t| t.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                });
-            }
-        }
-        // Column groups of each target: position (required), orientation,
-        // position std, orientation std.
-        let mut groups = Vec::with_capacity(targets.len());
-        for t in targets {
-            let names = |suffixes: [&str; 3]| suffixes.map(|s| format!("{}_{s}", t.name));
-            let optional = |suffixes: [&str; 3]| -> Result<Option<[usize; 3]>, CalibError> {
-                let names = names(suffixes);
-                let found: Vec<Option<usize>> =
-                    names.iter().map(|n| table.find_column(n)).collect();
-                if found.iter().all(Option::is_none) {
-                    return Ok(None);
-                }
-                let mut out = [0; 3];
-                for (i, n) in names.iter().enumerate() {
-                    out[i] = table.column_index(n)?;
-                }
-                Ok(Some(out))
-            };
-            let position = {
-                let names = names(["x_mm", "y_mm", "z_mm"]);
-                [
-                    table.column_index(&names[0])?,
-                    table.column_index(&names[1])?,
-                    table.column_index(&names[2])?,
-                ]
-            };
-            groups.push((
-                position,
-                optional(["rx_deg", "ry_deg", "rz_deg"])?,
-                optional(["sx_mm", "sy_mm", "sz_mm"])?,
-                optional(["srx_deg", "sry_deg", "srz_deg"])?,
-            ));
-        }
+        check_target_columns(table, &source, targets)?;
+        let groups = targets
+            .iter()
+            .map(|t| TargetColumns::find(table, t))
+            .collect::<Result<Vec<_>, _>>()?;
         let pose_id = table.find_column("pose_id");
         let station = table.find_column("station");
         let mut stations: Vec<String> = Vec::new();
         let mut station_of = Vec::with_capacity(table.len());
-        let deg = 1f64.to_radians();
         let mut poses = Vec::with_capacity(table.len());
         for row in 0..table.len() {
             let line = table.line_of(row);
+            let bad = |what: String| CalibError::BadMeasurement {
+                source_name: source.clone(),
+                line,
+                what,
+            };
             let q = q_columns
                 .iter()
                 .map(|&c| table.f64_at(row, c))
                 .collect::<Result<Vec<_>, _>>()?;
-            let vec3 = |cols: &[usize; 3], scale: f64| -> Result<Vector3<f64>, CalibError> {
-                Ok(Vector3::new(
-                    table.f64_at(row, cols[0])? * scale,
-                    table.f64_at(row, cols[1])? * scale,
-                    table.f64_at(row, cols[2])? * scale,
-                ))
-            };
-            let mut observations = Vec::with_capacity(targets.len());
-            for (t, (position, orientation, position_std, orientation_std)) in
-                groups.iter().enumerate()
-            {
-                let all: Vec<usize> = std::iter::once(position)
-                    .chain(orientation)
-                    .chain(position_std)
-                    .chain(orientation_std)
-                    .flatten()
-                    .copied()
-                    .collect();
-                let empty = all
-                    .iter()
-                    .filter(|&&c| table.cell(row, c).is_empty())
-                    .count();
-                if empty == all.len() {
-                    observations.push(None);
-                    continue;
-                }
-                if empty > 0 {
-                    return Err(CalibError::BadMeasurement {
-                        source_name: source.clone(),
-                        line,
-                        what: format!(
-                            "target `{}`: some of its cells are empty (leave all of them empty when it is not seen)",
-                            targets[t].name
-                        ),
-                    });
-                }
-                let o = TargetObservation {
-                    position: vec3(position, 1e-3)?,
-                    orientation: orientation.as_ref().map(|c| vec3(c, deg)).transpose()?,
-                    position_std: position_std.as_ref().map(|c| vec3(c, 1e-3)).transpose()?,
-                    orientation_std: orientation_std.as_ref().map(|c| vec3(c, deg)).transpose()?,
-                };
-                for s in [o.position_std, o.orientation_std].into_iter().flatten() {
-                    if s.iter().any(|v| *v <= 0.0) {
-                        return Err(CalibError::BadMeasurement {
-                            source_name: source.clone(),
-                            line,
-                            what: format!(
-                                "target `{}`: standard deviations must be > 0",
-                                targets[t].name
-                            ),
-                        });
-                    }
-                }
-                observations.push(Some(o));
-            }
+            let observations = groups
+                .iter()
+                .zip(targets)
+                .map(|(columns, target)| {
+                    columns.observation(table, row).map_err(|e| {
+                        e.unwrap_or_else(|what| bad(format!("target `{}`: {what}", target.name)))
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
             if observations.iter().all(Option::is_none) {
-                return Err(CalibError::BadMeasurement {
-                    source_name: source.clone(),
-                    line,
-                    what: "no target observed on this pose".into(),
-                });
+                return Err(bad("no target observed on this pose".into()));
             }
             if let Some(column) = station {
                 // Stations by name, in the order they first appear.
                 let name = table.cell(row, column).trim();
                 if name.is_empty() {
-                    return Err(CalibError::BadMeasurement {
-                        source_name: source.clone(),
-                        line,
-                        what: "empty `station` cell".into(),
-                    });
+                    return Err(bad("empty `station` cell".into()));
                 }
                 station_of.push(station_index(&mut stations, name));
             }

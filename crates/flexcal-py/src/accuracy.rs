@@ -4,18 +4,16 @@
 
 use std::sync::Arc;
 
-use flexcal::calib::{AccuracyMap, Calibration, MeasurementSet as Set, SplitCheck};
-use flexcal::kinematics::Model;
+use flexcal::calib::AccuracyMap;
 use pyo3::prelude::*;
 
 use crate::arrays::{Rows, to_numpy};
-use crate::errors::calib_error;
 use numpy::PyArrayDyn;
 
 /// Predicted 95 % bounds of the position error at a set of configurations
 /// (`CalibrationResult.predicted_accuracy`) or at the poses of a measured
 /// set with their actual errors (`CalibrationResult.accuracy_coverage`);
-/// with several targets (`TargetCalibrationResult`) one entry per pose and
+/// with several targets one entry per pose and
 /// target.
 #[pyclass(frozen, module = "flexcal", name = "AccuracyResult")]
 #[derive(Debug)]
@@ -153,30 +151,4 @@ impl AccuracyResult {
 /// The rows of `q` as configurations.
 pub(crate) fn configurations(q: &Rows) -> Vec<Vec<f64>> {
     (0..q.n).map(|k| q.row(k).to_vec()).collect()
-}
-
-/// `CalibrationResult.predicted_accuracy`: the bounds at the rows of `q`,
-/// raised by `split` where it finds the covariance understated.
-pub(crate) fn predicted(
-    calibration: &Calibration,
-    model: &Model,
-    q: &Rows,
-    split: Option<&SplitCheck>,
-) -> PyResult<AccuracyResult> {
-    let map = calibration
-        .predicted_accuracy(model, &configurations(q), split)
-        .map_err(|e| calib_error(&e))?;
-    Ok(AccuracyResult::new(map))
-}
-
-/// `CalibrationResult.accuracy_coverage`: the bounds at the poses of `set`
-/// with their measured errors.
-pub(crate) fn coverage(
-    calibration: &Calibration,
-    model: &Model,
-    set: &Set,
-    split: Option<&SplitCheck>,
-) -> Result<AccuracyResult, flexcal::calib::CalibError> {
-    let map = calibration.accuracy_coverage(model, set, split)?;
-    Ok(AccuracyResult::new(map))
 }

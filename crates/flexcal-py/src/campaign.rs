@@ -9,13 +9,10 @@ use flexcal::calib::CancelToken;
 use flexcal::campaign::{Campaign as Inner, CampaignResult, CampaignRun};
 use pyo3::prelude::*;
 
-use crate::calibration::CalibrationResult;
-use crate::errors::{Failure, InputError, facade_error};
+use crate::errors::{Failure, facade_error};
 use crate::interrupt::run_cancellable;
+use crate::result::CalibrationResult;
 use crate::robot::Robot;
-
-/// Why `Campaign.run` refuses a campaign with several targets per pose.
-const SEVERAL_TARGETS: &str = "Campaign.run takes one target per pose; a campaign with several (a targets description) runs with `flexcal calibrate --config` or flexcal.calibrate_targets";
 
 /// A calibration campaign: the robot, measurement files, model, checks and
 /// outputs of one `flexcal calibrate` run, read from a campaign file
@@ -74,49 +71,39 @@ impl Campaign {
     }
 
     /// Runs the campaign as `flexcal calibrate --config` does and returns
-    /// the result `flexcal.calibrate` returns; with `write_outputs` (the
-    /// default) the files of its `[outputs]` table are written too (the
-    /// report and page with the campaign in them). Ctrl-C stops it within
-    /// one solver iteration. A campaign with several targets per pose
-    /// (`[data] targets`) is refused: run it with `flexcal calibrate
-    /// --config`, or `calibrate_targets`.
+    /// the result `flexcal.calibrate` returns (for one target per pose or,
+    /// with `[data] targets`, several); with `write_outputs` (the default)
+    /// the files of its `[outputs]` table are written too (the report and
+    /// page with the campaign in them). Ctrl-C stops it within one solver
+    /// iteration.
     #[pyo3(signature = (write_outputs = true))]
     fn run(&self, py: Python<'_>, write_outputs: bool) -> PyResult<CalibrationResult> {
-        if self.inner.data.targets.is_some() {
-            return Err(InputError::new_err(format!(
-                "data.targets: {SEVERAL_TARGETS}"
-            )));
-        }
         let campaign = Arc::clone(&self.inner);
         let cancel = CancelToken::new();
         let token = cancel.clone();
-        let (poses, robot, calibrated) = run_cancellable(py, Some(cancel), move || {
+        let (result, robot, calibrated) = run_cancellable(py, Some(cancel), move || {
             let run = campaign.run_cancellable(Some(token))?;
             if write_outputs {
                 run.write_outputs()?;
             }
             let CampaignRun { robot, result, .. } = run;
-            match result {
-                CampaignResult::Poses(poses) => {
-                    let calibrated = poses
-                        .calibration
-                        .description(&robot)?
-                        .build()
-                        .map_err(Failure::Kinematics)?;
-                    Ok((*poses, robot, calibrated))
-                }
-                CampaignResult::Targets(_) => Err(flexcal::Error::InvalidParameter {
-                    parameter: "data.targets".into(),
-                    message: SEVERAL_TARGETS.into(),
-                }
-                .into()),
-            }
+            let calibration = match &result {
+                CampaignResult::Poses(run) => &run.calibration,
+                CampaignResult::Targets(run) => &run.calibration,
+            };
+            let calibrated = calibration
+                .description(&robot)?
+                .build()
+                .map_err(Failure::Kinematics)?;
+            Ok((result, robot, calibrated))
         })?;
-        Ok(CalibrationResult::from_run(
-            poses,
-            Arc::new(robot),
-            Robot::new(calibrated),
-        ))
+        let (robot, calibrated) = (Arc::new(robot), Robot::new(calibrated));
+        Ok(match result {
+            CampaignResult::Poses(run) => CalibrationResult::from_run(*run, robot, calibrated),
+            CampaignResult::Targets(run) => {
+                CalibrationResult::from_target_run(*run, robot, calibrated)
+            }
+        })
     }
 
     fn __repr__(&self) -> String {

@@ -12,7 +12,7 @@ use flexcal::calib::{CrossCheck, CrossEstimate, SplitCheck, UnknownEstimate};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// What `calibrate(..., split_check=True)` (or `calibrate_targets`) found
+/// What `calibrate(..., split_check=True)` found (either kind of set)
 /// on halves of the poses: the spread of each identified unknown against
 /// its standard error, and the factor by which the predicted positions'
 /// covariance understates (`prediction_ratio`), which raises every

@@ -24,6 +24,7 @@
 
 mod accuracy;
 mod arrays;
+mod calibrate;
 mod calibration;
 mod campaign;
 mod checks;
@@ -34,6 +35,7 @@ mod fuzzy;
 pub mod interrupt;
 mod measurement;
 mod plan;
+mod result;
 mod robot;
 mod targets;
 
@@ -47,7 +49,7 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::Robot>()?;
     m.add_class::<robot::Parameter>()?;
     m.add_class::<measurement::MeasurementSet>()?;
-    m.add_class::<calibration::CalibrationResult>()?;
+    m.add_class::<result::CalibrationResult>()?;
     m.add_class::<calibration::ValidationResult>()?;
     m.add_class::<calibration::ErrorStatistics>()?;
     m.add_class::<calibration::UnknownEstimate>()?;
@@ -58,12 +60,10 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<checks::CrossCheckResult>()?;
     m.add_class::<fuzzy::FuzzyModel>()?;
     m.add_class::<fem::Structure>()?;
-    m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
     m.add_class::<campaign::Campaign>()?;
     m.add_class::<targets::TargetMeasurementSet>()?;
-    m.add_class::<targets::TargetCalibrationResult>()?;
     m.add_class::<targets::TargetValidationResult>()?;
-    m.add_function(wrap_pyfunction!(targets::calibrate_targets, m)?)?;
     m.add_class::<compensation::CommandedPath>()?;
     m.add_function(wrap_pyfunction!(compensation::compensate_path, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;

@@ -1,33 +1,24 @@
 //! Several measured targets per pose (markers on the hands of a two-armed
-//! robot, reflectors on a tool): `flexcal.TargetMeasurementSet`,
-//! `flexcal.calibrate_targets` and their results.
+//! robot, reflectors on a tool): `flexcal.TargetMeasurementSet` and the
+//! validation of a calibration on it (`flexcal.TargetValidationResult`).
+//! `flexcal.calibrate` takes such a set as it takes a `MeasurementSet`.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
-    CalibrationOptions, CancelToken, CrossCheck, FrameTreatment, SplitCheck, Target,
-    TargetMeasurementSet as Set, TargetObservation, TargetPose, TargetValidation,
-    calibrate_selected, read_targets, validate_targets,
+    FrameTreatment, Target, TargetMeasurementSet as Set, TargetObservation, TargetPose,
+    TargetValidation, read_targets,
 };
-use flexcal::kinematics::Model;
-use flexcal::targets::TargetCalibrationRun;
 use nalgebra::Vector3;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::accuracy::AccuracyResult;
 use crate::arrays::{exact, to_numpy};
-use crate::calibration::{
-    ErrorStatistics, SelectionResult, UnknownEstimate, cancellable, gravity_option, matrix,
-    selection_options, unknown_estimates,
-};
-use crate::checks::{CrossCheckResult, SplitCheckResult};
-use crate::errors::{Failure, InputError, NotFiniteError, ShapeError, calib_error};
-use crate::interrupt::{run_cancellable, run_interruptible};
-use crate::robot::Robot;
+use crate::calibration::ErrorStatistics;
+use crate::errors::{InputError, NotFiniteError, ShapeError, calib_error};
 
 /// Measured poses of several targets: actuated coordinates q (rad, m) and,
 /// per target, its position (m) in the measurement frame, or nothing where
@@ -273,7 +264,7 @@ impl TargetMeasurementSet {
 }
 
 /// `{target name: ErrorStatistics}`.
-fn per_target<'py>(
+pub(crate) fn per_target<'py>(
     py: Python<'py>,
     errors: &[flexcal::calib::TargetErrors],
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -286,7 +277,7 @@ fn per_target<'py>(
 
 /// `([(pose, target)], errors (n_observations, 3) in m)`: measured minus
 /// predicted position of every observation, in the measurement frame.
-fn observation_errors<'py>(
+pub(crate) fn observation_errors<'py>(
     py: Python<'py>,
     errors: &[flexcal::calib::ObservationError],
 ) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
@@ -305,7 +296,7 @@ fn observation_errors<'py>(
 #[pyclass(frozen, module = "flexcal", name = "TargetValidationResult")]
 #[derive(Debug, Clone)]
 pub struct TargetValidationResult {
-    validation: Arc<TargetValidation>,
+    pub(crate) validation: Arc<TargetValidation>,
 }
 
 #[pymethods]
@@ -372,411 +363,4 @@ impl TargetValidationResult {
             self.validation.before.position_mean * 1e3
         )
     }
-}
-
-/// The result of `calibrate_targets`: the identified unknowns, what the
-/// targets could identify, per-target errors, the calibrated robot,
-/// validation on another set and the JSON report.
-#[pyclass(frozen, module = "flexcal", name = "TargetCalibrationResult")]
-#[derive(Debug)]
-pub struct TargetCalibrationResult {
-    /// The run; its `split` raises the predicted bounds.
-    run: Arc<TargetCalibrationRun>,
-    /// The options of the identified (selected) model, for the checks that
-    /// identify it again.
-    options: Arc<CalibrationOptions>,
-    nominal: Arc<Model>,
-    calibrated: Robot,
-}
-
-#[pymethods]
-impl TargetCalibrationResult {
-    /// The calibrated robot (its nominal values are the identified ones).
-    #[getter]
-    fn robot(&self) -> Robot {
-        self.calibrated.clone()
-    }
-
-    /// The model selection (`select="cv"` or `"bic"`), or None.
-    #[getter]
-    fn selection(&self) -> Option<SelectionResult> {
-        self.run.selection.as_ref().map(|report| SelectionResult {
-            report: Arc::new(report.clone()),
-        })
-    }
-
-    /// `"geometric"` or `"elasto-geometric"`.
-    #[getter]
-    fn model(&self) -> &'static str {
-        if self.run.calibration.elastic.is_some() {
-            "elasto-geometric"
-        } else {
-            "geometric"
-        }
-    }
-
-    /// Every unknown: robot parameters, `frame_*`, `target.<name>.x|y|z`,
-    /// then the elastic and joint terms of the elasto-geometric model.
-    #[getter]
-    fn parameters(&self) -> Vec<UnknownEstimate> {
-        unknown_estimates(&self.run.calibration.unknowns)
-    }
-
-    /// Identified value of every unknown by name (SI units).
-    #[getter]
-    fn identified<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for u in &self.run.calibration.unknowns {
-            d.set_item(&u.name, u.value)?;
-        }
-        Ok(d)
-    }
-
-    /// Standard error of every identified unknown by name (SI units).
-    #[getter]
-    fn standard_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for u in &self.run.calibration.unknowns {
-            if let Some(s) = u.standard_error {
-                d.set_item(&u.name, s)?;
-            }
-        }
-        Ok(d)
-    }
-
-    /// Span `(lo, hi)` of each actuated coordinate's gravity torque over the
-    /// identification poses (N.m, or N), by name: the torques the joint
-    /// compliances were identified over. Empty for the geometric model.
-    #[getter]
-    fn torque_ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let c = &self.run.calibration;
-        let d = PyDict::new(py);
-        for (name, r) in c.actuated_names.iter().zip(&c.torque_ranges) {
-            d.set_item(name, (r.lo, r.hi))?;
-        }
-        Ok(d)
-    }
-
-    /// Number of identified unknowns.
-    #[getter]
-    fn rank(&self) -> usize {
-        self.run.calibration.rank()
-    }
-
-    /// What each identified unknown stands for: identified name ->
-    /// [(absorbed name, coefficient)], coefficients in SI units.
-    #[getter]
-    fn combination_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for c in &self.run.calibration.combinations {
-            d.set_item(&c.name, c.terms.clone())?;
-        }
-        Ok(d)
-    }
-
-    /// What the targets could not identify, in sentences.
-    #[getter]
-    fn notes(&self) -> Vec<String> {
-        self.run.calibration.identifiability_notes()
-    }
-
-    /// Repeated readings and suspect observations of the identification
-    /// set (errors above four times the RMS after the fit), in sentences;
-    /// empty when the data pass both checks.
-    #[getter]
-    fn data_checks(&self) -> Vec<String> {
-        self.run.calibration.data_checks.notes("identification")
-    }
-
-    /// Errors of every observation before (nominal robot, frame and
-    /// offsets fitted) and after identification.
-    #[getter]
-    fn before(&self) -> ErrorStatistics {
-        ErrorStatistics::from(&self.run.calibration.training_before)
-    }
-
-    /// Errors of every observation after identification.
-    #[getter]
-    fn after(&self) -> ErrorStatistics {
-        ErrorStatistics::from(&self.run.calibration.training_after)
-    }
-
-    /// `{target: ErrorStatistics}` before identification.
-    #[getter]
-    fn per_target_before<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        per_target(py, &self.run.calibration.per_target_before)
-    }
-
-    /// `{target: ErrorStatistics}` after identification.
-    #[getter]
-    fn per_target_after<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        per_target(py, &self.run.calibration.per_target_after)
-    }
-
-    /// `([(pose, target)], errors (n_observations, 3) in m)` of the
-    /// identification set after identification: measured minus predicted,
-    /// in the measurement frame.
-    #[getter]
-    fn observation_errors<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
-        observation_errors(py, &self.run.calibration.observation_errors)
-    }
-
-    /// `{target: offset (3,)}` in its frame, m: identified or fixed.
-    #[getter]
-    fn target_offsets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for t in &self.run.calibration.targets {
-            d.set_item(&t.name, to_numpy(py, t.offset.as_slice().to_vec(), &[3]))?;
-        }
-        Ok(d)
-    }
-
-    /// The identified measurement frame x_meas_base (4 x 4, m).
-    #[getter]
-    fn measurement_frame<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
-        matrix(py, &self.run.calibration.x_meas_base)
-    }
-
-    /// The identified measurement frame of every station (4 x 4, m), by
-    /// station name; one entry for a set of one station.
-    #[getter]
-    fn station_frames<'py>(&self, py: Python<'py>) -> Vec<(String, Bound<'py, PyArrayDyn<f64>>)> {
-        let c = &self.run.calibration;
-        c.measurement_frames()
-            .iter()
-            .zip(&c.station_names)
-            .map(|(frame, name)| (name.clone(), matrix(py, frame)))
-            .collect()
-    }
-
-    /// Errors of the calibrated robot on another set of the same targets;
-    /// with `refit_frame` (default) the measurement frame is fitted again
-    /// on it (the instrument was moved). Releases the GIL; Ctrl-C
-    /// interrupts the wait.
-    #[pyo3(signature = (other, refit_frame = true))]
-    fn validate(
-        &self,
-        py: Python<'_>,
-        other: &TargetMeasurementSet,
-        refit_frame: bool,
-    ) -> PyResult<TargetValidationResult> {
-        let run = Arc::clone(&self.run);
-        let model = Arc::clone(&self.nominal);
-        let set = Arc::clone(&other.set);
-        let validation = run_interruptible(py, move || {
-            Ok(validate_targets(
-                &model,
-                &run.calibration,
-                &set,
-                refit_frame,
-            )?)
-        })?;
-        Ok(TargetValidationResult {
-            validation: Arc::new(validation),
-        })
-    }
-
-    /// Predicted 95 % bound of each target's position error at each
-    /// configuration of `q` (rad or m; shape (dof,) or (n, dof)): one entry
-    /// per configuration and target, pose by pose (`AccuracyResult.targets`
-    /// names them). The identification's covariance, conditioned on the
-    /// measurement frame, carried to each target's position, with the
-    /// training residuals' scatter.
-    fn predicted_accuracy(
-        &self,
-        q: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
-    ) -> PyResult<AccuracyResult> {
-        let q = crate::arrays::rows("q", &q, self.nominal.n_actuated())?;
-        let map = self
-            .run
-            .calibration
-            .predicted_accuracy(
-                &self.nominal,
-                &crate::accuracy::configurations(&q),
-                self.run.split.as_ref(),
-            )
-            .map_err(|e| calib_error(&e))?;
-        Ok(AccuracyResult::new(map))
-    }
-
-    /// The predicted 95 % bounds at the observations of `other` (same
-    /// targets) with their measured errors after calibration (the
-    /// measurement frame fitted again, as `validate` does by default) and
-    /// the share within the bound. Releases the GIL; Ctrl-C interrupts the
-    /// wait.
-    fn accuracy_coverage(
-        &self,
-        py: Python<'_>,
-        other: &TargetMeasurementSet,
-    ) -> PyResult<AccuracyResult> {
-        let run = Arc::clone(&self.run);
-        let model = Arc::clone(&self.nominal);
-        let set = Arc::clone(&other.set);
-        run_interruptible(py, move || {
-            Ok(AccuracyResult::new(run.calibration.accuracy_coverage(
-                &model,
-                &*set,
-                run.split.as_ref(),
-            )?))
-        })
-    }
-
-    /// The cross-series check on `other` (same targets), as
-    /// `CalibrationResult.cross_check`. Runs without the GIL; Ctrl-C stops
-    /// it within one solver iteration.
-    fn cross_check(
-        &self,
-        py: Python<'_>,
-        other: &TargetMeasurementSet,
-    ) -> PyResult<CrossCheckResult> {
-        let run = Arc::clone(&self.run);
-        let model = Arc::clone(&self.nominal);
-        let set = Arc::clone(&other.set);
-        let (options, cancel) = cancellable(&self.options);
-        let check = run_cancellable(py, Some(cancel), move || {
-            Ok(CrossCheck::new(
-                &model,
-                &*set,
-                &options,
-                &run.calibration,
-                run.split.as_ref(),
-            )?)
-        })?;
-        Ok(CrossCheckResult::new(check, &self.run.calibration.unknowns))
-    }
-
-    /// Each station held out (`hold_out_stations=True`): (station, groups
-    /// chosen on the others or None without selection, errors before, errors
-    /// after), errors over the held-out station's observations.
-    #[getter]
-    fn station_hold_out(&self) -> Vec<crate::calibration::HoldOutRow> {
-        crate::calibration::hold_out_rows(&self.run.station_hold_out)
-    }
-
-    /// The split-half check (`split_check=True`), or None. Its prediction
-    /// ratio raises the bounds of `predicted_accuracy` and
-    /// `accuracy_coverage` where it is above 1.
-    #[getter]
-    fn split_check(&self) -> Option<SplitCheckResult> {
-        self.run.split.as_ref().map(|check| {
-            SplitCheckResult::new(Arc::new(check.clone()), &self.run.calibration.unknowns)
-        })
-    }
-
-    /// The JSON report, as `flexcal calibrate --targets --report` writes it
-    /// (SI units), with the validation when given.
-    #[pyo3(signature = (validation = None))]
-    fn to_json(&self, validation: Option<&TargetValidationResult>) -> PyResult<String> {
-        let mut run = (*self.run).clone();
-        run.validation = validation.map(|v| (*v.validation).clone());
-        run.to_json_string().map_err(|e| Failure::from(e).into())
-    }
-
-    fn __repr__(&self) -> String {
-        let c = &self.run.calibration;
-        format!(
-            "TargetCalibrationResult(robot={:?}, {} targets, rank {} of {}, mean {:.4} mm after, {:.4} mm before)",
-            self.nominal.name(),
-            c.targets.len(),
-            c.rank(),
-            c.unknowns.len(),
-            c.training_after.position_mean * 1e3,
-            c.training_before.position_mean * 1e3
-        )
-    }
-}
-
-/// Identifies the robot's parameters, the measurement frame and the offsets
-/// of the targets (those not fixed) from every target on every pose; with
-/// `model="elasto-geometric"` the joint compliances under gravity of every
-/// branch (mass table built in for the UR10, else `masses`, a TOML file;
-/// its `lateral = "about-x"` adds the lateral compliances). `fix` names
-/// kept at their start; `select` the model selection (`"cv"`, `"bic"`,
-/// `"none"`; by default `"cv"` from 100 poses), its report in
-/// `result.selection`; `max_iterations`; `split_check`: identify again on
-/// halves of the poses (four more identifications; `result.split_check`),
-/// which raises the predicted 95 % bounds where the standard errors
-/// understate; `hold_out_stations` (a set of several stations,
-/// `TargetMeasurementSet.pooled`): also each station held out in turn,
-/// identified on the others and validated on it (`result.station_hold_out`).
-/// `max_se_compliance`, `min_compliance_z`, `noise`: as for `calibrate`.
-/// Positions only.
-///
-/// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
-/// and stops the identification within one solver iteration.
-#[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), masses = None, select = None, max_iterations = None, split_check = false, hold_out_stations = false, max_se_compliance = None, min_compliance_z = None, noise = None))]
-#[allow(clippy::too_many_arguments)]
-pub fn calibrate_targets(
-    py: Python<'_>,
-    robot: &Robot,
-    data: &TargetMeasurementSet,
-    model: &str,
-    fix: Vec<String>,
-    masses: Option<PathBuf>,
-    select: Option<&str>,
-    max_iterations: Option<usize>,
-    split_check: bool,
-    hold_out_stations: bool,
-    max_se_compliance: Option<f64>,
-    min_compliance_z: Option<f64>,
-    noise: Option<f64>,
-) -> PyResult<TargetCalibrationResult> {
-    let nominal = Arc::clone(&robot.model);
-    let selection = selection_options(select, data.set.len())?;
-    let mut options = CalibrationOptions::for_model(&nominal);
-    options.fixed = fix;
-    options.gravity = gravity_option(model, masses, &nominal)?;
-    crate::calibration::judgement_options(
-        &mut options,
-        max_se_compliance,
-        min_compliance_z,
-        noise,
-    )?;
-    if let Some(n) = max_iterations {
-        options.max_iterations = n;
-    }
-    let cancel = CancelToken::new();
-    options.cancel = Some(cancel.clone());
-    let set = Arc::clone(&data.set);
-    let model = Arc::clone(&nominal);
-    let (run, calibrated, chosen) = run_cancellable(py, Some(cancel), move || {
-        let (calibration, report, chosen) =
-            calibrate_selected(&model, &*set, &options, &selection)?;
-        let split = split_check
-            .then(|| SplitCheck::new(&model, &*set, &chosen, &calibration))
-            .transpose()?;
-        let station_hold_out = if hold_out_stations {
-            flexcal::calib::hold_out_stations(&model, &*set, &options, &selection)?
-        } else {
-            Vec::new()
-        };
-        let calibrated = calibration
-            .description(&model)?
-            .build()
-            .map_err(Failure::Kinematics)?;
-        let run = TargetCalibrationRun {
-            data: (*set).clone(),
-            validation_set: None,
-            exclusions: Vec::new(),
-            selection: report,
-            calibration,
-            validation: None,
-            split,
-            coverage: None,
-            accuracy_map: None,
-            cross: None,
-            station_hold_out,
-        };
-        Ok((run, calibrated, chosen))
-    })?;
-    Ok(TargetCalibrationResult {
-        run: Arc::new(run),
-        options: Arc::new(chosen),
-        nominal,
-        calibrated: Robot::new(calibrated),
-    })
 }

@@ -384,9 +384,6 @@ pub(crate) fn station_files(config: &CalibrationConfig) -> Result<Vec<&PathBuf>>
     Ok(files)
 }
 
-/// The accuracy map at the configurations of
-/// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
-/// `predict`.
 /// The growth of `calibration`'s error outside its training ranges
 /// ([`calib::Calibration::extrapolation`]) when the configuration asks for
 /// it and there are bounds to widen (a validation set, an accuracy grid).
@@ -418,6 +415,9 @@ fn region_of_use(config: &CalibrationConfig) -> Result<Vec<Vec<f64>>> {
     }
 }
 
+/// The accuracy map at the configurations of
+/// [`CalibrationConfig::accuracy_grid`] (`None` without one), predicted by
+/// `predict`.
 pub(crate) fn grid_accuracy(
     config: &CalibrationConfig,
     predict: impl FnOnce(&[Vec<f64>]) -> std::result::Result<calib::AccuracyMap, calib::CalibError>,
@@ -477,82 +477,12 @@ pub fn run_calibration(
     robot: &crate::kinematics::Model,
     config: &CalibrationConfig,
 ) -> Result<CalibrationRun> {
-    let invalid = |parameter: &str, message: String| Error::InvalidParameter {
-        parameter: parameter.to_string(),
-        message,
-    };
-    if config.targets.is_some() {
-        return Err(invalid(
-            "targets",
-            "several targets per pose are calibrated by run_target_calibration".into(),
-        ));
-    }
-    if config.validate.is_none() {
-        if !config.exclude_validation.is_empty() {
-            return Err(invalid(
-                "exclude_validation",
-                "needs a validation set".into(),
-            ));
-        }
-        if config.cross_check {
-            return Err(invalid("cross_check", "needs a validation set".into()));
-        }
-    }
+    check_one_target_config(config)?;
     let mut exclusions = Vec::new();
-    let data = if config.station_data.is_empty() {
-        read_excluding(
-            &config.data,
-            config.format,
-            &config.exclude,
-            "--exclude",
-            &mut exclusions,
-        )?
-    } else {
-        let sets = station_files(config)?
-            .iter()
-            .map(|path| config.format.read(path))
-            .collect::<Result<Vec<_>>>()?;
-        let pooled = MeasurementSet::pooled(&sets).map_err(step("pooling the stations"))?;
-        exclude(pooled, &config.exclude, "--exclude", &mut exclusions)?
-    };
-    if config.hold_out_stations && data.n_stations() < 2 {
-        return Err(invalid(
-            "hold_out_stations",
-            format!(
-                "{} holds one station: holding one out needs measurements from at least two (--data A --data B)",
-                data.source
-            ),
-        ));
-    }
-    let validation_set = config
-        .validate
-        .as_deref()
-        .map(|p| {
-            read_excluding(
-                p,
-                config.format,
-                &config.exclude_validation,
-                "--exclude-validation",
-                &mut exclusions,
-            )
-        })
-        .transpose()?;
+    let (data, validation_set) = read_one_target_sets(config, &mut exclusions)?;
     let mut options = config.options.clone();
-    if let Some([x, y, z]) = config.target_mm {
-        if ![x, y, z].iter().all(|v| v.is_finite()) {
-            return Err(invalid(
-                "--target-mm",
-                format!("values must be finite, got {x},{y},{z}"),
-            ));
-        }
-        let rotation = data
-            .nominal_target
-            .map(|t| t.rotation)
-            .unwrap_or_else(UnitQuaternion::identity);
-        options.target_value = Some(Isometry3::from_parts(
-            Translation3::new(x * 1e-3, y * 1e-3, z * 1e-3),
-            rotation,
-        ));
+    if let Some(start) = target_start(config, &data)? {
+        options.target_value = Some(start);
     }
     let selection_options = calib::SelectionOptions {
         method: config
@@ -621,32 +551,7 @@ pub fn run_calibration(
         ),
         _ => None,
     };
-    let residual = if config.residual_inputs.is_empty() {
-        None
-    } else {
-        let inputs: Vec<&str> = config.residual_inputs.iter().map(String::as_str).collect();
-        let model = ResidualModel::fit(
-            robot,
-            &calibration,
-            &data,
-            &inputs,
-            &crate::fuzzy::FuzzyParams::default(),
-            1,
-        )
-        .map_err(step("--residual-model"))?;
-        let validation = validation_set
-            .as_ref()
-            .map(|set| {
-                calibration.validate_with_residual_model(robot, set, &model, config.refit_target)
-            })
-            .transpose()
-            .map_err(step("validation with the residual model"))?;
-        Some(ResidualFit {
-            inputs: config.residual_inputs.clone(),
-            model,
-            validation,
-        })
-    };
+    let residual = residual_fit(config, robot, &calibration, &data, validation_set.as_ref())?;
     Ok(CalibrationRun {
         data,
         validation_set,
@@ -662,6 +567,138 @@ pub fn run_calibration(
         coverage,
         accuracy_map,
     })
+}
+
+/// The settings of `config` that a run of one target per pose cannot take
+/// (a targets description; validation options without a validation set).
+fn check_one_target_config(config: &CalibrationConfig) -> Result<()> {
+    let invalid = |parameter: &str, message: &str| Error::InvalidParameter {
+        parameter: parameter.to_string(),
+        message: message.to_string(),
+    };
+    if config.targets.is_some() {
+        return Err(invalid(
+            "targets",
+            "several targets per pose are calibrated by run_target_calibration",
+        ));
+    }
+    if config.validate.is_none() {
+        if !config.exclude_validation.is_empty() {
+            return Err(invalid("exclude_validation", "needs a validation set"));
+        }
+        if config.cross_check {
+            return Err(invalid("cross_check", "needs a validation set"));
+        }
+    }
+    Ok(())
+}
+
+/// The identification set (one file, or one per station pooled) and the
+/// validation set of `config`, each without its excluded poses (recorded
+/// in `exclusions`).
+fn read_one_target_sets(
+    config: &CalibrationConfig,
+    exclusions: &mut Vec<Exclusion>,
+) -> Result<(MeasurementSet, Option<MeasurementSet>)> {
+    let data = if config.station_data.is_empty() {
+        read_excluding(
+            &config.data,
+            config.format,
+            &config.exclude,
+            "--exclude",
+            exclusions,
+        )?
+    } else {
+        let sets = station_files(config)?
+            .iter()
+            .map(|path| config.format.read(path))
+            .collect::<Result<Vec<_>>>()?;
+        let pooled = MeasurementSet::pooled(&sets).map_err(step("pooling the stations"))?;
+        exclude(pooled, &config.exclude, "--exclude", exclusions)?
+    };
+    if config.hold_out_stations && data.n_stations() < 2 {
+        return Err(Error::InvalidParameter {
+            parameter: "hold_out_stations".into(),
+            message: format!(
+                "{} holds one station: holding one out needs measurements from at least two (--data A --data B)",
+                data.source
+            ),
+        });
+    }
+    let validation_set = config
+        .validate
+        .as_deref()
+        .map(|p| {
+            read_excluding(
+                p,
+                config.format,
+                &config.exclude_validation,
+                "--exclude-validation",
+                exclusions,
+            )
+        })
+        .transpose()?;
+    Ok((data, validation_set))
+}
+
+/// The target's starting pose of `config.target_mm` (its orientation the
+/// file's nominal one), or `None` without it.
+fn target_start(
+    config: &CalibrationConfig,
+    data: &MeasurementSet,
+) -> Result<Option<Isometry3<f64>>> {
+    let Some([x, y, z]) = config.target_mm else {
+        return Ok(None);
+    };
+    if ![x, y, z].iter().all(|v| v.is_finite()) {
+        return Err(Error::InvalidParameter {
+            parameter: "--target-mm".into(),
+            message: format!("values must be finite, got {x},{y},{z}"),
+        });
+    }
+    let rotation = data
+        .nominal_target
+        .map(|t| t.rotation)
+        .unwrap_or_else(UnitQuaternion::identity);
+    Ok(Some(Isometry3::from_parts(
+        Translation3::new(x * 1e-3, y * 1e-3, z * 1e-3),
+        rotation,
+    )))
+}
+
+/// The fuzzy model of the residuals over `config.residual_inputs`, and the
+/// validation with it; `None` without inputs.
+fn residual_fit(
+    config: &CalibrationConfig,
+    robot: &crate::kinematics::Model,
+    calibration: &Calibration,
+    data: &MeasurementSet,
+    validation_set: Option<&MeasurementSet>,
+) -> Result<Option<ResidualFit>> {
+    if config.residual_inputs.is_empty() {
+        return Ok(None);
+    }
+    let inputs: Vec<&str> = config.residual_inputs.iter().map(String::as_str).collect();
+    let model = ResidualModel::fit(
+        robot,
+        calibration,
+        data,
+        &inputs,
+        &crate::fuzzy::FuzzyParams::default(),
+        1,
+    )
+    .map_err(step("--residual-model"))?;
+    let validation = validation_set
+        .map(|set| {
+            calibration.validate_with_residual_model(robot, set, &model, config.refit_target)
+        })
+        .transpose()
+        .map_err(step("validation with the residual model"))?;
+    Ok(Some(ResidualFit {
+        inputs: config.residual_inputs.clone(),
+        model,
+        validation,
+    }))
 }
 
 /// `"; N of them outside the identification poses' range ..."` when a map

@@ -45,6 +45,11 @@ pub struct TargetCalibrationRun {
     /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
     /// poses, as for one target).
     pub selection: Option<SelectionReport>,
+    /// The options of the identified (selected) model, for the checks that
+    /// identify it again (not in the JSON: the campaign holds the options
+    /// asked for, the selection what it chose).
+    #[serde(skip)]
+    pub options: calib::CalibrationOptions,
     /// The identification (of the selected model).
     pub calibration: Calibration,
     /// The validation (the measurement frame fitted again on the validation
@@ -85,66 +90,10 @@ pub fn run_target_calibration(
     robot: &crate::kinematics::Model,
     config: &CalibrationConfig,
 ) -> Result<TargetCalibrationRun> {
-    let invalid = |parameter: &str| Error::InvalidParameter {
-        parameter: parameter.to_string(),
-        message: "not available with several targets per pose (--targets)".into(),
-    };
-    let Some(targets_path) = &config.targets else {
-        return Err(Error::InvalidParameter {
-            parameter: "targets".into(),
-            message: "a multi-target calibration needs a targets description".into(),
-        });
-    };
-    let unsupported = [
-        ("format", config.format != MeasurementFormat::Own),
-        ("target_mm", config.target_mm.is_some()),
-        ("refit_target", config.refit_target),
-        ("residual_inputs", !config.residual_inputs.is_empty()),
-    ];
-    if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
-        return Err(invalid(name));
-    }
-    if config.validate.is_none() {
-        let needs = [
-            ("cross_check", config.cross_check),
-            ("exclude_validation", !config.exclude_validation.is_empty()),
-        ];
-        if let Some((name, _)) = needs.iter().find(|(_, set)| *set) {
-            return Err(Error::InvalidParameter {
-                parameter: name.to_string(),
-                message: "needs a validation set".into(),
-            });
-        }
-    }
-    let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
-    let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
-    // One station per file (each with its own measurement frame).
-    let sets = station_files(config)?
-        .into_iter()
-        .map(|path| TargetMeasurementSet::read_csv(path, &targets))
-        .collect::<std::result::Result<Vec<_>, _>>()
-        .map_err(step("identification measurements"))?;
+    let targets_path = check_targets_config(config)?;
     let mut exclusions = Vec::new();
-    let data = exclude(
-        TargetMeasurementSet::pooled(&sets).map_err(step("identification measurements"))?,
-        &config.exclude,
-        "--exclude",
-        &mut exclusions,
-    )?;
-    let validation_set = config
-        .validate
-        .as_deref()
-        .map(|p| {
-            let set = TargetMeasurementSet::read_csv(p, &targets)
-                .map_err(step("validation measurements"))?;
-            exclude(
-                set,
-                &config.exclude_validation,
-                "--exclude-validation",
-                &mut exclusions,
-            )
-        })
-        .transpose()?;
+    let (data, validation_set) = read_target_sets(config, targets_path, &mut exclusions)?;
+    let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
     let selection_options = calib::SelectionOptions {
         method: config
             .selection
@@ -206,6 +155,7 @@ pub fn run_target_calibration(
         validation_set,
         exclusions,
         selection,
+        options,
         calibration,
         validation,
         split,
@@ -214,6 +164,84 @@ pub fn run_target_calibration(
         cross,
         station_hold_out,
     })
+}
+
+/// The targets description of `config`, after checking that `config` sets
+/// nothing a run with several targets per pose cannot take (another file
+/// format, a target start, the residual model; validation options without
+/// a validation set).
+fn check_targets_config(config: &CalibrationConfig) -> Result<&std::path::Path> {
+    let invalid = |parameter: &str| Error::InvalidParameter {
+        parameter: parameter.to_string(),
+        message: "not available with several targets per pose (--targets)".into(),
+    };
+    let Some(targets_path) = &config.targets else {
+        return Err(Error::InvalidParameter {
+            parameter: "targets".into(),
+            message: "a multi-target calibration needs a targets description".into(),
+        });
+    };
+    let unsupported = [
+        ("format", config.format != MeasurementFormat::Own),
+        ("target_mm", config.target_mm.is_some()),
+        ("refit_target", config.refit_target),
+        ("residual_inputs", !config.residual_inputs.is_empty()),
+    ];
+    if let Some((name, _)) = unsupported.iter().find(|(_, set)| *set) {
+        return Err(invalid(name));
+    }
+    if config.validate.is_none() {
+        let needs = [
+            ("cross_check", config.cross_check),
+            ("exclude_validation", !config.exclude_validation.is_empty()),
+        ];
+        if let Some((name, _)) = needs.iter().find(|(_, set)| *set) {
+            return Err(Error::InvalidParameter {
+                parameter: name.to_string(),
+                message: "needs a validation set".into(),
+            });
+        }
+    }
+    Ok(targets_path)
+}
+
+/// The identification set (one station per file, pooled) and the
+/// validation set of the targets described in `targets_path`, each
+/// without its excluded poses and observations (recorded in `exclusions`).
+fn read_target_sets(
+    config: &CalibrationConfig,
+    targets_path: &std::path::Path,
+    exclusions: &mut Vec<Exclusion>,
+) -> Result<(TargetMeasurementSet, Option<TargetMeasurementSet>)> {
+    let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
+    let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
+    // One station per file (each with its own measurement frame).
+    let sets = station_files(config)?
+        .into_iter()
+        .map(|path| TargetMeasurementSet::read_csv(path, &targets))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(step("identification measurements"))?;
+    let data = exclude(
+        TargetMeasurementSet::pooled(&sets).map_err(step("identification measurements"))?,
+        &config.exclude,
+        "--exclude",
+        exclusions,
+    )?;
+    let validation_set = config
+        .validate
+        .as_deref()
+        .map(|p| {
+            let set = TargetMeasurementSet::read_csv(p, &targets)
+                .map_err(step("validation measurements"))?;
+            exclude(
+                set,
+                &config.exclude_validation,
+                "--exclude-validation",
+                exclusions,
+            )
+        })
+        .transpose()?;
+    Ok((data, validation_set))
 }
 
 impl TargetCalibrationRun {

@@ -43,7 +43,6 @@ from ._flexcal import (
     SplitCheckResult,
     Structure,
     StructureError,
-    TargetCalibrationResult,
     TargetMeasurementSet,
     TargetValidationResult,
     UnknownEstimate,
@@ -52,8 +51,7 @@ from ._flexcal import (
     UnreachableError,
     ValidationResult,
     __version__,
-    calibrate as _calibrate_one_target,
-    calibrate_targets as _calibrate_targets,
+    calibrate,
     compensate_path,
     plan,
 )
@@ -86,7 +84,6 @@ __all__ = [
     "SplitCheckResult",
     "Structure",
     "StructureError",
-    "TargetCalibrationResult",
     "TargetMeasurementSet",
     "TargetValidationResult",
     "UnknownEstimate",
@@ -102,21 +99,10 @@ __all__ = [
 ]
 
 
-def calibrate(robot, data, *args, **kwargs):
-    """Identifies the robot from a measurement set: a ``MeasurementSet``
-    (one target on the TCP) gives a ``CalibrationResult``, a
-    ``TargetMeasurementSet`` (several targets per pose, positions and,
-    where given, orientations) a ``TargetCalibrationResult``. Both run the
-    library's one identification; the keyword arguments are those of each
-    (docs/python.md)."""
-    if isinstance(data, TargetMeasurementSet):
-        return _calibrate_targets(robot, data, *args, **kwargs)
-    return _calibrate_one_target(robot, data, *args, **kwargs)
-
-
 def calibrate_targets(robot, data, *args, **kwargs):
-    """Deprecated alias of ``calibrate`` for a ``TargetMeasurementSet``,
-    kept for one release: ``flexcal.calibrate`` takes either kind of set."""
+    """Deprecated alias of ``calibrate``, kept for one release:
+    ``flexcal.calibrate`` takes a ``TargetMeasurementSet`` as it takes a
+    ``MeasurementSet``."""
     import warnings
 
     warnings.warn(
@@ -125,4 +111,24 @@ def calibrate_targets(robot, data, *args, **kwargs):
         DeprecationWarning,
         stacklevel=2,
     )
-    return _calibrate_targets(robot, data, *args, **kwargs)
+    return calibrate(robot, data, *args, **kwargs)
+
+
+_DEPRECATED_NAMES = {
+    "TargetCalibrationResult": (
+        CalibrationResult,
+        "flexcal.TargetCalibrationResult is deprecated and will be removed in the next release: "
+        "flexcal.calibrate returns a CalibrationResult for either kind of set",
+    ),
+}
+
+
+def __getattr__(name):
+    """The deprecated names, kept for one release; each access warns."""
+    if name in _DEPRECATED_NAMES:
+        import warnings
+
+        value, message = _DEPRECATED_NAMES[name]
+        warnings.warn(message, DeprecationWarning, stacklevel=2)
+        return value
+    raise AttributeError(f"module 'flexcal' has no attribute {name!r}")

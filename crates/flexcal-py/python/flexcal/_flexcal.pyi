@@ -410,9 +410,10 @@ class CrossCheckResult:
     def notes(self) -> list[str]: ...
 
 class CalibrationResult:
-    """The result of `calibrate`: the JSON report's fields in SI units."""
+    """The result of `calibrate` for either kind of set: the JSON report's fields in SI units.
+    Its checks take another set of the kind it was identified from."""
 
-    def cross_check(self, other: MeasurementSet) -> CrossCheckResult:
+    def cross_check(self, other: MeasurementSet | TargetMeasurementSet) -> CrossCheckResult:
         """Identify the same unknowns again on `other` and compare (z, z_split with the split check)."""
 
     @property
@@ -484,8 +485,24 @@ class CalibrationResult:
     @property
     def after(self) -> ErrorStatistics: ...
     @property
+    def per_target_before(self) -> dict[str, ErrorStatistics]:
+        """Errors per target before identification (one entry, "tcp", for one target per pose)."""
+    @property
+    def per_target_after(self) -> dict[str, ErrorStatistics]: ...
+    @property
     def position_errors(self) -> FloatArray:
-        """(n,) identification-set position errors after identification, m."""
+        """(n_observations,) identification-set position error norms after identification, m."""
+    @property
+    def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
+        """([(pose, target)], (n_observations, 3) measured minus predicted, m), identification set."""
+    @property
+    def target_offsets(self) -> dict[str, FloatArray]:
+        """(3,) per target, m, in its frame."""
+    @property
+    def extrapolation_growth(self) -> Optional[dict[str, float]]:
+        """extrapolation=True: the error growth outside each joint's training range (m/rad or m/m)."""
+    @property
+    def extrapolation_notes(self) -> list[str]: ...
     @property
     def measurement_frame(self) -> FloatArray:
         """(4, 4) identified x_meas_base, m (of the first station)."""
@@ -503,17 +520,25 @@ class CalibrationResult:
     @property
     def target(self) -> FloatArray:
         """(4, 4) identified x_tcp_target, m."""
-    def validate(self, other: MeasurementSet, refit_target: bool = False) -> ValidationResult: ...
+    def validate(
+        self,
+        other: MeasurementSet | TargetMeasurementSet,
+        refit_target: bool = False,
+        refit_frame: bool = True,
+    ) -> ValidationResult | TargetValidationResult:
+        """A ValidationResult for a MeasurementSet, a TargetValidationResult for a TargetMeasurementSet."""
     def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
-        """95 % bounds at the configurations q ((dof,) or (n, dof), rad or m)."""
-    def accuracy_coverage(self, other: MeasurementSet) -> AccuracyResult:
+        """95 % bounds at the configurations q ((dof,) or (n, dof), rad or m), one entry per configuration and target."""
+    def accuracy_coverage(self, other: MeasurementSet | TargetMeasurementSet) -> AccuracyResult:
         """95 % bounds at the poses of `other` with their measured errors."""
-    def to_json(self, validation: Optional[ValidationResult] = None) -> str:
-        """The JSON report of `flexcal calibrate --report` (mm, deg)."""
+    def to_json(
+        self, validation: Optional[ValidationResult | TargetValidationResult] = None
+    ) -> str:
+        """The JSON report of `flexcal calibrate --report` (mm, deg), with several targets that of `--targets`."""
 
 def calibrate(
     robot: Robot,
-    data: MeasurementSet,
+    data: MeasurementSet | TargetMeasurementSet,
     model: Literal["geometric", "elasto-geometric"] = "geometric",
     fix: Sequence[str] = (),
     defer: Optional[Sequence[str]] = None,
@@ -534,8 +559,12 @@ def calibrate(
     max_se_compliance: Optional[float] = None,
     min_compliance_z: Optional[float] = None,
     noise: Optional[float] = None,
+    select_on: Optional[Literal["interpolation", "extrapolation", "auto"]] = None,
+    region: Optional[Sequence[Sequence[float]]] = None,
+    extrapolation: bool = False,
 ) -> CalibrationResult:
-    """Identifies the robot (eqs. (7)-(12), (49)-(53)). target (3,) in m; max_se_length in m; max_se_angle in rad.
+    """Identifies the robot (eqs. (7)-(12), (49)-(53)) from one target per pose or several.
+    target (3,) in m (one target per pose only, as fixed_target); max_se_length in m; max_se_angle in rad.
 
     select: model selection as `flexcal calibrate --select` (report in `.selection`);
     default as on the command line: "cv" from 100 poses, else "none".
@@ -543,7 +572,9 @@ def calibrate(
     split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds.
     max_se_compliance: absolute standard-error limit of the compliances (rad/N.m, default 1e-3).
     min_compliance_z: a compliance is kept when its value is at least this many standard errors (default 2).
-    noise: the instrument's noise per position axis (m); default from the file or the fit."""
+    noise: the instrument's noise per position axis (m); default from the file or the fit.
+    select_on / region: which cross-validated score chooses, and where the robot is to be used (rad or m).
+    extrapolation: the error growth outside the training ranges, added to every predicted bound."""
 
 class Campaign:
     """A calibration campaign: everything one `flexcal calibrate` run takes
@@ -569,8 +600,7 @@ class Campaign:
     def run(self, write_outputs: bool = True) -> CalibrationResult:
         """Runs the campaign as `flexcal calibrate --config` does and returns what
         `calibrate` returns; with `write_outputs` the files of its [outputs]
-        table are written too. A campaign with several targets per pose
-        raises InputError (use `flexcal.calibrate`, which takes a TargetMeasurementSet too)."""
+        table are written too (one target per pose or, with [data] targets, several)."""
 
 class TargetMeasurementSet:
     """Measured poses of several targets: q (rad, m) and, per target, its position (m)
@@ -646,95 +676,6 @@ class TargetValidationResult:
     @property
     def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
         """([(pose, target)], (n_observations, 3) measured minus predicted, m)."""
-
-class TargetCalibrationResult:
-    """The identification from several targets per pose (SI units)."""
-
-    @property
-    def split_check(self) -> Optional[SplitCheckResult]:
-        """The split-half check (split_check=True); raises the predicted bounds."""
-    def cross_check(self, other: TargetMeasurementSet) -> CrossCheckResult:
-        """Identify the same unknowns again on `other` (same targets) and compare."""
-    @property
-    def robot(self) -> Robot:
-        """The calibrated robot."""
-    @property
-    def selection(self) -> Optional[SelectionResult]: ...
-    @property
-    def model(self) -> Literal["geometric", "elasto-geometric"]: ...
-    @property
-    def parameters(self) -> list[UnknownEstimate]:
-        """Robot parameters, frame_*, target.<name>.x|y|z, then the elastic and joint terms."""
-    @property
-    def identified(self) -> dict[str, float]: ...
-    @property
-    def standard_errors(self) -> dict[str, float]: ...
-    @property
-    def rank(self) -> int: ...
-    @property
-    def torque_ranges(self) -> dict[str, tuple[float, float]]:
-        """(lo, hi) gravity torque per actuated coordinate over the poses, N.m (elasto-geometric)."""
-    @property
-    def combination_terms(self) -> dict[str, list[tuple[str, float]]]: ...
-    @property
-    def notes(self) -> list[str]: ...
-    @property
-    def data_checks(self) -> list[str]:
-        """Repeated readings and suspect poses of the identification set, in sentences."""
-    @property
-    def before(self) -> ErrorStatistics: ...
-    @property
-    def after(self) -> ErrorStatistics: ...
-    @property
-    def per_target_before(self) -> dict[str, ErrorStatistics]: ...
-    @property
-    def per_target_after(self) -> dict[str, ErrorStatistics]: ...
-    @property
-    def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
-        """([(pose, target)], (n_observations, 3) measured minus predicted, m), identification set."""
-    @property
-    def target_offsets(self) -> dict[str, FloatArray]:
-        """(3,) per target, m, in its frame."""
-    @property
-    def measurement_frame(self) -> FloatArray:
-        """x_meas_base (4, 4), m."""
-    @property
-    def station_frames(self) -> list[tuple[str, FloatArray]]:
-        """The identified measurement frame of every station (name, 4x4 m)."""
-    @property
-    def station_hold_out(
-        self,
-    ) -> list[tuple[str, Optional[list[str]], ErrorStatistics, ErrorStatistics]]:
-        """Each station held out (hold_out_stations=True): name, groups chosen, before, after."""
-    def validate(self, other: TargetMeasurementSet, refit_frame: bool = True) -> TargetValidationResult: ...
-    def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
-        """95 % bound of each target's position error at each configuration (one entry per configuration and target)."""
-    def accuracy_coverage(self, other: TargetMeasurementSet) -> AccuracyResult:
-        """The bounds at the observations of `other` with their measured errors and the share within."""
-    def to_json(self, validation: Optional[TargetValidationResult] = None) -> str:
-        """The JSON report of `flexcal calibrate --targets --report` (SI units)."""
-
-def calibrate_targets(
-    robot: Robot,
-    data: TargetMeasurementSet,
-    model: Literal["geometric", "elasto-geometric"] = "geometric",
-    fix: Sequence[str] = (),
-    masses: Optional[StrPath] = None,
-    select: Literal["cv", "bic", "none"] | None = None,
-    max_iterations: Optional[int] = None,
-    split_check: bool = False,
-    hold_out_stations: bool = False,
-    max_se_compliance: Optional[float] = None,
-    min_compliance_z: Optional[float] = None,
-    noise: Optional[float] = None,
-) -> TargetCalibrationResult:
-    """Identifies the robot, the measurement frame and the targets' offsets from every target on
-    every pose (positions only); elasto-geometric: joint springs of every branch under gravity.
-    select: as `flexcal calibrate --select`; default "cv" from 100 poses, else "none".
-    split_check: identify again on halves of the poses (`.split_check`); raises the predicted bounds.
-    max_se_compliance: absolute standard-error limit of the compliances (rad/N.m, default 1e-3).
-    min_compliance_z: a compliance is kept when its value is at least this many standard errors (default 2).
-    noise: the instrument's noise per position axis (m); default from the file or the fit."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

@@ -372,14 +372,125 @@ def test_orientations_of_several_targets_are_fitted(two_arms):
         flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, orientations=turns[:, :1])
 
 
-def test_calibrate_targets_is_a_deprecated_alias(two_arms):
-    """The old name still works for one release, and says so."""
+def test_the_old_names_are_deprecated_aliases(two_arms):
+    """`calibrate_targets` and `TargetCalibrationResult` still work for one
+    release, and say so."""
     truth = Truth(two_arms, seed=31)
     q = configurations(two_arms, 40, seed=32)
     data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
     with pytest.warns(DeprecationWarning, match="flexcal.calibrate takes a TargetMeasurementSet"):
         old = flexcal.calibrate_targets(two_arms, data, select="none")
     new = flexcal.calibrate(two_arms, data, select="none")
-    assert isinstance(new, flexcal.TargetCalibrationResult)
+    assert type(new) is flexcal.CalibrationResult
+    with pytest.warns(DeprecationWarning, match="returns a CalibrationResult for either kind"):
+        alias = flexcal.TargetCalibrationResult
+    assert alias is flexcal.CalibrationResult
     assert old.identified == new.identified
+    with pytest.raises(AttributeError, match="no attribute 'NoSuchName'"):
+        flexcal.NoSuchName
 
+
+def test_one_result_for_either_kind_of_set(two_arms):
+    """One target per pose and several give the same class; its per-target
+    figures name `tcp` for the one target; its checks refuse a set of the
+    other kind, and the one-target keywords are refused with several
+    targets, each by name."""
+    truth = Truth(two_arms, seed=41)
+    q = configurations(two_arms, 60, seed=42)
+    positions = truth.measure(two_arms, q, occlude=0.0)
+    several = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions)
+    # The left marker alone, as a one-target set: its "TCP" is the hand
+    # frame only when the robot's end frame is LH, so compare the kinds of
+    # result, not the figures.
+    one = flexcal.MeasurementSet.from_arrays(q, positions[:, 0])
+    by_several = flexcal.calibrate(two_arms, several, select="none")
+    by_one = flexcal.calibrate(two_arms, one, select="none")
+    assert type(by_several) is type(by_one) is flexcal.CalibrationResult
+    assert set(by_one.per_target_after) == {"tcp"}
+    assert set(by_one.target_offsets) == {"tcp"}
+    assert set(by_several.target_offsets) == {"left", "right"}
+    labels, errors = by_one.observation_errors
+    assert errors.shape == (60, 3) and {t for _, t in labels} == {"tcp"}
+    assert np.allclose(np.linalg.norm(errors, axis=1), by_one.position_errors)
+    assert by_several.position_errors.shape == (120,)
+    assert "2 targets" in repr(by_several) and "targets" not in repr(by_one)
+    # Checks take a set of the kind the result was identified from.
+    with pytest.raises(flexcal.InputError, match="other: a MeasurementSet, but .* several targets"):
+        by_several.validate(one)
+    with pytest.raises(flexcal.InputError, match="other: a TargetMeasurementSet, but .* one target"):
+        by_one.accuracy_coverage(several)
+    with pytest.raises(flexcal.InputError, match="other: expected a MeasurementSet or a TargetMeasurementSet"):
+        by_one.cross_check(q)
+    assert isinstance(by_several.validate(several), flexcal.TargetValidationResult)
+    assert isinstance(by_one.validate(one), flexcal.ValidationResult)
+    with pytest.raises(flexcal.InputError, match="refit_target: not available with several targets"):
+        by_several.validate(several, refit_target=True)
+    with pytest.raises(flexcal.InputError, match="refit_frame: a set of one target per pose"):
+        by_one.validate(one, refit_frame=False)
+    with pytest.raises(flexcal.InputError, match="validation: expected the TargetValidationResult"):
+        by_several.to_json(validation=by_one.validate(one))
+    # The one-target keywords, by name.
+    with pytest.raises(flexcal.InputError, match="fixed_target: not available with several targets"):
+        flexcal.calibrate(two_arms, several, fixed_target=True)
+    with pytest.raises(flexcal.InputError, match="target: not available with several targets"):
+        flexcal.calibrate(two_arms, several, target=[0.0, 0.0, 0.1])
+    with pytest.raises(flexcal.InputError, match="data: expected a MeasurementSet or a TargetMeasurementSet, got list"):
+        flexcal.calibrate(two_arms, [1, 2, 3])
+
+
+def test_extrapolation_widens_bounds_outside_the_training_range_only(two_arms):
+    """`extrapolation=True` measures the error growth per joint and adds it
+    outside the training ranges: inside every range the bounds are those
+    without it, outside they are at least as wide."""
+    truth = Truth(two_arms, seed=51)
+    q = configurations(two_arms, 80, seed=52)
+    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    plain = flexcal.calibrate(two_arms, data, select="none")
+    grown = flexcal.calibrate(two_arms, data, select="none", extrapolation=True)
+    assert plain.extrapolation_growth is None and plain.extrapolation_notes == []
+    growth = grown.extrapolation_growth
+    assert set(growth) == set(grown.actuated_ranges)
+    assert all(g >= 0.0 for g in growth.values())
+    inside = q[:5]
+    # Equal but for the round-off of summing the bound's parts anew.
+    assert np.allclose(
+        plain.predicted_accuracy(inside).bound_95,
+        grown.predicted_accuracy(inside).bound_95,
+        rtol=1e-12,
+        atol=0.0,
+    )
+    lo = np.array([r[0] for r in grown.actuated_ranges.values()])
+    outside = np.tile(lo - 0.3, (3, 1))
+    assert np.all(
+        grown.predicted_accuracy(outside).bound_95 >= plain.predicted_accuracy(outside).bound_95
+    )
+
+
+def test_a_campaign_with_several_targets_runs_as_calibrate_does(two_arms, tmp_path):
+    """`Campaign.run` takes a campaign with a targets description and gives
+    what `flexcal.calibrate` gives on the same file."""
+    truth = Truth(two_arms, seed=61)
+    q = configurations(two_arms, 50, seed=62)
+    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    data.write_csv(tmp_path / "markers.csv")
+    (tmp_path / "c.toml").write_text(
+        f"""
+[robot]
+file = "{(DATA / "two_arms.toml").as_posix()}"
+
+[data]
+files = ["markers.csv"]
+targets = "{(DATA / "two_arms_targets.toml").as_posix()}"
+
+[model]
+select = "none"
+"""
+    )
+    result = flexcal.Campaign.read(tmp_path / "c.toml").run(write_outputs=False)
+    read = flexcal.TargetMeasurementSet.read_csv(
+        tmp_path / "markers.csv", DATA / "two_arms_targets.toml"
+    )
+    direct = flexcal.calibrate(two_arms, read, select="none")
+    assert set(result.target_offsets) == {"left", "right"}
+    assert result.identified == direct.identified
+    assert json.loads(result.to_json())["summary"]
