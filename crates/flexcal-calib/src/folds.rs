@@ -15,9 +15,10 @@
 //!   outer [`EXTRAPOLATION_END_SHARE`] of each range at each side, a rule
 //!   stated once and not tuned to a data set.
 //!
-//! The ends of a range are found by [`range_ends`], with the share as its
-//! parameter: the error-growth estimate ([`crate::extrapolation`]) holds
-//! out its folds' ends with the same function.
+//! The ends of a range are found by one function, `range_ends`, with the
+//! share as its parameter: the error-growth estimate
+//! ([`crate::extrapolation`]) holds out its folds' ends with the same
+//! function.
 //!
 //! With several stations every fold, ordinary or extrapolating, leaves
 //! each station poses in the training part: without them its measurement
