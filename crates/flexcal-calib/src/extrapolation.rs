@@ -16,7 +16,14 @@
 //!    [`crate::CoordinateCoverage`]), the poses in the outer
 //!    [`HELD_OUT_FRACTION`] of the range's length are held out; the same
 //!    model (the same options, the selected groups of unknowns) is
-//!    identified on the rest.
+//!    identified on the rest. The ends are found as model selection's
+//!    extrapolating folds find theirs ([`crate::folds`], one function
+//!    with the share as its parameter); the two rules differ in what they
+//!    ask of the folds: here each end on its own (the growth is fitted to
+//!    the distance outside one end) and a wider share, so that the held-out
+//!    poses reach far enough beyond the rest to measure a growth; there
+//!    both ends of a joint's angle and gravity-torque ranges at once, a
+//!    narrower share, to score candidate models.
 //! 2. **Held-out errors**: each held-out observation's position error `e`
 //!    with the fold's model (its measurement frame as identified: the same
 //!    instrument), its in-model variance per axis `v = tr Sigma_pred / 3 +
@@ -47,6 +54,7 @@ use serde::{Deserialize, Serialize};
 use crate::accuracy::{AccuracyMap, CHI2_3_95, accuracy_at, grid_row};
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
+use crate::folds::range_ends;
 use crate::identify::Calibration;
 use crate::measurement::PoseSet;
 use crate::options::CalibrationOptions;
@@ -249,23 +257,10 @@ fn extrapolation_model<S: Selectable>(
         if range.length() <= 0.0 {
             continue;
         }
-        for end in ["low", "high"] {
-            // Position along the range from its start (rad or m).
-            let along = |q: &[f64]| match range.period {
-                Some(p) => (q[j] - range.lo).rem_euclid(p),
-                None => q[j] - range.lo,
-            };
-            let cut = HELD_OUT_FRACTION * range.length();
-            let held: Vec<usize> = (0..training.n_poses())
-                .filter(|&k| {
-                    let t = along(training.configuration(k));
-                    if end == "low" {
-                        t < cut
-                    } else {
-                        t > range.length() - cut
-                    }
-                })
-                .collect();
+        let values: Vec<f64> = configurations.iter().map(|q| q[j]).collect();
+        let ends = range_ends(&values, range, HELD_OUT_FRACTION);
+        for (end, at_end) in ["low", "high"].into_iter().zip(&ends) {
+            let held: Vec<usize> = (0..values.len()).filter(|&k| at_end[k]).collect();
             let fold = run_fold(
                 model,
                 training,

@@ -15,6 +15,11 @@
 //!   outer [`EXTRAPOLATION_END_SHARE`] of each range at each side, a rule
 //!   stated once and not tuned to a data set.
 //!
+//! The ends of a range are found by one function, `range_ends`, with the
+//! share as its parameter: the error-growth estimate
+//! ([`crate::extrapolation`]) holds out its folds' ends with the same
+//! function.
+//!
 //! With several stations every fold, ordinary or extrapolating, leaves
 //! each station poses in the training part: without them its measurement
 //! frame, and so its held-out poses, could not be placed.
@@ -285,34 +290,49 @@ pub(crate) fn gravity_torques(
         .collect())
 }
 
-/// `values` placed on their covered range: on the line for a coordinate
-/// that is not periodic, on the arc of a periodic one (each angle the turn
-/// that falls in `[lo, lo + period)`), with the covered range.
-fn on_coverage(values: &[f64], period: Option<f64>) -> (Vec<f64>, CoordinateCoverage) {
-    let coverage = CoordinateCoverage::of(values.iter().copied(), period);
-    let placed = match period {
-        Some(p) => values
-            .iter()
-            .map(|v| coverage.lo + (v - coverage.lo).rem_euclid(p))
-            .collect(),
-        None => values.to_vec(),
-    };
-    (placed, coverage)
+/// Which of `values` (rad or m) lie at the two ends of their covered
+/// range `coverage`: `[low, high]`, each value's flag for the outer `share`
+/// of the range's length at its start and at its end. Along a periodic
+/// coordinate the position is measured on the arc from `coverage.lo`,
+/// whichever turn a value is recorded in. No value is at an end of a
+/// range without length.
+///
+/// The one construction of "hold out the end of a coordinate's range":
+/// model selection's extrapolating folds hold out both ends of a joint's
+/// angle and torque ranges at once, the outer [`EXTRAPOLATION_END_SHARE`]
+/// ([`extrapolating_folds`]); the error-growth estimate of
+/// [`crate::extrapolation`] holds out each end of each coordinate's range
+/// on its own, the outer [`crate::extrapolation::HELD_OUT_FRACTION`].
+pub(crate) fn range_ends(
+    values: &[f64],
+    coverage: &CoordinateCoverage,
+    share: f64,
+) -> [Vec<bool>; 2] {
+    let length = coverage.length();
+    if length.is_nan() || length <= 0.0 {
+        return [vec![false; values.len()], vec![false; values.len()]];
+    }
+    // Position along the range from its start.
+    let along: Vec<f64> = values
+        .iter()
+        .map(|v| match coverage.period {
+            Some(p) => (v - coverage.lo).rem_euclid(p),
+            None => v - coverage.lo,
+        })
+        .collect();
+    let cut = share * length;
+    [
+        along.iter().map(|t| *t < cut).collect(),
+        along.iter().map(|t| *t > length - cut).collect(),
+    ]
 }
 
 /// Whether each value lies in the outer [`EXTRAPOLATION_END_SHARE`] of its
-/// covered range at either end (none when the range has no length).
+/// covered range at either end ([`range_ends`]).
 fn at_ends(values: &[f64], period: Option<f64>) -> Vec<bool> {
-    let (placed, coverage) = on_coverage(values, period);
-    let length = coverage.length();
-    if length.is_nan() || length <= 0.0 {
-        return vec![false; values.len()];
-    }
-    let (low, high) = (
-        coverage.lo + EXTRAPOLATION_END_SHARE * length,
-        coverage.hi - EXTRAPOLATION_END_SHARE * length,
-    );
-    placed.iter().map(|v| *v < low || *v > high).collect()
+    let coverage = CoordinateCoverage::of(values.iter().copied(), period);
+    let [low, high] = range_ends(values, &coverage, EXTRAPOLATION_END_SHARE);
+    low.iter().zip(&high).map(|(l, h)| *l || *h).collect()
 }
 
 /// The extrapolating folds of `poses` (module docs): for each actuated
@@ -518,6 +538,49 @@ mod tests {
             }
         }
         assert!(folds_seen >= 40, "{folds_seen} folds");
+    }
+
+    /// Seeded property: on a periodic coordinate the ends are measured
+    /// along the covered arc from its start, whichever turn each value is
+    /// recorded in; the flags match the positions the values were drawn
+    /// at, and a range without length has no ends.
+    #[test]
+    fn range_ends_measure_along_the_arc_whatever_the_turn() {
+        use std::f64::consts::TAU;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(29);
+        for _ in 0..40 {
+            let start = rng.random_range(-4.0..4.0);
+            let length = rng.random_range(0.5..4.0);
+            let share = rng.random_range(0.05..0.3);
+            let t: Vec<f64> = (0..60).map(|_| rng.random_range(0.0..length)).collect();
+            let values: Vec<f64> = t
+                .iter()
+                .map(|t| start + t + TAU * f64::from(rng.random_range(-2i32..=2)))
+                .collect();
+            let coverage = CoordinateCoverage::of(values.iter().copied(), Some(TAU));
+            let t_min = t.iter().copied().fold(f64::INFINITY, f64::min);
+            let t_max = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let cut = share * (t_max - t_min);
+            let [low, high] = range_ends(&values, &coverage, share);
+            for k in 0..values.len() {
+                let from_start = t[k] - t_min;
+                let to_end = t_max - t[k];
+                // Values within round-off of a cut may fall either way.
+                if (from_start - cut).abs() > 1e-9 {
+                    assert_eq!(low[k], from_start < cut, "value {k} of {values:?}");
+                }
+                if (to_end - cut).abs() > 1e-9 {
+                    assert_eq!(high[k], to_end < cut, "value {k} of {values:?}");
+                }
+            }
+            assert!(low.contains(&true) && high.contains(&true));
+        }
+        let still = [0.7; 5];
+        let coverage = CoordinateCoverage::of(still.iter().copied(), None);
+        assert_eq!(
+            range_ends(&still, &coverage, 0.2),
+            [vec![false; 5], vec![false; 5]]
+        );
     }
 
     /// A joint that does not move and carries no torque gets no fold; a
