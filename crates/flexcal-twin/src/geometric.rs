@@ -537,4 +537,49 @@ mod tests {
             assert_eq!(points, outside_points(seed, 40), "seeded");
         }
     }
+
+    #[test]
+    fn the_payload_lowers_every_loaded_pose_and_changes_nothing_else() {
+        // Noise-free, camera frame at the base: the measured positions are
+        // the TCP's in the base frame.
+        let switches = TruthSwitches {
+            measurement_noise: false,
+            measurement_frame: false,
+            ..TruthSwitches::default()
+        };
+        let options = |payload_weighed_n| GeometricCampaignOptions {
+            seed: 3,
+            n_validation: 2,
+            n_validation_outside: 2,
+            n_validation_loaded: 6,
+            payload_weighed_n,
+            switches,
+            ..GeometricCampaignOptions::default()
+        };
+        let loaded = geometric_campaign(&options(650.0)).unwrap();
+        let bare = geometric_campaign(&options(0.0)).unwrap();
+        assert_eq!(loaded.payload_weighed_n, 650.0);
+        assert!((loaded.payload_true_n - 650.0 * 1.005).abs() < 1e-9);
+        assert_eq!(loaded.identification, bare.identification);
+        assert_eq!(loaded.validation_outside, bare.validation_outside);
+        for (a, b) in loaded
+            .validation_loaded
+            .measurements()
+            .iter()
+            .zip(bare.validation_loaded.measurements())
+        {
+            assert_eq!(a.q, b.q, "same commanded poses");
+            // In box (59), up to the twin's errors from nominal (1-2 mm).
+            assert!(distance_from_box_59(&b.position) < 5e-3, "{:?}", b.position);
+            // A weight hung at the TCP lowers it: by more than the
+            // camera's noise (21 um), by less than the twin's deflection
+            // under 1100 N (2.2 mm at most over grid (65)).
+            let dz = a.position.z - b.position.z;
+            assert!((-2.2e-3..-21e-6).contains(&dz), "{dz}");
+        }
+        let e = geometric_campaign(&options(f64::NAN))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("payload_weighed_n"), "{e}");
+    }
 }
