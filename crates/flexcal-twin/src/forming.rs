@@ -36,8 +36,8 @@ use crate::truth::{
 /// The forming head's weight as weighed (N): a 66 kg head, unlike every
 /// load of the elastic campaign (300, 600, 900 and 1100 N). The forming
 /// experiment hangs it at the TCP as its dead weight, and the geometric
-/// campaign's loaded validation set carries it
-/// ([`crate::geometric::GeometricCampaignOptions::payload_weighed_n`]).
+/// campaign's loaded validation set carries it (its option
+/// `payload_weighed_n`).
 pub const FORMING_HEAD_WEIGHT_N: f64 = 650.0;
 
 /// Settings of the forming experiment.
