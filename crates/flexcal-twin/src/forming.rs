@@ -33,6 +33,13 @@ use crate::truth::{
     twin_terms,
 };
 
+/// The forming head's weight as weighed (N): a 66 kg head, unlike every
+/// load of the elastic campaign (300, 600, 900 and 1100 N). The forming
+/// experiment hangs it at the TCP as its dead weight, and the geometric
+/// campaign's loaded validation set carries it (its option
+/// `payload_weighed_n`).
+pub const FORMING_HEAD_WEIGHT_N: f64 = 650.0;
+
 /// Settings of the forming experiment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FormingOptions {
@@ -62,7 +69,7 @@ impl Default for FormingOptions {
     fn default() -> Self {
         Self {
             seed: 17,
-            dead_weight_n: 650.0,
+            dead_weight_n: FORMING_HEAD_WEIGHT_N,
             plunge_m: 0.025,
             travel_m: 0.200,
             step_m: 0.005,

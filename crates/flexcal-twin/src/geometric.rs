@@ -18,7 +18,11 @@
 //!   box (59) ([`OUTSIDE_BOX`]: x 1.3-2.15, y -0.5-0.5, z 0.95-2.05 m, at
 //!   least 0.1 m from the box), where the robot's own weight loads the
 //!   joints differently from every identification pose, so that what the
-//!   geometric model absorbed inside the box no longer holds.
+//!   geometric model absorbed inside the box no longer holds; and a third,
+//!   loaded validation set: 16 more seeded random points of box (59)
+//!   measured with a payload hung at the TCP (by default the forming
+//!   head, [`crate::forming::FORMING_HEAD_WEIGHT_N`]), a load no
+//!   identification pose carried.
 //!   The commanded q come from the nominal inverse model (as a controller
 //!   would), the measured poses from the twin.
 //! - Measurement system: the K600-10 class photogrammetry of
@@ -90,6 +94,15 @@ pub struct GeometricCampaignOptions {
     pub n_validation: usize,
     /// Number of random validation poses outside box (59) (default 16).
     pub n_validation_outside: usize,
+    /// Number of random validation poses of box (59) measured with the
+    /// payload hung at the TCP (default 16).
+    pub n_validation_loaded: usize,
+    /// The loaded validation set's payload as weighed (N; default
+    /// [`crate::forming::FORMING_HEAD_WEIGHT_N`], the forming head of the
+    /// forming experiment), hung at the TCP: its centre of mass at the
+    /// TCP. The twin's true weight differs by the scale's accuracy
+    /// ([`crate::truth::FormingTruth::true_payload_n`]).
+    pub payload_weighed_n: f64,
     /// Largest tilt of the tool axis away from vertical (rad; default 20 deg).
     pub max_tilt: f64,
     /// Which truth terms are on (default all but the temperature drift).
@@ -105,6 +118,8 @@ impl Default for GeometricCampaignOptions {
             seed: 663,
             n_validation: 16,
             n_validation_outside: 16,
+            n_validation_loaded: 16,
+            payload_weighed_n: crate::forming::FORMING_HEAD_WEIGHT_N,
             max_tilt: 20f64.to_radians(),
             switches: TruthSwitches::default(),
             camera: Photogrammetry::default(),
@@ -132,6 +147,14 @@ pub struct GeometricCampaign {
     pub validation: MeasurementSet,
     /// Random poses outside box (59), inside [`OUTSIDE_BOX`].
     pub validation_outside: MeasurementSet,
+    /// Random poses of box (59) measured with the payload hung at the TCP
+    /// (measured last: the payload is mounted after the other sets).
+    pub validation_loaded: MeasurementSet,
+    /// The payload of `validation_loaded` as weighed (N): what the user
+    /// knows.
+    pub payload_weighed_n: f64,
+    /// The payload's true weight (N): what the twin hangs.
+    pub payload_true_n: f64,
 }
 
 /// Box (59) of the paper, where the identification and the first
@@ -168,10 +191,13 @@ impl GeometricCampaign {
              truth.toml and truth.json written to {dir}\n\
              measurements in the camera frame, which the calibration registers (target = TCP): calibrate with \
              `flexcal calibrate --robot ir663 --data {dir}/identification.csv --validate {dir}/validation.csv --fixed-target` \
-             ({} more validation poses outside box (59) in {dir}/validation_outside.csv)\n",
+             ({} more validation poses outside box (59) in {dir}/validation_outside.csv, \
+             {} in box (59) with {:.0} N hung at the TCP in {dir}/validation_loaded.csv)\n",
             self.identification.len(),
             self.validation.len(),
             self.validation_outside.len(),
+            self.validation_loaded.len(),
+            self.payload_weighed_n,
             dir = dir.display()
         )
     }
@@ -185,6 +211,15 @@ impl GeometricCampaign {
 pub fn geometric_campaign(
     options: &GeometricCampaignOptions,
 ) -> Result<GeometricCampaign, GeometricTwinError> {
+    if !(options.payload_weighed_n.is_finite() && options.payload_weighed_n >= 0.0) {
+        return Err(GeometricTwinError::InvalidOption {
+            name: "payload_weighed_n",
+            reason: format!(
+                "the loaded validation's payload must be finite and >= 0 N, found {}",
+                options.payload_weighed_n
+            ),
+        });
+    }
     if !(options.max_tilt.is_finite() && options.max_tilt >= 0.0) {
         return Err(GeometricTwinError::InvalidOption {
             name: "max_tilt",
@@ -227,19 +262,15 @@ pub fn geometric_campaign(
             grid.extend(zs.iter().map(|&z| Vector3::new(x, y, z)));
         }
     }
-    let random: Vec<Vector3<f64>> = (0..options.n_validation)
-        .map(|_| {
-            Vector3::new(
-                rng.random_range(BOX_59[0][0]..=BOX_59[0][1]),
-                rng.random_range(BOX_59[1][0]..=BOX_59[1][1]),
-                rng.random_range(BOX_59[2][0]..=BOX_59[2][1]),
-            )
-        })
-        .collect();
+    let random = box_points(&mut rng, options.n_validation);
     let outside = outside_points(options.seed, options.n_validation_outside);
+    // Its own stream, so that the other sets do not depend on it.
+    let mut loaded_rng = ChaCha8Rng::seed_from_u64(options.seed ^ LOADED_STREAM);
+    let loaded = box_points(&mut loaded_rng, options.n_validation_loaded);
     // Identification then validation, in measurement order (the
-    // temperature drift runs over all three sets).
-    let total = (grid.len() + random.len() + outside.len()).max(2) as f64 - 1.0;
+    // temperature drift runs over all four sets).
+    let total = (grid.len() + random.len() + outside.len() + loaded.len()).max(2) as f64 - 1.0;
+    let unloaded = Vector6::zeros();
     // The noise has its own stream, so that the poses do not depend on
     // whether the noise is on.
     let mut noise_rng = ChaCha8Rng::seed_from_u64(options.seed ^ NOISE_STREAM);
@@ -251,7 +282,7 @@ pub fn geometric_campaign(
         options,
         &mut rng,
         &mut noise_rng,
-        "identification",
+        ("identification", &unloaded),
     )?;
     let validation = measure(
         &twin,
@@ -261,7 +292,7 @@ pub fn geometric_campaign(
         options,
         &mut rng,
         &mut noise_rng,
-        "validation",
+        ("validation", &unloaded),
     )?;
     // Its own pose stream, so that the other sets do not depend on it.
     let mut outside_rng = ChaCha8Rng::seed_from_u64(options.seed ^ OUTSIDE_STREAM);
@@ -273,7 +304,22 @@ pub fn geometric_campaign(
         options,
         &mut outside_rng,
         &mut noise_rng,
-        "validation_outside",
+        ("validation_outside", &unloaded),
+    )?;
+    // The payload hangs at the TCP: its weight, base axes, no moment about
+    // the TCP.
+    let payload_true_n = FormingTruth::default()
+        .true_payload_n(options.payload_weighed_n, options.switches.payload_error);
+    let payload = Vector6::new(0.0, 0.0, -payload_true_n, 0.0, 0.0, 0.0);
+    let validation_loaded = measure(
+        &twin,
+        &loaded,
+        grid.len() + random.len() + outside.len(),
+        total,
+        options,
+        &mut loaded_rng,
+        &mut noise_rng,
+        ("validation_loaded", &payload),
     )?;
     let x_meas_base = if options.switches.measurement_frame {
         options.camera.x_meas_base
@@ -290,6 +336,9 @@ pub fn geometric_campaign(
         identification,
         validation,
         validation_outside,
+        validation_loaded,
+        payload_weighed_n: options.payload_weighed_n,
+        payload_true_n,
     })
 }
 
@@ -297,6 +346,21 @@ pub fn geometric_campaign(
 const NOISE_STREAM: u64 = 0x6e6f_6973_6500;
 /// Mixed into the seed of the outside validation poses' stream.
 const OUTSIDE_STREAM: u64 = 0x6f75_7473_6964;
+/// Mixed into the seed of the loaded validation poses' stream.
+const LOADED_STREAM: u64 = 0x6c6f_6164_6564;
+
+/// `n` seeded random points of box (59).
+fn box_points(rng: &mut ChaCha8Rng, n: usize) -> Vec<Vector3<f64>> {
+    (0..n)
+        .map(|_| {
+            Vector3::new(
+                rng.random_range(BOX_59[0][0]..=BOX_59[0][1]),
+                rng.random_range(BOX_59[1][0]..=BOX_59[1][1]),
+                rng.random_range(BOX_59[2][0]..=BOX_59[2][1]),
+            )
+        })
+        .collect()
+}
 
 /// `n` seeded points of [`OUTSIDE_BOX`] at least [`OUTSIDE_MARGIN`] from
 /// box (59).
@@ -321,7 +385,7 @@ fn measure(
     options: &GeometricCampaignOptions,
     rng: &mut ChaCha8Rng,
     noise_rng: &mut ChaCha8Rng,
-    name: &str,
+    (name, wrench_base): (&str, &Vector6<f64>),
 ) -> Result<MeasurementSet, GeometricTwinError> {
     let kin = |step: String| move |source| GeometricTwinError::Kinematics { step, source };
     let model = twin.model();
@@ -364,7 +428,7 @@ fn measure(
         };
         seed = solution.q.clone();
         let fraction = (first_index + k) as f64 / last_index;
-        let reached = twin.pose(&mut workspace, &solution.q, &Vector6::zeros(), fraction)?;
+        let reached = twin.pose(&mut workspace, &solution.q, wrench_base, fraction)?;
         let x_meas_tcp = camera.measure(
             &reached.x_base_tcp,
             switches.measurement_noise,
@@ -401,6 +465,9 @@ pub fn write_geometric_campaign(
     campaign
         .validation_outside
         .write_csv(&dir.join("validation_outside.csv"))?;
+    campaign
+        .validation_loaded
+        .write_csv(&dir.join("validation_loaded.csv"))?;
     flexcal_io::write_atomic(
         dir.join("truth.toml"),
         campaign.true_description.to_toml_string(),
@@ -428,6 +495,11 @@ pub fn write_geometric_campaign(
             "x_meas_base_rotation_vector_deg": campaign.x_meas_base.rotation.scaled_axis().map(f64::to_degrees).as_slice(),
         },
         "target": "TCP",
+        "validation_loaded_payload": {
+            "weighed_n": campaign.payload_weighed_n,
+            "true_n": campaign.payload_true_n,
+            "center": "TCP",
+        },
         "terms": campaign.terms,
     });
     let text = serde_json::to_string_pretty(&json).unwrap_or_default();
@@ -464,5 +536,50 @@ mod tests {
             }
             assert_eq!(points, outside_points(seed, 40), "seeded");
         }
+    }
+
+    #[test]
+    fn the_payload_lowers_every_loaded_pose_and_changes_nothing_else() {
+        // Noise-free, camera frame at the base: the measured positions are
+        // the TCP's in the base frame.
+        let switches = TruthSwitches {
+            measurement_noise: false,
+            measurement_frame: false,
+            ..TruthSwitches::default()
+        };
+        let options = |payload_weighed_n| GeometricCampaignOptions {
+            seed: 3,
+            n_validation: 2,
+            n_validation_outside: 2,
+            n_validation_loaded: 6,
+            payload_weighed_n,
+            switches,
+            ..GeometricCampaignOptions::default()
+        };
+        let loaded = geometric_campaign(&options(650.0)).unwrap();
+        let bare = geometric_campaign(&options(0.0)).unwrap();
+        assert_eq!(loaded.payload_weighed_n, 650.0);
+        assert!((loaded.payload_true_n - 650.0 * 1.005).abs() < 1e-9);
+        assert_eq!(loaded.identification, bare.identification);
+        assert_eq!(loaded.validation_outside, bare.validation_outside);
+        for (a, b) in loaded
+            .validation_loaded
+            .measurements()
+            .iter()
+            .zip(bare.validation_loaded.measurements())
+        {
+            assert_eq!(a.q, b.q, "same commanded poses");
+            // In box (59), up to the twin's errors from nominal (1-2 mm).
+            assert!(distance_from_box_59(&b.position) < 5e-3, "{:?}", b.position);
+            // A weight hung at the TCP lowers it: by more than the
+            // camera's noise (21 um), by less than the twin's deflection
+            // under 1100 N (2.2 mm at most over grid (65)).
+            let dz = a.position.z - b.position.z;
+            assert!((-2.2e-3..-21e-6).contains(&dz), "{dz}");
+        }
+        let e = geometric_campaign(&options(f64::NAN))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("payload_weighed_n"), "{e}");
     }
 }

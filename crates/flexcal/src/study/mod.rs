@@ -14,6 +14,7 @@
 //! Everything a figure of the report shows is computed here; the report
 //! ([`study_report`]) only lays it out.
 
+pub mod loaded;
 pub mod masses;
 pub mod model_class;
 mod sections;
@@ -44,6 +45,7 @@ use flexcal_twin::geometric::{
 use flexcal_twin::truth::{TruthSwitches, TwinTerm};
 use serde::{Deserialize, Serialize};
 
+pub use loaded::{LOADED_PAYLOAD_SOURCE, LoadedFigures, loaded_figures};
 pub use masses::{MASS_SCALES, MassEntry, ir663_mass_estimate, ir663_mass_table};
 pub use sections::study_report;
 pub use seeds::{
@@ -141,6 +143,9 @@ pub struct GeometricSummary {
     /// Validation on the poses outside box (59), where the robot's own
     /// weight loads the joints unlike any identification pose.
     pub outside_box: OutsideBoxFigures,
+    /// Validation on poses of box (59) measured with a known payload at
+    /// the TCP, a load no identification pose carried.
+    pub loaded: LoadedFigures,
     /// The mass table the elasto-geometric calibration starts from, each
     /// figure with its source and assumed uncertainty.
     pub mass_estimate: Vec<MassEntry>,
@@ -171,6 +176,8 @@ pub struct MassScaleFigures {
     pub inside: ValidationFigures,
     /// Validation outside box (59).
     pub outside: ValidationFigures,
+    /// Validation on the loaded poses, told the weighed payload.
+    pub loaded: ValidationFigures,
 }
 
 /// Table 5 figures of one load (mm).
@@ -545,7 +552,7 @@ fn geometric_step(
     observer: &mut dyn StudyObserver,
 ) -> Result<GeometricResults> {
     let dir = out.join("geometric");
-    observer.started("geometric campaign on the virtual IR-663 (27 + 16 + 16 poses)");
+    observer.started("geometric campaign on the virtual IR-663 (27 + 16 + 16 + 16 loaded poses)");
     let campaign_options = GeometricCampaignOptions {
         seed,
         ..GeometricCampaignOptions::default()
@@ -557,6 +564,8 @@ fn geometric_step(
     let identification = MeasurementSet::read_csv(&dir.join("identification.csv"))?;
     let validation_set = MeasurementSet::read_csv(&dir.join("validation.csv"))?;
     let outside_set = MeasurementSet::read_csv(&dir.join("validation_outside.csv"))?;
+    let loaded_set = MeasurementSet::read_csv(&dir.join("validation_loaded.csv"))?;
+    let payload = loaded::tcp_payload(campaign.payload_weighed_n);
     let model = campaign.model;
     observer.stage("geometric identification (Levenberg-Marquardt)");
     let mut calibration_options = CalibrationOptions::for_model(&model);
@@ -582,6 +591,7 @@ fn geometric_step(
             scale,
             inside: (&scaled.validate(&model, &validation_set, false)?.after).into(),
             outside: (&scaled.validate(&model, &outside_set, false)?.after).into(),
+            loaded: loaded::loaded_errors(&model, &scaled, &loaded_set, &payload)?,
         });
     }
     let elasto_description = elasto_geometric.description(&model)?;
@@ -628,11 +638,17 @@ fn geometric_step(
             geometric: (&validation_outside.after).into(),
             elasto_geometric: (&elasto_geometric_outside.after).into(),
         },
+        loaded: loaded_figures(
+            &model,
+            (&calibration, &elasto_geometric),
+            &loaded_set,
+            campaign.payload_weighed_n,
+        )?,
         mass_estimate: ir663_mass_estimate(),
         mass_scaled,
     };
     observer.finished(&format!(
-        "geometric calibration: rank {} of {}, validation mean {:.3} mm / {:.3} deg -> geometric {:.3} mm / {:.3} deg, elasto-geometric {:.3} mm / {:.3} deg (noise floor {:.3} mm); outside box (59) {:.3} -> geometric {:.3} mm, elasto-geometric {:.3} mm",
+        "geometric calibration: rank {} of {}, validation mean {:.3} mm / {:.3} deg -> geometric {:.3} mm / {:.3} deg, elasto-geometric {:.3} mm / {:.3} deg (noise floor {:.3} mm); outside box (59) {:.3} -> geometric {:.3} mm, elasto-geometric {:.3} mm; with {:.0} N at the TCP {:.3} -> geometric {:.3} mm, elasto-geometric {:.3} mm",
         summary.rank,
         summary.parameters,
         summary.validation_before.position_mean_mm,
@@ -644,7 +660,11 @@ fn geometric_step(
         summary.noise_floor_position_mean_mm,
         summary.outside_box.before.position_mean_mm,
         summary.outside_box.geometric.position_mean_mm,
-        summary.outside_box.elasto_geometric.position_mean_mm
+        summary.outside_box.elasto_geometric.position_mean_mm,
+        summary.loaded.payload_weighed_n,
+        summary.loaded.before.position_mean_mm,
+        summary.loaded.geometric.position_mean_mm,
+        summary.loaded.elasto_geometric.position_mean_mm
     ));
     let identification_q: Vec<Vec<f64>> = identification
         .measurements()

@@ -100,8 +100,22 @@ pub struct MultiSeedSummary {
     /// Outside box (59): seeds on which the elasto-geometric max is below
     /// the geometric one.
     pub outside_elasto_geometric_better_max_seeds: usize,
+    /// Loaded validation (box (59), the payload at the TCP): mean before
+    /// calibration (mm).
+    pub loaded_before_mean_mm: Spread,
+    /// Loaded validation: mean and max, geometric model (mm).
+    pub loaded_geometric_mm: MeanMax,
+    /// Loaded validation: mean and max, elasto-geometric model told the
+    /// payload (mm).
+    pub loaded_elasto_geometric_mm: MeanMax,
+    /// Loaded validation: seeds on which the elasto-geometric mean is below
+    /// the geometric one.
+    pub loaded_elasto_geometric_better_mean_seeds: usize,
+    /// Loaded validation: seeds on which the elasto-geometric max is below
+    /// the geometric one.
+    pub loaded_elasto_geometric_better_max_seeds: usize,
     /// The elasto-geometric calibration with every estimated mass scaled:
-    /// validation inside and outside box (59), per scale.
+    /// validation inside and outside box (59) and loaded, per scale.
     pub mass_scaled: Vec<MassScaleSpread>,
     /// Table 5 per metric (`"plane_xz"`, `"three_d"` on the campaign's
     /// grid, `"held_out_plane_xz"`, `"held_out_three_d"` on the held-out
@@ -152,6 +166,8 @@ pub struct MassScaleSpread {
     pub inside_mm: MeanMax,
     /// Validation outside box (59) (mm).
     pub outside_mm: MeanMax,
+    /// Loaded validation (mm).
+    pub loaded_mm: MeanMax,
 }
 
 fn mass_scale_spreads(summaries: &[Summary]) -> Vec<MassScaleSpread> {
@@ -170,6 +186,7 @@ fn mass_scale_spreads(summaries: &[Summary]) -> Vec<MassScaleSpread> {
                 scale,
                 inside_mm: MeanMax::of(&runs.iter().map(|m| &m.inside).collect::<Vec<_>>()),
                 outside_mm: MeanMax::of(&runs.iter().map(|m| &m.outside).collect::<Vec<_>>()),
+                loaded_mm: MeanMax::of(&runs.iter().map(|m| &m.loaded).collect::<Vec<_>>()),
             }
         })
         .collect()
@@ -258,6 +275,31 @@ fn compare_loads(parametric: &[&Table5], fuzzy: &[&Table5]) -> BTreeMap<String, 
         .collect()
 }
 
+/// Seeds on which `better` holds of the (geometric, elasto-geometric)
+/// figures `pick` gives.
+fn seeds_where(
+    summaries: &[Summary],
+    pick: fn(&Summary) -> (&super::ValidationFigures, &super::ValidationFigures),
+    better: fn(&super::ValidationFigures, &super::ValidationFigures) -> bool,
+) -> usize {
+    summaries
+        .iter()
+        .filter(|s| {
+            let (geometric, elasto_geometric) = pick(s);
+            better(geometric, elasto_geometric)
+        })
+        .count()
+}
+
+/// Whether the second figures' mean (or max) is below the first's.
+fn lower_mean(a: &super::ValidationFigures, b: &super::ValidationFigures) -> bool {
+    b.position_mean_mm < a.position_mean_mm
+}
+
+fn lower_max(a: &super::ValidationFigures, b: &super::ValidationFigures) -> bool {
+    b.position_max_mm < a.position_max_mm
+}
+
 impl MultiSeedSummary {
     /// The acceptance figures of the study summaries `summaries` (one per
     /// seed).
@@ -267,6 +309,19 @@ impl MultiSeedSummary {
         };
         fn g(s: &Summary) -> &super::GeometricSummary {
             &s.geometric
+        }
+        fn inside(s: &Summary) -> (&super::ValidationFigures, &super::ValidationFigures) {
+            (&s.geometric.validation_after, &s.geometric.elasto_geometric)
+        }
+        fn outside(s: &Summary) -> (&super::ValidationFigures, &super::ValidationFigures) {
+            let o = &s.geometric.outside_box;
+            (&o.geometric, &o.elasto_geometric)
+        }
+        fn loaded(s: &Summary) -> (&super::ValidationFigures, &super::ValidationFigures) {
+            (
+                &s.geometric.loaded.geometric,
+                &s.geometric.loaded.elasto_geometric,
+            )
         }
         let mut table5 = BTreeMap::new();
         let mut floors = BTreeMap::new();
@@ -296,18 +351,8 @@ impl MultiSeedSummary {
             geometric_max_mm: f(&|s| g(s).validation_after.position_max_mm),
             elasto_geometric_mean_mm: f(&|s| g(s).elasto_geometric.position_mean_mm),
             elasto_geometric_max_mm: f(&|s| g(s).elasto_geometric.position_max_mm),
-            elasto_geometric_better_mean_seeds: summaries
-                .iter()
-                .filter(|s| {
-                    g(s).elasto_geometric.position_mean_mm < g(s).validation_after.position_mean_mm
-                })
-                .count(),
-            elasto_geometric_better_max_seeds: summaries
-                .iter()
-                .filter(|s| {
-                    g(s).elasto_geometric.position_max_mm < g(s).validation_after.position_max_mm
-                })
-                .count(),
+            elasto_geometric_better_mean_seeds: seeds_where(&summaries, inside, lower_mean),
+            elasto_geometric_better_max_seeds: seeds_where(&summaries, inside, lower_max),
             noise_floor_mean_mm: f(&|s| g(s).noise_floor_position_mean_mm),
             outside_before_mean_mm: f(&|s| g(s).outside_box.before.position_mean_mm),
             outside_geometric_mm: MeanMax::of(
@@ -322,20 +367,25 @@ impl MultiSeedSummary {
                     .map(|s| &g(s).outside_box.elasto_geometric)
                     .collect::<Vec<_>>(),
             ),
-            outside_elasto_geometric_better_mean_seeds: summaries
-                .iter()
-                .filter(|s| {
-                    let o = &g(s).outside_box;
-                    o.elasto_geometric.position_mean_mm < o.geometric.position_mean_mm
-                })
-                .count(),
-            outside_elasto_geometric_better_max_seeds: summaries
-                .iter()
-                .filter(|s| {
-                    let o = &g(s).outside_box;
-                    o.elasto_geometric.position_max_mm < o.geometric.position_max_mm
-                })
-                .count(),
+            outside_elasto_geometric_better_mean_seeds: seeds_where(
+                &summaries, outside, lower_mean,
+            ),
+            outside_elasto_geometric_better_max_seeds: seeds_where(&summaries, outside, lower_max),
+            loaded_before_mean_mm: f(&|s| g(s).loaded.before.position_mean_mm),
+            loaded_geometric_mm: MeanMax::of(
+                &summaries
+                    .iter()
+                    .map(|s| &g(s).loaded.geometric)
+                    .collect::<Vec<_>>(),
+            ),
+            loaded_elasto_geometric_mm: MeanMax::of(
+                &summaries
+                    .iter()
+                    .map(|s| &g(s).loaded.elasto_geometric)
+                    .collect::<Vec<_>>(),
+            ),
+            loaded_elasto_geometric_better_mean_seeds: seeds_where(&summaries, loaded, lower_mean),
+            loaded_elasto_geometric_better_max_seeds: seeds_where(&summaries, loaded, lower_max),
             mass_scaled: mass_scale_spreads(&summaries),
             table5,
             table5_noise_floor_mm: floors,
@@ -397,14 +447,40 @@ impl MultiSeedSummary {
             self.outside_elasto_geometric_better_mean_seeds,
             self.outside_elasto_geometric_better_max_seeds
         );
-        out += "| elasto-geometric, masses scaled | inside, mean [mm] | inside, max [mm] | outside, mean [mm] | outside, max [mm] |\n|---|---|---|---|---|\n";
-        let row = |scale: &str, inside: &MeanMax, outside: &MeanMax| {
+        out += "| geometric step, loaded validation (box (59), payload at the TCP) | mean position [mm] | max position [mm] |\n|---|---|---|\n";
+        out += &format!(
+            "| nominal (frame registered) | {} | |\n",
+            self.loaded_before_mean_mm.text(3)
+        );
+        for (name, figures) in [
+            ("geometric", &self.loaded_geometric_mm),
+            (
+                "elasto-geometric, told the payload",
+                &self.loaded_elasto_geometric_mm,
+            ),
+        ] {
+            out += &format!(
+                "| {name} | {} | {} |\n",
+                figures.mean.text(4),
+                figures.max.text(4)
+            );
+        }
+        out += &format!(
+            "| noise floor | {} | |\n\nLoaded, elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
+            self.noise_floor_mean_mm.text(4),
+            self.loaded_elasto_geometric_better_mean_seeds,
+            self.loaded_elasto_geometric_better_max_seeds
+        );
+        out += "| elasto-geometric, masses scaled | inside, mean [mm] | inside, max [mm] | outside, mean [mm] | outside, max [mm] | loaded, mean [mm] | loaded, max [mm] |\n|---|---|---|---|---|---|---|\n";
+        let row = |scale: &str, inside: &MeanMax, outside: &MeanMax, loaded: &MeanMax| {
             format!(
-                "| {scale} | {} | {} | {} | {} |\n",
+                "| {scale} | {} | {} | {} | {} | {} | {} |\n",
                 inside.mean.text(4),
                 inside.max.text(4),
                 outside.mean.text(4),
-                outside.max.text(4)
+                outside.max.text(4),
+                loaded.mean.text(4),
+                loaded.max.text(4)
             )
         };
         out += &row(
@@ -414,9 +490,15 @@ impl MultiSeedSummary {
                 max: self.elasto_geometric_max_mm,
             },
             &self.outside_elasto_geometric_mm,
+            &self.loaded_elasto_geometric_mm,
         );
         for m in &self.mass_scaled {
-            out += &row(&format!("x {}", m.scale), &m.inside_mm, &m.outside_mm);
+            out += &row(
+                &format!("x {}", m.scale),
+                &m.inside_mm,
+                &m.outside_mm,
+                &m.loaded_mm,
+            );
         }
         out += "\n";
         for (metric, loads) in &self.table5 {
