@@ -60,9 +60,7 @@ pub fn ipa_plan_check(
     let q = |set: &MeasurementSet| -> Vec<Vec<f64>> {
         set.measurements().iter().map(|m| m.q.clone()).collect()
     };
-    let instrument = Instrument {
-        noise_mm: [noise_mm; 3],
-    };
+    let instrument = Instrument::positions([noise_mm; 3]);
     let predicted = predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;
     options.weighting = Weighting::Uniform;
     let calibration = calib::calibrate(model, &train, &options)?;
