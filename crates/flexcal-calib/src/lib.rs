@@ -314,6 +314,7 @@ pub mod identify;
 pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
+pub mod misses;
 pub mod options;
 mod prediction;
 pub mod report;
@@ -364,6 +365,7 @@ pub use metrics::{
     ErrorStatistics, ObservationError, PoseError, TargetErrors, error_statistics,
     observation_errors_csv,
 };
+pub use misses::{CoordinateMisses, Misses, MissesByRange};
 pub use options::{CalibrationOptions, FrameTreatment, IR663_PAPER_DEFERRED, Method, Weighting};
 pub use report::{
     CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ParameterJson, ResidualModelJson,
