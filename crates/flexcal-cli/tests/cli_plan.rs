@@ -104,7 +104,10 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
     let region = dir.path().join("region.csv");
     std::fs::write(&region, "q1,q2,q3,q4,q5,q6\n0,-1,1,0,1,0\n0,-1,1,0,1,20\n").unwrap();
     let region = region.display().to_string();
-    let cases: [(&[&str], &str); 5] = [
+    let empty = dir.path().join("empty.csv");
+    std::fs::write(&empty, "q1,q2,q3,q4,q5,q6\n").unwrap();
+    let empty = empty.display().to_string();
+    let cases: [(&[&str], &str); 9] = [
         (
             &["--noise-mm", "0", "--box-deg", BOX],
             "noise along x must be finite and > 0",
@@ -135,6 +138,41 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
                 "31",
             ],
             "31 poses asked for, but only 30 candidates",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--orientation-noise-deg",
+                "0.01,0.01,0",
+                "--box-deg",
+                BOX,
+            ],
+            "orientation_noise_deg: the instrument's noise along z must be finite and > 0 deg",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--orientation-noise-deg",
+                "0.01,0.01",
+                "--box-deg",
+                BOX,
+            ],
+            "--orientation-noise-deg takes one value or three x,y,z (deg), got 2",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                "-400:90,-125:-35,30:125,-140:30,30:150,-170:170",
+            ],
+            "leaves the joint limits",
+        ),
+        (
+            &["--noise-mm", "0.02", "--box-deg", BOX, "--region", &empty],
+            "empty.csv",
         ),
     ];
     for (args, expected) in cases {

@@ -17,7 +17,7 @@ use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
 use super::{Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
-use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet};
+use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet, MissesByRange};
 use crate::kinematics::Model;
 use crate::pose_file::Located;
 use crate::twin::geometric::{GeometricCampaignOptions, geometric_campaign};
@@ -48,6 +48,9 @@ pub struct PlannedCampaignCheck {
     pub achieved_mean_error_mm: f64,
     /// Region poses outside the planned poses' joint ranges.
     pub extrapolated: usize,
+    /// The misses of the planned bounds sorted by the planned poses'
+    /// ranges they leave (`None` when refused).
+    pub misses: Option<MissesByRange>,
 }
 
 /// Result of [`twin_plan_check`].
@@ -185,24 +188,26 @@ impl TwinData {
                     coverage: 0.0,
                     achieved_mean_error_mm: 0.0,
                     extrapolated: 0,
+                    misses: None,
                 };
                 return Ok((refused, Vec::new()));
             }
         };
         let errors = self.achieved(options, &plan.selected)?;
-        let within = errors
-            .iter()
-            .zip(&plan.prediction.map.poses)
-            .filter(|(e, p)| **e <= p.bound_95_mm)
-            .count();
+        let mut map = plan.prediction.map.clone();
+        for (p, e) in map.poses.iter_mut().zip(&errors) {
+            p.actual_error_mm = Some(*e);
+        }
+        let misses = map.misses_by_range();
         let check = PlannedCampaignCheck {
             poses: n,
             full_poses,
             refused: None,
             predicted: Some(plan.prediction.accuracy),
-            coverage: within as f64 / errors.len().max(1) as f64,
+            coverage: 1.0 - misses.as_ref().map_or(1.0, |m| m.all.rate()),
             achieved_mean_error_mm: mean(&errors),
             extrapolated: plan.prediction.map.extrapolated_poses,
+            misses,
         };
         Ok((check, plan.selected))
     }
@@ -305,7 +310,7 @@ impl TwinPlanCheck {
             "virtual IR-663, seed {}: {TWIN_CANDIDATES} candidates and {TWIN_REGION} region poses of box (59), noise {:.4} mm per axis, orientation {:.4}/{:.4}/{:.4} deg\n\n",
             self.seed, self.noise_mm, o[0], o[1], o[2]
         );
-        out.push_str("| measured | N | predicted mean bound (mm) | coverage of the 95 % bound | predicted mean error (mm) | achieved mean error (mm) | predicted / achieved | region poses outside the planned ranges |\n|---|---|---|---|---|---|---|---|\n");
+        out.push_str("| measured | N | predicted mean bound (mm) | coverage of the 95 % bound | predicted mean error (mm) | achieved mean error (mm) | predicted / achieved | region poses outside the planned ranges | misses outside a range / inside every range |\n|---|---|---|---|---|---|---|---|---|\n");
         for c in &self.planned {
             let measured = if c.full_poses {
                 "full poses"
@@ -314,17 +319,22 @@ impl TwinPlanCheck {
             };
             match (&c.refused, c.predicted) {
                 (None, Some(a)) => out.push_str(&format!(
-                    "| {measured} | {} | {:.4} | {:.1} % | {:.4} | {:.4} | {:.2} | {} |\n",
+                    "| {measured} | {} | {:.4} | {:.1} % | {:.4} | {:.4} | {:.2} | {} | {} |\n",
                     c.poses,
                     a.mean_bound_95_mm,
                     100.0 * c.coverage,
                     a.predicted_mean_error_mm,
                     c.achieved_mean_error_mm,
                     a.predicted_mean_error_mm / c.achieved_mean_error_mm,
-                    c.extrapolated
+                    c.extrapolated,
+                    c.misses.as_ref().map_or(String::new(), |m| format!(
+                        "{} / {}",
+                        m.explained(),
+                        m.inside.misses
+                    ))
                 )),
                 (reason, _) => out.push_str(&format!(
-                    "| {measured} | {} | refused: {} | | | | | |\n",
+                    "| {measured} | {} | refused: {} | | | | | | |\n",
                     c.poses,
                     reason.as_deref().unwrap_or("no prediction")
                 )),
