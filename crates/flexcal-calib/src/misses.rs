@@ -46,6 +46,9 @@ pub struct CoordinateMisses {
     pub coordinate: String,
     /// Entries outside its training range, and the misses among them.
     pub outside: Misses,
+    /// Entries inside its training range (whatever the other coordinates),
+    /// and the misses among them: the rate to compare the outside's with.
+    pub inside: Misses,
     /// Misses outside this coordinate's range and inside every other's:
     /// those that leaving this range alone explains.
     pub misses_outside_this_alone: usize,
@@ -78,8 +81,14 @@ impl MissesByRange {
             .iter()
             .map(|c| {
                 format!(
-                    "{} {} of {} outside ({} outside it alone)",
-                    c.coordinate, c.outside.misses, c.outside.entries, c.misses_outside_this_alone
+                    "{} {} of {} outside ({:.0} %; {:.0} % of the {} inside its range; {} outside it alone)",
+                    c.coordinate,
+                    c.outside.misses,
+                    c.outside.entries,
+                    100.0 * c.outside.rate(),
+                    100.0 * c.inside.rate(),
+                    c.inside.entries,
+                    c.misses_outside_this_alone
                 )
             })
             .collect();
@@ -120,6 +129,7 @@ impl AccuracyMap {
                         coordinates.push(CoordinateMisses {
                             coordinate: name.clone(),
                             outside: Misses::default(),
+                            inside: Misses::default(),
                             misses_outside_this_alone: 0,
                         });
                         coordinates.len() - 1
@@ -130,6 +140,12 @@ impl AccuracyMap {
                     coordinates[k].misses_outside_this_alone += 1;
                 }
             }
+        }
+        for c in &mut coordinates {
+            c.inside = Misses {
+                entries: all.entries - c.outside.entries,
+                misses: all.misses - c.outside.misses,
+            };
         }
         coordinates.sort_by(|a, b| {
             b.outside
@@ -200,12 +216,16 @@ mod tests {
         assert_eq!(theta1.coordinate, "theta1");
         assert_eq!(theta1.outside, Misses { entries: 2, misses: 2 });
         assert_eq!(theta1.misses_outside_this_alone, 1);
+        assert_eq!(theta1.inside, Misses { entries: 3, misses: 1 });
         let theta2 = &m.coordinates[1];
         assert_eq!(theta2.outside, Misses { entries: 2, misses: 1 });
         assert_eq!(theta2.misses_outside_this_alone, 0);
         let line = m.summary();
         assert!(line.starts_with("3 misses of 5 entries (60.0 %); 2 outside"), "{line}");
-        assert!(line.contains("theta1 2 of 2 outside (1 outside it alone)"), "{line}");
+        assert!(
+            line.contains("theta1 2 of 2 outside (100 %; 33 % of the 3 inside its range; 1 outside it alone)"),
+            "{line}"
+        );
         assert!(line.contains("1 inside every range, not explained (of 2 entries inside, 50.0 %)"), "{line}");
     }
 
@@ -236,6 +256,8 @@ mod tests {
             assert_eq!(m.inside.misses + m.explained(), m.all.misses);
             for c in &m.coordinates {
                 assert!(c.outside.misses <= m.explained());
+                assert_eq!(c.outside.entries + c.inside.entries, n);
+                assert!(c.inside.misses >= m.inside.misses);
                 assert!(c.outside.misses <= c.outside.entries);
                 assert!(c.misses_outside_this_alone <= c.outside.misses);
             }

@@ -95,6 +95,50 @@ fn plan_writes_the_poses_programs_and_pages() {
     );
 }
 
+/// An instrument measuring full poses: the plan says so, and its JSON
+/// carries the orientation noise.
+#[test]
+fn plan_with_full_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("plan.json");
+    let out = flexcal(&[
+        "plan",
+        "--robot",
+        "ur10",
+        "--noise-mm",
+        "0.02",
+        "--orientation-noise-deg",
+        "0.01,0.01,0.02",
+        "--box-deg",
+        BOX,
+        "--candidate-count",
+        "40",
+        "--region-count",
+        "20",
+        "--poses",
+        "12",
+        "--max-poses",
+        "20",
+        "--out",
+        dir.path().join("poses.csv").to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("noise 0.0200/0.0200/0.0200 mm and 0.0100/0.0100/0.0200 deg (full poses)"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    assert_eq!(
+        json["instrument"]["orientation_noise_deg"],
+        serde_json::json!([0.01, 0.01, 0.02])
+    );
+    assert_eq!(json["count"], 12);
+}
+
 /// Each bad input gets a one-line error naming what was wrong, and the
 /// output file is not written.
 #[test]

@@ -4,12 +4,14 @@
 //! Given a robot, the model to identify (the same
 //! [`calib::CalibrationOptions`] as `calibrate`: geometric or
 //! elasto-geometric, frames identified or fixed, parameters fixed or
-//! deferred), the instrument's noise per axis, a pool of candidate
+//! deferred), the instrument (positions, or full poses) and its noise per
+//! axis, a pool of candidate
 //! configurations (a file, or a joint box sampled with a seed) and the
 //! region where accuracy matters (a path or configuration file, or a joint
 //! box sampled with a seed), [`plan_campaign`]:
-//! 1. identifies the pool: `calibrate` on positions the nominal robot
-//!    would give at every candidate, weighted by the instrument's noise
+//! 1. identifies the pool: `calibrate` on the positions (and orientations,
+//!    when the instrument measures them) the nominal robot would give at
+//!    every candidate, weighted by the instrument's noise
 //!    ([`synthetic_set`]), decides which unknowns any campaign from this
 //!    pool can identify (the columns of the design);
 //! 2. chooses poses greedily on the I-optimal criterion, the mean over the
@@ -30,13 +32,15 @@
 //!    the region ([`predict_campaign`]).
 //!
 //! ## Limitations
-//! - One target, positions only: the instrument measures a point on the
-//!   flange or tool; orientations, several targets, line of sight and a
-//!   reach box of the instrument are not modelled.
+//! - One target: the instrument measures a point on the flange or tool,
+//!   or its full pose; several targets, line of sight and a reach box of
+//!   the instrument are not modelled. The region's accuracy is that of
+//!   positions.
 //! - The prediction is that of a model that holds: what the identified
 //!   model lacks (non-geometric errors, temperature, unmodelled
-//!   elasticity) is not in the bound, and region points outside the
-//!   planned poses' joint ranges are flagged
+//!   elasticity) is not in the bound unless the stated noise includes it
+//!   (an earlier campaign's [`calib::Calibration::residual_scatter`]), and
+//!   region points outside the planned poses' joint ranges are flagged
 //!   ([`calib::PoseAccuracy::outside_training_range`]), not widened.
 //! - The linearisation is at the nominal robot; errors of millimetres
 //!   change the Jacobian to second order only.
@@ -844,9 +848,15 @@ impl CampaignPlan {
     pub fn summary_text(&self) -> String {
         let mut out = String::new();
         let n = self.instrument.noise_mm;
+        let orientation = self
+            .instrument
+            .orientation_noise_deg
+            .map_or(" (positions)".to_string(), |o| {
+                format!(" and {:.4}/{:.4}/{:.4} deg (full poses)", o[0], o[1], o[2])
+            });
         let _ = writeln!(
             out,
-            "plan for {} ({} model): {} poses of {} candidates, region of {} points, noise {:.4}/{:.4}/{:.4} mm, {} design unknowns",
+            "plan for {} ({} model): {} poses of {} candidates, region of {} points, noise {:.4}/{:.4}/{:.4} mm{orientation}, {} design unknowns",
             self.robot,
             self.model,
             self.count,
