@@ -209,24 +209,62 @@ mod tests {
         ])
         .misses_by_range()
         .unwrap();
-        assert_eq!(m.all, Misses { entries: 5, misses: 3 });
-        assert_eq!(m.inside, Misses { entries: 2, misses: 1 });
+        assert_eq!(
+            m.all,
+            Misses {
+                entries: 5,
+                misses: 3
+            }
+        );
+        assert_eq!(
+            m.inside,
+            Misses {
+                entries: 2,
+                misses: 1
+            }
+        );
         assert_eq!(m.explained(), 2);
         let theta1 = &m.coordinates[0];
         assert_eq!(theta1.coordinate, "theta1");
-        assert_eq!(theta1.outside, Misses { entries: 2, misses: 2 });
+        assert_eq!(
+            theta1.outside,
+            Misses {
+                entries: 2,
+                misses: 2
+            }
+        );
         assert_eq!(theta1.misses_outside_this_alone, 1);
-        assert_eq!(theta1.inside, Misses { entries: 3, misses: 1 });
+        assert_eq!(
+            theta1.inside,
+            Misses {
+                entries: 3,
+                misses: 1
+            }
+        );
         let theta2 = &m.coordinates[1];
-        assert_eq!(theta2.outside, Misses { entries: 2, misses: 1 });
+        assert_eq!(
+            theta2.outside,
+            Misses {
+                entries: 2,
+                misses: 1
+            }
+        );
         assert_eq!(theta2.misses_outside_this_alone, 0);
         let line = m.summary();
-        assert!(line.starts_with("3 misses of 5 entries (60.0 %); 2 outside"), "{line}");
         assert!(
-            line.contains("theta1 2 of 2 outside (100 %; 33 % of the 3 inside its range; 1 outside it alone)"),
+            line.starts_with("3 misses of 5 entries (60.0 %); 2 outside"),
             "{line}"
         );
-        assert!(line.contains("1 inside every range, not explained (of 2 entries inside, 50.0 %)"), "{line}");
+        assert!(
+            line.contains(
+                "theta1 2 of 2 outside (100 %; 33 % of the 3 inside its range; 1 outside it alone)"
+            ),
+            "{line}"
+        );
+        assert!(
+            line.contains("1 inside every range, not explained (of 2 entries inside, 50.0 %)"),
+            "{line}"
+        );
     }
 
     /// Invariants on random maps: the misses inside and the explained ones
@@ -241,8 +279,11 @@ mod tests {
             let n = rng.random_range(1..40);
             let poses: Vec<PoseAccuracy> = (0..n)
                 .map(|_| {
-                    let outside: Vec<&str> =
-                        names.iter().copied().filter(|_| rng.random_bool(0.3)).collect();
+                    let outside: Vec<&str> = names
+                        .iter()
+                        .copied()
+                        .filter(|_| rng.random_bool(0.3))
+                        .collect();
                     entry(Some(rng.random_range(0.0..2.0)), 1.0, &outside)
                 })
                 .collect();
@@ -261,7 +302,11 @@ mod tests {
                 assert!(c.outside.misses <= c.outside.entries);
                 assert!(c.misses_outside_this_alone <= c.outside.misses);
             }
-            assert!(m.coordinates.windows(2).all(|w| w[0].outside.misses >= w[1].outside.misses));
+            assert!(
+                m.coordinates
+                    .windows(2)
+                    .all(|w| w[0].outside.misses >= w[1].outside.misses)
+            );
         }
     }
 }

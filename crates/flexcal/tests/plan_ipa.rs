@@ -55,14 +55,27 @@ fn planned_bounds_on_the_ipa_pairs() {
     assert!(floor_mm > 0.02, "series D's residual scatter {floor_mm} mm");
     for (pair, train, validate) in [("C -> B", &c, &b), ("B -> C", &b, &c)] {
         let stated = ipa_plan_check(&model, pair, train, validate, 0.02, "tracker").unwrap();
-        let floor =
-            ipa_plan_check(&model, pair, train, validate, floor_mm, "series D's residual scatter")
-                .unwrap();
+        let floor = ipa_plan_check(
+            &model,
+            pair,
+            train,
+            validate,
+            floor_mm,
+            "series D's residual scatter",
+        )
+        .unwrap();
         // For reference, the training series' own scatter: known only after
         // measuring it, what `calibrate`'s own bound starts from.
         let own_mm = prior_residual_scatter_mm(&model, train).unwrap();
-        let own = ipa_plan_check(&model, pair, train, validate, own_mm, "own residual scatter")
-            .unwrap();
+        let own = ipa_plan_check(
+            &model,
+            pair,
+            train,
+            validate,
+            own_mm,
+            "own residual scatter",
+        )
+        .unwrap();
         for check in [&stated, &floor, &own] {
             let _ = writeln!(
                 std::io::stderr(),

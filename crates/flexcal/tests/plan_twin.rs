@@ -13,10 +13,21 @@ use flexcal::plan::twin_check::{TWIN_REGION, twin_plan_check};
 fn planned_bounds_track_the_twins_achieved_errors() {
     let check = twin_plan_check(3, &[15, 27, 50], 27, 4).unwrap();
     // Positions only, then full poses, each count in order.
-    let modes: Vec<(bool, usize)> = check.planned.iter().map(|c| (c.full_poses, c.poses)).collect();
+    let modes: Vec<(bool, usize)> = check
+        .planned
+        .iter()
+        .map(|c| (c.full_poses, c.poses))
+        .collect();
     assert_eq!(
         modes,
-        [(false, 15), (false, 27), (false, 50), (true, 15), (true, 27), (true, 50)]
+        [
+            (false, 15),
+            (false, 27),
+            (false, 50),
+            (true, 15),
+            (true, 27),
+            (true, 50)
+        ]
     );
     // 15 poses of three position rows cannot identify the IR-663's 49
     // unknowns: refused by name, not planned; with orientations (six rows

@@ -235,7 +235,12 @@ mod tests {
     fn gains_and_variances_match_a_direct_evaluation() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         // Candidates measuring positions (3 rows) and full poses (6 rows).
-        for (n, rows, p, r) in [(30, 3, 5, 7), (40, 3, 12, 3), (12, 3, 9, 20), (10, 6, 14, 9)] {
+        for (n, rows, p, r) in [
+            (30, 3, 5, 7),
+            (40, 3, 12, 3),
+            (12, 3, 9, 20),
+            (10, 6, 14, 9),
+        ] {
             let design = Design::new(
                 random_blocks(&mut rng, n, rows, p),
                 random_blocks(&mut rng, r, 3, p),

@@ -13,9 +13,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::{Instrument, predict_campaign};
-use crate::{Error, Result};
 use crate::calib::{self, CalibrationOptions, MeasurementSet, MissesByRange, Weighting};
 use crate::kinematics::Model;
+use crate::{Error, Result};
 
 /// Result of [`ipa_plan_check`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -91,8 +91,7 @@ pub fn ipa_plan_check(
         set.measurements().iter().map(|m| m.q.clone()).collect()
     };
     let instrument = Instrument::positions([noise_mm; 3]);
-    let mut predicted =
-        predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;
+    let mut predicted = predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;
     options.weighting = Weighting::Uniform;
     let calibration = calib::calibrate(model, &train, &options)?;
     let report = calibration.validate(model, &validate, false)?;

@@ -132,7 +132,10 @@ impl Instrument {
                 return Err(invalid("noise_mm", axis, "mm", s));
             }
         }
-        for (axis, s) in axes.iter().zip(self.orientation_noise_deg.into_iter().flatten()) {
+        for (axis, s) in axes
+            .iter()
+            .zip(self.orientation_noise_deg.into_iter().flatten())
+        {
             if !(s.is_finite() && s > 0.0) {
                 return Err(invalid("orientation_noise_deg", axis, "deg", s));
             }

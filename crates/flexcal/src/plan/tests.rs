@@ -161,7 +161,10 @@ fn the_design_rows_are_derivatives_of_the_pose() {
         // R(xi + h) R(xi - h)^T = exp(2 h omega) in the base frame.
         let fd_rotation = (plus.rotation * minus.rotation.inverse()).scaled_axis() / (2.0 * h);
         for i in 0..3 {
-            for (analytic, fd) in [(row[(i, 0)], fd_position[i]), (row[(i + 3, 0)], fd_rotation[i])] {
+            for (analytic, fd) in [
+                (row[(i, 0)], fd_position[i]),
+                (row[(i + 3, 0)], fd_rotation[i]),
+            ] {
                 assert!((analytic - fd).abs() < 1e-6, "{analytic} vs {fd}");
             }
         }
@@ -185,7 +188,8 @@ fn bad_input_gets_named_errors() {
     c.instrument.orientation_noise_deg = Some([0.01, 0.01, 0.0]);
     let m = message(&c);
     assert!(
-        m.contains("orientation_noise_deg") && m.contains("noise along z must be finite and > 0 deg"),
+        m.contains("orientation_noise_deg")
+            && m.contains("noise along z must be finite and > 0 deg"),
         "{m}"
     );
     let mut c = config(Some(10), 30, 5);
@@ -199,7 +203,11 @@ fn bad_input_gets_named_errors() {
     );
     let mut c = config(Some(10), 30, 5);
     c.region = PoseSource::Configurations(Vec::new());
-    assert!(message(&c).contains("region: no configurations"), "{}", message(&c));
+    assert!(
+        message(&c).contains("region: no configurations"),
+        "{}",
+        message(&c)
+    );
     let mut c = config(Some(10), 30, 5);
     if let PoseSource::Box { joint_box, .. } = &mut c.candidates {
         joint_box.ranges[1] = (-1.0, -1.0);
