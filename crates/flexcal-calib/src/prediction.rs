@@ -145,12 +145,12 @@ impl Calibration {
         )
     }
 
-    /// The per-axis scatter of the training residuals, `s = sqrt(SSR / (3 N
-    /// - p))` (m): what the model leaves at the training poses, noise and
-    /// every effect it lacks. An earlier campaign's value is the floor a
-    /// plan of the same robot and model should state as its noise
-    /// (`flexcal plan --noise-mm`), where the instrument's own noise is
-    /// below what a calibration leaves.
+    /// The per-axis scatter of the training residuals (m), `s = sqrt(SSR /
+    /// (3 N - p))` with N observations and p identified unknowns: what the
+    /// model leaves at the training poses, noise and every effect it lacks.
+    /// An earlier campaign's value is the floor a plan of the same robot
+    /// and model should state as its noise (`flexcal plan --noise-mm`),
+    /// where the instrument's own noise is below what a calibration leaves.
     pub fn residual_scatter(&self) -> f64 {
         self.residual_variance().sqrt()
     }
