@@ -104,6 +104,18 @@ impl Instrument {
             / 3.0
     }
 
+    /// `noise x/y/z mm (positions)` or `noise x/y/z mm and x/y/z deg (full
+    /// poses)`, for reports.
+    pub fn describe(&self) -> String {
+        let n = self.noise_mm;
+        let measured = self
+            .orientation_noise_deg
+            .map_or(" (positions)".to_string(), |o| {
+                format!(" and {:.4}/{:.4}/{:.4} deg (full poses)", o[0], o[1], o[2])
+            });
+        format!("noise {:.4}/{:.4}/{:.4} mm{measured}", n[0], n[1], n[2])
+    }
+
     /// Whether the instrument measures orientations too.
     pub fn measures_orientation(&self) -> bool {
         self.orientation_noise_deg.is_some()
@@ -850,24 +862,15 @@ impl CampaignPlan {
     /// campaign cannot determine; lines ended by newlines.
     pub fn summary_text(&self) -> String {
         let mut out = String::new();
-        let n = self.instrument.noise_mm;
-        let orientation = self
-            .instrument
-            .orientation_noise_deg
-            .map_or(" (positions)".to_string(), |o| {
-                format!(" and {:.4}/{:.4}/{:.4} deg (full poses)", o[0], o[1], o[2])
-            });
         let _ = writeln!(
             out,
-            "plan for {} ({} model): {} poses of {} candidates, region of {} points, noise {:.4}/{:.4}/{:.4} mm{orientation}, {} design unknowns",
+            "plan for {} ({} model): {} poses of {} candidates, region of {} points, {}, {} design unknowns",
             self.robot,
             self.model,
             self.count,
             self.candidates,
             self.region_points,
-            n[0],
-            n[1],
-            n[2],
+            self.instrument.describe(),
             self.design_unknowns.len()
         );
         let _ = writeln!(

@@ -274,4 +274,8 @@ fn the_files_of_a_plan_round_trip() {
     assert!(rapid.matches("robtarget").count() >= 12, "{rapid}");
     let html = std::fs::read_to_string(dir.path().join("plan.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("Planned poses"));
+    assert!(
+        html.contains("noise 0.0200/0.0200/0.0300 mm (positions)"),
+        "the instrument"
+    );
 }
