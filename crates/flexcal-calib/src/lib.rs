@@ -158,7 +158,8 @@
 //!   measurement frame and raised by the split-half check's prediction
 //!   ratio where above 1, carried to the target position of any pose, with
 //!   the training scatter, as a 95 % bound; its coverage on a validation
-//!   series.
+//!   series, and its misses sorted by the training ranges they leave
+//!   ([`misses`]).
 //!
 //! ## Equations (Marie, Courteille, Maurine 2013)
 //! - Pose error and linear error model (7)-(8), (49): `dS^k = J^k dxi`, with
