@@ -158,7 +158,8 @@
 //!   measurement frame and raised by the split-half check's prediction
 //!   ratio where above 1, carried to the target position of any pose, with
 //!   the training scatter, as a 95 % bound; its coverage on a validation
-//!   series.
+//!   series, and its misses sorted by the training ranges they leave
+//!   ([`misses`]).
 //!
 //! ## Equations (Marie, Courteille, Maurine 2013)
 //! - Pose error and linear error model (7)-(8), (49): `dS^k = J^k dxi`, with
@@ -314,6 +315,7 @@ pub mod identify;
 pub mod joint_law;
 pub mod measurement;
 pub mod metrics;
+pub mod misses;
 pub mod options;
 mod prediction;
 pub mod report;
@@ -364,6 +366,7 @@ pub use metrics::{
     ErrorStatistics, ObservationError, PoseError, TargetErrors, error_statistics,
     observation_errors_csv,
 };
+pub use misses::{CoordinateMisses, Misses, MissesByRange};
 pub use options::{CalibrationOptions, FrameTreatment, IR663_PAPER_DEFERRED, Method, Weighting};
 pub use report::{
     CalibrationReportJson, FrameJson, JudgementJson, NoiseJson, ParameterJson, ResidualModelJson,

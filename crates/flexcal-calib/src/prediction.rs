@@ -91,7 +91,7 @@ impl PredictedAt for TargetMeasurementSet {
         calibration: &Calibration,
         model: &Model,
     ) -> Result<Linearised, CalibError> {
-        let (problem, x) = calibration.error_model_at(model, self)?;
+        let (problem, x) = calibration.error_model_at(model, self, false)?;
         let (jacobian, residuals) = jacobian_and_residuals(&problem, &x)?;
         let calibrated = problem.set();
         Ok(Linearised {
@@ -117,7 +117,7 @@ impl PredictedAt for TargetMeasurementSet {
         calibration: &Calibration,
         model: &Model,
     ) -> Result<Vec<Vector3<f64>>, CalibError> {
-        let (problem, x) = calibration.error_model_at(model, self)?;
+        let (problem, x) = calibration.error_model_at(model, self, false)?;
         Ok(problem
             .predict(&x)?
             .iter()
@@ -144,6 +144,16 @@ impl Calibration {
             self.rank(),
         )
     }
+
+    /// The per-axis scatter of the training residuals (m), `s = sqrt(SSR /
+    /// (3 N - p))` with N observations and p identified unknowns: what the
+    /// model leaves at the training poses, noise and every effect it lacks.
+    /// An earlier campaign's value is the floor a plan of the same robot
+    /// and model should state as its noise (`flexcal plan --noise-mm`),
+    /// where the instrument's own noise is below what a calibration leaves.
+    pub fn residual_scatter(&self) -> f64 {
+        self.residual_variance().sqrt()
+    }
 }
 
 impl Calibration {
@@ -152,9 +162,11 @@ impl Calibration {
     /// were), the offsets' and the measurement frames' unknowns at zero
     /// increments from the identified ones, every frame of the
     /// identification's stations (a set of fewer stations gives the others
-    /// zero columns); positions only. The identification's Jacobian at the
-    /// poses of `set` (whose measured positions only enter the residuals),
-    /// as the predicted accuracy and campaign planning use it.
+    /// zero columns); positions only, or with the orientation rows of the
+    /// targets that carry them when `use_orientation` (a campaign measuring
+    /// full poses). The identification's Jacobian at the poses of `set`
+    /// (whose measurements only enter the residuals), as the predicted
+    /// accuracy (positions) and campaign planning use it.
     ///
     /// # Errors
     /// Targets that differ from the identification's by name;
@@ -164,9 +176,11 @@ impl Calibration {
         &self,
         model: &'a Model,
         set: &S,
+        use_orientation: bool,
     ) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
         let calibrated = set.observations()?.with_targets(self.targets.clone())?;
-        let mut starts = FrameStarts::nominal(&calibrated, self.x_meas_base, Some(false))?;
+        let orientation = if use_orientation { None } else { Some(false) };
+        let mut starts = FrameStarts::nominal(&calibrated, self.x_meas_base, orientation)?;
         starts.stations = self.measurement_frames();
         // The identification's rotation unknowns, without their rows.
         let count = calibrated.targets().len();

@@ -47,6 +47,11 @@ pub struct PlanArgs {
     /// `x,y,z`.
     #[arg(long, value_delimiter = ',', required = true)]
     pub noise_mm: Vec<f64>,
+    /// The instrument measures full poses: its orientation noise about
+    /// each axis of the measurement frame (deg), one value for all axes or
+    /// `x,y,z`. Default: positions only.
+    #[arg(long, value_delimiter = ',')]
+    pub orientation_noise_deg: Option<Vec<f64>>,
     /// Candidate configurations the cell allows (CSV q1..qn, rad or m).
     /// Default: --candidate-count configurations drawn in --box-deg.
     #[arg(long)]
@@ -124,14 +129,12 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
 
 /// The validated configuration of a plan from the flags.
 fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
-    let noise_mm = match args.noise_mm[..] {
-        [s] => [s; 3],
-        [x, y, z] => [x, y, z],
-        _ => crate::usage_bail!(
-            "--noise-mm takes one value or three x,y,z (mm), got {}",
-            args.noise_mm.len()
-        ),
-    };
+    let noise_mm = per_axis(&args.noise_mm, "--noise-mm", "mm")?;
+    let orientation_noise_deg = args
+        .orientation_noise_deg
+        .as_deref()
+        .map(|v| per_axis(v, "--orientation-noise-deg", "deg"))
+        .transpose()?;
     let mut options = CalibrationOptions::for_model(model);
     options.fixed = crate::list_items(&args.fix);
     if !args.defer.is_empty() {
@@ -178,8 +181,22 @@ fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
         },
     };
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
+    config.instrument.orientation_noise_deg = orientation_noise_deg;
     config.count = args.poses;
     config.max_poses = args.max_poses;
     config.knee_tolerance = args.knee_tolerance;
     Ok(config)
+}
+
+/// One value for the three axes or three `x,y,z` of the flag `flag` (unit
+/// `unit`).
+fn per_axis(values: &[f64], flag: &str, unit: &str) -> anyhow::Result<[f64; 3]> {
+    match values[..] {
+        [s] => Ok([s; 3]),
+        [x, y, z] => Ok([x, y, z]),
+        _ => crate::usage_bail!(
+            "{flag} takes one value or three x,y,z ({unit}), got {}",
+            values.len()
+        ),
+    }
 }

@@ -95,6 +95,50 @@ fn plan_writes_the_poses_programs_and_pages() {
     );
 }
 
+/// An instrument measuring full poses: the plan says so, and its JSON
+/// carries the orientation noise.
+#[test]
+fn plan_with_full_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("plan.json");
+    let out = flexcal(&[
+        "plan",
+        "--robot",
+        "ur10",
+        "--noise-mm",
+        "0.02",
+        "--orientation-noise-deg",
+        "0.01,0.01,0.02",
+        "--box-deg",
+        BOX,
+        "--candidate-count",
+        "40",
+        "--region-count",
+        "20",
+        "--poses",
+        "12",
+        "--max-poses",
+        "20",
+        "--out",
+        dir.path().join("poses.csv").to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("noise 0.0200/0.0200/0.0200 mm and 0.0100/0.0100/0.0200 deg (full poses)"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    assert_eq!(
+        json["instrument"]["orientation_noise_deg"],
+        serde_json::json!([0.01, 0.01, 0.02])
+    );
+    assert_eq!(json["count"], 12);
+}
+
 /// Each bad input gets a one-line error naming what was wrong, and the
 /// output file is not written.
 #[test]
@@ -104,7 +148,10 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
     let region = dir.path().join("region.csv");
     std::fs::write(&region, "q1,q2,q3,q4,q5,q6\n0,-1,1,0,1,0\n0,-1,1,0,1,20\n").unwrap();
     let region = region.display().to_string();
-    let cases: [(&[&str], &str); 5] = [
+    let empty = dir.path().join("empty.csv");
+    std::fs::write(&empty, "q1,q2,q3,q4,q5,q6\n").unwrap();
+    let empty = empty.display().to_string();
+    let cases: [(&[&str], &str); 9] = [
         (
             &["--noise-mm", "0", "--box-deg", BOX],
             "noise along x must be finite and > 0",
@@ -135,6 +182,41 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
                 "31",
             ],
             "31 poses asked for, but only 30 candidates",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--orientation-noise-deg",
+                "0.01,0.01,0",
+                "--box-deg",
+                BOX,
+            ],
+            "orientation_noise_deg: the instrument's noise along z must be finite and > 0 deg",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--orientation-noise-deg",
+                "0.01,0.01",
+                "--box-deg",
+                BOX,
+            ],
+            "--orientation-noise-deg takes one value or three x,y,z (deg), got 2",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                "-400:90,-125:-35,30:125,-140:30,30:150,-170:170",
+            ],
+            "leaves the joint limits",
+        ),
+        (
+            &["--noise-mm", "0.02", "--box-deg", BOX, "--region", &empty],
+            "empty.csv",
         ),
     ];
     for (args, expected) in cases {

@@ -1,8 +1,9 @@
 //! Campaign planning checked on the virtual IR-663
 //! ([`flexcal::plan::twin_check`]): plans of 15, 27, 50 and 100 poses of
-//! box (59), each calibrated on the twin's measurements of the planned
-//! poses and validated over the region against the plan's predicted 95 %
-//! bounds; then 27 planned poses against 20 random draws and the
+//! box (59), measuring positions only and then full poses, each
+//! calibrated on the twin's measurements of the planned poses (the same
+//! kind) and validated over the region against the plan's predicted 95 %
+//! bounds; then 27 planned full poses against 20 random draws and the
 //! O1-selected set. Prints the docs' tables (docs/planning.md).
 //!
 //! `cargo run --release -p flexcal --example plan_validation [SEED]`

@@ -12,14 +12,33 @@ use flexcal::plan::twin_check::{TWIN_REGION, twin_plan_check};
 #[test]
 fn planned_bounds_track_the_twins_achieved_errors() {
     let check = twin_plan_check(3, &[15, 27, 50], 27, 4).unwrap();
+    // Positions only, then full poses, each count in order.
+    let modes: Vec<(bool, usize)> = check
+        .planned
+        .iter()
+        .map(|c| (c.full_poses, c.poses))
+        .collect();
+    assert_eq!(
+        modes,
+        [
+            (false, 15),
+            (false, 27),
+            (false, 50),
+            (true, 15),
+            (true, 27),
+            (true, 50)
+        ]
+    );
     // 15 poses of three position rows cannot identify the IR-663's 49
-    // unknowns: refused by name, not planned.
+    // unknowns: refused by name, not planned; with orientations (six rows
+    // a pose) they can.
     let refused = check.planned[0].refused.as_deref().unwrap();
     assert!(
         refused.contains("15 poses give 45 equations for 49 free unknowns"),
         "{refused}"
     );
-    for c in &check.planned[1..] {
+    assert_eq!(check.planned[3].refused, None);
+    for c in check.planned.iter().filter(|c| c.refused.is_none()) {
         let predicted = c.predicted.unwrap();
         let ratio = predicted.predicted_mean_error_mm / c.achieved_mean_error_mm;
         assert!(
@@ -38,14 +57,17 @@ fn planned_bounds_track_the_twins_achieved_errors() {
         assert!(predicted.mean_bound_95_mm > floor);
         assert!(c.extrapolated <= TWIN_REGION);
     }
-    // More poses: a smaller predicted bound.
+    // More poses: a smaller predicted bound; orientations too: a smaller one
+    // than positions alone for the same count.
     let bound = |i: usize| check.planned[i].predicted.unwrap().mean_bound_95_mm;
     assert!(bound(2) < bound(1));
+    assert!(bound(5) < bound(4) && bound(4) < bound(3));
+    assert!(bound(4) < bound(1) && bound(5) < bound(2));
     assert_eq!(check.random_mean_errors_mm.len(), 4);
     assert!(check.random_mean_errors_mm.windows(2).all(|w| w[0] <= w[1]));
     let table = check.to_markdown();
     assert!(
-        table.contains("| 27 | ") && table.contains("| O1-selected |"),
+        table.contains("| full poses | 15 | ") && table.contains("| O1-selected |"),
         "{table}"
     );
 }

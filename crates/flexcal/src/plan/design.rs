@@ -3,8 +3,8 @@
 //! region, greedy selection and an exchange pass on the I-optimal
 //! criterion (the mean over the region of the predicted position variance).
 //!
-//! With `A_k` the weighted position rows of candidate k (`J_k / sigma`, per
-//! axis) over the unknowns the pool identifies (the measurement frame's
+//! With `A_k` the weighted rows of candidate k (`J_k / sigma`, per axis:
+//! 3 position rows, or 6 when the instrument measures full poses) over the unknowns the pool identifies (the measurement frame's
 //! apart: the robot's accuracy is its uncertainty with the frame known,
 //! which is the inverse of the robot block of the information matrix), the
 //! information of a set S is `I_S = sum_{k in S} A_k^T A_k` and the
@@ -12,7 +12,7 @@
 //! `J_r` the predicted variance is `tr(J_r Sigma_S J_r^T)`, and the
 //! criterion `c(S) = tr(Sigma_S M)` with `M = mean_r J_r^T J_r`.
 //!
-//! Adding candidate k lowers `c` by `tr((I_3 + A_k Sigma A_k^T)^-1 A_k
+//! Adding candidate k lowers `c` by `tr((I + A_k Sigma A_k^T)^-1 A_k
 //! Sigma M Sigma A_k^T)` (the Sherman-Morrison-Woodbury identity), which
 //! is what greedy and exchange rank candidates by. While fewer poses than
 //! unknowns are chosen, the information is regularised by `prior` times
@@ -39,7 +39,7 @@ const SINGULAR_PIVOT_RATIO: f64 = 1e-24;
 /// The linearised campaign: weighted candidate rows and region rows over
 /// the same scaled unknowns.
 pub(crate) struct Design {
-    /// Weighted position rows of each candidate (3 x p, scaled columns).
+    /// Weighted rows of each candidate (3 or 6 x p, scaled columns).
     candidates: Vec<DMatrix<f64>>,
     /// Position rows of each region point (3 x p, scaled columns; m).
     region: Vec<DMatrix<f64>>,
@@ -48,8 +48,8 @@ pub(crate) struct Design {
 }
 
 impl Design {
-    /// The design from the weighted candidate rows and the region rows
-    /// (both 3 x p, SI, same unknowns). Columns are scaled so that the
+    /// The design from the weighted candidate rows (3 or 6 x p) and the
+    /// region's position rows (3 x p), SI, same unknowns. Columns are scaled so that the
     /// mean information of one candidate is 1 per unknown (zero columns
     /// keep scale 1).
     pub(crate) fn new(candidates: Vec<DMatrix<f64>>, region: Vec<DMatrix<f64>>) -> Self {
@@ -112,9 +112,9 @@ impl Design {
     fn gain(&self, chol: &Cholesky<f64, Dyn>, k: usize) -> f64 {
         let a = &self.candidates[k];
         let g = chol.solve(&a.transpose());
-        let s3 = DMatrix::<f64>::identity(3, 3) + a * &g;
+        let s = DMatrix::<f64>::identity(a.nrows(), a.nrows()) + a * &g;
         let h = g.transpose() * &self.moment * &g;
-        match s3.cholesky() {
+        match s.cholesky() {
             Some(c) => c.solve(&h).trace(),
             None => 0.0,
         }
@@ -222,9 +222,9 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
-    fn random_blocks(rng: &mut impl Rng, n: usize, p: usize) -> Vec<DMatrix<f64>> {
+    fn random_blocks(rng: &mut impl Rng, n: usize, rows: usize, p: usize) -> Vec<DMatrix<f64>> {
         (0..n)
-            .map(|_| DMatrix::from_fn(3, p, |_, j| rng.random_range(-1.0..1.0) * (j + 1) as f64))
+            .map(|_| DMatrix::from_fn(rows, p, |_, j| rng.random_range(-1.0..1.0) * (j + 1) as f64))
             .collect()
     }
 
@@ -234,8 +234,17 @@ mod tests {
     #[test]
     fn gains_and_variances_match_a_direct_evaluation() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-        for (n, p, r) in [(30, 5, 7), (40, 12, 3), (12, 9, 20)] {
-            let design = Design::new(random_blocks(&mut rng, n, p), random_blocks(&mut rng, r, p));
+        // Candidates measuring positions (3 rows) and full poses (6 rows).
+        for (n, rows, p, r) in [
+            (30, 3, 5, 7),
+            (40, 3, 12, 3),
+            (12, 3, 9, 20),
+            (10, 6, 14, 9),
+        ] {
+            let design = Design::new(
+                random_blocks(&mut rng, n, rows, p),
+                random_blocks(&mut rng, r, 3, p),
+            );
             let selected: Vec<usize> = (0..n / 2).collect();
             let info = design.information(&selected, 1e-3);
             let chol = info.clone().cholesky().unwrap();
@@ -266,8 +275,8 @@ mod tests {
     fn exchange_improves_on_greedy_and_greedy_starts_with_the_best() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let design = Design::new(
-            random_blocks(&mut rng, 40, 6),
-            random_blocks(&mut rng, 10, 6),
+            random_blocks(&mut rng, 40, 3, 6),
+            random_blocks(&mut rng, 10, 3, 6),
         );
         let criterion = |s: &[usize]| {
             design.criterion(&design.information(s, GREEDY_PRIOR).cholesky().unwrap())
@@ -295,8 +304,8 @@ mod tests {
     fn a_singular_information_gives_no_variances() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
         let design = Design::new(
-            random_blocks(&mut rng, 10, 7),
-            random_blocks(&mut rng, 4, 7),
+            random_blocks(&mut rng, 10, 3, 7),
+            random_blocks(&mut rng, 4, 3, 7),
         );
         assert!(design.region_variances(&[0, 1]).is_none());
         assert!(design.region_variances(&[0, 1, 2]).is_some());

@@ -15,8 +15,12 @@ impl CampaignPlan {
         let mut report = Report::new(
             format!("Campaign plan for {}", self.robot),
             format!(
-                "{} model, {} poses of {} candidates, region of {} points",
-                self.model, self.count, self.candidates, self.region_points
+                "{} model, {} poses of {} candidates, region of {} points, {}",
+                self.model,
+                self.count,
+                self.candidates,
+                self.region_points,
+                self.instrument.describe()
             ),
         );
         report.push(self.curve_section());

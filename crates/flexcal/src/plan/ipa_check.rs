@@ -2,25 +2,31 @@
 //! ([`ipa_plan_check`]): the bounds predicted from one series'
 //! configurations alone (no measurement read), then the calibration on
 //! that series' measurements validated on another series, and the share of
-//! the other series' poses within their predicted bound, with the
-//! actuated coordinates the misses lie outside the training range of.
+//! the other series' poses within their predicted bound, with the misses
+//! sorted by the training ranges they leave ([`MissesByRange`]). The
+//! plan's noise is stated: the tracker's, or the residual scatter of an
+//! earlier campaign of the robot ([`prior_residual_scatter_mm`]), the
+//! floor of what a calibration of this model leaves.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use super::{Instrument, predict_campaign};
-use crate::Result;
-use crate::calib::{self, CalibrationOptions, MeasurementSet, Weighting};
+use crate::calib::{self, CalibrationOptions, MeasurementSet, MissesByRange, Weighting};
 use crate::kinematics::Model;
+use crate::{Error, Result};
 
 /// Result of [`ipa_plan_check`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IpaPlanCheck {
     /// `B -> C`, ...
     pub pair: String,
-    /// The stated instrument noise per axis (mm).
+    /// The noise per axis the plan was given (mm).
     pub noise_mm: f64,
+    /// Where that noise comes from (the tracker's stated noise, an earlier
+    /// campaign's residual scatter).
+    pub noise_source: String,
     /// Predicted mean 95 % bound over the validation poses (mm).
     pub predicted_mean_bound_95_mm: f64,
     /// Achieved mean error over the validation poses (mm).
@@ -29,19 +35,44 @@ pub struct IpaPlanCheck {
     pub poses: usize,
     /// Share of validation poses within their predicted bound.
     pub coverage: f64,
-    /// Misses (poses outside their bound) per actuated coordinate outside
-    /// whose training range they lie (`(name, misses)`), and the misses
-    /// inside every range.
-    pub misses_outside: Vec<(String, usize)>,
-    /// Misses inside every training range.
-    pub misses_inside: usize,
+    /// The misses sorted by the training ranges they leave: per actuated
+    /// coordinate those leaving its range may explain, and those inside
+    /// every range, which it does not.
+    pub misses: MissesByRange,
+}
+
+/// The calibration options of the check for the IPA series `set`: the
+/// model's default, positions only, the probe offset of the file as the
+/// target's start.
+fn ipa_options(model: &Model, set: &MeasurementSet) -> CalibrationOptions {
+    let mut options = CalibrationOptions::for_model(model);
+    options.use_orientation = Some(false);
+    options.target_value = set.nominal_target;
+    options
+}
+
+/// The per-axis residual scatter (mm) of the calibration of the IPA series
+/// `prior` with the check's options (uniform weights, as `calibrate
+/// --format ipa`): what a calibration of this robot and model leaves, the
+/// floor to state as a later plan's noise
+/// ([`calib::Calibration::residual_scatter`]).
+///
+/// # Errors
+/// An unreadable file, the calibration's errors.
+pub fn prior_residual_scatter_mm(model: &Model, prior: &Path) -> Result<f64> {
+    let prior = MeasurementSet::read_ipa(prior)?;
+    let mut options = ipa_options(model, &prior);
+    options.weighting = Weighting::Uniform;
+    Ok(calib::calibrate(model, &prior, &options)?.residual_scatter() * 1e3)
 }
 
 /// Plans from `train`'s configurations alone with the dataset's protocol
 /// (positions only, the probe offset of the file as the target's start)
-/// and the instrument's stated `noise_mm`, then calibrates on `train`'s
-/// measurements (uniform weights, as `calibrate --format ipa`) and
-/// validates on `validate` (IPA export files).
+/// and the stated `noise_mm` per axis (from `noise_source`: the tracker's
+/// noise, or an earlier campaign's [`prior_residual_scatter_mm`]), then
+/// calibrates on `train`'s measurements (uniform weights, as `calibrate
+/// --format ipa`), validates on `validate` (IPA export files) and sorts
+/// the misses of the planned bounds by the training ranges they leave.
 ///
 /// # Errors
 /// Unreadable files, planning and calibration errors.
@@ -51,50 +82,41 @@ pub fn ipa_plan_check(
     train: &Path,
     validate: &Path,
     noise_mm: f64,
+    noise_source: &str,
 ) -> Result<IpaPlanCheck> {
     let train = MeasurementSet::read_ipa(train)?;
     let validate = MeasurementSet::read_ipa(validate)?;
-    let mut options = CalibrationOptions::for_model(model);
-    options.use_orientation = Some(false);
-    options.target_value = train.nominal_target;
+    let mut options = ipa_options(model, &train);
     let q = |set: &MeasurementSet| -> Vec<Vec<f64>> {
         set.measurements().iter().map(|m| m.q.clone()).collect()
     };
-    let instrument = Instrument {
-        noise_mm: [noise_mm; 3],
-    };
-    let predicted = predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;
+    let instrument = Instrument::positions([noise_mm; 3]);
+    let mut predicted = predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;
     options.weighting = Weighting::Uniform;
     let calibration = calib::calibrate(model, &train, &options)?;
     let report = calibration.validate(model, &validate, false)?;
-    let names = model.actuated_names();
-    let mut misses_outside = vec![0usize; names.len()];
-    let mut misses_inside = 0;
-    let mut within = 0;
-    for (error, p) in report.after_per_pose.iter().zip(&predicted.map.poses) {
-        if error.position * 1e3 <= p.bound_95_mm {
-            within += 1;
-            continue;
-        }
-        let outside: Vec<usize> = calibration.outside_training_range(&p.q).collect();
-        if outside.is_empty() {
-            misses_inside += 1;
-        }
-        outside.into_iter().for_each(|i| misses_outside[i] += 1);
+    for (p, error) in predicted.map.poses.iter_mut().zip(&report.after_per_pose) {
+        p.actual_error_mm = Some(error.position * 1e3);
     }
+    let misses = predicted
+        .map
+        .misses_by_range()
+        .ok_or_else(|| Error::InvalidData {
+            origin: validate.source.clone(),
+            message: format!(
+                "{} validation errors for {} poses",
+                report.after_per_pose.len(),
+                predicted.map.poses.len()
+            ),
+        })?;
     Ok(IpaPlanCheck {
         pair: pair.to_string(),
         noise_mm,
+        noise_source: noise_source.to_string(),
         predicted_mean_bound_95_mm: predicted.accuracy.mean_bound_95_mm,
         achieved_mean_error_mm: report.after.position_mean * 1e3,
         poses: report.after_per_pose.len(),
-        coverage: within as f64 / report.after_per_pose.len().max(1) as f64,
-        misses_outside: names
-            .iter()
-            .cloned()
-            .zip(misses_outside)
-            .filter(|(_, n)| *n > 0)
-            .collect(),
-        misses_inside,
+        coverage: 1.0 - misses.all.rate(),
+        misses,
     })
 }

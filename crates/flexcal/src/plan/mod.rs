@@ -4,12 +4,14 @@
 //! Given a robot, the model to identify (the same
 //! [`calib::CalibrationOptions`] as `calibrate`: geometric or
 //! elasto-geometric, frames identified or fixed, parameters fixed or
-//! deferred), the instrument's noise per axis, a pool of candidate
+//! deferred), the instrument (positions, or full poses) and its noise per
+//! axis, a pool of candidate
 //! configurations (a file, or a joint box sampled with a seed) and the
 //! region where accuracy matters (a path or configuration file, or a joint
 //! box sampled with a seed), [`plan_campaign`]:
-//! 1. identifies the pool: `calibrate` on positions the nominal robot
-//!    would give at every candidate, weighted by the instrument's noise
+//! 1. identifies the pool: `calibrate` on the positions (and orientations,
+//!    when the instrument measures them) the nominal robot would give at
+//!    every candidate, weighted by the instrument's noise
 //!    ([`synthetic_set`]), decides which unknowns any campaign from this
 //!    pool can identify (the columns of the design);
 //! 2. chooses poses greedily on the I-optimal criterion, the mean over the
@@ -30,13 +32,15 @@
 //!    the region ([`predict_campaign`]).
 //!
 //! ## Limitations
-//! - One target, positions only: the instrument measures a point on the
-//!   flange or tool; orientations, several targets, line of sight and a
-//!   reach box of the instrument are not modelled.
+//! - One target: the instrument measures a point on the flange or tool,
+//!   or its full pose; several targets, line of sight and a reach box of
+//!   the instrument are not modelled. The region's accuracy is that of
+//!   positions.
 //! - The prediction is that of a model that holds: what the identified
 //!   model lacks (non-geometric errors, temperature, unmodelled
-//!   elasticity) is not in the bound, and region points outside the
-//!   planned poses' joint ranges are flagged
+//!   elasticity) is not in the bound unless the stated noise includes it
+//!   (an earlier campaign's [`calib::Calibration::residual_scatter`]), and
+//!   region points outside the planned poses' joint ranges are flagged
 //!   ([`calib::PoseAccuracy::outside_training_range`]), not widened.
 //! - The linearisation is at the nominal robot; errors of millimetres
 //!   change the Jacobian to second order only.
@@ -63,15 +67,33 @@ pub mod twin_check;
 
 use design::Design;
 
-/// The instrument of the campaign.
+/// The instrument of the campaign: what it measures (positions, or full
+/// poses) and its noise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Instrument {
     /// Standard deviation of each measured position axis x, y, z (mm;
     /// finite and > 0).
     pub noise_mm: [f64; 3],
+    /// Standard deviation of the measured orientation about each axis x,
+    /// y, z of the measurement frame (deg; finite and > 0), when the
+    /// instrument measures full poses (a photogrammetry camera tracking a
+    /// target of several LEDs, a 6D tracker probe); `None`: positions only
+    /// (a laser tracker's reflector). The orientation rows then enter the
+    /// identification weighted by it, as a campaign's file would carry it
+    /// (`srx_deg`, `sry_deg`, `srz_deg`).
+    #[serde(default)]
+    pub orientation_noise_deg: Option<[f64; 3]>,
 }
 
 impl Instrument {
+    /// An instrument measuring positions only with `noise_mm` per axis.
+    pub fn positions(noise_mm: [f64; 3]) -> Self {
+        Self {
+            noise_mm,
+            orientation_noise_deg: None,
+        }
+    }
+
     /// The per-axis variance of the isotropic scatter the bound assumes:
     /// the mean of the axes' variances (m^2).
     pub fn scatter_variance(&self) -> f64 {
@@ -82,15 +104,52 @@ impl Instrument {
             / 3.0
     }
 
+    /// `noise x/y/z mm (positions)` or `noise x/y/z mm and x/y/z deg (full
+    /// poses)`, for reports.
+    pub fn describe(&self) -> String {
+        let n = self.noise_mm;
+        let measured = self
+            .orientation_noise_deg
+            .map_or(" (positions)".to_string(), |o| {
+                format!(" and {:.4}/{:.4}/{:.4} deg (full poses)", o[0], o[1], o[2])
+            });
+        format!("noise {:.4}/{:.4}/{:.4} mm{measured}", n[0], n[1], n[2])
+    }
+
+    /// Whether the instrument measures orientations too.
+    pub fn measures_orientation(&self) -> bool {
+        self.orientation_noise_deg.is_some()
+    }
+
+    /// The weights of one pose's residual rows: `1 / sigma` per position
+    /// axis (1/m), then per orientation axis (1/rad) when measured.
+    fn row_weights(&self) -> Vec<f64> {
+        let mut weights: Vec<f64> = self.noise_mm.iter().map(|s| 1.0 / (s * 1e-3)).collect();
+        if let Some(deg) = self.orientation_noise_deg {
+            weights.extend(deg.iter().map(|s| 1.0 / s.to_radians()));
+        }
+        weights
+    }
+
     fn check(&self) -> Result<()> {
-        for (axis, s) in ["x", "y", "z"].iter().zip(self.noise_mm) {
+        let axes = ["x", "y", "z"];
+        let invalid = |parameter: &str, axis: &str, unit: &str, s: f64| Error::InvalidParameter {
+            parameter: parameter.into(),
+            message: format!(
+                "the instrument's noise along {axis} must be finite and > 0 {unit}, found {s}"
+            ),
+        };
+        for (axis, s) in axes.iter().zip(self.noise_mm) {
             if !(s.is_finite() && s > 0.0) {
-                return Err(Error::InvalidParameter {
-                    parameter: "noise_mm".into(),
-                    message: format!(
-                        "the instrument's noise along {axis} must be finite and > 0 mm, found {s}"
-                    ),
-                });
+                return Err(invalid("noise_mm", axis, "mm", s));
+            }
+        }
+        for (axis, s) in axes
+            .iter()
+            .zip(self.orientation_noise_deg.into_iter().flatten())
+        {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(invalid("orientation_noise_deg", axis, "deg", s));
             }
         }
         Ok(())
@@ -324,11 +383,11 @@ fn reachable(model: &Model, data: &mut Data, row: &Located<Vec<f64>>) -> Result<
 /// Everything a plan needs besides the robot.
 #[derive(Debug, Clone)]
 pub struct PlanConfig {
-    /// The model to identify, as for `calibrate` (the plan measures
-    /// positions only and weights them by the instrument's noise: its
-    /// `use_orientation` and `weighting` are overridden).
+    /// The model to identify, as for `calibrate` (the plan measures what
+    /// the instrument measures and weights it by the instrument's noise:
+    /// its `use_orientation` and `weighting` are overridden).
     pub options: CalibrationOptions,
-    /// The instrument.
+    /// The instrument (positions or full poses, its noise).
     pub instrument: Instrument,
     /// The candidate poses the cell allows.
     pub candidates: PoseSource,
@@ -349,8 +408,10 @@ pub struct PlanConfig {
 pub const DEFAULT_CURVE_POSES: usize = 100;
 
 impl PlanConfig {
-    /// A plan of `candidates` for `region` with `options` and the
-    /// instrument's noise `noise_mm`; the count at the knee.
+    /// A plan of `candidates` for `region` with `options` and an
+    /// instrument measuring positions with `noise_mm` per axis (set
+    /// [`Instrument::orientation_noise_deg`] for full poses); the count at
+    /// the knee.
     pub fn new(
         options: CalibrationOptions,
         noise_mm: [f64; 3],
@@ -359,7 +420,7 @@ impl PlanConfig {
     ) -> Self {
         Self {
             options,
-            instrument: Instrument { noise_mm },
+            instrument: Instrument::positions(noise_mm),
             candidates,
             region,
             count: None,
@@ -522,7 +583,7 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
     let candidates = config.candidates.configurations(model, "candidates")?;
     let region = config.region.configurations(model, "region")?;
     let end = config.curve_end(candidates.len())?;
-    let options = plan_options(&config.options);
+    let options = plan_options(&config.options, &config.instrument);
     let pool_q: Vec<Vec<f64>> = candidates.iter().map(|c| c.value.clone()).collect();
     let region_q: Vec<Vec<f64>> = region.iter().map(|c| c.value.clone()).collect();
     let (design, design_unknowns) =
@@ -592,12 +653,12 @@ fn model_name(options: &CalibrationOptions) -> &'static str {
     }
 }
 
-/// The calibration options of a plan: `options` measuring positions only,
-/// weighted by the instrument's noise (absolute weights), without
-/// cancellation.
-fn plan_options(options: &CalibrationOptions) -> CalibrationOptions {
+/// The calibration options of a plan: `options` measuring what the
+/// instrument measures (positions, or full poses), weighted by its noise
+/// (absolute weights), without cancellation.
+fn plan_options(options: &CalibrationOptions, instrument: &Instrument) -> CalibrationOptions {
     CalibrationOptions {
-        use_orientation: Some(false),
+        use_orientation: Some(instrument.measures_orientation()),
         weighting: calib::Weighting::FromFile,
         cancel: None,
         ..options.clone()
@@ -616,9 +677,9 @@ fn knee_of(curve: &[CurvePoint], tolerance: f64) -> Option<usize> {
 
 /// The measurements the nominal robot would give at `configurations`: the
 /// positions of the target `x_tcp_target` (the TCP for the identity) in
-/// its base frame, with the instrument's noise as their standard
-/// deviations (no noise added), labelled `plan-k`; the target is the
-/// set's nominal one.
+/// its base frame, and its orientations when the instrument measures
+/// them, with the instrument's noise as their standard deviations (no
+/// noise added), labelled `plan-k`; the target is the set's nominal one.
 ///
 /// # Errors
 /// A configuration where the model fails.
@@ -630,6 +691,9 @@ pub fn synthetic_set(
 ) -> Result<MeasurementSet> {
     let mut data = Data::new(model);
     let std = Vector3::from(instrument.noise_mm) * 1e-3;
+    let orientation_std = instrument
+        .orientation_noise_deg
+        .map(|deg| Vector3::from(deg).map(f64::to_radians));
     let measurements = configurations
         .iter()
         .enumerate()
@@ -638,6 +702,10 @@ pub fn synthetic_set(
             let mut m = Measurement::new(q.clone(), x.translation.vector);
             m.pose_id = Some(format!("plan-{}", k + 1));
             m.position_std = Some(std);
+            if orientation_std.is_some() {
+                m.orientation = Some(x.rotation.scaled_axis());
+                m.orientation_std = orientation_std;
+            }
             Ok(m)
         })
         .collect::<Result<Vec<_>>>()?;
@@ -693,10 +761,16 @@ fn pool_design(
         })
         .map(|(j, _)| j)
         .collect();
-    let weights = instrument.noise_mm.map(|s| 1.0 / (s * 1e-3));
-    let candidates = position_rows(model, &calibration, &pool_set, &columns, weights)?;
-    let region_set = synthetic_set(model, region, instrument, &planned_target(options))?;
-    let region_rows = position_rows(model, &calibration, &region_set, &columns, [1.0; 3])?;
+    let candidates = jacobian_rows(
+        model,
+        &calibration,
+        &pool_set,
+        &columns,
+        &instrument.row_weights(),
+    )?;
+    let positions = Instrument::positions(instrument.noise_mm);
+    let region_set = synthetic_set(model, region, &positions, &planned_target(options))?;
+    let region_rows = jacobian_rows(model, &calibration, &region_set, &columns, &[1.0; 3])?;
     let names = columns
         .iter()
         .map(|&j| calibration.unknowns[j].name.clone())
@@ -704,18 +778,20 @@ fn pool_design(
     Ok((Design::new(candidates, region_rows), names))
 }
 
-/// The position rows (3 per pose) of the identification's Jacobian at the
-/// poses of `set`, over the unknowns `columns`, row i times `weights[i]`.
-fn position_rows(
+/// The rows of the identification's Jacobian at the poses of `set` over
+/// the unknowns `columns`, one block per pose, row i times `weights[i]`:
+/// 3 position rows, and 3 orientation rows when `weights` has 6 (the set
+/// then carries orientations).
+fn jacobian_rows(
     model: &Model,
     calibration: &Calibration,
     set: &MeasurementSet,
     columns: &[usize],
-    weights: [f64; 3],
+    weights: &[f64],
 ) -> Result<Vec<DMatrix<f64>>> {
-    use crate::optim::Jacobian as _;
-    let (problem, x) = calibration.error_model_at(model, set)?;
-    let mut jac = faer::Mat::<f64>::zeros(3 * set.len(), x.len());
+    use crate::optim::{Jacobian as _, Residuals as _};
+    let (problem, x) = calibration.error_model_at(model, set, weights.len() == 6)?;
+    let mut jac = faer::Mat::<f64>::zeros(problem.n_residuals(), x.len());
     problem
         .jacobian(&x, jac.as_mut())
         .map_err(|e| Error::InvalidData {
@@ -724,8 +800,9 @@ fn position_rows(
         })?;
     Ok((0..set.len())
         .map(|k| {
-            DMatrix::from_fn(3, columns.len(), |i, c| {
-                jac[(3 * k + i, columns[c])] * weights[i]
+            let rows = problem.block_rows(k);
+            DMatrix::from_fn(rows.len(), columns.len(), |i, c| {
+                jac[(rows.start + i, columns[c])] * weights[i]
             })
         })
         .collect())
@@ -749,7 +826,7 @@ pub fn predict_campaign(
     configurations: &[Vec<f64>],
     region: &[Vec<f64>],
 ) -> Result<CampaignPrediction> {
-    let options = plan_options(options);
+    let options = plan_options(options, instrument);
     let (_, calibration) = synthetic_calibration(model, &options, instrument, configurations)?;
     let mut map = calibration
         .predicted_accuracy(model, region, None)
@@ -785,18 +862,15 @@ impl CampaignPlan {
     /// campaign cannot determine; lines ended by newlines.
     pub fn summary_text(&self) -> String {
         let mut out = String::new();
-        let n = self.instrument.noise_mm;
         let _ = writeln!(
             out,
-            "plan for {} ({} model): {} poses of {} candidates, region of {} points, noise {:.4}/{:.4}/{:.4} mm, {} design unknowns",
+            "plan for {} ({} model): {} poses of {} candidates, region of {} points, {}, {} design unknowns",
             self.robot,
             self.model,
             self.count,
             self.candidates,
             self.region_points,
-            n[0],
-            n[1],
-            n[2],
+            self.instrument.describe(),
             self.design_unknowns.len()
         );
         let _ = writeln!(

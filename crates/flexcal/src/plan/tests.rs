@@ -85,12 +85,21 @@ fn the_curve_never_rises_and_the_knee_is_on_it() {
 /// two evaluations that share only the error model's Jacobian.
 #[test]
 fn the_prediction_matches_the_designs_variances() {
+    for orientation in [None, Some([0.01, 0.01, 0.02])] {
+        prediction_matches_the_designs_variances(orientation);
+    }
+}
+
+/// [`the_prediction_matches_the_designs_variances`] for an instrument
+/// measuring positions, or full poses with `orientation_noise_deg`.
+fn prediction_matches_the_designs_variances(orientation_noise_deg: Option<[f64; 3]>) {
     let model = ur10();
-    let config = config(Some(20), 50, 15);
+    let mut config = config(Some(20), 50, 15);
+    config.instrument.orientation_noise_deg = orientation_noise_deg;
     let plan = plan_campaign(&model, &config).unwrap();
     // The same unknowns: the design's and the six of the measurement frame.
     assert_eq!(plan.prediction.rank, plan.design_unknowns.len() + 6);
-    let options = plan_options(&config.options);
+    let options = plan_options(&config.options, &config.instrument);
     let pool: Vec<Vec<f64>> = config
         .candidates
         .configurations(&model, "c")
@@ -119,13 +128,15 @@ fn the_prediction_matches_the_designs_variances() {
 }
 
 /// The position rows of the design are the derivatives of the nominal
-/// robot's TCP position: finite differences of forward_pose in a robot
-/// parameter.
+/// robot's TCP position, and with full poses its orientation rows those of
+/// the TCP's rotation vector in the base frame: finite differences of
+/// forward_pose in a robot parameter.
 #[test]
-fn the_design_rows_are_derivatives_of_the_position() {
+fn the_design_rows_are_derivatives_of_the_pose() {
     let model = ur10();
-    let config = config(None, 20, 3);
-    let options = plan_options(&config.options);
+    let mut config = config(None, 20, 3);
+    config.instrument.orientation_noise_deg = Some([0.01; 3]);
+    let options = plan_options(&config.options, &config.instrument);
     let pool: Vec<Vec<f64>> = config
         .candidates
         .configurations(&model, "c")
@@ -136,29 +147,26 @@ fn the_design_rows_are_derivatives_of_the_position() {
     let set = synthetic_set(&model, &pool, &config.instrument, &Isometry3::identity()).unwrap();
     let calibration = calib::calibrate(&model, &set, &options).unwrap();
     let j = model.param_index("d3").unwrap();
-    let rows = position_rows(&model, &calibration, &set, &[j], [1.0; 3]).unwrap();
+    let rows = jacobian_rows(&model, &calibration, &set, &[j], &[1.0; 6]).unwrap();
     let mut data = Data::new(&model);
     let h = 1e-6;
     for (q, row) in pool.iter().zip(&rows).take(5) {
+        assert_eq!(row.nrows(), 6);
         let mut xi = calibration.xi.clone();
         xi[j] += h;
-        let plus = forward_pose(&model, &mut data, q, &xi)
-            .unwrap()
-            .translation
-            .vector;
+        let plus = forward_pose(&model, &mut data, q, &xi).unwrap();
         xi[j] -= 2.0 * h;
-        let minus = forward_pose(&model, &mut data, q, &xi)
-            .unwrap()
-            .translation
-            .vector;
-        let fd = (plus - minus) / (2.0 * h);
+        let minus = forward_pose(&model, &mut data, q, &xi).unwrap();
+        let fd_position = (plus.translation.vector - minus.translation.vector) / (2.0 * h);
+        // R(xi + h) R(xi - h)^T = exp(2 h omega) in the base frame.
+        let fd_rotation = (plus.rotation * minus.rotation.inverse()).scaled_axis() / (2.0 * h);
         for i in 0..3 {
-            assert!(
-                (row[(i, 0)] - fd[i]).abs() < 1e-6,
-                "{} vs {}",
-                row[(i, 0)],
-                fd[i]
-            );
+            for (analytic, fd) in [
+                (row[(i, 0)], fd_position[i]),
+                (row[(i + 3, 0)], fd_rotation[i]),
+            ] {
+                assert!((analytic - fd).abs() < 1e-6, "{analytic} vs {fd}");
+            }
         }
     }
 }
@@ -176,6 +184,30 @@ fn bad_input_gets_named_errors() {
     );
     c.instrument.noise_mm = [f64::NAN, 0.02, 0.02];
     assert!(message(&c).contains("noise along x"), "{}", message(&c));
+    let mut c = config(Some(10), 30, 5);
+    c.instrument.orientation_noise_deg = Some([0.01, 0.01, 0.0]);
+    let m = message(&c);
+    assert!(
+        m.contains("orientation_noise_deg")
+            && m.contains("noise along z must be finite and > 0 deg"),
+        "{m}"
+    );
+    let mut c = config(Some(10), 30, 5);
+    if let PoseSource::Box { joint_box, .. } = &mut c.region {
+        joint_box.ranges[0] = (-1.0, 7.0);
+    }
+    let m = message(&c);
+    assert!(
+        m.contains("region") && m.contains("leaves the joint limits") && m.contains("cannot reach"),
+        "{m}"
+    );
+    let mut c = config(Some(10), 30, 5);
+    c.region = PoseSource::Configurations(Vec::new());
+    assert!(
+        message(&c).contains("region: no configurations"),
+        "{}",
+        message(&c)
+    );
     let mut c = config(Some(10), 30, 5);
     if let PoseSource::Box { joint_box, .. } = &mut c.candidates {
         joint_box.ranges[1] = (-1.0, -1.0);
@@ -242,4 +274,8 @@ fn the_files_of_a_plan_round_trip() {
     assert!(rapid.matches("robtarget").count() >= 12, "{rapid}");
     let html = std::fs::read_to_string(dir.path().join("plan.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("Planned poses"));
+    assert!(
+        html.contains("noise 0.0200/0.0200/0.0300 mm (positions)"),
+        "the instrument"
+    );
 }

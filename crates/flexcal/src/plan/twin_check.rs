@@ -5,15 +5,19 @@
 //! transmission errors, the camera's frame and noise; none of them the
 //! identified model); plans of N poses are calibrated on the twin's
 //! measurements of the planned poses and validated over the region, and
-//! the achieved errors compared with the plan's predicted bounds. Then a
-//! planned campaign against random draws and the O1-selected set of the
-//! same size.
+//! the achieved errors compared with the plan's predicted bounds. Each
+//! count is planned and calibrated twice: with the camera's positions
+//! only, and with its full poses (the orientations the twin measures,
+//! weighted by the camera's orientation noise), planning and calibration
+//! always measuring the same. Then a planned full-pose campaign against
+//! random draws and the O1-selected set of the same size, calibrated on
+//! full poses too.
 
 use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
 use super::{Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
-use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet};
+use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet, MissesByRange};
 use crate::kinematics::Model;
 use crate::pose_file::Located;
 use crate::twin::geometric::{GeometricCampaignOptions, geometric_campaign};
@@ -29,6 +33,9 @@ pub const TWIN_REGION: usize = 100;
 pub struct PlannedCampaignCheck {
     /// Number of planned poses.
     pub poses: usize,
+    /// Whether the campaign measures full poses (else positions only),
+    /// both in the plan and in the calibration.
+    pub full_poses: bool,
     /// Why the campaign could not be planned or calibrated (then the
     /// figures are zero).
     pub refused: Option<String>,
@@ -41,6 +48,9 @@ pub struct PlannedCampaignCheck {
     pub achieved_mean_error_mm: f64,
     /// Region poses outside the planned poses' joint ranges.
     pub extrapolated: usize,
+    /// The misses of the planned bounds sorted by the planned poses'
+    /// ranges they leave (`None` when refused).
+    pub misses: Option<MissesByRange>,
 }
 
 /// Result of [`twin_plan_check`].
@@ -50,9 +60,12 @@ pub struct TwinPlanCheck {
     pub seed: u64,
     /// The camera's noise per axis (mm).
     pub noise_mm: f64,
-    /// One entry per count asked.
+    /// The camera's orientation noise about x, y, z of its frame (deg).
+    pub orientation_noise_deg: [f64; 3],
+    /// One entry per count asked and per instrument mode (positions
+    /// only, then full poses).
     pub planned: Vec<PlannedCampaignCheck>,
-    /// Number of poses of the comparison.
+    /// Number of poses of the comparison (full poses measured).
     pub compared_poses: usize,
     /// Achieved mean error of the planned campaign of that size (mm).
     pub planned_mean_error_mm: f64,
@@ -82,6 +95,7 @@ struct TwinData {
     candidates: MeasurementSet,
     region: MeasurementSet,
     noise_mm: f64,
+    orientation_noise_deg: [f64; 3],
 }
 
 fn twin_data(seed: u64) -> Result<TwinData> {
@@ -97,6 +111,13 @@ fn twin_data(seed: u64) -> Result<TwinData> {
         candidates: rows(0..TWIN_CANDIDATES)?,
         region: rows(TWIN_CANDIDATES..TWIN_CANDIDATES + TWIN_REGION)?,
         noise_mm: options.camera.position_std_per_axis() * 1e3,
+        // Per axis of the camera frame, as the files carry it (the in-plane
+        // value about x and y, the tool axis's about z, the tool down).
+        orientation_noise_deg: options
+            .camera
+            .orientation_std_target()
+            .map(f64::to_degrees)
+            .into(),
         model: campaign.model,
     })
 }
@@ -113,6 +134,14 @@ fn located(set: &MeasurementSet) -> Vec<Located<Vec<f64>>> {
 }
 
 impl TwinData {
+    /// The camera as a plan's instrument: positions only, or full poses.
+    fn instrument(&self, full_poses: bool) -> Instrument {
+        Instrument {
+            noise_mm: [self.noise_mm; 3],
+            orientation_noise_deg: full_poses.then_some(self.orientation_noise_deg),
+        }
+    }
+
     /// The errors over the region (mm) after calibrating on the measured
     /// candidates `rows`.
     fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
@@ -126,18 +155,26 @@ impl TwinData {
             .collect())
     }
 
-    /// Plans `n` poses, calibrates on their measurements, validates.
+    /// Plans `n` poses measuring full poses or positions only, calibrates
+    /// on their measurements (the same kind; `options`' orientation choice
+    /// overridden), validates.
     fn check(
         &self,
         options: &CalibrationOptions,
         n: usize,
+        full_poses: bool,
     ) -> Result<(PlannedCampaignCheck, Vec<usize>)> {
+        let options = &CalibrationOptions {
+            use_orientation: Some(full_poses),
+            ..options.clone()
+        };
         let mut config = PlanConfig::new(
             options.clone(),
             [self.noise_mm; 3],
             PoseSource::Configurations(located(&self.candidates)),
             PoseSource::Configurations(located(&self.region)),
         );
+        config.instrument = self.instrument(full_poses);
         config.count = Some(n);
         config.max_poses = Some(n);
         let plan = match plan_campaign(&self.model, &config) {
@@ -145,28 +182,32 @@ impl TwinData {
             Err(e) => {
                 let refused = PlannedCampaignCheck {
                     poses: n,
+                    full_poses,
                     refused: Some(e.to_string()),
                     predicted: None,
                     coverage: 0.0,
                     achieved_mean_error_mm: 0.0,
                     extrapolated: 0,
+                    misses: None,
                 };
                 return Ok((refused, Vec::new()));
             }
         };
         let errors = self.achieved(options, &plan.selected)?;
-        let within = errors
-            .iter()
-            .zip(&plan.prediction.map.poses)
-            .filter(|(e, p)| **e <= p.bound_95_mm)
-            .count();
+        let mut map = plan.prediction.map.clone();
+        for (p, e) in map.poses.iter_mut().zip(&errors) {
+            p.actual_error_mm = Some(*e);
+        }
+        let misses = map.misses_by_range();
         let check = PlannedCampaignCheck {
             poses: n,
+            full_poses,
             refused: None,
             predicted: Some(plan.prediction.accuracy),
-            coverage: within as f64 / errors.len().max(1) as f64,
+            coverage: 1.0 - misses.as_ref().map_or(1.0, |m| m.all.rate()),
             achieved_mean_error_mm: mean(&errors),
             extrapolated: plan.prediction.map.extrapolated_poses,
+            misses,
         };
         Ok((check, plan.selected))
     }
@@ -177,11 +218,11 @@ fn mean(v: &[f64]) -> f64 {
 }
 
 /// Runs the check (module docs) on the twin's campaign of `seed`: plans of
-/// each of `counts` poses, then `compared` planned poses against
-/// `random_draws` random draws (seeded by `seed`) and the O1-selected set.
-/// The identified model is `calibrate`'s default for the IR-663 with the
-/// target fixed at the TCP (the twin's target), the measurement frame
-/// identified.
+/// each of `counts` poses, positions only then full poses, then `compared`
+/// planned full-pose poses against `random_draws` random draws (seeded by
+/// `seed`) and the O1-selected set (O1 on full poses). The identified
+/// model is `calibrate`'s default for the IR-663 with the target fixed at
+/// the TCP (the twin's target), the measurement frame identified.
 ///
 /// # Errors
 /// The twin's, planning's and calibration's errors; `compared` not among
@@ -195,15 +236,18 @@ pub fn twin_plan_check(
     let data = twin_data(seed)?;
     let mut options = CalibrationOptions::for_model(&data.model);
     options.target = FrameTreatment::Fixed;
-    let mut planned = Vec::with_capacity(counts.len());
+    let mut planned = Vec::with_capacity(2 * counts.len());
     let mut compared_rows = None;
-    for &n in counts {
-        let (check, rows) = data.check(&options, n)?;
-        if n == compared && check.refused.is_none() {
-            compared_rows = Some((check.achieved_mean_error_mm, rows));
+    for full_poses in [false, true] {
+        for &n in counts {
+            let (check, rows) = data.check(&options, n, full_poses)?;
+            if full_poses && n == compared && check.refused.is_none() {
+                compared_rows = Some((check.achieved_mean_error_mm, rows));
+            }
+            planned.push(check);
         }
-        planned.push(check);
     }
+    options.use_orientation = Some(true);
     let (planned_mean_error_mm, _) = compared_rows.ok_or_else(|| Error::InvalidParameter {
         parameter: "compared".into(),
         message: format!("{compared} poses are not among the counts planned ({counts:?})"),
@@ -227,7 +271,7 @@ pub fn twin_plan_check(
         &q,
         compared,
         crate::optim::ObservabilityIndex::O1,
-        false,
+        true,
         &[],
     )?;
     let o1_rows = o1.selection.selected;
@@ -238,13 +282,17 @@ pub fn twin_plan_check(
         .map(|m| m.q.clone())
         .collect();
     let o1_q: Vec<Vec<f64>> = o1_rows.iter().map(|&k| q[k].clone()).collect();
-    let instrument = Instrument {
-        noise_mm: [data.noise_mm; 3],
-    };
-    let o1_predicted = predict_campaign(&data.model, &options, &instrument, &o1_q, &region_q)?;
+    let o1_predicted = predict_campaign(
+        &data.model,
+        &options,
+        &data.instrument(true),
+        &o1_q,
+        &region_q,
+    )?;
     Ok(TwinPlanCheck {
         seed,
         noise_mm: data.noise_mm,
+        orientation_noise_deg: data.orientation_noise_deg,
         planned,
         compared_poses: compared,
         planned_mean_error_mm,
@@ -257,25 +305,36 @@ pub fn twin_plan_check(
 impl TwinPlanCheck {
     /// The check as two Markdown tables (the docs' tables).
     pub fn to_markdown(&self) -> String {
+        let o = self.orientation_noise_deg;
         let mut out = format!(
-            "virtual IR-663, seed {}: {TWIN_CANDIDATES} candidates and {TWIN_REGION} region poses of box (59), noise {:.4} mm per axis\n\n",
-            self.seed, self.noise_mm
+            "virtual IR-663, seed {}: {TWIN_CANDIDATES} candidates and {TWIN_REGION} region poses of box (59), noise {:.4} mm per axis, orientation {:.4}/{:.4}/{:.4} deg\n\n",
+            self.seed, self.noise_mm, o[0], o[1], o[2]
         );
-        out.push_str("| N | predicted mean bound (mm) | coverage of the 95 % bound | predicted mean error (mm) | achieved mean error (mm) | predicted / achieved | region poses outside the planned ranges |\n|---|---|---|---|---|---|---|\n");
+        out.push_str("| measured | N | predicted mean bound (mm) | coverage of the 95 % bound | predicted mean error (mm) | achieved mean error (mm) | predicted / achieved | region poses outside the planned ranges | misses outside a range / inside every range |\n|---|---|---|---|---|---|---|---|---|\n");
         for c in &self.planned {
+            let measured = if c.full_poses {
+                "full poses"
+            } else {
+                "positions"
+            };
             match (&c.refused, c.predicted) {
                 (None, Some(a)) => out.push_str(&format!(
-                    "| {} | {:.4} | {:.1} % | {:.4} | {:.4} | {:.2} | {} |\n",
+                    "| {measured} | {} | {:.4} | {:.1} % | {:.4} | {:.4} | {:.2} | {} | {} |\n",
                     c.poses,
                     a.mean_bound_95_mm,
                     100.0 * c.coverage,
                     a.predicted_mean_error_mm,
                     c.achieved_mean_error_mm,
                     a.predicted_mean_error_mm / c.achieved_mean_error_mm,
-                    c.extrapolated
+                    c.extrapolated,
+                    c.misses.as_ref().map_or(String::new(), |m| format!(
+                        "{} / {}",
+                        m.explained(),
+                        m.inside.misses
+                    ))
                 )),
                 (reason, _) => out.push_str(&format!(
-                    "| {} | refused: {} | | | | | |\n",
+                    "| {measured} | {} | refused: {} | | | | | | |\n",
                     c.poses,
                     reason.as_deref().unwrap_or("no prediction")
                 )),
@@ -283,7 +342,7 @@ impl TwinPlanCheck {
         }
         let r = &self.random_mean_errors_mm;
         out.push_str(&format!(
-            "\n| {} poses | achieved mean error over the region (mm) |\n|---|---|\n| planned (I-optimal on the region) | {:.4} |\n| random, median of {} draws | {:.4} (from {:.4} to {:.4}) |\n| O1-selected | {:.4} (predicted {:.4}) |\n",
+            "\n| {} full poses | achieved mean error over the region (mm) |\n|---|---|\n| planned (I-optimal on the region) | {:.4} |\n| random, median of {} draws | {:.4} (from {:.4} to {:.4}) |\n| O1-selected | {:.4} (predicted {:.4}) |\n",
             self.compared_poses,
             self.planned_mean_error_mm,
             r.len(),
