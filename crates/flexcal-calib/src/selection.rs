@@ -645,7 +645,7 @@ fn available_groups(model: &Model, base: &CalibrationOptions) -> Vec<TermGroup> 
     if let Some(gravity) = &base.gravity {
         groups.push(TermGroup::Compliances);
         // The payload, unless every one of its unknowns is fixed already.
-        if crate::PAYLOAD_PARAMETER_NAMES
+        if crate::gravity::PAYLOAD_PARAMETER_NAMES
             .iter()
             .any(|name| !base.fixed.iter().any(|f| f == name))
         {

@@ -46,7 +46,10 @@ fn configurations(
 /// configurations where accuracy matters, else `region_count` drawn in the
 /// box with `seed + 1`; `poses` the number to plan (default: the knee);
 /// `max_poses` the curve's end; `model`, `masses`, `fix`, `fixed_frame`,
-/// `fixed_target` as for `calibrate`.
+/// `fixed_target` as for `calibrate`; `orientation_noise_deg` (one value
+/// or three, deg) when the instrument measures full poses, the standard
+/// deviation of the measured orientation about each axis (checked finite
+/// and > 0 by the plan, as `--orientation-noise-deg`).
 ///
 /// Returns the plan as a dict: `configurations` (the planned poses),
 /// `selected` (candidate rows), `curve` (per count: `poses` and
@@ -54,7 +57,7 @@ fn configurations(
 /// `max_bound_95_mm`), `knee`, `prediction` (`accuracy`, `map`,
 /// `identifiability_notes`, ...). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05))]
+#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan<'py>(
     py: Python<'py>,
@@ -74,6 +77,7 @@ pub fn plan<'py>(
     fixed_frame: bool,
     fixed_target: bool,
     knee_tolerance: f64,
+    orientation_noise_deg: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let robot_model = Arc::clone(&robot.model);
     let dof = robot_model.n_actuated();
@@ -118,7 +122,18 @@ pub fn plan<'py>(
     if fixed_target {
         options.target = FrameTreatment::Fixed;
     }
+    let orientation_noise_deg = orientation_noise_deg
+        .map(|v| match v[..] {
+            [s] => Ok([s; 3]),
+            [x, y, z] => Ok([x, y, z]),
+            _ => Err(InputError::new_err(format!(
+                "orientation_noise_deg: one value or three (about x, y, z), got {}",
+                v.len()
+            ))),
+        })
+        .transpose()?;
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
+    config.instrument.orientation_noise_deg = orientation_noise_deg;
     config.count = poses;
     config.max_poses = max_poses;
     config.knee_tolerance = knee_tolerance;

@@ -782,7 +782,9 @@ def plan(
     fixed_frame: bool = False,
     fixed_target: bool = False,
     knee_tolerance: float = 0.05,
+    orientation_noise_deg: Optional[Sequence[float]] = None,
 ) -> dict:
-    """Plans a campaign before measuring: noise per axis in mm, candidates (n, dof) and
+    """Plans a campaign before measuring: noise per axis in mm (orientation_noise_deg: deg per
+    axis, full poses), candidates (n, dof) and
     region (m, dof) in rad or m (else drawn in joint_box (dof, 2), default the joint
     limits); returns the plan (configurations, selected, curve, knee, prediction)."""

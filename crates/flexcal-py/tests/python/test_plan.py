@@ -44,3 +44,29 @@ def test_bad_plans_raise_named_errors():
         flexcal.plan(robot, [0.02], joint_box=BOX, candidate_count=30, region_count=5, poses=31)
     with pytest.raises(flexcal.ShapeError):
         flexcal.plan(robot, [0.02], candidates=np.zeros((4, 5)))
+
+
+def test_full_poses_never_predict_worse_than_positions():
+    """`orientation_noise_deg` plans full poses: the orientation rows add
+    information, so the predicted mean bound at every count of the curve
+    is no wider than with positions alone; the instrument is in the plan."""
+    robot = flexcal.Robot.builtin("ur10")
+    rng = np.random.default_rng(5)
+    candidates = rng.uniform(BOX[:, 0], BOX[:, 1], size=(40, 6))
+    region = rng.uniform(BOX[:, 0], BOX[:, 1], size=(15, 6))
+    common = dict(candidates=candidates, region=region, poses=20, max_poses=25)
+    positions = flexcal.plan(robot, [0.02], **common)
+    full = flexcal.plan(robot, [0.02], orientation_noise_deg=[0.01], **common)
+    assert full["instrument"]["orientation_noise_deg"] == [0.01, 0.01, 0.01]
+    assert positions["instrument"].get("orientation_noise_deg") is None
+    by_count = {p["poses"]: p["accuracy"]["mean_bound_95_mm"] for p in positions["curve"]}
+    compared = 0
+    for p in full["curve"]:
+        if p["poses"] in by_count:
+            assert p["accuracy"]["mean_bound_95_mm"] <= by_count[p["poses"]] * (1 + 1e-9)
+            compared += 1
+    assert compared > 5
+    with pytest.raises(flexcal.InputError, match="orientation_noise_deg: one value or three"):
+        flexcal.plan(robot, [0.02], orientation_noise_deg=[0.01, 0.02], **common)
+    with pytest.raises(flexcal.FlexcalError, match="orientation"):
+        flexcal.plan(robot, [0.02], orientation_noise_deg=[0.0], **common)
