@@ -16,9 +16,9 @@
 //!   stated once and not tuned to a data set.
 //!
 //! The ends of a range are found by one function, `range_ends`, with the
-//! share as its parameter: the error-growth estimate
-//! ([`crate::extrapolation`]) holds out its folds' ends with the same
-//! function.
+//! share as its parameter: the error-growth estimate (the `extrapolation`
+//! module, `Calibration::extrapolation`) holds out its folds' ends with
+//! the same function.
 //!
 //! With several stations every fold, ordinary or extrapolating, leaves
 //! each station poses in the training part: without them its measurement
@@ -301,8 +301,8 @@ pub(crate) fn gravity_torques(
 /// model selection's extrapolating folds hold out both ends of a joint's
 /// angle and torque ranges at once, the outer [`EXTRAPOLATION_END_SHARE`]
 /// ([`extrapolating_folds`]); the error-growth estimate of
-/// [`crate::extrapolation`] holds out each end of each coordinate's range
-/// on its own, the outer [`crate::extrapolation::HELD_OUT_FRACTION`].
+/// the `extrapolation` module holds out each end of each coordinate's range
+/// on its own, the outer fifth (its `HELD_OUT_FRACTION`).
 pub(crate) fn range_ends(
     values: &[f64],
     coverage: &CoordinateCoverage,
