@@ -162,6 +162,11 @@ impl CalibrationResult {
     }
 }
 
+/// The names, owned (for Python).
+fn owned(names: Vec<&str>) -> Vec<String> {
+    names.into_iter().map(String::from).collect()
+}
+
 /// `{coordinate name: (lo, hi)}` of per-coordinate coverages of a calibration
 /// (empty when `ranges` is).
 fn ranges_by_name<'py>(
@@ -280,21 +285,13 @@ impl CalibrationResult {
     /// Unknowns beyond the numerical rank (kept at nominal).
     #[getter]
     fn non_identifiable(&self) -> Vec<String> {
-        self.calibration
-            .non_identifiable()
-            .into_iter()
-            .map(String::from)
-            .collect()
+        owned(self.calibration.non_identifiable())
     }
 
     /// Unknowns kept at nominal because their standard error would exceed the limit.
     #[getter]
     fn poorly_identifiable(&self) -> Vec<String> {
-        self.calibration
-            .poorly_identifiable()
-            .into_iter()
-            .map(String::from)
-            .collect()
+        owned(self.calibration.poorly_identifiable())
     }
 
     /// The combinations the identified unknowns stand for (like (C.1)), as text.
