@@ -403,6 +403,18 @@ pub(crate) fn extrapolation_growth<S: calib::Observations + ?Sized>(
         .map_err(step("held-out-range folds"))
 }
 
+/// `map` with the error growth outside the training ranges added to its
+/// bounds, when there is one.
+pub(crate) fn widened(
+    map: calib::AccuracyMap,
+    extrapolation: Option<&calib::ExtrapolationModel>,
+) -> calib::AccuracyMap {
+    match extrapolation {
+        Some(e) => map.with_extrapolation(e),
+        None => map,
+    }
+}
+
 /// The configurations the calibrated robot is to be used at, as far as
 /// the run knows them: the accuracy map's grid
 /// ([`calib::SelectionOptions::region`]). The validation poses are not
@@ -516,10 +528,7 @@ pub fn run_calibration(
         validation_set.is_some(),
         (robot, &calibration, &data, &options),
     )?;
-    let with_extrapolation = |map: calib::AccuracyMap| match &extrapolation {
-        Some(e) => map.with_extrapolation(e),
-        None => map,
-    };
+    let with_extrapolation = |map| widened(map, extrapolation.as_ref());
     let coverage = validation_set
         .as_ref()
         .zip(validation.as_ref())

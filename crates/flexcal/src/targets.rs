@@ -23,7 +23,7 @@ use crate::calibration::text::{
 };
 use crate::calibration::{
     CalibrationConfig, CalibrationOutputs, Exclusion, MeasurementFormat, exclude,
-    extrapolation_growth, extrapolation_note, grid_accuracy, station_files,
+    extrapolation_growth, extrapolation_note, grid_accuracy, station_files, widened,
 };
 use crate::report::svg::Series;
 use crate::report::{Report, Section};
@@ -126,10 +126,7 @@ pub fn run_target_calibration(
         validation_set.is_some(),
         (robot, &calibration, &data, &options),
     )?;
-    let with_extrapolation = |map: calib::AccuracyMap| match &extrapolation {
-        Some(e) => map.with_extrapolation(e),
-        None => map,
-    };
+    let with_extrapolation = |map| widened(map, extrapolation.as_ref());
     // The bounds against the errors of the validation just made.
     let coverage = validation_set
         .as_ref()
