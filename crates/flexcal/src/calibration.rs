@@ -520,15 +520,15 @@ pub fn run_calibration(
         .map(|set| calibration.validate(robot, set, config.refit_target))
         .transpose()
         .map_err(step("validation"))?;
-    // The bounds against the errors of the validation just made, unless
-    // that one re-fitted the target too (the bounds are for the target as
-    // identified).
     let extrapolation = extrapolation_growth(
         config,
         validation_set.is_some(),
         (robot, &calibration, &data, &options),
     )?;
     let with_extrapolation = |map| widened(map, extrapolation.as_ref());
+    // The bounds against the errors of the validation just made, unless
+    // that one re-fitted the target too (the bounds are for the target as
+    // identified).
     let coverage = validation_set
         .as_ref()
         .zip(validation.as_ref())
