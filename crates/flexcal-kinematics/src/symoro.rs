@@ -537,6 +537,345 @@ struct FrameValues {
     variable: Option<String>,
 }
 
+/// The assignments of a `.par` file, with its frame counts checked: what
+/// every step below reads its lists from.
+struct ParTable<'a> {
+    table: BTreeMap<String, (usize, Vec<String>)>,
+    source: &'a str,
+    /// Number of links (NL), joints (NJ) and frames (NF).
+    nl: usize,
+    nj: usize,
+    nf: usize,
+}
+
+/// The quantities of a frame, in the order of the `.par` lists.
+const QUANTITY_KEYS: [&str; 6] = ["gamma", "b", "alpha", "d", "theta", "r"];
+
+impl<'a> ParTable<'a> {
+    /// Reads the assignments of `text` and checks NL, NJ and NF.
+    fn new(text: &str, source: &'a str) -> Result<Self, KinematicsError> {
+        let table = assignments(text, source)?;
+        let count = |key: &str| -> Result<usize, KinematicsError> {
+            let (line, entries) = table
+                .get(key)
+                .ok_or_else(|| par_error(source, 0, format!("no `{}` line", key.to_uppercase())))?;
+            entries[0].parse::<usize>().map_err(|_| {
+                par_error(
+                    source,
+                    *line,
+                    format!("{} = {} is not a count", key.to_uppercase(), entries[0]),
+                )
+            })
+        };
+        let (nl, nj, nf) = (count("nl")?, count("nj")?, count("nf")?);
+        if nl == 0 || nj < nl || nf != nj + (nj - nl) || nf > 10_000 {
+            return Err(par_error(
+                source,
+                table.get("nf").map_or(0, |e| e.0),
+                format!(
+                    "inconsistent NL = {nl}, NJ = {nj}, NF = {nf}: NF must be NJ + (NJ - NL) = {} (one extra frame per cut joint) and NJ >= NL >= 1",
+                    (2 * nj).saturating_sub(nl)
+                ),
+            ));
+        }
+        Ok(Self {
+            table,
+            source,
+            nl,
+            nj,
+            nf,
+        })
+    }
+
+    /// The list `key` (one entry per frame) and its line; `default` for
+    /// every frame when the file has no such list.
+    fn list(
+        &self,
+        key: &str,
+        default: Option<&str>,
+    ) -> Result<(usize, Vec<String>), KinematicsError> {
+        let nf = self.nf;
+        match self.table.get(key) {
+            Some((line, entries)) => {
+                if entries.len() != nf {
+                    return Err(par_error(
+                        self.source,
+                        *line,
+                        format!("`{key}` has {} entries for NF = {nf} frames", entries.len()),
+                    ));
+                }
+                Ok((*line, entries.clone()))
+            }
+            None => match default {
+                Some(d) => Ok((0, vec![d.to_string(); nf])),
+                None => Err(par_error(self.source, 0, format!("no `{key}` list"))),
+            },
+        }
+    }
+
+    /// The integer entry `s` of the list `key` (on `line`).
+    fn integer(&self, line: usize, key: &str, s: &str) -> Result<i64, KinematicsError> {
+        s.parse::<i64>().map_err(|_| {
+            par_error(
+                self.source,
+                line,
+                format!("`{key}` entry `{s}` is not an integer"),
+            )
+        })
+    }
+
+    /// Every frame's quantities in SI with the symbols' values, and its
+    /// joint variable; symbols without a value are reported all at once.
+    fn frame_values(&self, values: &Values) -> Result<Vec<FrameValues>, KinematicsError> {
+        // The structure's lists are checked before any quantity is read.
+        self.list("ant", None)?;
+        let (sigma_line, sigma) = self.list("sigma", None)?;
+        self.list("mu", Some("0"))?;
+        let lists = QUANTITY_KEYS
+            .iter()
+            .map(|key| self.list(key, Some("0")))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut missing = BTreeSet::new();
+        let mut frames_values = Vec::with_capacity(self.nf);
+        for (j, sigma) in sigma.iter().enumerate() {
+            let s = self.integer(sigma_line, "sigma", sigma)?;
+            let mut quantities = [0.0; 6];
+            let mut variable = None;
+            for (k, key) in QUANTITY_KEYS.iter().enumerate() {
+                let (line, entries) = &lists[k];
+                let holds_variable = (s == 0 && *key == "theta") || (s == 1 && *key == "r");
+                let (value, var) = self.quantity(
+                    (key, j, *line),
+                    &entries[j],
+                    values,
+                    holds_variable,
+                    &mut missing,
+                )?;
+                quantities[k] = value;
+                if var.is_some() {
+                    variable = var;
+                }
+            }
+            frames_values.push(FrameValues {
+                quantities,
+                variable,
+            });
+        }
+        if !missing.is_empty() {
+            return Err(KinematicsError::MissingSymbols {
+                source_name: self.source.to_string(),
+                symbols: missing.into_iter().collect::<Vec<_>>().join(", "),
+            });
+        }
+        Ok(frames_values)
+    }
+
+    /// The value of quantity `key` of frame `j` (0-based; given on `line`)
+    /// from its expression `entry`, and its joint variable when it
+    /// `holds_variable` (the theta of a revolute joint, the r of a
+    /// prismatic one) and has one unknown symbol. Other unknown symbols go
+    /// to `missing`.
+    fn quantity(
+        &self,
+        (key, j, line): (&str, usize, usize),
+        entry: &str,
+        values: &Values,
+        holds_variable: bool,
+        missing: &mut BTreeSet<String>,
+    ) -> Result<(f64, Option<String>), KinematicsError> {
+        let source = self.source;
+        let expr = parse_expr(entry)
+            .map_err(|m| par_error(source, line, format!("{key} of frame {}: {m}", j + 1)))?;
+        let mut symbols = BTreeSet::new();
+        expr.symbols(&mut symbols);
+        let unknown: Vec<String> = symbols
+            .into_iter()
+            .filter(|s| !values.symbols.contains_key(s))
+            .collect();
+        let (value, variable) = if holds_variable && unknown.len() == 1 {
+            let var = unknown[0].clone();
+            let at0 = evaluate(&expr, values, Some(&var), 0.0);
+            let at1 = evaluate(&expr, values, Some(&var), 1.0);
+            let at2 = evaluate(&expr, values, Some(&var), 2.0);
+            if (at1 - at0 - 1.0).abs() > 1e-12 || (at2 - 2.0 * at1 + at0).abs() > 1e-12 {
+                return Err(par_error(
+                    source,
+                    line,
+                    format!(
+                        "{key} of frame {}: the joint variable `{var}` must appear as `{var} + constant`",
+                        j + 1
+                    ),
+                ));
+            }
+            (at0, Some(var))
+        } else {
+            missing.extend(unknown);
+            (evaluate(&expr, values, None, 0.0), None)
+        };
+        if !value.is_finite() {
+            return Err(par_error(
+                source,
+                line,
+                format!("{key} of frame {} is not finite", j + 1),
+            ));
+        }
+        Ok((value, variable))
+    }
+
+    /// The frames of the description, with the notes on what was
+    /// assumed (joints actuated on a robot without loops, passive joints
+    /// without a home value).
+    fn frames(
+        &self,
+        frames_values: &[FrameValues],
+        values: &Values,
+        notes: &mut Vec<String>,
+    ) -> Result<Vec<FrameDescription>, KinematicsError> {
+        let source = self.source;
+        let (ant_line, ant) = self.list("ant", None)?;
+        let (sigma_line, sigma) = self.list("sigma", None)?;
+        let (mu_line, mu) = self.list("mu", Some("0"))?;
+        let mut frames = Vec::with_capacity(self.nf);
+        for (j, v) in frames_values.iter().enumerate() {
+            let a = self.integer(ant_line, "ant", &ant[j])?;
+            if a < 0 || a as usize > self.nf {
+                return Err(par_error(
+                    source,
+                    ant_line,
+                    format!("ant of frame {} is {a}, not a frame", j + 1),
+                ));
+            }
+            let s = self.integer(sigma_line, "sigma", &sigma[j])?;
+            let joint = match s {
+                0 => JointType::Revolute,
+                1 => JointType::Prismatic,
+                2 => JointType::Fixed,
+                _ => {
+                    return Err(par_error(
+                        source,
+                        sigma_line,
+                        format!("sigma of frame {} is {s}, not 0, 1 or 2", j + 1),
+                    ));
+                }
+            };
+            let m = self.integer(mu_line, "mu", &mu[j])?;
+            let mut f = FrameDescription::new(&(j + 1).to_string(), &a.to_string(), joint);
+            let [gamma, b, alpha, d, theta, r] = v.quantities;
+            f.gamma_deg = gamma.to_degrees();
+            f.b_mm = b * 1e3;
+            f.alpha_deg = alpha.to_degrees();
+            f.d_mm = d * 1e3;
+            f.theta_deg = theta.to_degrees();
+            f.r_mm = r * 1e3;
+            self.drive(&mut f, (j, m == 1), v, values, notes);
+            frames.push(f);
+        }
+        Ok(frames)
+    }
+
+    /// Makes the joint of frame `f` (0-based number `j`; `mu_one` when its
+    /// `mu` is 1) actuated or passive and gives it its home value, noting
+    /// what was assumed.
+    fn drive(
+        &self,
+        f: &mut FrameDescription,
+        (j, mu_one): (usize, bool),
+        v: &FrameValues,
+        values: &Values,
+        notes: &mut Vec<String>,
+    ) {
+        let joint = f.joint;
+        if joint == JointType::Fixed {
+            return;
+        }
+        let home = v
+            .variable
+            .as_ref()
+            .and_then(|n| values.home.get(n))
+            .copied();
+        // The home configuration, where the loops are first assembled.
+        match (home, joint) {
+            (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
+            (Some(h), _) => f.seed_mm = h * 1e3,
+            (None, _) => {}
+        }
+        // SYMORO reads `mu` only where there are closed loops: every joint
+        // of a robot without loops is motorised, whatever its `mu`.
+        let loop_free = self.nj == self.nl;
+        if mu_one || loop_free {
+            f.actuated = true;
+            f.actuated_name = v.variable.clone();
+            if !mu_one && !notes.iter().any(|n: &String| n.starts_with("mu = 0")) {
+                notes.push(
+                    "mu = 0 on a robot without closed loops: every joint is actuated (SYMORO uses mu only for loops)"
+                        .to_string(),
+                );
+            }
+        } else if home.is_none() {
+            notes.push(format!(
+                "passive joint {} has no home value: its loop is assembled from 0 (the branch nearest that configuration)",
+                j + 1
+            ));
+        }
+    }
+
+    /// The end frame: the tip option, or the one link frame that carries
+    /// no other frame.
+    fn end_frame(
+        &self,
+        tip: Option<&String>,
+        frames: &[FrameDescription],
+    ) -> Result<String, KinematicsError> {
+        let nf = self.nf;
+        match tip {
+            Some(t) => {
+                if t.parse::<usize>().map_or(true, |k| k == 0 || k > nf) {
+                    return Err(KinematicsError::UnknownLink {
+                        source_name: self.source.to_string(),
+                        what: format!("no frame `{t}` to take as the tip"),
+                        known: format!("1..{nf}"),
+                    });
+                }
+                Ok(t.clone())
+            }
+            None => {
+                // A link that carries a cut joint or a loop's closing frame is
+                // inside a loop, not at an end.
+                let leaves: Vec<String> = (1..=self.nl)
+                    .filter(|k| !frames.iter().any(|f| f.antecedent == k.to_string()))
+                    .map(|k| k.to_string())
+                    .collect();
+                if leaves.len() != 1 {
+                    return Err(KinematicsError::AmbiguousTip {
+                        source_name: self.source.to_string(),
+                        candidates: leaves.join(", "),
+                    });
+                }
+                Ok(leaves[0].clone())
+            }
+        }
+    }
+
+    /// One full-constraint loop per cut joint, closed by Newton's method.
+    fn loops(&self) -> Vec<LoopDescription> {
+        let (nl, nj) = (self.nl, self.nj);
+        (0..nj - nl)
+            .map(|i| LoopDescription {
+                name: format!("loop{}", i + 1),
+                cut: [(nl + i + 1).to_string(), (nj + i + 1).to_string()],
+                constraint: LoopConstraint::Full,
+                solver: LoopSolver::Newton,
+                branch: 1,
+            })
+            .collect()
+    }
+}
+
+/// The robot of the `.par` text: its assignments read
+/// ([`ParTable::new`]), each frame's quantities evaluated
+/// ([`ParTable::frame_values`]), the frames ([`ParTable::frames`]), the
+/// loops and the end frame, and the four-bar loops given their closed
+/// form on the home configuration's branch.
 fn par_from_str(
     text: &str,
     source: &str,
@@ -544,233 +883,13 @@ fn par_from_str(
     values: &Values,
     options: &ImportOptions,
 ) -> Result<ImportedRobot, KinematicsError> {
-    let table = assignments(text, source)?;
-    let count = |key: &str| -> Result<usize, KinematicsError> {
-        let (line, entries) = table
-            .get(key)
-            .ok_or_else(|| par_error(source, 0, format!("no `{}` line", key.to_uppercase())))?;
-        entries[0].parse::<usize>().map_err(|_| {
-            par_error(
-                source,
-                *line,
-                format!("{} = {} is not a count", key.to_uppercase(), entries[0]),
-            )
-        })
-    };
-    let (nl, nj, nf) = (count("nl")?, count("nj")?, count("nf")?);
-    if nl == 0 || nj < nl || nf != nj + (nj - nl) || nf > 10_000 {
-        return Err(par_error(
-            source,
-            table.get("nf").map_or(0, |e| e.0),
-            format!(
-                "inconsistent NL = {nl}, NJ = {nj}, NF = {nf}: NF must be NJ + (NJ - NL) = {} (one extra frame per cut joint) and NJ >= NL >= 1",
-                (2 * nj).saturating_sub(nl)
-            ),
-        ));
-    }
-    let list =
-        |key: &str, default: Option<&str>| -> Result<(usize, Vec<String>), KinematicsError> {
-            match table.get(key) {
-                Some((line, entries)) => {
-                    if entries.len() != nf {
-                        return Err(par_error(
-                            source,
-                            *line,
-                            format!("`{key}` has {} entries for NF = {nf} frames", entries.len()),
-                        ));
-                    }
-                    Ok((*line, entries.clone()))
-                }
-                None => match default {
-                    Some(d) => Ok((0, vec![d.to_string(); nf])),
-                    None => Err(par_error(source, 0, format!("no `{key}` list"))),
-                },
-            }
-        };
-    let (ant_line, ant) = list("ant", None)?;
-    let (sigma_line, sigma) = list("sigma", None)?;
-    let (mu_line, mu) = list("mu", Some("0"))?;
-    let integer = |line: usize, key: &str, s: &str| -> Result<i64, KinematicsError> {
-        s.parse::<i64>().map_err(|_| {
-            par_error(
-                source,
-                line,
-                format!("`{key}` entry `{s}` is not an integer"),
-            )
-        })
-    };
-    let quantity_keys = ["gamma", "b", "alpha", "d", "theta", "r"];
-    let mut lists = Vec::new();
-    for key in quantity_keys {
-        lists.push(list(key, Some("0"))?);
-    }
-    let mut missing = BTreeSet::new();
-    let mut frames_values = Vec::with_capacity(nf);
-    for j in 0..nf {
-        let s = integer(sigma_line, "sigma", &sigma[j])?;
-        let mut quantities = [0.0; 6];
-        let mut variable = None;
-        for (k, key) in quantity_keys.iter().enumerate() {
-            let (line, entries) = &lists[k];
-            let expr = parse_expr(&entries[j])
-                .map_err(|m| par_error(source, *line, format!("{key} of frame {}: {m}", j + 1)))?;
-            let mut symbols = BTreeSet::new();
-            expr.symbols(&mut symbols);
-            let unknown: Vec<String> = symbols
-                .into_iter()
-                .filter(|s| !values.symbols.contains_key(s))
-                .collect();
-            let holds_variable = (s == 0 && *key == "theta") || (s == 1 && *key == "r");
-            if holds_variable && unknown.len() == 1 {
-                let var = unknown[0].clone();
-                let at0 = evaluate(&expr, values, Some(&var), 0.0);
-                let at1 = evaluate(&expr, values, Some(&var), 1.0);
-                let at2 = evaluate(&expr, values, Some(&var), 2.0);
-                if (at1 - at0 - 1.0).abs() > 1e-12 || (at2 - 2.0 * at1 + at0).abs() > 1e-12 {
-                    return Err(par_error(
-                        source,
-                        *line,
-                        format!(
-                            "{key} of frame {}: the joint variable `{var}` must appear as `{var} + constant`",
-                            j + 1
-                        ),
-                    ));
-                }
-                quantities[k] = at0;
-                variable = Some(var);
-            } else {
-                missing.extend(unknown);
-                quantities[k] = evaluate(&expr, values, None, 0.0);
-            }
-            if !quantities[k].is_finite() {
-                return Err(par_error(
-                    source,
-                    *line,
-                    format!("{key} of frame {} is not finite", j + 1),
-                ));
-            }
-        }
-        frames_values.push(FrameValues {
-            quantities,
-            variable,
-        });
-    }
-    if !missing.is_empty() {
-        return Err(KinematicsError::MissingSymbols {
-            source_name: source.to_string(),
-            symbols: missing.into_iter().collect::<Vec<_>>().join(", "),
-        });
-    }
+    let table = ParTable::new(text, source)?;
+    let frames_values = table.frame_values(values)?;
     let mut notes = Vec::new();
-    let mut frames = Vec::with_capacity(nf);
-    for j in 0..nf {
-        let a = integer(ant_line, "ant", &ant[j])?;
-        if a < 0 || a as usize > nf {
-            return Err(par_error(
-                source,
-                ant_line,
-                format!("ant of frame {} is {a}, not a frame", j + 1),
-            ));
-        }
-        let s = integer(sigma_line, "sigma", &sigma[j])?;
-        let joint = match s {
-            0 => JointType::Revolute,
-            1 => JointType::Prismatic,
-            2 => JointType::Fixed,
-            _ => {
-                return Err(par_error(
-                    source,
-                    sigma_line,
-                    format!("sigma of frame {} is {s}, not 0, 1 or 2", j + 1),
-                ));
-            }
-        };
-        let m = integer(mu_line, "mu", &mu[j])?;
-        let v = &frames_values[j];
-        let mut f = FrameDescription::new(&(j + 1).to_string(), &a.to_string(), joint);
-        let [gamma, b, alpha, d, theta, r] = v.quantities;
-        f.gamma_deg = gamma.to_degrees();
-        f.b_mm = b * 1e3;
-        f.alpha_deg = alpha.to_degrees();
-        f.d_mm = d * 1e3;
-        f.theta_deg = theta.to_degrees();
-        f.r_mm = r * 1e3;
-        // SYMORO reads `mu` only where there are closed loops: every joint
-        // of a robot without loops is motorised, whatever its `mu`.
-        let loop_free = nj == nl;
-        let home = v
-            .variable
-            .as_ref()
-            .and_then(|n| values.home.get(n))
-            .copied();
-        if joint != JointType::Fixed && (m == 1 || loop_free) {
-            f.actuated = true;
-            f.actuated_name = v.variable.clone();
-            // The home configuration, where the loops are first assembled.
-            match (home, joint) {
-                (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
-                (Some(h), _) => f.seed_mm = h * 1e3,
-                (None, _) => {}
-            }
-            if m != 1 && !notes.iter().any(|n: &String| n.starts_with("mu = 0")) {
-                notes.push(
-                    "mu = 0 on a robot without closed loops: every joint is actuated (SYMORO uses mu only for loops)"
-                        .to_string(),
-                );
-            }
-        } else if joint != JointType::Fixed {
-            match (home, joint) {
-                (Some(h), JointType::Revolute) => f.seed_deg = h.to_degrees(),
-                (Some(h), _) => f.seed_mm = h * 1e3,
-                (None, _) => {}
-            }
-            if home.is_none() {
-                notes.push(format!(
-                    "passive joint {} has no home value: its loop is assembled from 0 (the branch nearest that configuration)",
-                    j + 1
-                ));
-            }
-        }
-        frames.push(f);
-    }
-    let loops = (0..nj - nl)
-        .map(|i| LoopDescription {
-            name: format!("loop{}", i + 1),
-            cut: [(nl + i + 1).to_string(), (nj + i + 1).to_string()],
-            constraint: LoopConstraint::Full,
-            solver: LoopSolver::Newton,
-            branch: 1,
-        })
-        .collect();
-    // The end frame: the tip option, or the one link frame that carries no other frame.
-    let end_frame = match &options.tip {
-        Some(t) => {
-            if t.parse::<usize>().map_or(true, |k| k == 0 || k > nf) {
-                return Err(KinematicsError::UnknownLink {
-                    source_name: source.to_string(),
-                    what: format!("no frame `{t}` to take as the tip"),
-                    known: format!("1..{nf}"),
-                });
-            }
-            t.clone()
-        }
-        None => {
-            // A link that carries a cut joint or a loop's closing frame is
-            // inside a loop, not at an end.
-            let leaves: Vec<String> = (1..=nl)
-                .filter(|k| !frames.iter().any(|f| f.antecedent == k.to_string()))
-                .map(|k| k.to_string())
-                .collect();
-            if leaves.len() != 1 {
-                return Err(KinematicsError::AmbiguousTip {
-                    source_name: source.to_string(),
-                    candidates: leaves.join(", "),
-                });
-            }
-            leaves[0].clone()
-        }
-    };
-    let description = RobotDescription {
+    let frames = table.frames(&frames_values, values, &mut notes)?;
+    let end_frame = table.end_frame(options.tip.as_ref(), &frames)?;
+    let (nl, nj, nf) = (table.nl, table.nj, table.nf);
+    let mut description = RobotDescription {
         name: name.to_string(),
         notes: format!(
             "Imported from the SYMORO file {source}: NL = {nl}, NJ = {nj}, NF = {nf}; frame numbers as in the file."
@@ -781,10 +900,9 @@ fn par_from_str(
         base: TransformDescription::default(),
         tool: TransformDescription::default(),
         frames,
-        loops,
+        loops: table.loops(),
         links: Vec::new(),
     };
-    let mut description = description;
     four_bar_branches(&mut description, &frames_values, values, &mut notes);
     Ok(ImportedRobot {
         description,
