@@ -536,56 +536,84 @@ fn set_limits(frame: &mut FrameDescription, joint: &UrdfJoint) {
     }
 }
 
-/// The description, masses and notes of a converted chain.
-fn assemble(
-    robot: &UrdfRobot,
-    chain: &Chain,
-    geometry: &[KkFrame],
-) -> Result<ImportedRobot, KinematicsError> {
-    let mut notes = Vec::new();
-    let path_index: HashMap<&str, usize> = chain
-        .moving
-        .iter()
-        .enumerate()
-        .map(|(k, (j, _, _))| (j.name.as_str(), k))
-        .collect();
-    // Mimic relations of the path joints, and the leaders needing a frame of their own.
-    let mut mimics: Vec<Option<(&UrdfJoint, f64, f64)>> = Vec::new();
-    let mut side_leaders: Vec<&UrdfJoint> = Vec::new();
-    for (k, (j, _, _)) in chain.moving.iter().enumerate() {
-        let mimic = resolve_mimic(robot, j)?;
-        if let Some((leader, _, _)) = mimic {
-            let on_path_before = path_index.get(leader.name.as_str()).is_some_and(|&i| i < k);
-            if !on_path_before && !side_leaders.iter().any(|l| l.name == leader.name) {
-                side_leaders.push(leader);
+/// The mimic relations of a chain's moving joints: each one's leader,
+/// multiplier and offset, and the leaders that need a frame of their own
+/// (`m1`, `m2`, ...: off the path, or after their follower on it).
+struct Mimics<'a> {
+    /// Position of each moving joint on the path, by name.
+    path_index: HashMap<&'a str, usize>,
+    /// The mimic relation of each moving joint of the path.
+    of_path: Vec<Option<(&'a UrdfJoint, f64, f64)>>,
+    /// The leaders with a side frame, in the order of their frames.
+    side_leaders: Vec<&'a UrdfJoint>,
+}
+
+impl<'a> Mimics<'a> {
+    fn new(robot: &'a UrdfRobot, chain: &Chain<'a>) -> Result<Self, KinematicsError> {
+        let path_index: HashMap<&str, usize> = chain
+            .moving
+            .iter()
+            .enumerate()
+            .map(|(k, (j, _, _))| (j.name.as_str(), k))
+            .collect();
+        let mut of_path = Vec::new();
+        let mut side_leaders: Vec<&UrdfJoint> = Vec::new();
+        for (k, (j, _, _)) in chain.moving.iter().enumerate() {
+            let mimic = resolve_mimic(robot, j)?;
+            if let Some((leader, _, _)) = mimic {
+                let on_path_before = path_index.get(leader.name.as_str()).is_some_and(|&i| i < k);
+                if !on_path_before && !side_leaders.iter().any(|l| l.name == leader.name) {
+                    side_leaders.push(leader);
+                }
             }
+            of_path.push(mimic);
         }
-        mimics.push(mimic);
+        Ok(Self {
+            path_index,
+            of_path,
+            side_leaders,
+        })
     }
-    let side_name = |leader: &str| -> Option<String> {
-        side_leaders
+
+    /// The side frame (`m<i>`) of the leader named `leader`, if it has one.
+    fn side_name(&self, leader: &str) -> Option<String> {
+        self.side_leaders
             .iter()
             .position(|l| l.name == leader)
             .map(|i| format!("m{}", i + 1))
-    };
-    let mut frames = Vec::new();
-    for (i, leader) in side_leaders.iter().enumerate() {
-        let mut f = FrameDescription::new(&format!("m{}", i + 1), "0", joint_type(leader.kind));
-        f.actuated = true;
-        f.actuated_name = Some(leader.name.clone());
-        set_limits(&mut f, leader);
-        frames.push(f);
-        notes.push(format!(
-            "mimic leader `{}` is {}: frame m{} carries its coordinate (no geometry, not in xi)",
-            leader.name,
-            if path_index.contains_key(leader.name.as_str()) {
-                "after its follower on the path"
-            } else {
-                "off the path"
-            },
-            i + 1
-        ));
     }
+
+    /// The side leaders' frames (actuated, no geometry), with a note each.
+    fn side_frames(&self, notes: &mut Vec<String>) -> Vec<FrameDescription> {
+        let mut frames = Vec::new();
+        for (i, leader) in self.side_leaders.iter().enumerate() {
+            let mut f = FrameDescription::new(&format!("m{}", i + 1), "0", joint_type(leader.kind));
+            f.actuated = true;
+            f.actuated_name = Some(leader.name.clone());
+            set_limits(&mut f, leader);
+            frames.push(f);
+            notes.push(format!(
+                "mimic leader `{}` is {}: frame m{} carries its coordinate (no geometry, not in xi)",
+                leader.name,
+                if self.path_index.contains_key(leader.name.as_str()) {
+                    "after its follower on the path"
+                } else {
+                    "off the path"
+                },
+                i + 1
+            ));
+        }
+        frames
+    }
+}
+
+/// The frames of the chain's moving joints (`1..n`), coupled to their
+/// mimic leaders or actuated, and the actuated coordinates in order.
+fn path_frames(
+    chain: &Chain,
+    geometry: &[KkFrame],
+    mimics: &Mimics,
+) -> (Vec<FrameDescription>, Vec<String>) {
     // Constant joint offset (theta or r) of each path frame, SI.
     let joint_constant = |k: usize| -> f64 {
         if chain.moving[k].0.kind == UrdfJointKind::Prismatic {
@@ -594,6 +622,7 @@ fn assemble(
             geometry[k].theta
         }
     };
+    let mut frames = Vec::new();
     let mut actuated_order = Vec::new();
     for (k, ((j, _, _), g)) in chain.moving.iter().zip(geometry).enumerate() {
         let name = (k + 1).to_string();
@@ -609,19 +638,19 @@ fn assemble(
         f.d_mm = g.d * 1e3;
         f.beta_deg = g.beta.map(f64::to_degrees);
         let mut constant = joint_constant(k);
-        let coupling = match mimics[k] {
-            Some((leader, multiplier, offset)) => match side_name(&leader.name) {
+        let coupling = match mimics.of_path[k] {
+            Some((leader, multiplier, offset)) => match mimics.side_name(&leader.name) {
                 Some(side) => {
                     constant += offset;
                     Some((side, multiplier))
                 }
                 None => {
-                    let i = path_index[leader.name.as_str()];
+                    let i = mimics.path_index[leader.name.as_str()];
                     constant += offset - multiplier * joint_constant(i);
                     Some(((i + 1).to_string(), multiplier))
                 }
             },
-            None => side_name(&j.name).map(|side| (side, 1.0)),
+            None => mimics.side_name(&j.name).map(|side| (side, 1.0)),
         };
         match coupling {
             Some((leader_frame, ratio)) => {
@@ -629,7 +658,7 @@ fn assemble(
                     frame: leader_frame,
                     ratio,
                 }];
-                if mimics[k].is_none() {
+                if mimics.of_path[k].is_none() {
                     actuated_order.push(j.name.clone());
                 }
             }
@@ -649,11 +678,27 @@ fn assemble(
         }
         frames.push(f);
     }
-    for leader in &side_leaders {
+    for leader in &mimics.side_leaders {
         if !actuated_order.contains(&leader.name) {
             actuated_order.push(leader.name.clone());
         }
     }
+    (frames, actuated_order)
+}
+
+/// The description, masses and notes of a converted chain: the mimic
+/// leaders' side frames ([`Mimics::side_frames`]), the path's frames
+/// ([`path_frames`]), the tool, the attached links and the masses.
+fn assemble(
+    robot: &UrdfRobot,
+    chain: &Chain,
+    geometry: &[KkFrame],
+) -> Result<ImportedRobot, KinematicsError> {
+    let mut notes = Vec::new();
+    let mimics = Mimics::new(robot, chain)?;
+    let mut frames = mimics.side_frames(&mut notes);
+    let (path, actuated_order) = path_frames(chain, geometry, &mimics);
+    frames.extend(path);
     let n = geometry.len();
     let x_root_end = geometry[n - 1].x_root_frame;
     let tool = x_root_end.inverse() * chain.x_root_tip;
@@ -682,9 +727,11 @@ fn assemble(
         links: Vec::new(),
     };
     description.links = attached_links(robot, chain, geometry, &description, &mut notes);
-    if !side_leaders.is_empty() {
+    if !mimics.side_leaders.is_empty() {
         // Side frames carry a coordinate only: their quantities leave xi.
-        let side_frames: Vec<String> = (1..=side_leaders.len()).map(|i| format!("m{i}")).collect();
+        let side_frames: Vec<String> = (1..=mimics.side_leaders.len())
+            .map(|i| format!("m{i}"))
+            .collect();
         let model = description.build()?;
         let parameters = model
             .params()
