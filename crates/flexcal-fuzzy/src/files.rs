@@ -264,7 +264,9 @@ fn numbers_in_brackets(line: usize, text: &str) -> Result<Vec<f64>, FuzzyError> 
         .collect()
 }
 
-fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
+/// The sections of a `.fis` text, in file order: `Key=Value` entries, or
+/// the rule lines of `[Rules]`.
+fn fis_sections(text: &str) -> Result<Vec<FisSection>, FuzzyError> {
     let mut sections: Vec<FisSection> = Vec::new();
     for (index, raw) in text.lines().enumerate() {
         let line_number = index + 1;
@@ -296,13 +298,20 @@ fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
             ));
         }
     }
-    let find = |header: &str| {
-        sections
-            .iter()
-            .find(|s| s.header == header)
-            .ok_or_else(|| fis_error(0, format!("no [{header}] section")))
-    };
-    let system = find("System")?;
+    Ok(sections)
+}
+
+/// The section `[header]`, or an error naming it.
+fn fis_section<'a>(sections: &'a [FisSection], header: &str) -> Result<&'a FisSection, FuzzyError> {
+    sections
+        .iter()
+        .find(|s| s.header == header)
+        .ok_or_else(|| fis_error(0, format!("no [{header}] section")))
+}
+
+/// Checks that `[System]` describes what flexcal reads: a Sugeno system
+/// with product AND, weighted-average defuzzification and one output.
+fn check_system(system: &FisSection) -> Result<(), FuzzyError> {
     let expect = |key: &str, wanted: &str| -> Result<(), FuzzyError> {
         let found = system.string(key)?;
         if found.eq_ignore_ascii_case(wanted) {
@@ -323,51 +332,50 @@ fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
             "only one output is supported",
         ));
     }
-    let input_count = system.count("NumInputs")?;
-    let mut names = Vec::new();
-    let mut partitions = Vec::new();
-    for j in 1..=input_count {
-        let section = find(&format!("Input{j}"))?;
-        let name = section.string("Name")?;
-        let mf_count = section.count("NumMFs")?;
-        let mut modal_values = Vec::with_capacity(mf_count);
-        let mut triangles = Vec::with_capacity(mf_count);
-        for k in 1..=mf_count {
-            let (line, value) = section.get(&format!("MF{k}"))?;
-            if !value.contains("'trimf'") {
-                return Err(fis_error(
-                    line,
-                    "only 'trimf' input membership functions are supported",
-                ));
-            }
-            let abc = numbers_in_brackets(line, value)?;
-            if abc.len() != 3 {
-                return Err(fis_error(line, "a trimf needs 3 numbers"));
-            }
-            modal_values.push(abc[1]);
-            triangles.push((line, abc));
+    Ok(())
+}
+
+/// The name and strong partition of an `[Input<j>]` section (triangular
+/// membership functions whose feet are their neighbours' apexes).
+fn fis_input(section: &FisSection) -> Result<(String, Partition), FuzzyError> {
+    let name = section.string("Name")?;
+    let mf_count = section.count("NumMFs")?;
+    let mut modal_values = Vec::with_capacity(mf_count);
+    let mut triangles = Vec::with_capacity(mf_count);
+    for k in 1..=mf_count {
+        let (line, value) = section.get(&format!("MF{k}"))?;
+        if !value.contains("'trimf'") {
+            return Err(fis_error(
+                line,
+                "only 'trimf' input membership functions are supported",
+            ));
         }
-        // Strong partition: each triangle's feet are its neighbours' apexes.
-        for (k, (line, abc)) in triangles.iter().enumerate() {
-            let left = modal_values[k.saturating_sub(1)];
-            let right = modal_values[(k + 1).min(mf_count - 1)];
-            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs()));
-            if !close(abc[0], left) || !close(abc[2], right) {
-                return Err(fis_error(*line, "triangles do not form a strong partition"));
-            }
+        let abc = numbers_in_brackets(line, value)?;
+        if abc.len() != 3 {
+            return Err(fis_error(line, "a trimf needs 3 numbers"));
         }
-        let partition = Partition::new(modal_values).map_err(|source: PartitionError| {
-            FuzzyError::Partition {
-                input: name.clone(),
-                source,
-            }
-        })?;
-        names.push(name);
-        partitions.push(partition);
+        modal_values.push(abc[1]);
+        triangles.push((line, abc));
     }
-    let structure = FuzzyStructure::new(names, partitions)?;
-    let output = find("Output1")?;
-    let output_name = output.string("Name")?;
+    // Strong partition: each triangle's feet are its neighbours' apexes.
+    for (k, (line, abc)) in triangles.iter().enumerate() {
+        let left = modal_values[k.saturating_sub(1)];
+        let right = modal_values[(k + 1).min(mf_count - 1)];
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs()));
+        if !close(abc[0], left) || !close(abc[2], right) {
+            return Err(fis_error(*line, "triangles do not form a strong partition"));
+        }
+    }
+    let partition =
+        Partition::new(modal_values).map_err(|source: PartitionError| FuzzyError::Partition {
+            input: name.clone(),
+            source,
+        })?;
+    Ok((name, partition))
+}
+
+/// The constants of the `[Output1]` section's membership functions.
+fn fis_output_constants(output: &FisSection) -> Result<Vec<f64>, FuzzyError> {
     let mut constants = Vec::new();
     for k in 1..=output.count("NumMFs")? {
         let (line, value) = output.get(&format!("MF{k}"))?;
@@ -383,7 +391,16 @@ fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
         }
         constants.push(v[0]);
     }
-    let rules = find("Rules")?;
+    Ok(constants)
+}
+
+/// The conclusion of every rule of `structure` (in its rule order) from
+/// the `[Rules]` section: one rule per grid cell, weight 1, AND.
+fn fis_conclusions(
+    rules: &FisSection,
+    structure: &FuzzyStructure,
+    constants: &[f64],
+) -> Result<Vec<f64>, FuzzyError> {
     let mut conclusions: Vec<Option<f64>> = vec![None; structure.rule_count()];
     for (line, text) in &rules.rules {
         let bad = || fis_error(*line, format!("cannot read rule '{text}'"));
@@ -413,7 +430,7 @@ fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
             return Err(fis_error(*line, "two rules share a premise"));
         }
     }
-    let conclusions = conclusions
+    conclusions
         .into_iter()
         .enumerate()
         .map(|(rule, b)| {
@@ -424,7 +441,30 @@ fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
                 )
             })
         })
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect()
+}
+
+/// The model of a `.fis` text: its sections ([`fis_sections`]), the
+/// system checked ([`check_system`]), each input's partition
+/// ([`fis_input`]), the output's constants and the rules' conclusions.
+fn parse_fis(text: &str) -> Result<FuzzyModel, FuzzyError> {
+    let sections = fis_sections(text)?;
+    let system = fis_section(&sections, "System")?;
+    check_system(system)?;
+    let input_count = system.count("NumInputs")?;
+    let mut names = Vec::new();
+    let mut partitions = Vec::new();
+    for j in 1..=input_count {
+        let (name, partition) = fis_input(fis_section(&sections, &format!("Input{j}"))?)?;
+        names.push(name);
+        partitions.push(partition);
+    }
+    let structure = FuzzyStructure::new(names, partitions)?;
+    let output = fis_section(&sections, "Output1")?;
+    let output_name = output.string("Name")?;
+    let constants = fis_output_constants(output)?;
+    let rules = fis_section(&sections, "Rules")?;
+    let conclusions = fis_conclusions(rules, &structure, &constants)?;
     FuzzyModel::new(structure, output_name, conclusions)
 }
 
