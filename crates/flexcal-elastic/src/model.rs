@@ -78,43 +78,89 @@ fn check_finite(owner: &str, field: &str, values: &[f64]) -> Result<()> {
     }
 }
 
-impl ElasticModel {
-    /// Validates `description` against `robot` and builds the model.
-    ///
-    /// # Errors
-    /// Unknown frames or nodes, duplicate names, non-positive section
-    /// values, negative stiffness or mass, an identified stiffness that is
-    /// not positive, no support, a supported TCP.
-    pub fn new(robot: &Model, description: &ElasticDescription) -> Result<Self> {
-        let d = description;
-        let frame_of = |owner: &str, field: &str, name: &str| -> Result<Option<usize>> {
-            if name == "0" || name == "base" {
-                return Ok(None);
-            }
-            robot
-                .frame_index(name)
-                .map(Some)
-                .ok_or_else(|| ElasticError::UnknownFrame {
-                    owner: owner.to_string(),
-                    field: field.to_string(),
-                    robot: robot.name().to_string(),
-                    frame: name.to_string(),
-                    known: robot.frame_names().join(", "),
-                })
-        };
-        let known_nodes = || {
-            d.nodes
-                .iter()
-                .map(|n| n.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
+/// Validation of an elastic description against its robot, step by step:
+/// what [`ElasticModel::new`] reads the description with.
+struct Validation<'a> {
+    robot: &'a Model,
+    d: &'a ElasticDescription,
+    /// The element names taken so far (beams, joints, springs share one
+    /// name space).
+    element_names: Vec<&'a str>,
+}
+
+impl<'a> Validation<'a> {
+    /// The robot frame named `name` (`None` for `0` or `base`).
+    fn frame_of(&self, owner: &str, field: &str, name: &str) -> Result<Option<usize>> {
+        if name == "0" || name == "base" {
+            return Ok(None);
+        }
+        self.robot
+            .frame_index(name)
+            .map(Some)
+            .ok_or_else(|| ElasticError::UnknownFrame {
+                owner: owner.to_string(),
+                field: field.to_string(),
+                robot: self.robot.name().to_string(),
+                frame: name.to_string(),
+                known: self.robot.frame_names().join(", "),
+            })
+    }
+
+    /// The node named `name`.
+    fn node_of(&self, owner: &str, field: &str, name: &str) -> Result<NodeId> {
+        self.d
+            .nodes
+            .iter()
+            .position(|n| n.name == name)
+            .ok_or_else(|| ElasticError::UnknownNode {
+                owner: owner.to_string(),
+                field: field.to_string(),
+                node: name.to_string(),
+                known: self
+                    .d
+                    .nodes
+                    .iter()
+                    .map(|n| n.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
+    /// The end nodes of a new element `name` of kind `kind`: its name must
+    /// be new and its two end nodes known and distinct. Takes the name.
+    fn element_ends(
+        &mut self,
+        owner: &str,
+        kind: &str,
+        (name, i, j): (&'a str, &str, &str),
+    ) -> Result<(NodeId, NodeId)> {
+        if self.element_names.contains(&name) {
+            return Err(ElasticError::DuplicateName {
+                kind: "element",
+                name: name.to_string(),
+            });
+        }
+        let (ni, nj) = (self.node_of(owner, "i", i)?, self.node_of(owner, "j", j)?);
+        if ni == nj {
+            return Err(ElasticError::invalid(
+                owner,
+                "j",
+                format!("a {kind} needs two different nodes, got '{i}' twice"),
+            ));
+        }
+        self.element_names.push(name);
+        Ok((ni, nj))
+    }
+
+    /// The structure's nodes (placed at the origin until a configuration
+    /// places them) and where each sits on the robot.
+    fn nodes(&self) -> Result<(Structure, Vec<NodePlacement>)> {
         let mut template = Structure::new();
-        let mut placements = Vec::with_capacity(d.nodes.len());
-        for n in &d.nodes {
+        let mut placements = Vec::with_capacity(self.d.nodes.len());
+        for n in &self.d.nodes {
             let owner = format!("node '{}'", n.name);
             check_finite(&owner, "offset_mm", &n.offset_mm)?;
-            let frame = frame_of(&owner, "frame", &n.frame)?;
+            let frame = self.frame_of(&owner, "frame", &n.frame)?;
             if template.find_node(&n.name).is_some() {
                 return Err(ElasticError::DuplicateName {
                     kind: "node",
@@ -131,46 +177,18 @@ impl ElasticModel {
                 offset: Vector3::from(n.offset_mm) * 1e-3,
             });
         }
-        let node_names: Vec<String> = d.nodes.iter().map(|n| n.name.clone()).collect();
-        let node_of = |owner: &str, field: &str, name: &str| -> Result<NodeId> {
-            node_names
-                .iter()
-                .position(|n| n == name)
-                .ok_or_else(|| ElasticError::UnknownNode {
-                    owner: owner.to_string(),
-                    field: field.to_string(),
-                    node: name.to_string(),
-                    known: known_nodes(),
-                })
-        };
-        let mut element_names: Vec<&str> = Vec::new();
-        // An element's name must be new and its two end nodes known and distinct.
-        let element_ends = |names: &[&str],
-                            owner: &str,
-                            kind: &str,
-                            (name, i, j): (&str, &str, &str)|
-         -> Result<(NodeId, NodeId)> {
-            if names.contains(&name) {
-                return Err(ElasticError::DuplicateName {
-                    kind: "element",
-                    name: name.to_string(),
-                });
-            }
-            let (ni, nj) = (node_of(owner, "i", i)?, node_of(owner, "j", j)?);
-            if ni == nj {
-                return Err(ElasticError::invalid(
-                    owner,
-                    "j",
-                    format!("a {kind} needs two different nodes, got '{i}' twice"),
-                ));
-            }
-            Ok((ni, nj))
-        };
+        Ok((template, placements))
+    }
+
+    /// The beams, and per beam the frame of its `vecxz` and that vector.
+    #[allow(clippy::type_complexity)]
+    fn beams(&mut self) -> Result<(Vec<Beam>, Vec<(Option<usize>, Vector3<f64>)>)> {
         let mut beams = Vec::new();
         let mut beam_axes = Vec::new();
+        let d = self.d;
         for b in &d.beams {
             let owner = format!("beam '{}'", b.name);
-            let (i, j) = element_ends(&element_names, &owner, "beam", (&b.name, &b.i, &b.j))?;
+            let (i, j) = self.element_ends(&owner, "beam", (&b.name, &b.i, &b.j))?;
             let section = b.section.to_fem();
             section
                 .validate(&owner)
@@ -187,7 +205,7 @@ impl ElasticModel {
                 ));
             }
             let frame_name = b.vecxz_frame.as_deref().unwrap_or(&d.nodes[i].frame);
-            let frame = frame_of(&owner, "vecxz_frame", frame_name)?;
+            let frame = self.frame_of(&owner, "vecxz_frame", frame_name)?;
             beam_axes.push((frame, Vector3::from(b.vecxz)));
             beams.push(Beam {
                 name: b.name.clone(),
@@ -198,14 +216,20 @@ impl ElasticModel {
                 releases: [false; 12],
                 mass_per_length: b.mass_per_length_kg_m,
             });
-            element_names.push(&b.name);
         }
+        Ok((beams, beam_axes))
+    }
+
+    /// The joint elements, per joint the frame whose z axis is its axis,
+    /// and the stiffness parameters Gamma of their identified components.
+    #[allow(clippy::type_complexity)]
+    fn joints(&mut self) -> Result<(Vec<Joint>, Vec<Option<usize>>, Vec<StiffnessParameter>)> {
         let mut parameters = Vec::new();
         let mut joints = Vec::new();
         let mut joint_axes = Vec::new();
-        for (index, jd) in d.joints.iter().enumerate() {
+        for (index, jd) in self.d.joints.iter().enumerate() {
             let owner = format!("joint '{}'", jd.name);
-            let (i, j) = element_ends(&element_names, &owner, "joint", (&jd.name, &jd.i, &jd.j))?;
+            let (i, j) = self.element_ends(&owner, "joint", (&jd.name, &jd.i, &jd.j))?;
             for c in JointComponent::ALL {
                 let v = jd.component(c);
                 if !(v.is_finite() && v >= 0.0) {
@@ -216,36 +240,8 @@ impl ElasticModel {
                     ));
                 }
             }
-            for &c in &jd.identify {
-                let v = jd.component(c);
-                let name = format!("{}_{}", c.symbol(), jd.name);
-                if v <= 0.0 {
-                    return Err(ElasticError::invalid(
-                        &owner,
-                        field_name(c),
-                        format!("identified as '{name}': its nominal value must be > 0, got {v}"),
-                    ));
-                }
-                if parameters
-                    .iter()
-                    .any(|p: &StiffnessParameter| p.name == name)
-                {
-                    return Err(ElasticError::DuplicateName {
-                        kind: "stiffness parameter",
-                        name,
-                    });
-                }
-                parameters.push(StiffnessParameter {
-                    name,
-                    target: StiffnessTarget::Joint {
-                        joint: index,
-                        component: c,
-                    },
-                    nominal: v,
-                    unit: c.unit(),
-                });
-            }
-            joint_axes.push(frame_of(&owner, "axis_frame", &jd.axis_frame)?);
+            identified_parameters(jd, index, &owner, &mut parameters)?;
+            joint_axes.push(self.frame_of(&owner, "axis_frame", &jd.axis_frame)?);
             joints.push(Joint {
                 name: jd.name.clone(),
                 i,
@@ -261,12 +257,16 @@ impl ElasticModel {
                     jd.krr_nm_rad,
                 ],
             });
-            element_names.push(&jd.name);
         }
+        Ok((joints, joint_axes, parameters))
+    }
+
+    /// The linear springs.
+    fn springs(&mut self) -> Result<Vec<Spring>> {
         let mut springs = Vec::new();
-        for sd in &d.springs {
+        for sd in &self.d.springs {
             let owner = format!("spring '{}'", sd.name);
-            let (i, j) = element_ends(&element_names, &owner, "spring", (&sd.name, &sd.i, &sd.j))?;
+            let (i, j) = self.element_ends(&owner, "spring", (&sd.name, &sd.i, &sd.j))?;
             if !(sd.k_n_m.is_finite() && sd.k_n_m >= 0.0) {
                 return Err(ElasticError::invalid(
                     &owner,
@@ -280,8 +280,119 @@ impl ElasticModel {
                 j,
                 k: sd.k_n_m,
             });
-            element_names.push(&sd.name);
         }
+        Ok(springs)
+    }
+
+    /// The supports set on `template` (at least one), and the TCP node
+    /// (not supported).
+    fn supports_and_tcp(&self, template: &mut Structure) -> Result<NodeId> {
+        let d = self.d;
+        if d.supports.is_empty() {
+            return Err(ElasticError::invalid(
+                format!("elastic description '{}'", d.name),
+                "supports",
+                "at least one supported node is needed (60)",
+            ));
+        }
+        for s in &d.supports {
+            let n = self.node_of("support", "node", &s.node)?;
+            template
+                .set_support(n, s.fixed)
+                .map_err(|e| ElasticError::fem("support", e))?;
+        }
+        let tcp = self.node_of(&format!("elastic description '{}'", d.name), "tcp", &d.tcp)?;
+        if template.supports()[tcp].iter().any(|&f| f) {
+            return Err(ElasticError::invalid(
+                format!("node '{}'", d.tcp),
+                "tcp",
+                "the TCP node must not be supported",
+            ));
+        }
+        Ok(tcp)
+    }
+
+    /// Gravity (m/s^2) and the point masses' weights (N) at their nodes.
+    #[allow(clippy::type_complexity)]
+    fn weights(&self) -> Result<(Vector3<f64>, Vec<(NodeId, Vector3<f64>)>)> {
+        let d = self.d;
+        check_finite("elastic description", "gravity_m_s2", &d.gravity_m_s2)?;
+        let gravity = Vector3::from(d.gravity_m_s2);
+        let mut weights = Vec::new();
+        for m in &d.point_masses {
+            let owner = format!("point mass at '{}'", m.node);
+            let n = self.node_of(&owner, "node", &m.node)?;
+            if !(m.mass_kg.is_finite() && m.mass_kg >= 0.0) {
+                return Err(ElasticError::invalid(
+                    &owner,
+                    "mass_kg",
+                    format!("must be >= 0 and finite, got {}", m.mass_kg),
+                ));
+            }
+            weights.push((n, gravity * m.mass_kg));
+        }
+        Ok((gravity, weights))
+    }
+}
+
+/// Adds to `parameters` the stiffness parameters of joint `jd` (number
+/// `index`) that are identified: a positive nominal value each, names not
+/// taken before.
+fn identified_parameters(
+    jd: &crate::description::JointDescription,
+    index: usize,
+    owner: &str,
+    parameters: &mut Vec<StiffnessParameter>,
+) -> Result<()> {
+    for &c in &jd.identify {
+        let v = jd.component(c);
+        let name = format!("{}_{}", c.symbol(), jd.name);
+        if v <= 0.0 {
+            return Err(ElasticError::invalid(
+                owner,
+                field_name(c),
+                format!("identified as '{name}': its nominal value must be > 0, got {v}"),
+            ));
+        }
+        if parameters.iter().any(|p| p.name == name) {
+            return Err(ElasticError::DuplicateName {
+                kind: "stiffness parameter",
+                name,
+            });
+        }
+        parameters.push(StiffnessParameter {
+            name,
+            target: StiffnessTarget::Joint {
+                joint: index,
+                component: c,
+            },
+            nominal: v,
+            unit: c.unit(),
+        });
+    }
+    Ok(())
+}
+
+impl ElasticModel {
+    /// Validates `description` against `robot` and builds the model: the
+    /// nodes, the beams, the joints and their stiffness parameters, the
+    /// springs, the supports and the TCP, the weights, in that order (the
+    /// first fault found is the one reported).
+    ///
+    /// # Errors
+    /// Unknown frames or nodes, duplicate names, non-positive section
+    /// values, negative stiffness or mass, an identified stiffness that is
+    /// not positive, no support, a supported TCP.
+    pub fn new(robot: &Model, description: &ElasticDescription) -> Result<Self> {
+        let mut v = Validation {
+            robot,
+            d: description,
+            element_names: Vec::new(),
+        };
+        let (mut template, placements) = v.nodes()?;
+        let (beams, beam_axes) = v.beams()?;
+        let (joints, joint_axes, parameters) = v.joints()?;
+        let springs = v.springs()?;
         for b in beams {
             template
                 .add_beam(b)
@@ -297,45 +408,11 @@ impl ElasticModel {
                 .add_spring(sp)
                 .map_err(|e| ElasticError::fem("elastic description", e))?;
         }
-        if d.supports.is_empty() {
-            return Err(ElasticError::invalid(
-                format!("elastic description '{}'", d.name),
-                "supports",
-                "at least one supported node is needed (60)",
-            ));
-        }
-        for s in &d.supports {
-            let n = node_of("support", "node", &s.node)?;
-            template
-                .set_support(n, s.fixed)
-                .map_err(|e| ElasticError::fem("support", e))?;
-        }
-        let tcp = node_of(&format!("elastic description '{}'", d.name), "tcp", &d.tcp)?;
-        if template.supports()[tcp].iter().any(|&f| f) {
-            return Err(ElasticError::invalid(
-                format!("node '{}'", d.tcp),
-                "tcp",
-                "the TCP node must not be supported",
-            ));
-        }
-        check_finite("elastic description", "gravity_m_s2", &d.gravity_m_s2)?;
-        let gravity = Vector3::from(d.gravity_m_s2);
-        let mut weights = Vec::new();
-        for m in &d.point_masses {
-            let owner = format!("point mass at '{}'", m.node);
-            let n = node_of(&owner, "node", &m.node)?;
-            if !(m.mass_kg.is_finite() && m.mass_kg >= 0.0) {
-                return Err(ElasticError::invalid(
-                    &owner,
-                    "mass_kg",
-                    format!("must be >= 0 and finite, got {}", m.mass_kg),
-                ));
-            }
-            weights.push((n, gravity * m.mass_kg));
-        }
+        let tcp = v.supports_and_tcp(&mut template)?;
+        let (gravity, weights) = v.weights()?;
         Ok(Self {
             robot: robot.clone(),
-            description: d.clone(),
+            description: description.clone(),
             template,
             placements,
             beam_axes,
