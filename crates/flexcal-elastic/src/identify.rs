@@ -8,8 +8,8 @@ use std::cell::RefCell;
 use faer::MatMut;
 use flexcal_fem::{Factorization, SolverOptions as FemOptions, Structure, assemble_and_factor};
 use flexcal_optim::{
-    ColumnScaling, Diagnosis, DifferentialEvolution, IdentifiabilityOptions, Jacobian,
-    LevenbergMarquardt, ProblemError, ProblemSetup, Residuals, SolveReport,
+    ColumnScaling, Diagnosis, DifferentialEvolution, IdentifiabilityOptions, IdentifiabilityReport,
+    Jacobian, LevenbergMarquardt, ProblemError, ProblemSetup, Residuals, SolveReport,
     analyze_identifiability,
 };
 use nalgebra::{DMatrix, Vector3};
@@ -390,19 +390,12 @@ fn default_bounds(model: &ElasticModel) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Identifies Gamma from deflection measurements: differential evolution in
-/// log space within the bounds, then the structural identifiability analysis,
-/// then Levenberg-Marquardt on the separable parameters, and the
-/// identifiability report at the solution.
-///
-/// # Errors
-/// No measurement, invalid options, a singular structure, solver failures.
-pub fn identify_stiffness(
+/// The bounds of Gamma (N/m or N.m/rad): the options' or
+/// [`default_bounds`], one pair per parameter, `0 < lower < upper < inf`.
+fn checked_bounds(
     model: &ElasticModel,
-    measurements: &[DeflectionMeasurement],
-    xi: &[f64],
     options: &StiffnessIdentificationOptions,
-) -> Result<IdentifiedStiffness> {
+) -> Result<Vec<(f64, f64)>> {
     let n = model.n_parameters();
     if n == 0 {
         return Err(ElasticError::invalid(
@@ -431,111 +424,250 @@ pub fn identify_stiffness(
             ));
         }
     }
-    let problem = StiffnessProblem::new(model, measurements, xi)?;
-    let weights = problem.row_weights();
-    let weight = |i: usize| weights.as_ref().map_or(1.0, |w| w[i]);
-    let m = problem.n_residuals();
+    Ok(bounds)
+}
 
-    // Global search.
-    let lower: Vec<f64> = bounds.iter().map(|b| b.0.ln()).collect();
-    let upper: Vec<f64> = bounds.iter().map(|b| b.1.ln()).collect();
-    let mut start: Vec<f64> = model.nominal_gamma().iter().map(|v| v.ln()).collect();
-    let mut global_value = f64::NAN;
-    let mut global_evaluations = 0;
-    if options.global_search_evaluations > 0 {
-        let mut residuals = vec![0.0; m];
-        let objective = |x: &[f64]| -> f64 {
-            match problem.residuals(x, &mut residuals) {
-                Ok(()) => {
-                    residuals
-                        .iter()
-                        .enumerate()
-                        .map(|(i, r)| (r * weight(i)).powi(2))
-                        .sum::<f64>()
-                        / m as f64
-                }
-                Err(_) => f64::INFINITY,
-            }
-        };
-        let search = DifferentialEvolution {
-            max_evaluations: options.global_search_evaluations,
-            seed: options.seed,
-            ..DifferentialEvolution::default()
-        }
-        .check()?;
-        let report = search.minimize(objective, &lower, &upper)?;
-        start = report.best_x;
-        global_value = report.best_value;
-        global_evaluations = report.evaluations;
+/// What the global search found: the start in log space, the weighted
+/// mean squared residual there and the evaluations it took (NaN and 0
+/// without a search: the nominal values).
+struct GlobalStart {
+    log_gamma: Vec<f64>,
+    value: f64,
+    evaluations: usize,
+}
+
+/// Differential evolution in log space within `(lower, upper)` (logs of
+/// the bounds), from the nominal Gamma when the options ask for no search.
+fn global_search(
+    problem: &StiffnessProblem,
+    (lower, upper): (&[f64], &[f64]),
+    weight: &dyn Fn(usize) -> f64,
+    options: &StiffnessIdentificationOptions,
+) -> Result<GlobalStart> {
+    let start = problem
+        .model
+        .nominal_gamma()
+        .iter()
+        .map(|v| v.ln())
+        .collect();
+    if options.global_search_evaluations == 0 {
+        return Ok(GlobalStart {
+            log_gamma: start,
+            value: f64::NAN,
+            evaluations: 0,
+        });
     }
-    let gamma_global: Vec<f64> = start.iter().map(|v| v.exp()).collect();
+    let m = problem.n_residuals();
+    let mut residuals = vec![0.0; m];
+    let objective = |x: &[f64]| -> f64 {
+        match problem.residuals(x, &mut residuals) {
+            Ok(()) => {
+                residuals
+                    .iter()
+                    .enumerate()
+                    .map(|(i, r)| (r * weight(i)).powi(2))
+                    .sum::<f64>()
+                    / m as f64
+            }
+            Err(_) => f64::INFINITY,
+        }
+    };
+    let search = DifferentialEvolution {
+        max_evaluations: options.global_search_evaluations,
+        seed: options.seed,
+        ..DifferentialEvolution::default()
+    }
+    .check()?;
+    let report = search.minimize(objective, lower, upper)?;
+    Ok(GlobalStart {
+        log_gamma: report.best_x,
+        value: report.best_value,
+        evaluations: report.evaluations,
+    })
+}
 
-    // Structural analysis where every parameter is soft enough for its
-    // sensitivity to be computed accurately.
+/// The structural analysis, at a reference point where every parameter
+/// is soft enough (ten times its lower bound) for its sensitivity to be
+/// computed accurately: the report, the collinear groups, and each
+/// group's kind (series `J_i ~ 1/k_i` or parallel `J_i ~ k_i`, from the
+/// ratios of the log-stiffness columns there).
+fn structural_groups(
+    problem: &StiffnessProblem,
+    bounds: &[(f64, f64)],
+    names: &[String],
+    options: &StiffnessIdentificationOptions,
+) -> Result<(IdentifiabilityReport, Vec<Vec<usize>>, Vec<GroupKind>)> {
     let reference: Vec<f64> = bounds.iter().map(|b| b.0 * 10.0).collect();
     let jac_ref = problem.log_jacobian(&reference)?;
-    let names = model.parameter_names();
     let structural = analyze_identifiability(
         faer::MatRef::from_column_major_slice(jac_ref.as_slice(), jac_ref.nrows(), jac_ref.ncols()),
-        &names,
+        names,
         &IdentifiabilityOptions {
             rank_tolerance: options.structural_tolerance,
             column_scaling: ColumnScaling::ColumnNorm,
             ..IdentifiabilityOptions::default()
         },
     )?;
-    let groups = collinear_groups(&structural.diagnoses, n);
-    // Classify each group from the reference point, where the ratios of
-    // log-stiffness columns reveal series (J_i ~ 1/k_i) or parallel (J_i ~ k_i).
-    let mut group_kinds = Vec::new();
-    for g in &groups {
-        group_kinds.push(classify_group(&jac_ref, &reference, g));
-    }
-    // Each series group keeps its softest member free and the others at
-    // their upper bound (rigid), preserving the equivalent stiffness found
-    // by the search; parallel groups the stiffest, the others at the lower bound.
-    let mut fixed = vec![false; n];
+    let groups = collinear_groups(&structural.diagnoses, names.len());
+    let kinds = groups
+        .iter()
+        .map(|g| classify_group(&jac_ref, &reference, g))
+        .collect();
+    Ok((structural, groups, kinds))
+}
+
+/// Holds all but one member of each collinear group (in `fixed`, moving
+/// `start`, log space): a series group keeps its softest member free and
+/// the others at their upper bound (rigid), preserving the equivalent
+/// stiffness found by the search; a parallel group the stiffest, the
+/// others at the lower bound. Returns each group's free member.
+fn hold_groups(
+    (groups, kinds): (&[Vec<usize>], &[GroupKind]),
+    bounds: &[(f64, f64)],
+    start: &mut [f64],
+    fixed: &mut [bool],
+) -> Vec<usize> {
     let mut representatives = Vec::new();
-    for (g, kind) in groups.iter().zip(&group_kinds) {
+    for (g, kind) in groups.iter().zip(kinds) {
         let values: Vec<f64> = g.iter().map(|&j| start[j].exp()).collect();
         let rep = match kind {
             GroupKind::Series | GroupKind::Other => g[argmin(&values)],
             GroupKind::Parallel => g[argmax(&values)],
         };
         representatives.push(rep);
+        let others = g.iter().copied().filter(|&j| j != rep);
         match kind {
             GroupKind::Series => {
                 let k_req = 1.0 / values.iter().map(|v| 1.0 / v).sum::<f64>();
-                let mut others = 0.0;
-                for &j in g.iter().filter(|&&j| j != rep) {
-                    start[j] = upper[j];
-                    others += 1.0 / bounds[j].1;
+                let mut compliance = 0.0;
+                for j in others {
+                    start[j] = bounds[j].1.ln();
+                    compliance += 1.0 / bounds[j].1;
                     fixed[j] = true;
                 }
-                let inv = 1.0 / k_req - others;
+                let inv = 1.0 / k_req - compliance;
+                let upper = bounds[rep].1.ln();
                 start[rep] = if inv > 0.0 {
-                    (1.0 / inv).ln().min(upper[rep])
+                    (1.0 / inv).ln().min(upper)
                 } else {
-                    upper[rep]
+                    upper
                 };
             }
             GroupKind::Parallel => {
                 let k_sum: f64 = values.iter().sum();
-                let mut others = 0.0;
-                for &j in g.iter().filter(|&&j| j != rep) {
-                    start[j] = lower[j];
-                    others += bounds[j].0;
+                let mut stiffness = 0.0;
+                for j in others {
+                    start[j] = bounds[j].0.ln();
+                    stiffness += bounds[j].0;
                     fixed[j] = true;
                 }
-                start[rep] = (k_sum - others).max(bounds[rep].0).ln();
+                start[rep] = (k_sum - stiffness).max(bounds[rep].0).ln();
             }
             GroupKind::Other => {
-                for &j in g.iter().filter(|&&j| j != rep) {
+                for j in others {
                     fixed[j] = true;
                 }
             }
         }
     }
+    representatives
+}
+
+/// The identifiability report at the solution `gamma`: sensitivities,
+/// weighted singular values, the groups with their equivalent stiffness,
+/// and the parameters determined or not.
+fn identifiability_at(
+    problem: &StiffnessProblem,
+    gamma: &[f64],
+    weight: &dyn Fn(usize) -> f64,
+    (structural, groups, kinds, representatives): (
+        &IdentifiabilityReport,
+        &[Vec<usize>],
+        &[GroupKind],
+        &[usize],
+    ),
+    options: &StiffnessIdentificationOptions,
+) -> Result<StiffnessIdentifiability> {
+    let model = problem.model;
+    let n = gamma.len();
+    let names = model.parameter_names();
+    let jac = problem.log_jacobian(gamma)?;
+    let sensitivity = weighted_column_norms(&jac, weight);
+    let weighted = DMatrix::from_fn(jac.nrows(), jac.ncols(), |i, j| jac[(i, j)] * weight(i));
+    let mut weighted_singular_values = weighted
+        .singular_values()
+        .iter()
+        .copied()
+        .collect::<Vec<_>>();
+    weighted_singular_values.sort_by(|a, b| b.total_cmp(a));
+    let in_group: Vec<bool> = (0..n)
+        .map(|j| groups.iter().any(|g| g.contains(&j)))
+        .collect();
+    let mut group_reports = Vec::new();
+    for ((g, kind), &rep) in groups.iter().zip(kinds).zip(representatives) {
+        let equivalent = match kind {
+            GroupKind::Series => Some(1.0 / g.iter().map(|&j| 1.0 / gamma[j]).sum::<f64>()),
+            GroupKind::Parallel => Some(g.iter().map(|&j| gamma[j]).sum()),
+            GroupKind::Other => None,
+        };
+        group_reports.push(StiffnessGroup {
+            members: g.iter().map(|&j| names[j].clone()).collect(),
+            kind: *kind,
+            equivalent,
+            unit: model.parameters()[g[0]].unit.to_string(),
+            representative: names[rep].clone(),
+            determined: sensitivity[rep] >= options.practical_threshold,
+        });
+    }
+    let free = |determined: bool| -> Vec<String> {
+        (0..n)
+            .filter(|&j| {
+                !in_group[j] && (sensitivity[j] >= options.practical_threshold) == determined
+            })
+            .map(|j| names[j].clone())
+            .collect()
+    };
+    let (identifiable, undetermined) = (free(true), free(false));
+    Ok(StiffnessIdentifiability {
+        names,
+        structural_rank: structural.rank,
+        structural_singular_values: structural.singular_values.clone(),
+        weighted_singular_values,
+        sensitivity,
+        groups: group_reports,
+        identifiable,
+        undetermined,
+    })
+}
+
+/// Identifies Gamma from deflection measurements: differential evolution in
+/// log space within the bounds ([`global_search`]), then the structural
+/// identifiability analysis ([`structural_groups`], [`hold_groups`]), then
+/// Levenberg-Marquardt on the separable parameters, and the
+/// identifiability report at the solution ([`identifiability_at`]).
+///
+/// # Errors
+/// No measurement, invalid options, a singular structure, solver failures.
+pub fn identify_stiffness(
+    model: &ElasticModel,
+    measurements: &[DeflectionMeasurement],
+    xi: &[f64],
+    options: &StiffnessIdentificationOptions,
+) -> Result<IdentifiedStiffness> {
+    let n = model.n_parameters();
+    let bounds = checked_bounds(model, options)?;
+    let problem = StiffnessProblem::new(model, measurements, xi)?;
+    let weights = problem.row_weights();
+    let weight = |i: usize| weights.as_ref().map_or(1.0, |w| w[i]);
+    let lower: Vec<f64> = bounds.iter().map(|b| b.0.ln()).collect();
+    let upper: Vec<f64> = bounds.iter().map(|b| b.1.ln()).collect();
+    let global = global_search(&problem, (&lower, &upper), &weight, options)?;
+    let gamma_global: Vec<f64> = global.log_gamma.iter().map(|v| v.exp()).collect();
+    let mut start = global.log_gamma;
+    let names = model.parameter_names();
+    let (structural, groups, kinds) = structural_groups(&problem, &bounds, &names, options)?;
+    let mut fixed = vec![false; n];
+    let representatives = hold_groups((&groups, &kinds), &bounds, &mut start, &mut fixed);
     // Parameters the data cannot see at the start are held too.
     let gamma_start: Vec<f64> = start.iter().map(|v| v.exp()).collect();
     let jac_start = problem.log_jacobian(&gamma_start)?;
@@ -545,7 +677,6 @@ pub fn identify_stiffness(
             fixed[j] = true;
         }
     }
-
     let lm = LevenbergMarquardt {
         options: flexcal_optim::SolverOptions {
             max_iterations: options.max_iterations,
@@ -568,55 +699,13 @@ pub fn identify_stiffness(
     }
     let solve = lm.solve(&problem, &start, &setup, &mut ())?;
     let gamma: Vec<f64> = solve.x.iter().map(|v| v.exp()).collect();
-
-    // Identifiability at the solution.
-    let jac = problem.log_jacobian(&gamma)?;
-    let sensitivity = weighted_column_norms(&jac, &weight);
-    let weighted = DMatrix::from_fn(jac.nrows(), jac.ncols(), |i, j| jac[(i, j)] * weight(i));
-    let weighted_singular_values = weighted
-        .singular_values()
-        .iter()
-        .copied()
-        .collect::<Vec<_>>();
-    let mut weighted_singular_values = weighted_singular_values;
-    weighted_singular_values.sort_by(|a, b| b.total_cmp(a));
-    let in_group: Vec<bool> = (0..n)
-        .map(|j| groups.iter().any(|g| g.contains(&j)))
-        .collect();
-    let mut group_reports = Vec::new();
-    for ((g, kind), &rep) in groups.iter().zip(&group_kinds).zip(&representatives) {
-        let equivalent = match kind {
-            GroupKind::Series => Some(1.0 / g.iter().map(|&j| 1.0 / gamma[j]).sum::<f64>()),
-            GroupKind::Parallel => Some(g.iter().map(|&j| gamma[j]).sum()),
-            GroupKind::Other => None,
-        };
-        group_reports.push(StiffnessGroup {
-            members: g.iter().map(|&j| names[j].clone()).collect(),
-            kind: *kind,
-            equivalent,
-            unit: model.parameters()[g[0]].unit.to_string(),
-            representative: names[rep].clone(),
-            determined: sensitivity[rep] >= options.practical_threshold,
-        });
-    }
-    let identifiable = (0..n)
-        .filter(|&j| !in_group[j] && sensitivity[j] >= options.practical_threshold)
-        .map(|j| names[j].clone())
-        .collect();
-    let undetermined = (0..n)
-        .filter(|&j| !in_group[j] && sensitivity[j] < options.practical_threshold)
-        .map(|j| names[j].clone())
-        .collect();
-    let identifiability = StiffnessIdentifiability {
-        names: names.clone(),
-        structural_rank: structural.rank,
-        structural_singular_values: structural.singular_values.clone(),
-        weighted_singular_values,
-        sensitivity,
-        groups: group_reports,
-        identifiable,
-        undetermined,
-    };
+    let identifiability = identifiability_at(
+        &problem,
+        &gamma,
+        &weight,
+        (&structural, &groups, &kinds, &representatives),
+        options,
+    )?;
     let predictions = problem.predict(&gamma)?;
     let criterion_mm2 = measurements
         .iter()
@@ -633,8 +722,8 @@ pub fn identify_stiffness(
             .collect(),
         gamma,
         gamma_global_search: gamma_global,
-        global_search_value: global_value,
-        global_search_evaluations: global_evaluations,
+        global_search_value: global.value,
+        global_search_evaluations: global.evaluations,
         solve,
         criterion_mm2,
         identifiability,

@@ -136,19 +136,7 @@ pub fn identify_compliance(
         });
     }
     check_samples(inputs, samples)?;
-
-    // Configurations: samples with identical inputs, in order of appearance.
-    let mut groups: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
-    let mut configurations: Vec<Vec<usize>> = Vec::new();
-    for (k, s) in samples.iter().enumerate() {
-        let key: Vec<u64> = s.inputs.iter().map(|v| v.to_bits()).collect();
-        let next = configurations.len();
-        let c = *groups.entry(key).or_insert(next);
-        if c == next {
-            configurations.push(Vec::new());
-        }
-        configurations[c].push(k);
-    }
+    let configurations = configurations(samples);
     if configurations.len() < 2 {
         return Err(FuzzyComplianceError::TooFewSamples {
             component: components[0].name(),
@@ -156,70 +144,19 @@ pub fn identify_compliance(
             rules: 1 << inputs.len(),
         });
     }
-    let n_test = ((params.test_fraction * configurations.len() as f64).round() as usize)
-        .clamp(1, configurations.len() - 1);
-    let mut order: Vec<usize> = (0..configurations.len()).collect();
-    order.shuffle(&mut ChaCha8Rng::seed_from_u64(params.seed));
-    let (test_configurations, train_configurations) = order.split_at(n_test);
-    let collect = |configs: &[usize]| {
-        let mut indices: Vec<usize> = configs
-            .iter()
-            .flat_map(|&c| configurations[c].iter().copied())
-            .collect();
-        indices.sort_unstable();
-        indices
-    };
-    let training_samples = collect(train_configurations);
-    let test_samples = collect(test_configurations);
-
-    // Every component must be loaded in enough training configurations to
-    // determine the rules of the simplest model.
+    let split = Split::new(&configurations, params);
     let minimum_rules = 1usize << inputs.len();
-    let mut rule_cap = params.fuzzy.search.max_rules;
-    for c in components {
-        let loaded = train_configurations
-            .iter()
-            .filter(|&&g| {
-                configurations[g]
-                    .iter()
-                    .any(|&k| samples[k].wrench[c.wrench.index()] != 0.0)
-            })
-            .count();
-        if loaded == 0 {
-            return Err(FuzzyComplianceError::ComponentNotExcited {
-                component: c.name(),
-                wrench: c.wrench.wrench_name(),
-            });
-        }
-        if loaded < minimum_rules {
-            return Err(FuzzyComplianceError::TooFewSamples {
-                component: c.name(),
-                configurations: loaded,
-                rules: minimum_rules,
-            });
-        }
-        rule_cap = rule_cap.min(loaded);
-    }
-
+    let rule_cap = rule_budget(
+        components,
+        samples,
+        (&configurations, &split),
+        minimum_rules,
+    )?
+    .min(params.fuzzy.search.max_rules);
     let names: Vec<String> = inputs.iter().map(|i| i.name.clone()).collect();
-    let train = combination_set(&names, components, samples, &training_samples)?;
-    let test = combination_set(&names, components, samples, &test_samples)?;
-
-    let mut domains = vec![(f64::INFINITY, f64::NEG_INFINITY); inputs.len()];
-    for &k in &training_samples {
-        for (d, &v) in domains.iter_mut().zip(&samples[k].inputs) {
-            d.0 = d.0.min(v);
-            d.1 = d.1.max(v);
-        }
-    }
-    for (spec, &(lower, upper)) in inputs.iter().zip(&domains) {
-        if lower >= upper {
-            return Err(FuzzyComplianceError::ConstantInput {
-                input: spec.name.clone(),
-                value: lower,
-            });
-        }
-    }
+    let train = combination_set(&names, components, samples, &split.training_samples)?;
+    let test = combination_set(&names, components, samples, &split.test_samples)?;
+    let domains = training_domains(inputs, samples, &split.training_samples)?;
     let initial = FuzzyStructure::initial(names.clone(), &domains)?;
     let mut search = params.fuzzy.search.clone();
     search.max_rules = rule_cap.max(minimum_rules);
@@ -270,13 +207,127 @@ pub fn identify_compliance(
             conclusions: conclusion_report,
             training_mm,
             test_mm,
-            training_configurations: train_configurations.len(),
-            test_configurations: test_configurations.len(),
-            training_samples,
-            test_samples,
+            training_configurations: split.train_configurations.len(),
+            test_configurations: split.test_configurations.len(),
+            training_samples: split.training_samples,
+            test_samples: split.test_samples,
             elapsed_s: started.elapsed().as_secs_f64(),
         },
     })
+}
+
+/// The configurations of `samples`: the samples with identical inputs,
+/// in order of appearance.
+fn configurations(samples: &[ComplianceSample]) -> Vec<Vec<usize>> {
+    let mut groups: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
+    let mut configurations: Vec<Vec<usize>> = Vec::new();
+    for (k, s) in samples.iter().enumerate() {
+        let key: Vec<u64> = s.inputs.iter().map(|v| v.to_bits()).collect();
+        let next = configurations.len();
+        let c = *groups.entry(key).or_insert(next);
+        if c == next {
+            configurations.push(Vec::new());
+        }
+        configurations[c].push(k);
+    }
+    configurations
+}
+
+/// The seeded split of the configurations into training and test ones
+/// (at least one of each), and their samples in ascending order.
+struct Split {
+    train_configurations: Vec<usize>,
+    test_configurations: Vec<usize>,
+    training_samples: Vec<usize>,
+    test_samples: Vec<usize>,
+}
+
+impl Split {
+    fn new(configurations: &[Vec<usize>], params: &ComplianceFitParams) -> Self {
+        let n_test = ((params.test_fraction * configurations.len() as f64).round() as usize)
+            .clamp(1, configurations.len() - 1);
+        let mut order: Vec<usize> = (0..configurations.len()).collect();
+        order.shuffle(&mut ChaCha8Rng::seed_from_u64(params.seed));
+        let (test, train) = order.split_at(n_test);
+        let collect = |configs: &[usize]| {
+            let mut indices: Vec<usize> = configs
+                .iter()
+                .flat_map(|&c| configurations[c].iter().copied())
+                .collect();
+            indices.sort_unstable();
+            indices
+        };
+        Self {
+            training_samples: collect(train),
+            test_samples: collect(test),
+            train_configurations: train.to_vec(),
+            test_configurations: test.to_vec(),
+        }
+    }
+}
+
+/// The largest rule count the training data can determine: every
+/// component must be loaded in at least `minimum_rules` training
+/// configurations (the simplest model's rules), and no model may have
+/// more rules than the configurations that load its component.
+fn rule_budget(
+    components: &[ComplianceComponent],
+    samples: &[ComplianceSample],
+    (configurations, split): (&[Vec<usize>], &Split),
+    minimum_rules: usize,
+) -> Result<usize> {
+    let mut cap = usize::MAX;
+    for c in components {
+        let loaded = split
+            .train_configurations
+            .iter()
+            .filter(|&&g| {
+                configurations[g]
+                    .iter()
+                    .any(|&k| samples[k].wrench[c.wrench.index()] != 0.0)
+            })
+            .count();
+        if loaded == 0 {
+            return Err(FuzzyComplianceError::ComponentNotExcited {
+                component: c.name(),
+                wrench: c.wrench.wrench_name(),
+            });
+        }
+        if loaded < minimum_rules {
+            return Err(FuzzyComplianceError::TooFewSamples {
+                component: c.name(),
+                configurations: loaded,
+                rules: minimum_rules,
+            });
+        }
+        cap = cap.min(loaded);
+    }
+    Ok(cap)
+}
+
+/// The range of each input over the training samples; an input that does
+/// not vary is an error naming it.
+fn training_domains(
+    inputs: &[InputSpec],
+    samples: &[ComplianceSample],
+    training_samples: &[usize],
+) -> Result<Vec<(f64, f64)>> {
+    let mut domains = vec![(f64::INFINITY, f64::NEG_INFINITY); inputs.len()];
+    for &k in training_samples {
+        for (d, &v) in domains.iter_mut().zip(&samples[k].inputs) {
+            d.0 = d.0.min(v);
+            d.1 = d.1.max(v);
+        }
+    }
+    for (spec, &(lower, upper)) in inputs.iter().zip(&domains) {
+        if lower >= upper {
+            return Err(FuzzyComplianceError::ConstantInput {
+                input: spec.name.clone(),
+                value: lower,
+            });
+        }
+    }
+    Ok(domains)
 }
 
 fn check_samples(inputs: &[InputSpec], samples: &[ComplianceSample]) -> Result<()> {
