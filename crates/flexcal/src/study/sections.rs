@@ -137,9 +137,14 @@ fn unit_of(kind: ParamKind) -> (&'static str, f64) {
     }
 }
 
+/// The geometric calibration's section: what the twin carries, the
+/// validation table ([`validation_table`]), the poses outside and the
+/// masses, the combinations ([`combinations_table`]), the identified
+/// errors against the truth ([`identified_errors_table`]), the errors
+/// during identification (Fig. 7, [`iteration_figures`]), the
+/// sensitivities (Figs. C.21-C.24, [`sensitivity_figures`]) and the
+/// validation errors per pose.
 fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
-    let model = &g.model;
-    let c = &g.calibration;
     let mut s = Section::new("Geometric calibration (paper section 3.2)");
     s.paragraph(format!(
         "The virtual IR-663 carries the geometric errors of the paper's Appendix C and every other term of \
@@ -152,6 +157,41 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
          identified). A perfect model would still show the noise floor: {:.4} mm mean.",
         g.summary.rank, g.summary.parameters, g.summary.noise_floor_position_mean_mm
     ));
+    validation_table(&mut s, g);
+    outside_and_masses_tables(&mut s, &g.summary);
+    combinations_table(&mut s, &g.calibration);
+    identified_errors_table(&mut s, g);
+    iteration_figures(&mut s, &g.calibration);
+    sensitivity_figures(&mut s, &g.sensitivity);
+    let per_pose: Vec<(f64, f64)> = g
+        .validation
+        .after_per_pose
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (i as f64 + 1.0, e.position * 1e3))
+        .collect();
+    s.figure(
+        line_chart(
+            "Validation position error per pose after calibration",
+            "validation pose",
+            "position error [mm]",
+            &[Series::new("calibrated", per_pose)],
+            YScale::Linear,
+        ),
+        "Distance between measured and predicted TCP positions on the validation poses with the calibrated model.",
+    );
+    let dir = out.join("geometric");
+    s.paragraph("Rerun this step with the individual commands:");
+    s.code(format!(
+        "flexcal twin geometric --out {d} --seed SEED\nflexcal calibrate --robot ir663 --data {d}/identification.csv --validate {d}/validation.csv --fixed-target --out {d}/calibrated.toml --report {d}/report.json",
+        d = dir.display()
+    ));
+    s
+}
+
+/// The validation on the 16 other poses, beside the noise floor and the
+/// paper's figures.
+fn validation_table(s: &mut Section, g: &GeometricResults) {
     let stat_row = |name: &str, f: &ValidationFigures| {
         vec![
             name.to_string(),
@@ -184,7 +224,11 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
             ],
         ],
     );
-    outside_and_masses_tables(&mut s, &g.summary);
+}
+
+/// The non-identifiable parameters and the combinations (C.1) the
+/// identified ones stand for.
+fn combinations_table(s: &mut Section, c: &flexcal_calib::Calibration) {
     let lines: Vec<Vec<String>> = c
         .combinations
         .iter()
@@ -201,6 +245,12 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
             lines
         },
     );
+}
+
+/// Every parameter's identified error against the twin's true error.
+fn identified_errors_table(s: &mut Section, g: &GeometricResults) {
+    let model = &g.model;
+    let c = &g.calibration;
     let mut rows = Vec::new();
     for (j, p) in model.params().iter().enumerate() {
         let (unit, scale) = unit_of(p.kind);
@@ -231,8 +281,11 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
         &["parameter", "unit", "true error", "identified", "standard error"],
         rows,
     );
-    // Figure 7: position and orientation RMS errors of the identification set
-    // at each iterate (every solve in order).
+}
+
+/// Figure 7: position and orientation RMS errors of the identification
+/// set at each iterate (every solve in order).
+fn iteration_figures(s: &mut Section, c: &flexcal_calib::Calibration) {
     let history =
         |value: &dyn Fn(&flexcal_calib::ResidualNorms) -> Option<f64>| -> Vec<(f64, f64)> {
             c.residual_history
@@ -267,9 +320,11 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
         ),
         "RMS over the identification poses of the orientation error angle at each iterate.",
     );
-    let table = &g.sensitivity;
-    // Figures C.21-C.24: mean and max of mu_P (55) and mu_Phi (56), split by
-    // the unit of the parameter (per mm or per degree of error).
+}
+
+/// Figures C.21-C.24: mean and max of mu_P (55) and mu_Phi (56), split by
+/// the unit of the parameter (per mm or per degree of error).
+fn sensitivity_figures(s: &mut Section, table: &flexcal_kinematics::SensitivityTable) {
     let per_unit = |kind: ParamKind| match kind {
         ParamKind::Length => 1e-3,
         ParamKind::Angle => std::f64::consts::PI / 180.0,
@@ -331,30 +386,6 @@ fn geometric_section(g: &GeometricResults, out: &std::path::Path) -> Section {
             ),
         );
     }
-    let per_pose: Vec<(f64, f64)> = g
-        .validation
-        .after_per_pose
-        .iter()
-        .enumerate()
-        .map(|(i, e)| (i as f64 + 1.0, e.position * 1e3))
-        .collect();
-    s.figure(
-        line_chart(
-            "Validation position error per pose after calibration",
-            "validation pose",
-            "position error [mm]",
-            &[Series::new("calibrated", per_pose)],
-            YScale::Linear,
-        ),
-        "Distance between measured and predicted TCP positions on the validation poses with the calibrated model.",
-    );
-    let dir = out.join("geometric");
-    s.paragraph("Rerun this step with the individual commands:");
-    s.code(format!(
-        "flexcal twin geometric --out {d} --seed SEED\nflexcal calibrate --robot ir663 --data {d}/identification.csv --validate {d}/validation.csv --fixed-target --out {d}/calibrated.toml --report {d}/report.json",
-        d = dir.display()
-    ));
-    s
 }
 
 fn table5_rows(label: &str, table: &LoadMetricsTable) -> Vec<Vec<String>> {

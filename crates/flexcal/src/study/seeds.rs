@@ -397,7 +397,9 @@ impl MultiSeedSummary {
         }
     }
 
-    /// The figures as Markdown tables (min / median / max).
+    /// The figures as Markdown tables (min / median / max): the geometric
+    /// step inside box (59), outside it and loaded, the masses scaled,
+    /// Table 5 and the forming task.
     pub fn to_markdown(&self) -> String {
         let n = self.seeds.len();
         let seeds: Vec<String> = self.seeds.iter().map(u64::to_string).collect();
@@ -405,29 +407,46 @@ impl MultiSeedSummary {
             "Seeds {} (min / median / max over {n} seeds).\n\n",
             seeds.join(", ")
         );
-        out += "| geometric step, validation | mean position [mm] | max position [mm] |\n|---|---|---|\n";
-        out += &format!(
+        self.geometric_markdown(&mut out);
+        self.outside_markdown(&mut out);
+        self.loaded_markdown(&mut out);
+        self.masses_markdown(&mut out);
+        self.table5_markdown(&mut out);
+        self.forming_markdown(&mut out);
+        out
+    }
+
+    /// The geometric step on the validation poses of box (59).
+    fn geometric_markdown(&self, out: &mut String) {
+        let n = self.seeds.len();
+        *out += "| geometric step, validation | mean position [mm] | max position [mm] |\n|---|---|---|\n";
+        *out += &format!(
             "| nominal (frame registered) | {} | |\n",
             self.before_mean_mm.text(3)
         );
-        out += &format!(
+        *out += &format!(
             "| geometric | {} | {} |\n",
             self.geometric_mean_mm.text(4),
             self.geometric_max_mm.text(4)
         );
-        out += &format!(
+        *out += &format!(
             "| elasto-geometric | {} | {} |\n",
             self.elasto_geometric_mean_mm.text(4),
             self.elasto_geometric_max_mm.text(4)
         );
-        out += &format!("| noise floor | {} | |\n", self.noise_floor_mean_mm.text(4));
-        out += "| paper (real IR-663) | 0.96 -> 0.24 | |\n\n";
-        out += &format!(
+        *out += &format!("| noise floor | {} | |\n", self.noise_floor_mean_mm.text(4));
+        *out += "| paper (real IR-663) | 0.96 -> 0.24 | |\n\n";
+        *out += &format!(
             "Elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
             self.elasto_geometric_better_mean_seeds, self.elasto_geometric_better_max_seeds
         );
-        out += "| geometric step, validation outside box (59) | mean position [mm] | max position [mm] |\n|---|---|---|\n";
-        out += &format!(
+    }
+
+    /// The geometric step on the validation poses outside box (59).
+    fn outside_markdown(&self, out: &mut String) {
+        let n = self.seeds.len();
+        *out += "| geometric step, validation outside box (59) | mean position [mm] | max position [mm] |\n|---|---|---|\n";
+        *out += &format!(
             "| nominal (frame registered) | {} | |\n",
             self.outside_before_mean_mm.text(3)
         );
@@ -435,20 +454,25 @@ impl MultiSeedSummary {
             ("geometric", &self.outside_geometric_mm),
             ("elasto-geometric", &self.outside_elasto_geometric_mm),
         ] {
-            out += &format!(
+            *out += &format!(
                 "| {name} | {} | {} |\n",
                 figures.mean.text(4),
                 figures.max.text(4)
             );
         }
-        out += &format!(
+        *out += &format!(
             "| noise floor | {} | |\n\nOutside box (59), elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
             self.noise_floor_mean_mm.text(4),
             self.outside_elasto_geometric_better_mean_seeds,
             self.outside_elasto_geometric_better_max_seeds
         );
-        out += "| geometric step, loaded validation (box (59), payload at the TCP) | mean position [mm] | max position [mm] |\n|---|---|---|\n";
-        out += &format!(
+    }
+
+    /// The geometric step on the loaded validation poses.
+    fn loaded_markdown(&self, out: &mut String) {
+        let n = self.seeds.len();
+        *out += "| geometric step, loaded validation (box (59), payload at the TCP) | mean position [mm] | max position [mm] |\n|---|---|---|\n";
+        *out += &format!(
             "| nominal (frame registered) | {} | |\n",
             self.loaded_before_mean_mm.text(3)
         );
@@ -459,19 +483,23 @@ impl MultiSeedSummary {
                 &self.loaded_elasto_geometric_mm,
             ),
         ] {
-            out += &format!(
+            *out += &format!(
                 "| {name} | {} | {} |\n",
                 figures.mean.text(4),
                 figures.max.text(4)
             );
         }
-        out += &format!(
+        *out += &format!(
             "| noise floor | {} | |\n\nLoaded, elasto-geometric below geometric: mean on {} of {n} seeds, max on {} of {n}.\n\n",
             self.noise_floor_mean_mm.text(4),
             self.loaded_elasto_geometric_better_mean_seeds,
             self.loaded_elasto_geometric_better_max_seeds
         );
-        out += "| elasto-geometric, masses scaled | inside, mean [mm] | inside, max [mm] | outside, mean [mm] | outside, max [mm] | loaded, mean [mm] | loaded, max [mm] |\n|---|---|---|---|---|---|---|\n";
+    }
+
+    /// The elasto-geometric step with the masses scaled.
+    fn masses_markdown(&self, out: &mut String) {
+        *out += "| elasto-geometric, masses scaled | inside, mean [mm] | inside, max [mm] | outside, mean [mm] | outside, max [mm] | loaded, mean [mm] | loaded, max [mm] |\n|---|---|---|---|---|---|---|\n";
         let row = |scale: &str, inside: &MeanMax, outside: &MeanMax, loaded: &MeanMax| {
             format!(
                 "| {scale} | {} | {} | {} | {} | {} | {} |\n",
@@ -483,7 +511,7 @@ impl MultiSeedSummary {
                 loaded.max.text(4)
             )
         };
-        out += &row(
+        *out += &row(
             "x 1 (the estimate)",
             &MeanMax {
                 mean: self.elasto_geometric_mean_mm,
@@ -493,17 +521,22 @@ impl MultiSeedSummary {
             &self.loaded_elasto_geometric_mm,
         );
         for m in &self.mass_scaled {
-            out += &row(
+            *out += &row(
                 &format!("x {}", m.scale),
                 &m.inside_mm,
                 &m.outside_mm,
                 &m.loaded_mm,
             );
         }
-        out += "\n";
+        *out += "\n";
+    }
+
+    /// Table 5's comparison of the parametric and fuzzy models.
+    fn table5_markdown(&self, out: &mut String) {
+        let n = self.seeds.len();
         for (metric, loads) in &self.table5 {
             let floor = self.table5_noise_floor_mm.get(metric);
-            out += &format!(
+            *out += &format!(
                 "| Table 5, {} (noise floor {} mm) | parametric RMS [mm] | fuzzy RMS [mm] | fuzzy better |\n|---|---|---|---|\n",
                 match metric.as_str() {
                     "plane_xz" => "training grid, x-z plane",
@@ -514,7 +547,7 @@ impl MultiSeedSummary {
                 floor.map_or(String::new(), |s| s.text(4))
             );
             for (load, c) in loads {
-                out += &format!(
+                *out += &format!(
                     "| {load} {} | {} | {} | {} of {n} |\n",
                     if load == "all" { "" } else { "N" },
                     c.parametric_rms_mm.text(4),
@@ -522,36 +555,40 @@ impl MultiSeedSummary {
                     c.fuzzy_better_seeds
                 );
             }
-            out += "\n";
+            *out += "\n";
         }
-        out += "| forming, largest deviation along z_p | contact points | whole path |\n|---|---|---|\n";
-        out += &format!(
+    }
+
+    /// The forming task, uncompensated and compensated.
+    fn forming_markdown(&self, out: &mut String) {
+        let n = self.seeds.len();
+        *out += "| forming, largest deviation along z_p | contact points | whole path |\n|---|---|---|\n";
+        *out += &format!(
             "| uncompensated [mm] | {} | {} |\n",
             self.forming_uncompensated_contact_mm.text(3),
             self.forming_uncompensated_path_mm.text(3)
         );
         for c in &self.forming_compensations {
-            out += &format!(
+            *out += &format!(
                 "| compensated, {} [mm] | {} | {} |\n",
                 c.model,
                 c.contact_mm.text(3),
                 c.path_mm.text(3)
             );
-            out += &format!(
+            *out += &format!(
                 "| improvement, {} [%] | {} | {} |\n",
                 c.model,
                 c.improvement_contact_percent.text(1),
                 c.improvement_path_percent.text(1)
             );
         }
-        out += "| paper (real IR-663) | 80 %, within +/-0.15 mm | |\n\n";
+        *out += "| paper (real IR-663) | 80 %, within +/-0.15 mm | |\n\n";
         for c in &self.forming_compensations {
-            out += &format!(
+            *out += &format!(
                 "{}: every contact point within +/-0.15 mm on {} of {n} seeds.\n",
                 c.model, c.within_tolerance_seeds
             );
         }
-        out
     }
 }
 
