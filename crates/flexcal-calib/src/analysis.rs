@@ -164,6 +164,9 @@ impl AnalysisContext<'_> {
         let mut options = IdentifiabilityOptions {
             rank_tolerance: self.rank_tolerance,
             priorities: kept.iter().map(|&j| self.priorities[j]).collect(),
+            // The analyses at a noise level give the base set alone; only
+            // the numerical one is reported (two SVDs saved per round).
+            singular_values: noise.is_none(),
             ..IdentifiabilityOptions::default()
         };
         if let Some(sigma) = noise {

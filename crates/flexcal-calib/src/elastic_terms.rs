@@ -397,7 +397,9 @@ impl ElasticTerms {
         out: &mut Matrix6xX<f64>,
     ) {
         let na = self.na;
-        out.fill(0.0);
+        // One memset over the storage (nalgebra's element-wise fill walks
+        // the 6-row matrix by strides).
+        out.as_mut_slice().fill(0.0);
         if let Some((terms, _)) = &self.gravity {
             let law_offset = self.law_offset();
             for i in 0..na {

@@ -208,6 +208,9 @@ pub struct ErrorModel<'a> {
     /// Per target, the lateral joints that move it.
     lateral_masks: Vec<Vec<bool>>,
     robot_columns: Cell<bool>,
+    /// Per unknown, whether the Jacobian skips its robot or elastic column
+    /// (left zero); empty: none skipped.
+    frozen_columns: RefCell<Vec<bool>>,
     data: RefCell<Data>,
     jacobians: RefCell<PointJacobians>,
     deflection: RefCell<JointState>,
@@ -279,6 +282,7 @@ impl<'a> ErrorModel<'a> {
             elastic: ElasticTerms::none(model),
             lateral_masks: Vec::new(),
             robot_columns: Cell::new(true),
+            frozen_columns: RefCell::new(Vec::new()),
             data: RefCell::new(Data::new(model)),
             jacobians: RefCell::new(PointJacobians {
                 params: vec![DMatrix::zeros(6, model.n_params()); count],
@@ -537,6 +541,15 @@ impl<'a> ErrorModel<'a> {
     /// the forward model runs per pose: for fits of the frames alone.
     pub fn set_robot_columns(&self, on: bool) {
         self.robot_columns.set(on);
+    }
+    /// The unknowns whose robot-parameter or elastic column
+    /// [`Jacobian::jacobian`] may leave at zero (a solver holding them
+    /// fixed never reads them); empty (default): every column computed.
+    /// The other columns are the same either way.
+    pub fn set_frozen_columns(&self, frozen: &[bool]) {
+        let mut columns = self.frozen_columns.borrow_mut();
+        columns.clear();
+        columns.extend_from_slice(frozen);
     }
 
     /// The measurement frame `x_meas_base` of station `s` at `x`.
@@ -855,7 +868,22 @@ impl ErrorModel<'_> {
         let target_rotations: Vec<UnitQuaternion<f64>> = (0..self.targets.len())
             .map(|t| self.target_frame(x, t).rotation)
             .collect();
-        let with_joints = robot_columns && self.elastic.len() > 0;
+        let frozen = self.frozen_columns.borrow();
+        let elastic_columns = eo..eo + self.elastic.len();
+        // Joint Jacobians and twists only when an elastic column is wanted.
+        let with_joints = robot_columns
+            && self.elastic.len() > 0
+            && (frozen.is_empty() || elastic_columns.into_iter().any(|j| !frozen[j]));
+        // The twists (robot parameters, then elastic unknowns) whose columns
+        // are wanted, once for every block.
+        let n_twists = if robot_columns {
+            np + self.elastic.len()
+        } else {
+            0
+        };
+        let wanted: Vec<usize> = (0..n_twists)
+            .filter(|&j| frozen.is_empty() || !frozen[if j < np { j } else { eo + j - np }])
+            .collect();
         let mut points: Vec<(usize, Isometry3<f64>)> = Vec::with_capacity(params.len());
         let mut start = blocks.start;
         // The blocks come pose by pose: one pass of the forward model for
@@ -916,7 +944,7 @@ impl ErrorModel<'_> {
                 let r0 = rows.start - row0;
                 self.block_jacobian(
                     x,
-                    b,
+                    (b, &wanted),
                     &terms,
                     motion.as_ref(),
                     out.as_mut().subrows_mut(r0, rows.len()),
@@ -927,11 +955,13 @@ impl ErrorModel<'_> {
         Ok(())
     }
 
-    /// The rows of observation `b` (3 or 6) into `out`, zero on entry.
+    /// The rows of observation `b` (3 or 6) into `out`, zero on entry: the
+    /// robot and elastic columns of the twists `wanted` (robot parameters
+    /// `0..np`, then elastic unknowns), the others left at zero.
     fn block_jacobian(
         &self,
         x: &[f64],
-        b: usize,
+        (b, wanted): (usize, &[usize]),
         terms: &BlockTerms<'_>,
         motion: Option<&crate::elastic_terms::LateralMotion>,
         mut out: MatMut<'_, f64>,
@@ -960,12 +990,6 @@ impl ErrorModel<'_> {
             ),
         };
         let r_mbg = r_mb * r_g;
-        let robot_columns = self.robot_columns.get();
-        let n_twists = if robot_columns {
-            np + self.elastic.len()
-        } else {
-            0
-        };
         // The twist (v at the point, w) of robot parameter or elastic unknown j.
         let twist = |j: usize| -> (usize, Vector3<f64>, Vector3<f64>) {
             if j < np {
@@ -984,7 +1008,7 @@ impl ErrorModel<'_> {
                 )
             }
         };
-        for j in 0..n_twists {
+        for &j in wanted {
             let (col, v, _) = twist(j);
             let dp = r_mbg * v;
             for i in 0..3 {
@@ -1014,7 +1038,7 @@ impl ErrorModel<'_> {
         );
         let jinv = left_jacobian_inverse(&residual);
         let map = jinv * r_mbg;
-        for j in 0..n_twists {
+        for &j in wanted {
             let (col, _, w) = twist(j);
             let dr = map * w;
             for i in 0..3 {
@@ -1181,6 +1205,27 @@ mod tests {
                     problem.names()[j],
                     analytic[(i, j)]
                 );
+            }
+        }
+        // With columns frozen (every third unknown; then every elastic and
+        // joint-term one, which skips the joint Jacobians), the other
+        // columns are the same to the bit, the frozen robot and elastic
+        // ones zero (frame columns are always computed).
+        let frames = problem.frame_offset()..problem.frames_end();
+        for frozen in [
+            (0..n).map(|j| j % 3 == 1).collect::<Vec<bool>>(),
+            (0..n).map(|j| j >= problem.frames_end()).collect(),
+        ] {
+            problem.set_frozen_columns(&frozen);
+            let mut lean = Mat::<f64>::zeros(rows, n);
+            problem.jacobian(&x, lean.as_mut()).unwrap();
+            problem.set_frozen_columns(&[]);
+            for j in 0..n {
+                let skipped = frozen[j] && !frames.contains(&j);
+                for i in 0..rows {
+                    let expected = if skipped { 0.0 } else { analytic[(i, j)] };
+                    assert_eq!(lean[(i, j)], expected, "{}: row {i}", problem.names()[j]);
+                }
             }
         }
         // Each frame moves its own station's observations only; the

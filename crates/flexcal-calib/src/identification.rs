@@ -274,6 +274,8 @@ impl Solver<'_, '_> {
         // Frames-only fits skip the robot's parameter Jacobian.
         let np = problem.frame_offset();
         problem.set_robot_columns(frozen[..np].iter().any(|f| !f));
+        // The solver reads the columns of its free unknowns only.
+        problem.set_frozen_columns(frozen);
         let setup = ProblemSetup {
             row_weights: Some(self.weights.to_vec()),
             weights_are_absolute: self.absolute,
@@ -318,6 +320,7 @@ impl Solver<'_, '_> {
             }
         };
         problem.set_robot_columns(true);
+        problem.set_frozen_columns(&[]);
         let report = result.map_err(CalibError::optim("identification"))?;
         if report.termination == Termination::Cancelled {
             return Err(CalibError::Cancelled);

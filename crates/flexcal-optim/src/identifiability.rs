@@ -31,6 +31,13 @@ pub struct IdentifiabilityOptions {
     /// highest priority down, pivoting within a priority level (e.g. give joint
     /// offsets 1 and everything else 0). Empty (default): all equal.
     pub priorities: Vec<i32>,
+    /// Whether the report carries the singular values and the base
+    /// condition number (two singular value decompositions; default
+    /// `true`). `false` leaves [`IdentifiabilityReport::singular_values`]
+    /// empty and [`IdentifiabilityReport::base_condition_number`] NaN, for
+    /// callers that need the base set and the rank alone; nothing else in
+    /// the report changes.
+    pub singular_values: bool,
 }
 
 impl Default for IdentifiabilityOptions {
@@ -40,6 +47,7 @@ impl Default for IdentifiabilityOptions {
             zero_column_tolerance: 1e-12,
             column_scaling: ColumnScaling::ColumnNorm,
             priorities: Vec::new(),
+            singular_values: true,
         }
     }
 }
@@ -352,11 +360,15 @@ pub fn analyze_identifiability(
             }
         })
         .collect();
-    let singular_values = sorted_singular_values(scaled.as_ref())?;
-    let base_singular = sorted_singular_values(base_block.as_ref())?;
-    let base_condition_number = match (base_singular.first(), base_singular.last()) {
-        (Some(&hi), Some(&lo)) if lo > 0.0 => hi / lo,
-        _ => f64::INFINITY,
+    let (singular_values, base_condition_number) = if options.singular_values {
+        let base_singular = sorted_singular_values(base_block.as_ref())?;
+        let condition = match (base_singular.first(), base_singular.last()) {
+            (Some(&hi), Some(&lo)) if lo > 0.0 => hi / lo,
+            _ => f64::INFINITY,
+        };
+        (sorted_singular_values(scaled.as_ref())?, condition)
+    } else {
+        (Vec::new(), f64::NAN)
     };
     Ok(IdentifiabilityReport {
         names: names.to_vec(),

@@ -203,32 +203,37 @@ pub(crate) fn damped_solve(
     rhs[..r].copy_from_slice(&b[..r]);
     rhs[r..].fill(0.0);
     for k in 0..r {
-        // Householder vector of column k over rows k..rows; only rows k..=k and r..r+k+1
-        // are non-zero, but the dense loop is cheap at these sizes and simpler to trust.
+        // Householder vector of column k: before step k its only non-zero rows
+        // are k (R11 is upper triangular) and r..=r+k (the damping row of
+        // column k and the fill-in of the reflections before it), so every
+        // sum and update runs over those rows alone, in the order of the
+        // dense loop (the skipped terms are exact zeros: same result).
         let col = k * rows;
-        let norm = a[col + k..col + rows]
-            .iter()
-            .map(|v| v * v)
-            .sum::<f64>()
-            .sqrt();
+        let tail = r..=r + k;
+        let on_support = |a: &[f64], c: usize, other: &[f64], o: usize| -> f64 {
+            std::iter::once(a[c + k] * other[o + k])
+                .chain(tail.clone().map(|i| a[c + i] * other[o + i]))
+                .sum::<f64>()
+        };
+        let norm = on_support(a, col, a, col).sqrt();
         if norm == 0.0 {
             continue;
         }
         let alpha = if a[col + k] > 0.0 { -norm } else { norm };
         a[col + k] -= alpha;
-        let vnorm2 = a[col + k..col + rows].iter().map(|v| v * v).sum::<f64>();
+        let vnorm2 = on_support(a, col, a, col);
         if vnorm2 > 0.0 {
             for j in k + 1..r {
                 let cj = j * rows;
-                let dot: f64 = (k..rows).map(|i| a[col + i] * a[cj + i]).sum();
-                let f = 2.0 * dot / vnorm2;
-                for i in k..rows {
+                let f = 2.0 * on_support(a, col, a, cj) / vnorm2;
+                a[cj + k] -= f * a[col + k];
+                for i in tail.clone() {
                     a[cj + i] -= f * a[col + i];
                 }
             }
-            let dot: f64 = (k..rows).map(|i| a[col + i] * rhs[i]).sum();
-            let f = 2.0 * dot / vnorm2;
-            for i in k..rows {
+            let f = 2.0 * on_support(a, col, rhs, 0) / vnorm2;
+            rhs[k] -= f * a[col + k];
+            for i in tail.clone() {
                 rhs[i] -= f * a[col + i];
             }
         }
@@ -326,6 +331,44 @@ mod tests {
                 rtb += r11[(k, i)] * b[k];
             }
             assert!((lhs - rtb).abs() < 1e-10, "{lhs} vs {rtb}");
+        }
+    }
+
+    #[test]
+    fn damped_solve_matches_normal_equations_over_seeded_sizes() {
+        // Sizes where the reflections' fill-in reaches many damping rows.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for r in [1, 2, 7, 25, 60] {
+            let r11 = Mat::<f64>::from_fn(r, r, |i, j| {
+                if i < j {
+                    rng.random_range(-1.0..1.0)
+                } else if i == j {
+                    rng.random_range(0.1..2.0)
+                } else {
+                    0.0
+                }
+            });
+            let b: Vec<f64> = (0..r).map(|_| rng.random_range(-1.0..1.0)).collect();
+            for lambda in [1e-6, 0.3, 50.0] {
+                let mut y = b.clone();
+                let mut work = vec![0.0; 2 * r * r];
+                let mut rhs = vec![0.0; 2 * r];
+                damped_solve(r11.as_ref(), r, lambda, &mut y, &mut work, &mut rhs);
+                for i in 0..r {
+                    let mut lhs = lambda * y[i];
+                    let mut rtb = 0.0;
+                    for k in 0..r {
+                        let rtr: f64 = (0..r).map(|l| r11[(l, i)] * r11[(l, k)]).sum();
+                        lhs += rtr * y[k];
+                        rtb += r11[(k, i)] * b[k];
+                    }
+                    let scale = rtb.abs().max(1.0);
+                    assert!(
+                        (lhs - rtb).abs() < 1e-9 * scale,
+                        "r {r}, lambda {lambda}, row {i}: {lhs} vs {rtb}"
+                    );
+                }
+            }
         }
     }
 }

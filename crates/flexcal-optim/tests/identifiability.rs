@@ -80,6 +80,33 @@ fn exact_combination_is_recovered_in_physical_units() {
 }
 
 #[test]
+fn without_singular_values_the_base_set_and_combinations_are_the_same() {
+    for seed in 1..6 {
+        let jac = collinear_jacobian(seed);
+        let full = IdentifiabilityOptions {
+            priorities: vec![1, 0, 1, 0, 0],
+            ..Default::default()
+        };
+        let lean = IdentifiabilityOptions {
+            singular_values: false,
+            ..full.clone()
+        };
+        let with = analyze_identifiability(jac.as_ref(), &names(5), &full).unwrap();
+        let without = analyze_identifiability(jac.as_ref(), &names(5), &lean).unwrap();
+        assert_eq!(with.singular_values.len(), 5);
+        assert!(with.base_condition_number.is_finite());
+        assert!(without.singular_values.is_empty());
+        assert!(without.base_condition_number.is_nan());
+        assert_eq!(without.rank, with.rank);
+        assert_eq!(without.base, with.base);
+        assert_eq!(without.non_identifiable, with.non_identifiable);
+        assert_eq!(without.combination_matrix, with.combination_matrix);
+        assert_eq!(without.diagnoses, with.diagnoses);
+        assert_eq!(without.column_scales, with.column_scales);
+    }
+}
+
+#[test]
 fn priorities_choose_which_of_two_collinear_parameters_is_kept() {
     let arm = PlanarArm {
         joints: arm_configurations(12, 2),
