@@ -302,6 +302,7 @@ pub mod analysis;
 pub mod coverage;
 pub mod cross;
 mod elastic_terms;
+pub mod equilibrium;
 mod error;
 pub mod error_model;
 pub mod extrapolation;
@@ -336,6 +337,7 @@ pub mod validate;
 pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
+pub use equilibrium::{Deflection, DeflectionChoice, DeflectionReport};
 pub use error::CalibError;
 pub use error_model::{
     ErrorModel, FRAME_PARAMETER_NAMES, FrameStarts, TARGET_PARAMETER_NAMES, UnknownKind,
