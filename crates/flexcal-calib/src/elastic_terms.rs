@@ -54,7 +54,6 @@ impl JointState {
             equilibrium: None,
         }
     }
-
 }
 
 /// The joint springs of [`ElasticTerms::deflect`] at one pose: linear, or
@@ -454,9 +453,7 @@ impl ElasticTerms {
             by_hardening,
             by_lost_motion,
         };
-        let dq: Vec<f64> = (0..na)
-            .map(|i| springs.deflect(i, tau[i]).0)
-            .collect();
+        let dq: Vec<f64> = (0..na).map(|i| springs.deflect(i, tau[i]).0).collect();
         let change = crate::equilibrium::one_step_torque_change(stiffness, k, payload, &dq);
         (tau, change)
     }
@@ -643,8 +640,7 @@ impl ElasticTerms {
         let column = |i: usize| Vector6::from_fn(|r, _| response[(i, r)]);
         for i in 0..na {
             let twist = column(i);
-            out.column_mut(i)
-                .axpy(state.by_compliance[i], &twist, 0.0);
+            out.column_mut(i).axpy(state.by_compliance[i], &twist, 0.0);
             for l in 0..self.n_payload {
                 let source = self.payload_source(terms, k, state, equilibrium, i, l);
                 out.column_mut(na + l).axpy(source, &twist, 1.0);

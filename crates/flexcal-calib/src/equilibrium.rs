@@ -213,9 +213,7 @@ impl std::str::FromStr for Deflection {
             "one-step" => Ok(Self::OneStep),
             "equilibrium" => Ok(Self::equilibrium()),
             "auto" => Ok(Self::auto()),
-            other => Err(format!(
-                "`{other}`: expected one-step, equilibrium or auto"
-            )),
+            other => Err(format!("`{other}`: expected one-step, equilibrium or auto")),
         }
     }
 }
@@ -526,9 +524,15 @@ pub(crate) fn solve(
         // One Newton step on r = dq - f(tau + K dq): dq -= A^-1 r.
         let value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
         let residual: Vec<f64> = out.dq.iter().zip(&value).map(|(d, v)| d - v).collect();
-        match system(&slopes, &kmat).lu().solve(&nalgebra::DVector::from_vec(residual)) {
+        match system(&slopes, &kmat)
+            .lu()
+            .solve(&nalgebra::DVector::from_vec(residual))
+        {
             Some(step) => {
-                out.dq.iter_mut().zip(step.iter()).for_each(|(d, s)| *d -= s);
+                out.dq
+                    .iter_mut()
+                    .zip(step.iter())
+                    .for_each(|(d, s)| *d -= s);
                 true
             }
             None => false,
@@ -678,9 +682,12 @@ impl DeflectionComparison {
                 let share = if span > 0.0 { change / span } else { 0.0 };
                 (i, change, share)
             })
-            .fold((0, 0.0, 0.0), |best, this| {
-                if this.2 > best.2 { this } else { best }
-            })
+            .fold(
+                (0, 0.0, 0.0),
+                |best, this| {
+                    if this.2 > best.2 { this } else { best }
+                },
+            )
     }
 
     /// The report of a calibration that used `used` for `choice`.

@@ -992,9 +992,9 @@ impl ErrorModel<'_> {
             let station = stations[self.set.station_of(k)];
             for (i, b) in (start..end).enumerate() {
                 let t = self.blocks[b].target;
-                let motion =
-                    self.elastic
-                        .lateral_motion(&x[eo..], k, self.lateral_mask(t), &state);
+                let motion = self
+                    .elastic
+                    .lateral_motion(&x[eo..], k, self.lateral_mask(t), &state);
                 if with_joints {
                     self.elastic.twists(
                         &x[eo..],

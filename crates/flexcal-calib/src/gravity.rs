@@ -1038,7 +1038,10 @@ struct MassTableFile {
     spring: Vec<SpringFile>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     payload: Vec<PayloadFile>,
-    #[serde(default, skip_serializing_if = "crate::equilibrium::Deflection::is_one_step")]
+    #[serde(
+        default,
+        skip_serializing_if = "crate::equilibrium::Deflection::is_one_step"
+    )]
     deflection: crate::equilibrium::Deflection,
 }
 

@@ -597,7 +597,8 @@ fn the_equilibrium_against_the_one_step_on_the_compliant_torso() {
     let truth = Truth::new(&model, 7);
     let train = truth.measure(&model, 400, 11);
     let validation = truth.measure(&model, 100, 12);
-    let table = GravityCompliance::from_toml_file(&data_file("compliant_torso_masses.toml")).unwrap();
+    let table =
+        GravityCompliance::from_toml_file(&data_file("compliant_torso_masses.toml")).unwrap();
     let mut held_out_means = Vec::new();
     for deflection in [
         flexcal_calib::Deflection::OneStep,
@@ -623,7 +624,11 @@ fn the_equilibrium_against_the_one_step_on_the_compliant_torso() {
             ("compliance_thetaT3", 160.0),
             ("lateral_compliance_T4_z", 140.0),
         ] {
-            let u = calibration.unknowns.iter().find(|u| u.name == name).unwrap();
+            let u = calibration
+                .unknowns
+                .iter()
+                .find(|u| u.name == name)
+                .unwrap();
             eprintln!(
                 "  {name} {:.1} +/- {:.1} urad/N.m ({:?}), true {truth_urad}",
                 u.value * 1e6,

@@ -155,8 +155,15 @@ fn exact_deflection(model: &Model, gravity: &GravityCompliance, c: &[f64], q: &[
     let mut tau = vec![0.0; q.len()];
     for _ in 0..200 {
         let moved: Vec<f64> = q.iter().zip(&dq).map(|(a, b)| a + b).collect();
-        actuated_forces_into(model, &mut data, &moved, model.nominal_params(), &loads, &mut tau)
-            .unwrap();
+        actuated_forces_into(
+            model,
+            &mut data,
+            &moved,
+            model.nominal_params(),
+            &loads,
+            &mut tau,
+        )
+        .unwrap();
         let next: Vec<f64> = tau.iter().zip(c).map(|(t, c)| t * c).collect();
         let change = next
             .iter()
