@@ -12,7 +12,7 @@
 //!
 //! `dq = f(tau(q) + K(q) dq)`, `K = d tau / d q`
 //!
-//! by fixed-point iteration to the stated tolerance (`f` the joint springs:
+//! by Newton's method to the stated tolerance (`f` the joint springs:
 //! `c_i tau_i`, or the law of [`crate::joint_law`]), and each lateral
 //! spring turns by `c_s (M_s(q) + L_s(q) dq)`, `L = d M / d q`. The gravity
 //! stiffness `K` and `L` (linear in the payload unknowns, as `tau` and `M`
@@ -26,11 +26,13 @@
 //! markers by up to 1.69 mm against the exact fixed point (torques
 //! re-evaluated on the deflected robot at every iteration), this
 //! equilibrium by up to 0.037 mm (`tests/equilibrium.rs`, 40 poses).
-//! The iteration converges when the springs are stiffer than gravity's
-//! own stiffness (spectral radius of `diag(f') K` below 1); otherwise the
-//! robot would buckle under its own weight, and the model stops with
-//! [`crate::CalibError::EquilibriumNotConverged`] naming the pose and how
-//! far the last iteration still moved.
+//! The equilibrium found must be stable: the springs stiffer than
+//! gravity's own stiffness (`I - D^1/2 K D^1/2` positive definite, `D`
+//! the springs' compliances); otherwise the robot would buckle under its
+//! own weight, and the model stops with
+//! [`crate::CalibError::EquilibriumNotConverged`] naming the pose, as it
+//! does when the iterations do not converge (with how far the last one
+//! still moved).
 //!
 //! The derivatives are exact for this model, by the implicit function
 //! theorem: with `A = I - diag(f') K`, `d dq / d theta = A^-1 (df/dtheta +
@@ -62,10 +64,9 @@ use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTer
 /// away by 1 nm.
 pub const DEFAULT_EQUILIBRIUM_TOLERANCE: f64 = 1e-9;
 
-/// Default iteration cap of the equilibrium. Each iteration shrinks the
-/// error by the ratio of gravity's stiffness to the springs' (about 0.02
-/// on the compliant torso of the tests: five iterations reach 1e-9 rad);
-/// 100 iterations reach the default tolerance up to a ratio of about 0.8.
+/// Default iteration cap of the equilibrium's Newton iterations: linear
+/// springs take two (the first solves, the second confirms), the
+/// stiffening law a few more.
 pub const DEFAULT_EQUILIBRIUM_ITERATIONS: usize = 100;
 
 /// Default share of [`Deflection::Auto`]: the equilibrium is switched on
@@ -98,8 +99,8 @@ pub enum Deflection {
     /// published figures): `dq = f(tau(q))`.
     #[default]
     OneStep,
-    /// The static equilibrium `dq = f(tau(q) + K dq)`, iterated until no
-    /// joint deflection changes by more than `tolerance_rad` (rad or m,
+    /// The static equilibrium `dq = f(tau(q) + K dq)`, Newton's method until
+    /// no step moves a joint deflection by more than `tolerance_rad` (rad or m,
     /// `> 0`; default [`DEFAULT_EQUILIBRIUM_TOLERANCE`]), at most
     /// `max_iterations` times (`>= 1`; default
     /// [`DEFAULT_EQUILIBRIUM_ITERATIONS`]).
@@ -266,12 +267,15 @@ pub struct DeflectionReport {
     pub position_difference_max_mm: f64,
 }
 
-/// Why the equilibrium iteration of one pose stopped without converging.
+/// Why the equilibrium of one pose was not found.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct NotConverged {
     pub iterations: usize,
     /// The largest change of a joint deflection in the last iteration.
     pub change: f64,
+    /// Whether it converged to an unstable equilibrium (springs softer
+    /// than gravity's stiffness).
+    pub unstable: bool,
 }
 
 /// The gravity stiffness of every pose (module docs): `K = d tau / d q`
@@ -479,16 +483,18 @@ pub(crate) trait SpringLaw {
 
 /// Solves the equilibrium of pose `k` (module docs) from the one step's
 /// torques `tau` (on the commanded configuration, with the payload unknowns
-/// `payload`): iterates `dq = f(tau + K dq)` until no joint's deflection
-/// changes by more than the tolerance, polishes the result with one
-/// Newton step (exact for linear springs, so that the deflection is a
-/// smooth function of the unknowns, not one that jumps with the number of
-/// iterations), then factors `A` for the derivatives. On return `tau`
-/// holds `tau + K dq` and `law` has been called last at it.
+/// `payload`) by Newton's method on `r(dq) = dq - f(tau + K dq)` from
+/// `dq = 0` (the first step is the linearised solution, exact for linear
+/// springs; the law converges quadratically), until no step moves a joint
+/// by more than the tolerance; then checks that the equilibrium is stable
+/// (`I - D^1/2 K_sym D^1/2` positive definite, `D = diag(f')`: the springs
+/// are stiffer than gravity's own stiffness) and factors `A` for the
+/// derivatives. On return `tau` holds `tau + K dq` and `law` has been
+/// called last at it.
 ///
 /// # Errors
-/// [`NotConverged`] when the iterations do not bring the change below the
-/// tolerance (or `A` is singular).
+/// [`NotConverged`] when the steps do not fall below the tolerance within
+/// the cap, `A` is singular, or the equilibrium is not stable.
 pub(crate) fn solve(
     stiffness: &GravityStiffness,
     k: usize,
@@ -509,43 +515,38 @@ pub(crate) fn solve(
     out.dq.iter_mut().for_each(|d| *d = 0.0);
     let mut change = f64::INFINITY;
     let mut iterations = 0;
+    let failed = |out: &mut PoseEquilibrium, kmat, iterations, change, unstable| {
+        out.k = kmat;
+        Err(NotConverged {
+            iterations,
+            change,
+            unstable,
+        })
+    };
     // A NaN change ends the loop too (`NaN > tolerance` is false).
     while iterations < max_iterations && change > tolerance {
         iterations += 1;
-        let next = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
-        change = largest_difference(&next, &out.dq);
-        out.dq = next;
-        if change.is_infinite() {
-            break;
-        }
-    }
-    let converged = change <= tolerance;
-    let polished = converged && {
-        // One Newton step on r = dq - f(tau + K dq): dq -= A^-1 r.
         let value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
         let residual: Vec<f64> = out.dq.iter().zip(&value).map(|(d, v)| d - v).collect();
-        match system(&slopes, &kmat)
+        let Some(step) = system(&slopes, &kmat)
             .lu()
             .solve(&nalgebra::DVector::from_vec(residual))
-        {
-            Some(step) => {
-                out.dq
-                    .iter_mut()
-                    .zip(step.iter())
-                    .for_each(|(d, s)| *d -= s);
-                true
-            }
-            None => false,
-        }
-    };
-    if !polished {
-        out.k = kmat;
-        return Err(NotConverged {
-            iterations,
-            change: if converged { f64::INFINITY } else { change },
-        });
+        else {
+            return failed(out, kmat, iterations, f64::INFINITY, false);
+        };
+        out.dq
+            .iter_mut()
+            .zip(step.iter())
+            .for_each(|(d, s)| *d -= s);
+        change = step.amax();
+    }
+    if !(change <= tolerance) {
+        return failed(out, kmat, iterations, change, false);
     }
     out.dq = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
+    if !stable(&slopes, &kmat) {
+        return failed(out, kmat, iterations, change, true);
+    }
     let np = stiffness.n_payload;
     out.payload_torque_change.resize(np * na, 0.0);
     for l in 0..np {
@@ -561,6 +562,19 @@ pub(crate) fn solve(
     out.lu_transposed = Some(lu);
     out.k = kmat;
     Ok(())
+}
+
+/// Whether the springs of slopes `f'` are stiffer than the gravity
+/// stiffness `K`: `I - D^1/2 K_sym D^1/2` positive definite, with `D` the
+/// non-negative slopes (the potential's Hessian `C^-1 - K` scaled by
+/// `C^1/2`).
+fn stable(slopes: &[f64], kmat: &DMatrix<f64>) -> bool {
+    let root: Vec<f64> = slopes.iter().map(|s| s.max(0.0).sqrt()).collect();
+    let na = slopes.len();
+    let hessian = DMatrix::from_fn(na, na, |i, d| {
+        f64::from(u8::from(i == d)) - root[i] * root[d] * 0.5 * (kmat[(i, d)] + kmat[(d, i)])
+    });
+    hessian.cholesky().is_some()
 }
 
 /// `f(tau0 + K dq)` at `out.dq`: writes the torques into `tau`, `K dq`
@@ -592,14 +606,6 @@ fn system(slopes: &[f64], kmat: &DMatrix<f64>) -> DMatrix<f64> {
     DMatrix::from_fn(na, na, |i, d| {
         f64::from(u8::from(i == d)) - slopes[i] * kmat[(i, d)]
     })
-}
-
-/// The largest `|a_i - b_i|`.
-fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
 }
 
 /// The one step's torque change at pose `k`: `K dq` for the one step's

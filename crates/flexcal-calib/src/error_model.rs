@@ -704,6 +704,7 @@ impl<'a> ErrorModel<'a> {
                 pose_id: self.set.poses()[k].label(k),
                 iterations: failure.iterations,
                 change: failure.change,
+                unstable: failure.unstable,
             })
     }
 

@@ -232,8 +232,9 @@ fn the_equilibrium_agrees_with_the_exact_fixed_point() {
     );
 }
 
-/// Springs far softer than gravity's stiffness have no equilibrium: the
-/// model names the pose instead of returning a diverged deflection.
+/// Springs far softer than gravity's stiffness have no stable
+/// equilibrium: the model names the pose instead of returning a buckled
+/// deflection; an iteration cap too low is named too.
 #[test]
 fn springs_too_soft_for_their_load_are_a_named_error() {
     let model = robot();
@@ -243,16 +244,41 @@ fn springs_too_soft_for_their_load_are_a_named_error() {
         tolerance_rad: 1e-9,
         max_iterations: 50,
     };
-    let problem = problem(&model, &set, &gravity, &JointTerms::default());
-    let mut x = problem.initial_unknowns();
-    let eo = problem.elastic_offset().unwrap();
+    let soft = problem(&model, &set, &gravity, &JointTerms::default());
+    let mut x = soft.initial_unknowns();
+    let eo = soft.elastic_offset().unwrap();
     x[eo..eo + model.n_actuated()].fill(0.2);
-    match problem.predict(&x) {
-        Err(CalibError::EquilibriumNotConverged {
-            pose, iterations, ..
-        }) => {
-            assert_eq!(iterations, 50);
+    match soft.predict(&x) {
+        Err(error @ CalibError::EquilibriumNotConverged { pose, unstable, .. }) => {
+            assert!(unstable, "{error}");
             assert!(pose < 3);
+            assert!(error.to_string().contains("unstable"), "{error}");
+        }
+        other => panic!("expected EquilibriumNotConverged, got {other:?}"),
+    }
+    // An iteration cap too low for the stiffening law is named too.
+    let mut gravity = masses();
+    gravity.deflection = Deflection::Equilibrium {
+        tolerance_rad: 1e-12,
+        max_iterations: 1,
+    };
+    let terms = JointTerms {
+        law: Some(JointLaw::default()),
+        cyclic: false,
+    };
+    let capped = problem(&model, &set, &gravity, &terms);
+    let x = soft_unknowns(&model, &capped, 0xE6);
+    match capped.predict(&x) {
+        Err(
+            error @ CalibError::EquilibriumNotConverged {
+                iterations,
+                unstable,
+                ..
+            },
+        ) => {
+            assert_eq!(iterations, 1);
+            assert!(!unstable);
+            assert!(error.to_string().contains("did not converge"), "{error}");
         }
         other => panic!("expected EquilibriumNotConverged, got {other:?}"),
     }

@@ -664,7 +664,9 @@ fn the_deflection_as_the_equilibrium_end_to_end() {
     let targets_file = calib_data("two_arms_targets.toml");
     let targets = read_targets(&targets_file).unwrap();
     let identification = d.join("markers.csv");
-    simulate(&targets, 0, 60).write_csv(&identification).unwrap();
+    simulate(&targets, 0, 60)
+        .write_csv(&identification)
+        .unwrap();
     let robot = calib_data("two_arms.toml").display().to_string();
     let masses = calib_data("two_arms_masses.toml").display().to_string();
     let report = d.join("report.json");
