@@ -93,6 +93,10 @@ impl SpringLaw for Springs<'_> {
         self.by_torque[i] = slope;
         (dq, slope)
     }
+
+    fn is_linear(&self) -> bool {
+        self.law.is_none()
+    }
 }
 
 /// The rigid motion `G` of the lateral rotations at one pose: its rotation,
@@ -680,8 +684,8 @@ impl ElasticTerms {
             let moment = equilibrium.payload_moment_change[s * np + l] + through;
             out.column_mut(na + l).axpy(compliance * moment, unit, 1.0);
         }
-        for i in 0..na {
-            let weight = compliance * response[i];
+        for (i, r) in response.iter().enumerate() {
+            let weight = compliance * r;
             out.column_mut(i)
                 .axpy(weight * state.by_compliance[i], unit, 1.0);
             if let Some(lo) = self.law_offset() {

@@ -26,7 +26,7 @@
 //! markers by up to 1.69 mm against the exact fixed point (torques
 //! re-evaluated on the deflected robot at every iteration), this
 //! equilibrium by up to 0.037 mm (`tests/equilibrium.rs`, 40 poses).
-//! The equilibrium found must be stable: the springs stiffer than
+//! With linear springs the equilibrium found must be stable: the springs stiffer than
 //! gravity's own stiffness (`I - D^1/2 K D^1/2` positive definite, `D`
 //! the springs' compliances); otherwise the robot would buckle under its
 //! own weight, and the model stops with
@@ -479,16 +479,20 @@ impl PoseEquilibrium {
 pub(crate) trait SpringLaw {
     /// Deflects joint `i` under `torque`; returns `(dq_i, d dq_i / d tau_i)`.
     fn deflect(&mut self, i: usize, torque: f64) -> (f64, f64);
+    /// Whether every spring is linear (then the stability of the
+    /// equilibrium is checked: [`solve`]).
+    fn is_linear(&self) -> bool;
 }
 
 /// Solves the equilibrium of pose `k` (module docs) from the one step's
 /// torques `tau` (on the commanded configuration, with the payload unknowns
 /// `payload`) by Newton's method on `r(dq) = dq - f(tau + K dq)` from
 /// `dq = 0` (the first step is the linearised solution, exact for linear
-/// springs; the law converges quadratically), until no step moves a joint
-/// by more than the tolerance; then checks that the equilibrium is stable
-/// (`I - D^1/2 K_sym D^1/2` positive definite, `D = diag(f')`: the springs
-/// are stiffer than gravity's own stiffness) and factors `A` for the
+/// springs; the law converges quadratically, its steps halved when they do
+/// not reduce the residual), until no step moves a joint by more than the
+/// tolerance; then, for linear springs, checks that the equilibrium is
+/// stable (`I - D^1/2 K_sym D^1/2` positive definite, `D = diag(c)`: the
+/// springs are stiffer than gravity's own stiffness) and factors `A` for the
 /// derivatives. On return `tau` holds `tau + K dq` and `law` has been
 /// called last at it.
 ///
@@ -523,28 +527,41 @@ pub(crate) fn solve(
             unstable,
         })
     };
+    let mut value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
     // A NaN change ends the loop too (`NaN > tolerance` is false).
     while iterations < max_iterations && change > tolerance {
         iterations += 1;
-        let value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
         let residual: Vec<f64> = out.dq.iter().zip(&value).map(|(d, v)| d - v).collect();
         let Some(step) = system(&slopes, &kmat)
             .lu()
-            .solve(&nalgebra::DVector::from_vec(residual))
+            .solve(&nalgebra::DVector::from_vec(residual.clone()))
         else {
             return failed(out, kmat, iterations, f64::INFINITY, false);
         };
-        out.dq
-            .iter_mut()
-            .zip(step.iter())
-            .for_each(|(d, s)| *d -= s);
-        change = step.amax();
+        // Backtracking: a step of a non-linear law that does not reduce
+        // the residual is halved (down to a millionth).
+        let start = out.dq.clone();
+        let before = residual.iter().fold(0.0, |a: f64, r| a.max(r.abs()));
+        let mut scale = 1.0;
+        loop {
+            for ((d, s0), st) in out.dq.iter_mut().zip(&start).zip(step.iter()) {
+                *d = s0 - scale * st;
+            }
+            value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
+            let after = largest_difference(&out.dq, &value);
+            if law.is_linear() || after <= before || scale < 1e-6 {
+                break;
+            }
+            scale *= 0.5;
+        }
+        change = scale * step.amax();
     }
-    if !(change <= tolerance) {
+    let converged = change <= tolerance;
+    if !converged {
         return failed(out, kmat, iterations, change, false);
     }
     out.dq = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
-    if !stable(&slopes, &kmat) {
+    if law.is_linear() && !stable(&slopes, &kmat) {
         return failed(out, kmat, iterations, change, true);
     }
     let np = stiffness.n_payload;
@@ -606,6 +623,14 @@ fn system(slopes: &[f64], kmat: &DMatrix<f64>) -> DMatrix<f64> {
     DMatrix::from_fn(na, na, |i, d| {
         f64::from(u8::from(i == d)) - slopes[i] * kmat[(i, d)]
     })
+}
+
+/// The largest `|a_i - b_i|`.
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// The one step's torque change at pose `k`: `K dq` for the one step's
