@@ -18,7 +18,8 @@
 //! robot of `tests/compliant_torso.rs` (two 7-joint arms on a torso with a
 //! passive coupled joint, springs on the passive joint and the arm
 //! mountings), 400 poses: identification goal <= 0.5 s, cross-validated
-//! selection goal <= 8 s.
+//! selection goal <= 8 s; and its identification with the deflection as
+//! the static equilibrium (`compliant_torso_400_poses_equilibrium`).
 
 use std::path::PathBuf;
 
@@ -193,6 +194,18 @@ fn bench_targets(c: &mut Criterion) {
                     .expect("selection succeeds")
             })
         });
+        if compliance > 0.0 {
+            // The same identification with the deflection as the static
+            // equilibrium (the gravity stiffness, the iteration per pose
+            // and the report's comparison included).
+            let mut equilibrium = options.clone();
+            if let Some(gravity) = equilibrium.gravity.as_mut() {
+                gravity.deflection = flexcal_calib::Deflection::equilibrium();
+            }
+            group.bench_function(format!("{robot}_{poses}_poses_equilibrium"), |b| {
+                b.iter(|| calibrate(&model, &set, &equilibrium).expect("identification succeeds"))
+            });
+        }
     }
     group.finish();
 }

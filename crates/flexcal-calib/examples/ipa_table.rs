@@ -69,6 +69,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     geometric.weighting = Weighting::Uniform;
     let mut elastic = geometric.clone();
     elastic.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
+    if std::env::args().skip(2).any(|a| a == "equilibrium") {
+        equilibrium_on(&model, &sets, &mut elastic)?;
+    }
     let part = std::env::args().nth(1);
     if part.as_deref() == Some("pooled") {
         return pooled_table(&Study::new(&model, &sets, &geometric, &elastic));
@@ -87,6 +90,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     selected_table(&study)?;
     if !selected_only {
         pooled_table(&study)?;
+    }
+    Ok(())
+}
+
+/// `ipa_table <part> equilibrium`: the tables with the deflection as the
+/// static equilibrium instead of the one step, after what the equilibrium
+/// changes on each series' elasto-geometric fit (its deflection report).
+fn equilibrium_on(
+    model: &Model,
+    sets: &[(&str, MeasurementSet)],
+    elastic: &mut CalibrationOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    if let Some(gravity) = elastic.gravity.as_mut() {
+        gravity.deflection = flexcal_calib::Deflection::equilibrium();
+    }
+    println!("(the deflection as the static equilibrium)");
+    for (name, set) in sets {
+        let fitted = calibrate(model, set, elastic)?;
+        if let Some(r) = &fitted.deflection {
+            println!(
+                "series {name}: largest one-step torque change {:.3} N.m on {} ({:.2} % of its span); one step against equilibrium {:.4} mm RMS, {:.4} mm max",
+                r.largest_torque_change_nm,
+                r.largest_torque_change_joint,
+                100.0 * r.largest_torque_change_share,
+                r.position_difference_rms_mm,
+                r.position_difference_max_mm
+            );
+        }
     }
     Ok(())
 }

@@ -14,10 +14,11 @@
 use flexcal_kinematics::Model;
 use nalgebra::{Matrix6xX, UnitQuaternion, Vector3, Vector6};
 
+use crate::equilibrium::{GravityStiffness, NotConverged, PoseEquilibrium, SpringLaw};
 use crate::error::CalibError;
 use crate::geometry::{left_jacobian, rotation_from_vector};
 use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTerms};
-use crate::joint_law::{JointTerms, cyclic_basis, cyclic_joints, joint_deflection};
+use crate::joint_law::{JointLaw, JointTerms, cyclic_basis, cyclic_joints, joint_deflection};
 use crate::unknown_kind::UnknownKind;
 
 /// The actuated coordinates at which the robot is evaluated for one pose,
@@ -36,6 +37,9 @@ pub(crate) struct JointState {
     by_hardening: Vec<f64>,
     /// `d dq_i / d beta_i`.
     by_lost_motion: Vec<f64>,
+    /// The equilibrium's terms ([`crate::equilibrium`]), when the model
+    /// solves it.
+    equilibrium: Option<PoseEquilibrium>,
 }
 
 impl JointState {
@@ -47,7 +51,51 @@ impl JointState {
             by_compliance: vec![0.0; n],
             by_hardening: vec![0.0; n],
             by_lost_motion: vec![0.0; n],
+            equilibrium: None,
         }
+    }
+}
+
+/// The joint springs of [`ElasticTerms::deflect`] at one pose: linear, or
+/// the law of [`crate::joint_law`]; they record their derivatives in the
+/// pose's state.
+struct Springs<'a> {
+    xb: &'a [f64],
+    law: Option<(&'a JointLaw, usize)>,
+    by_torque: &'a mut [f64],
+    by_compliance: &'a mut [f64],
+    by_hardening: &'a mut [f64],
+    by_lost_motion: &'a mut [f64],
+}
+
+impl SpringLaw for Springs<'_> {
+    fn deflect(&mut self, i: usize, torque: f64) -> (f64, f64) {
+        let na = self.by_torque.len();
+        let (dq, slope) = match self.law {
+            Some((law, lo)) => {
+                let d = joint_deflection(
+                    torque,
+                    self.xb[i],
+                    self.xb[lo + i],
+                    self.xb[lo + na + i],
+                    law.lost_motion_torque,
+                );
+                self.by_compliance[i] = d.by_compliance;
+                self.by_hardening[i] = d.by_hardening;
+                self.by_lost_motion[i] = d.by_lost_motion;
+                (d.deflection, d.by_torque)
+            }
+            None => {
+                self.by_compliance[i] = torque;
+                (self.xb[i] * torque, self.xb[i])
+            }
+        };
+        self.by_torque[i] = slope;
+        (dq, slope)
+    }
+
+    fn is_linear(&self) -> bool {
+        self.law.is_none()
     }
 }
 
@@ -77,6 +125,9 @@ pub(crate) struct ElasticTerms {
     n_payload: usize,
     gravity: Option<(GravityTerms, Vec<f64>)>,
     lateral: Option<LateralTerms>,
+    /// The gravity stiffness and the iteration's tolerance and cap, when
+    /// the deflection is the equilibrium ([`crate::equilibrium`]).
+    stiffness: Option<(GravityStiffness, (f64, usize))>,
     joint_terms: JointTerms,
     cyclic_joints: Vec<usize>,
     /// [`cyclic_basis`] of each cyclic joint at each pose (pose-major): the
@@ -92,6 +143,7 @@ impl ElasticTerms {
             n_payload: 0,
             gravity: None,
             lateral: None,
+            stiffness: None,
             joint_terms: JointTerms::default(),
             cyclic_joints: Vec::new(),
             cyclic_bases: Vec::new(),
@@ -122,6 +174,10 @@ impl ElasticTerms {
         self.gravity = Some((terms, gravity.initial_unknowns(model)));
         let lateral = LateralTerms::new(model, poses, gravity)?;
         self.lateral = (lateral.len() > 0).then_some(lateral);
+        self.stiffness = match gravity.deflection.iteration() {
+            Some(iteration) => Some((GravityStiffness::new(model, poses, gravity)?, iteration)),
+            None => None,
+        };
         Ok(())
     }
 
@@ -283,11 +339,54 @@ impl ElasticTerms {
     /// `k` measured at `q`: `q`, plus the gravity deflection (`c_i tau_i`,
     /// or the non-linear law of [`crate::joint_law`]) when elasto-geometric,
     /// plus the cyclic errors when on; with the derivatives the Jacobian
-    /// needs. `xb` is the block of unknowns.
-    pub(crate) fn deflect(&self, xb: &[f64], k: usize, q: &[f64], state: &mut JointState) {
+    /// needs. `xb` is the block of unknowns. With the equilibrium
+    /// ([`crate::equilibrium`]) the torques are `tau + K dq`.
+    ///
+    /// # Errors
+    /// [`NotConverged`] when the equilibrium iteration does not converge.
+    pub(crate) fn deflect(
+        &self,
+        xb: &[f64],
+        k: usize,
+        q: &[f64],
+        state: &mut JointState,
+    ) -> Result<(), NotConverged> {
         state.q.copy_from_slice(q);
         let na = self.na;
-        if let Some((terms, _)) = &self.gravity {
+        if let (Some((terms, _)), Some((stiffness, iteration))) = (&self.gravity, &self.stiffness) {
+            let payload = &xb[na..na + self.n_payload];
+            terms.forces(k, payload, &mut state.tau);
+            let JointState {
+                q,
+                tau,
+                by_torque,
+                by_compliance,
+                by_hardening,
+                by_lost_motion,
+                equilibrium,
+            } = state;
+            let mut springs = Springs {
+                xb,
+                law: self.joint_terms.law.as_ref().zip(self.law_offset()),
+                by_torque,
+                by_compliance,
+                by_hardening,
+                by_lost_motion,
+            };
+            let equilibrium = equilibrium.get_or_insert_with(|| PoseEquilibrium::new(na));
+            crate::equilibrium::solve(
+                stiffness,
+                k,
+                payload,
+                *iteration,
+                tau,
+                &mut springs,
+                equilibrium,
+            )?;
+            for (q, dq) in q.iter_mut().zip(&equilibrium.dq) {
+                *q += dq;
+            }
+        } else if let Some((terms, _)) = &self.gravity {
             terms.forces(k, &xb[na..na + self.n_payload], &mut state.tau);
             match (&self.joint_terms.law, self.law_offset()) {
                 (Some(law), Some(lo)) => {
@@ -327,6 +426,40 @@ impl ElasticTerms {
                     .sum::<f64>();
             }
         }
+        Ok(())
+    }
+
+    /// The gravity torques of pose `k` on the commanded configuration
+    /// (N.m or N) and the change `K dq` the one step's deflection `dq`
+    /// makes to them, at the block of unknowns `xb`; zeros without the
+    /// equilibrium's gravity stiffness.
+    pub(crate) fn one_step_torque_change(&self, xb: &[f64], k: usize) -> (Vec<f64>, Vec<f64>) {
+        let na = self.na;
+        let mut state = JointState::new(na);
+        let (Some((terms, _)), Some((stiffness, _))) = (&self.gravity, &self.stiffness) else {
+            return (vec![0.0; na], vec![0.0; na]);
+        };
+        let payload = &xb[na..na + self.n_payload];
+        let mut tau = vec![0.0; na];
+        terms.forces(k, payload, &mut tau);
+        let JointState {
+            by_torque,
+            by_compliance,
+            by_hardening,
+            by_lost_motion,
+            ..
+        } = &mut state;
+        let mut springs = Springs {
+            xb,
+            law: self.joint_terms.law.as_ref().zip(self.law_offset()),
+            by_torque,
+            by_compliance,
+            by_hardening,
+            by_lost_motion,
+        };
+        let dq: Vec<f64> = (0..na).map(|i| springs.deflect(i, tau[i]).0).collect();
+        let change = crate::equilibrium::one_step_torque_change(stiffness, k, payload, &dq);
+        (tau, change)
     }
 
     /// Which lateral joints move frame `frame` of `model` (those on the
@@ -344,12 +477,14 @@ impl ElasticTerms {
     /// The rigid motion `G` of the lateral rotations of pose `k` that move
     /// a point ([`crate::gravity`]): `phi = sum_j delta_j x_j` over the
     /// lateral joints `carried` marks ([`ElasticTerms::lateral_mask`] of the
-    /// point's frame). `None` without lateral terms.
+    /// point's frame). `None` without lateral terms. With the equilibrium
+    /// the moments are `M + L dq` of `state` ([`ElasticTerms::deflect`]'s).
     pub(crate) fn lateral_motion(
         &self,
         xb: &[f64],
         k: usize,
         carried: &[bool],
+        state: &JointState,
     ) -> Option<LateralMotion> {
         let lateral = self.lateral.as_ref()?;
         let lo = self.lateral_offset()?;
@@ -362,7 +497,12 @@ impl ElasticTerms {
                 continue;
             }
             let joint = lateral.joint(k, s);
-            let moment = joint.moment(payload);
+            let moment = joint.moment(payload)
+                + state
+                    .equilibrium
+                    .as_ref()
+                    .filter(|_| self.stiffness.is_some())
+                    .map_or(0.0, |e| e.moment_change[s]);
             let delta = xb[lo + s] * moment;
             phi += delta * joint.axis;
             t -= delta * joint.axis.cross(&joint.origin);
@@ -400,7 +540,13 @@ impl ElasticTerms {
         // One memset over the storage (nalgebra's element-wise fill walks
         // the 6-row matrix by strides).
         out.as_mut_slice().fill(0.0);
-        if let Some((terms, _)) = &self.gravity {
+        let equilibrium = state
+            .equilibrium
+            .as_ref()
+            .filter(|_| self.stiffness.is_some());
+        if let (Some((terms, _)), Some(equilibrium)) = (&self.gravity, equilibrium) {
+            self.equilibrium_twists(terms, k, state, equilibrium, jq, out);
+        } else if let Some((terms, _)) = &self.gravity {
             let law_offset = self.law_offset();
             for i in 0..na {
                 let column = jq.column(i);
@@ -443,6 +589,18 @@ impl ElasticTerms {
                 for (p, dp) in joint.payload_derivatives.iter().enumerate() {
                     out.column_mut(na + p).axpy(compliance * dp, &unit, 1.0);
                 }
+                if let (Some((terms, _)), Some(equilibrium)) = (&self.gravity, equilibrium) {
+                    self.equilibrium_lateral_twists(
+                        terms,
+                        k,
+                        s,
+                        compliance,
+                        state,
+                        equilibrium,
+                        &unit,
+                        out,
+                    );
+                }
             }
         }
         if let Some(co) = self.cyclic_offset().filter(|_| self.joint_terms.cyclic) {
@@ -451,6 +609,92 @@ impl ElasticTerms {
                 for (h, b) in bases[s].iter().enumerate() {
                     out.column_mut(co + 4 * s + h).axpy(*b, &jq.column(i), 0.0);
                 }
+            }
+        }
+    }
+
+    /// The source `b` of the deflection's derivative by payload unknown
+    /// `l` at joint `i`: `f'_i (d tau_i / d p_l + (K_l dq)_i)` (module
+    /// docs of [`crate::equilibrium`]).
+    fn payload_source(
+        &self,
+        terms: &GravityTerms,
+        k: usize,
+        state: &JointState,
+        equilibrium: &PoseEquilibrium,
+        i: usize,
+        l: usize,
+    ) -> f64 {
+        state.by_torque[i]
+            * (terms.payload_derivatives(k, i)[l]
+                + equilibrium.payload_torque_change[l * self.na + i])
+    }
+
+    /// The joint-deflection columns of [`ElasticTerms::twists`] with the
+    /// equilibrium: each unknown's source through `jq A^-1`.
+    fn equilibrium_twists(
+        &self,
+        terms: &GravityTerms,
+        k: usize,
+        state: &JointState,
+        equilibrium: &PoseEquilibrium,
+        jq: &Matrix6xX<f64>,
+        out: &mut Matrix6xX<f64>,
+    ) {
+        let na = self.na;
+        let response = equilibrium.response(jq);
+        let column = |i: usize| Vector6::from_fn(|r, _| response[(i, r)]);
+        for i in 0..na {
+            let twist = column(i);
+            out.column_mut(i).axpy(state.by_compliance[i], &twist, 0.0);
+            for l in 0..self.n_payload {
+                let source = self.payload_source(terms, k, state, equilibrium, i, l);
+                out.column_mut(na + l).axpy(source, &twist, 1.0);
+            }
+            if let Some(lo) = self.law_offset() {
+                out.column_mut(lo + i)
+                    .axpy(state.by_hardening[i], &twist, 0.0);
+                out.column_mut(lo + na + i)
+                    .axpy(state.by_lost_motion[i], &twist, 0.0);
+            }
+        }
+    }
+
+    /// What the equilibrium adds to lateral spring `s`'s rotation
+    /// derivatives (its rotation twist per radian `unit`): `c_s` times its
+    /// moment's change through the deflection, `A^-T L_s` against each
+    /// unknown's source, and the payload parts of `L_s dq`.
+    #[allow(clippy::too_many_arguments)]
+    fn equilibrium_lateral_twists(
+        &self,
+        terms: &GravityTerms,
+        k: usize,
+        s: usize,
+        compliance: f64,
+        state: &JointState,
+        equilibrium: &PoseEquilibrium,
+        unit: &Vector6<f64>,
+        out: &mut Matrix6xX<f64>,
+    ) {
+        let na = self.na;
+        let np = self.n_payload;
+        let response = &equilibrium.hinge_response[s * na..(s + 1) * na];
+        for l in 0..np {
+            let through: f64 = (0..na)
+                .map(|i| response[i] * self.payload_source(terms, k, state, equilibrium, i, l))
+                .sum();
+            let moment = equilibrium.payload_moment_change[s * np + l] + through;
+            out.column_mut(na + l).axpy(compliance * moment, unit, 1.0);
+        }
+        for (i, r) in response.iter().enumerate() {
+            let weight = compliance * r;
+            out.column_mut(i)
+                .axpy(weight * state.by_compliance[i], unit, 1.0);
+            if let Some(lo) = self.law_offset() {
+                out.column_mut(lo + i)
+                    .axpy(weight * state.by_hardening[i], unit, 1.0);
+                out.column_mut(lo + na + i)
+                    .axpy(weight * state.by_lost_motion[i], unit, 1.0);
             }
         }
     }

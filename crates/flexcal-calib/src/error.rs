@@ -92,6 +92,31 @@ pub enum CalibError {
         /// Why.
         what: String,
     },
+    /// The elastic deflection's equilibrium ([`crate::equilibrium`]) did
+    /// not converge at a pose: the springs are too soft for gravity's own
+    /// stiffness there (the robot would buckle), or the iteration cap is
+    /// too low.
+    #[error(
+        "the elastic equilibrium at pose {pose} ({pose_id}) {}",
+        if *unstable {
+            "is unstable: the joint springs are softer than gravity's own stiffness there (the robot would buckle under its weight)".to_string()
+        } else {
+            format!("did not converge: after {iterations} iterations a joint deflection still changed by {change:e} rad (raise max_iterations or the tolerance)")
+        }
+    )]
+    EquilibriumNotConverged {
+        /// 0-based pose index.
+        pose: usize,
+        /// The pose identifier of the file, or its index.
+        pose_id: String,
+        /// Iterations made.
+        iterations: usize,
+        /// The largest change of a joint deflection in the last iteration
+        /// (rad or m).
+        change: f64,
+        /// Whether an equilibrium was found but is unstable.
+        unstable: bool,
+    },
     /// The robot model failed at a pose.
     #[error("robot model at pose {pose} ({pose_id}): {source}")]
     Kinematics {

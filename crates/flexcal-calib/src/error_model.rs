@@ -20,6 +20,7 @@ use flexcal_optim::{Jacobian, ProblemError, Residuals};
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, UnitQuaternion, Vector3};
 
 use crate::elastic_terms::{ElasticTerms, JointState};
+use crate::equilibrium::{Deflection, DeflectionComparison};
 use crate::error::CalibError;
 use crate::frames::{TCP_FRAME, resolve_frame};
 use crate::geometry::{
@@ -205,6 +206,9 @@ pub struct ErrorModel<'a> {
     elastic_offset: usize,
     names: Vec<String>,
     elastic: ElasticTerms,
+    /// The loading and joint terms the elastic terms were built from
+    /// ([`ErrorModel::with_elastic`]).
+    elastic_source: Option<(GravityCompliance, JointTerms)>,
     /// Per target, the lateral joints that move it.
     lateral_masks: Vec<Vec<bool>>,
     robot_columns: Cell<bool>,
@@ -280,6 +284,7 @@ impl<'a> ErrorModel<'a> {
             elastic_offset: names.len(),
             names,
             elastic: ElasticTerms::none(model),
+            elastic_source: None,
             lateral_masks: Vec::new(),
             robot_columns: Cell::new(true),
             frozen_columns: RefCell::new(Vec::new()),
@@ -419,8 +424,80 @@ impl<'a> ErrorModel<'a> {
             .collect();
         self.twists = RefCell::new(Matrix6xX::zeros(elastic.len()));
         self.elastic = elastic;
+        self.elastic_source = gravity.map(|g| (g.clone(), *terms));
         self.names.extend(names);
         Ok(self)
+    }
+
+    /// The elastic terms of this model's loading with the deflection
+    /// `deflection` instead of its own.
+    fn elastic_with(&self, deflection: Deflection) -> Result<Option<ElasticTerms>, CalibError> {
+        let Some((gravity, terms)) = &self.elastic_source else {
+            return Ok(None);
+        };
+        let set = &*self.set;
+        let label = |k: usize| set.poses()[k].label(k);
+        let poses = Configurations {
+            q: set.configurations(),
+            label: &label,
+        };
+        let mut elastic = ElasticTerms::none(self.model);
+        let gravity = GravityCompliance {
+            deflection,
+            ..gravity.clone()
+        };
+        elastic.add_gravity(self.model, &poses, &gravity)?;
+        if terms.any() {
+            elastic.add_joint_terms(self.model, &poses, terms)?;
+        }
+        Ok(Some(elastic))
+    }
+
+    /// What the equilibrium changes at the unknowns `x`
+    /// ([`crate::equilibrium`]): the predictions with the one step and with
+    /// the equilibrium (this model's when it solves it, else the default
+    /// tolerance and cap), in the order of the residuals, and per
+    /// actuated coordinate the largest torque change of the one step over
+    /// the poses with the span of its torque (N.m or N). `None` for a
+    /// geometric model.
+    ///
+    /// # Errors
+    /// [`CalibError::EquilibriumNotConverged`] and
+    /// [`CalibError::Kinematics`] naming the pose.
+    pub(crate) fn compare_deflections(
+        &self,
+        x: &[f64],
+    ) -> Result<Option<DeflectionComparison>, CalibError> {
+        let Some((gravity, _)) = &self.elastic_source else {
+            return Ok(None);
+        };
+        let equilibrium = match gravity.deflection {
+            d @ Deflection::Equilibrium { .. } => d,
+            _ => Deflection::equilibrium(),
+        };
+        let (Some(one_step), Some(solved)) = (
+            self.elastic_with(Deflection::OneStep)?,
+            self.elastic_with(equilibrium)?,
+        ) else {
+            return Ok(None);
+        };
+        let xb = &x[self.elastic_offset..];
+        let na = self.model.n_actuated();
+        let mut change = vec![0.0_f64; na];
+        let mut span = vec![(f64::INFINITY, f64::NEG_INFINITY); na];
+        for k in 0..self.set.len() {
+            let (tau, torque_change) = solved.one_step_torque_change(xb, k);
+            for i in 0..na {
+                change[i] = change[i].max(torque_change[i].abs());
+                span[i] = (span[i].0.min(tau[i]), span[i].1.max(tau[i]));
+            }
+        }
+        Ok(Some(DeflectionComparison {
+            one_step: self.predict_with(&one_step, x)?,
+            equilibrium: self.predict_with(&solved, x)?,
+            torque_change: change,
+            torque_span: span.iter().map(|(lo, hi)| hi - lo).collect(),
+        }))
     }
 
     /// The measurement set the model predicts.
@@ -621,10 +698,27 @@ impl<'a> ErrorModel<'a> {
         }
     }
 
-    /// The actuated coordinates of pose `k` moved by the joint deflections.
-    fn deflect(&self, x: &[f64], k: usize, state: &mut JointState) {
-        self.elastic
-            .deflect(&x[self.elastic_offset..], k, &self.set.poses()[k].q, state);
+    /// The actuated coordinates of pose `k` moved by the joint deflections
+    /// of `elastic`.
+    ///
+    /// # Errors
+    /// [`CalibError::EquilibriumNotConverged`] naming the pose.
+    fn deflect(
+        &self,
+        elastic: &ElasticTerms,
+        x: &[f64],
+        k: usize,
+        state: &mut JointState,
+    ) -> Result<(), CalibError> {
+        elastic
+            .deflect(&x[self.elastic_offset..], k, &self.set.poses()[k].q, state)
+            .map_err(|failure| CalibError::EquilibriumNotConverged {
+                pose: k,
+                pose_id: self.set.poses()[k].label(k),
+                iterations: failure.iterations,
+                change: failure.change,
+                unstable: failure.unstable,
+            })
     }
 
     /// Predicted pose `x_meas_target` of every observation at `x`, in the
@@ -633,6 +727,15 @@ impl<'a> ErrorModel<'a> {
     /// # Errors
     /// [`CalibError::Kinematics`] naming the pose.
     pub fn predict(&self, x: &[f64]) -> Result<Vec<Isometry3<f64>>, CalibError> {
+        self.predict_with(&self.elastic, x)
+    }
+
+    /// [`ErrorModel::predict`] with the elastic terms `elastic`.
+    fn predict_with(
+        &self,
+        elastic: &ElasticTerms,
+        x: &[f64],
+    ) -> Result<Vec<Isometry3<f64>>, CalibError> {
         let xi = &x[..self.model.n_params()];
         let frames = self.station_frames(x);
         // Each target's point once per evaluation, not once per pose.
@@ -645,7 +748,7 @@ impl<'a> ErrorModel<'a> {
             .map(|&Block { pose: k, target: t }| {
                 // One pass of the forward model per pose, for all its targets.
                 if evaluated != Some(k) {
-                    self.deflect(x, k, &mut state);
+                    self.deflect(elastic, x, k, &mut state)?;
                     forward_frames(self.model, &mut data, &state.q, xi)
                         .map_err(self.kinematics_error(k))?;
                     evaluated = Some(k);
@@ -654,10 +757,11 @@ impl<'a> ErrorModel<'a> {
                     .frame_pose(self.targets[t].frame)
                     .expect("a checked frame");
                 let x_base_target = frame * points[t];
-                let moved = match self.elastic.lateral_motion(
+                let moved = match elastic.lateral_motion(
                     &x[self.elastic_offset..],
                     k,
                     self.lateral_mask(t),
+                    &state,
                 ) {
                     Some(m) => {
                         Isometry3::from_parts(Translation3::from(m.translation), m.rotation)
@@ -893,7 +997,7 @@ impl ErrorModel<'_> {
             let end = (start..blocks.end)
                 .find(|&b| self.blocks[b].pose != k)
                 .unwrap_or(blocks.end);
-            self.deflect(x, k, &mut state);
+            self.deflect(&self.elastic, x, k, &mut state)?;
             points.clear();
             points.extend(
                 self.blocks[start..end]
@@ -919,7 +1023,7 @@ impl ErrorModel<'_> {
                 let t = self.blocks[b].target;
                 let motion = self
                     .elastic
-                    .lateral_motion(&x[eo..], k, self.lateral_mask(t));
+                    .lateral_motion(&x[eo..], k, self.lateral_mask(t), &state);
                 if with_joints {
                     self.elastic.twists(
                         &x[eo..],

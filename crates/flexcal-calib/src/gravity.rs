@@ -138,6 +138,10 @@ pub struct GravityCompliance {
     /// per hand or target of a robot with several), each identified or
     /// known (module docs, "Several payloads"; default none).
     pub payloads: Vec<Payload>,
+    /// How the deflection is computed: one linear step on the commanded
+    /// configuration (default), or the static equilibrium
+    /// ([`crate::equilibrium`]).
+    pub deflection: crate::equilibrium::Deflection,
 }
 
 /// A further payload ([`GravityCompliance::payloads`]): a load fixed to a
@@ -416,6 +420,7 @@ impl GravityCompliance {
             lateral: LateralCompliance::Off,
             springs: Vec::new(),
             payloads: Vec::new(),
+            deflection: crate::equilibrium::Deflection::OneStep,
         }
     }
 
@@ -553,6 +558,7 @@ impl GravityCompliance {
                 "initial compliance and payload mass must be finite".into(),
             ));
         }
+        self.deflection.check()?;
         let mut loads = self.checked_payloads(model)?;
         let links = self
             .masses
@@ -1001,6 +1007,11 @@ impl LateralTerms {
 /// center_mm = [0.0, 0.0, 80.0]          # in that frame
 /// identify = true                       # optional; false: known, no unknowns
 ///
+/// [deflection]                          # optional; default: one linear step
+/// kind = "equilibrium"                  # "one-step", "equilibrium" (tolerance_rad, max_iterations) or "auto" (share)
+/// tolerance_rad = 1e-9
+/// max_iterations = 100
+///
 /// [[mass]]
 /// name = "upper arm"
 /// frame = "2"                           # a frame of the robot description
@@ -1027,6 +1038,11 @@ struct MassTableFile {
     spring: Vec<SpringFile>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     payload: Vec<PayloadFile>,
+    #[serde(
+        default,
+        skip_serializing_if = "crate::equilibrium::Deflection::is_one_step"
+    )]
+    deflection: crate::equilibrium::Deflection,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -1214,6 +1230,7 @@ impl GravityCompliance {
             lateral: file.lateral,
             springs: springs_of(&file.spring, &bad)?,
             payloads: payloads_of(&file.payload, &bad)?,
+            deflection: file.deflection,
         })
     }
 
@@ -1268,6 +1285,7 @@ impl GravityCompliance {
                     identify: p.identify,
                 })
                 .collect(),
+            deflection: self.deflection,
         };
         toml::to_string(&file).map_err(|e| CalibError::Serialise {
             what: "mass table",

@@ -142,6 +142,13 @@ pub struct Calibration {
     /// payload ([`GravityCompliance::joint_torques`]): the torques over which
     /// the compliances were identified. Empty for the geometric model.
     pub torque_ranges: Vec<CoordinateCoverage>,
+    /// What the deflection model did ([`crate::equilibrium`]): which one
+    /// the identified model uses, why, the one step's largest torque change
+    /// and the difference between the one step and the equilibrium at the
+    /// identified unknowns. `None` for the geometric model and for the
+    /// default one step ([`crate::Deflection::OneStep`]), which is not
+    /// compared (the comparison costs a few fits' time).
+    pub deflection: Option<crate::equilibrium::DeflectionReport>,
 }
 
 impl Calibration {
@@ -642,9 +649,12 @@ pub fn calibrate<S: Observations + ?Sized>(
         });
     }
     let found = identify(model, Cow::Borrowed(&*set), options)?;
+    let (found, options, deflection) = crate::equilibrium::settle(model, &set, options, found)?;
     // The one target of a set of one target per pose is not named.
     let named = matches!(original.kind(), SetKind::Targets(_));
-    packed(model, &set, found, options, named)
+    let mut calibration = packed(model, &set, found, &options, named)?;
+    calibration.deflection = deflection;
+    Ok(calibration)
 }
 
 /// The [`Calibration`] of what [`identify`] found on `set`.
@@ -747,6 +757,7 @@ fn packed(
         actuated_names: model.actuated_names().to_vec(),
         actuated_ranges,
         torque_ranges,
+        deflection: None,
     })
 }
 

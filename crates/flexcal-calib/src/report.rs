@@ -80,6 +80,10 @@ pub struct TargetSummaryJson {
     pub validation: Option<TargetStatisticsJson>,
     /// Where the noise of the judgements came from.
     pub noise: NoiseJson,
+    /// What the deflection model did ([`crate::Calibration::deflection`]);
+    /// absent for the geometric model and the default one step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deflection: Option<crate::equilibrium::DeflectionReport>,
     /// Every unknown, in display units.
     pub parameters: Vec<ParameterJson>,
     /// The identifiability notes.
@@ -149,6 +153,7 @@ impl TargetSummaryJson {
                 TargetStatisticsJson::new(poses, &v.after, &v.before, &v.per_target_after)
             }),
             noise: NoiseJson::from(&calibration.noise),
+            deflection: calibration.deflection.clone(),
             parameters: parameters_json(&calibration.unknowns),
             notes: calibration.identifiability_notes(),
         }
@@ -284,6 +289,10 @@ pub struct IdentificationJson {
     /// Where the noise of the standard errors and identifiability
     /// judgements came from ([`crate::NoiseSource`]).
     pub noise: NoiseJson,
+    /// What the deflection model did ([`crate::Calibration::deflection`]);
+    /// absent for the geometric model and the default one step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deflection: Option<crate::equilibrium::DeflectionReport>,
     /// Condition number of the scaled base columns.
     pub condition_number: f64,
     /// Singular values of the scaled, weighted Jacobian of the identified unknowns.
@@ -576,6 +585,7 @@ impl CalibrationReportJson {
             combinations: calibration.combination_lines.clone(),
             notes: calibration.identifiability_notes(),
             noise: NoiseJson::from(&calibration.noise),
+            deflection: calibration.deflection.clone(),
             condition_number: calibration.solve.condition_number,
             singular_values: calibration.solve.singular_values.clone(),
             termination: format!("{:?}", calibration.solve.termination),

@@ -584,3 +584,85 @@ fn a_payload_on_each_hand_is_recovered_within_three_standard_errors() {
     assert!(misses.is_empty(), "not recovered: {misses:?}");
     assert!(held_out.after.position_mean < 1.15 * floor);
 }
+
+/// The deflection as the equilibrium against the one step, on the
+/// table's whole elastic model (no selection): the truth solves the
+/// equilibrium exactly, so the one step's error (the lever arms the sag
+/// moves) is a model error the equilibrium removes. Prints the held-out
+/// errors and the linear springs of the truth that the model has in its
+/// class; `Auto` switches the equilibrium on here and says why.
+#[test]
+fn the_equilibrium_against_the_one_step_on_the_compliant_torso() {
+    let model = robot();
+    let truth = Truth::new(&model, 7);
+    let train = truth.measure(&model, 400, 11);
+    let validation = truth.measure(&model, 100, 12);
+    let table =
+        GravityCompliance::from_toml_file(&data_file("compliant_torso_masses.toml")).unwrap();
+    let mut held_out_means = Vec::new();
+    for deflection in [
+        flexcal_calib::Deflection::OneStep,
+        flexcal_calib::Deflection::equilibrium(),
+        flexcal_calib::Deflection::auto(),
+    ] {
+        let mut options = CalibrationOptions::for_model(&model);
+        options.gravity = Some(GravityCompliance {
+            deflection,
+            ..table.clone()
+        });
+        let calibration = flexcal_calib::calibrate(&model, &train, &options).unwrap();
+        let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
+        eprintln!(
+            "{}: held out mean {:.3} mm, max {:.3} mm; report {:?}",
+            deflection.name(),
+            held_out.after.position_mean * 1e3,
+            held_out.after.position_max * 1e3,
+            calibration.deflection
+        );
+        for (name, truth_urad) in [
+            ("compliance_thetaT2", 120.0),
+            ("compliance_thetaT3", 160.0),
+            ("lateral_compliance_T4_z", 140.0),
+        ] {
+            let u = calibration
+                .unknowns
+                .iter()
+                .find(|u| u.name == name)
+                .unwrap();
+            eprintln!(
+                "  {name} {:.1} +/- {:.1} urad/N.m ({:?}), true {truth_urad}",
+                u.value * 1e6,
+                u.standard_error.unwrap_or(f64::NAN) * 1e6,
+                u.status
+            );
+        }
+        held_out_means.push(held_out.after.position_mean);
+        match deflection {
+            flexcal_calib::Deflection::OneStep => assert!(calibration.deflection.is_none()),
+            flexcal_calib::Deflection::Auto { share } => {
+                let report = calibration.deflection.as_ref().unwrap();
+                // Auto decides on the measured share, and says so.
+                let measured = report.auto_measured_share.unwrap();
+                let switched = measured > share;
+                assert_eq!(report.used == "equilibrium", switched);
+                assert_eq!(
+                    report.choice,
+                    if switched {
+                        flexcal_calib::DeflectionChoice::AutoSwitchedOn
+                    } else {
+                        flexcal_calib::DeflectionChoice::AutoKeptOneStep
+                    }
+                );
+            }
+            _ => {
+                let report = calibration.deflection.as_ref().unwrap();
+                assert_eq!(report.used, "equilibrium");
+                assert_eq!(report.choice, flexcal_calib::DeflectionChoice::Asked);
+                assert!(report.position_difference_max_mm > report.position_difference_rms_mm);
+            }
+        }
+    }
+    // The equilibrium is the truth's mechanics: it predicts the held-out
+    // poses no worse than the one step.
+    assert!(held_out_means[1] <= held_out_means[0], "{held_out_means:?}");
+}

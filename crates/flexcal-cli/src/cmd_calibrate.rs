@@ -78,6 +78,12 @@ pub struct CalibrateArgs {
     /// built-in table (ur10).
     #[arg(long)]
     pub masses: Option<PathBuf>,
+    /// Elastic deflection: one-step (torques on the commanded
+    /// configuration, the default), equilibrium (on the deflected one) or
+    /// auto (the equilibrium when the one step changes a joint's torque by
+    /// more than 5 % of its span); overrides the mass table's.
+    #[arg(long, value_parser = ["one-step", "equilibrium", "auto"])]
+    pub deflection: Option<String>,
     /// Solver: lm (Levenberg-Marquardt, the default) or gn (Gauss-Newton
     /// re-linearisation, the paper's iteration).
     #[arg(long, value_parser = named::<SolverKind>(&["lm", "gn"]))]
@@ -346,6 +352,7 @@ fn model_flags(campaign: &mut Campaign, args: &CalibrateArgs) -> anyhow::Result<
         m.kind = kind;
     }
     set(&mut m.masses, &args.masses);
+    set(&mut m.deflection, &args.deflection);
     if let Some(method) = args.method {
         m.method = method;
     }

@@ -652,3 +652,67 @@ fn bad_multi_target_input_is_a_named_error() {
     let err = stderr(&out);
     assert!(err.contains("broken.toml:3"), "{err}");
 }
+
+/// `--deflection equilibrium` from the command line: the report says the
+/// identified model uses the equilibrium because it was asked, with the
+/// difference it makes; asked of the geometric model or misspelt, it is
+/// refused by name and nothing is written.
+#[test]
+fn the_deflection_as_the_equilibrium_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let targets_file = calib_data("two_arms_targets.toml");
+    let targets = read_targets(&targets_file).unwrap();
+    let identification = d.join("markers.csv");
+    simulate(&targets, 0, 60)
+        .write_csv(&identification)
+        .unwrap();
+    let robot = calib_data("two_arms.toml").display().to_string();
+    let masses = calib_data("two_arms_masses.toml").display().to_string();
+    let report = d.join("report.json");
+    let identification = identification.display().to_string();
+    let targets_file = targets_file.display().to_string();
+    let report_path = report.display().to_string();
+    let run = |model: &str, deflection: &str| {
+        let mut args = vec![
+            "calibrate",
+            "--robot",
+            &robot,
+            "--data",
+            &identification,
+            "--targets",
+            &targets_file,
+            "--model",
+            model,
+            "--select",
+            "none",
+            "--deflection",
+            deflection,
+            "--report",
+            &report_path,
+        ];
+        if model == "elasto-geometric" {
+            args.extend(["--masses", masses.as_str()]);
+        }
+        flexcal(&args)
+    };
+    let out = run("elasto-geometric", "equilibrium");
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let deflection = &json["calibration"]["deflection"];
+    assert_eq!(deflection["used"], "equilibrium", "{deflection}");
+    assert_eq!(deflection["choice"], "asked", "{deflection}");
+    assert!(deflection["position_difference_max_mm"].as_f64().unwrap() >= 0.0);
+    std::fs::remove_file(&report).unwrap();
+    for (model, deflection, says) in [
+        ("geometric", "equilibrium", "--deflection"),
+        ("elasto-geometric", "two-steps", "--deflection"),
+    ] {
+        let out = run(model, deflection);
+        assert!(!out.status.success());
+        let err = stderr(&out);
+        assert!(err.contains(says), "{err}");
+        assert!(!report.exists());
+    }
+}

@@ -64,10 +64,17 @@ use crate::robot::Robot;
 /// (the instrument's, m per position axis; default: from the file or the
 /// fit): see `judgement_options`.
 ///
+/// `deflection` (elasto-geometric): `"one-step"` (the torques on the
+/// commanded configuration), `"equilibrium"` (on the deflected one) or
+/// `"auto"` (the equilibrium when the one step changes a joint's torque by
+/// more than 5 % of its span); default the mass table's, else one step.
+/// The report of `result.to_json()` then says which was used and why
+/// (`deflection`).
+///
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None, select_on = None, region = None, extrapolation = false))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None, select_on = None, region = None, extrapolation = false, deflection = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -96,6 +103,7 @@ pub fn calibrate<'py>(
     select_on: Option<&str>,
     region: Option<Vec<Vec<f64>>>,
     extrapolation: bool,
+    deflection: Option<&str>,
 ) -> PyResult<CalibrationResult> {
     let data = AnySet::extract("data", data)?;
     let nominal = Arc::clone(&robot.model);
@@ -144,6 +152,7 @@ pub fn calibrate<'py>(
         options.max_iterations = n;
     }
     options.gravity = gravity_option(model, masses, &nominal)?;
+    deflection_keyword(&mut options, deflection)?;
     judgement_options(&mut options, max_se_compliance, min_compliance_z, noise)?;
     let checks = Checks {
         split_check,
@@ -339,4 +348,23 @@ fn rank_keywords(
     }
     options.require_full_rank = strict;
     Ok(())
+}
+
+/// Applies the `deflection` keyword to the elasto-geometric model.
+fn deflection_keyword(options: &mut CalibrationOptions, deflection: Option<&str>) -> PyResult<()> {
+    let Some(name) = deflection else {
+        return Ok(());
+    };
+    let parsed: flexcal::calib::Deflection = name
+        .parse()
+        .map_err(|e: String| InputError::new_err(format!("deflection: {e}")))?;
+    match options.gravity.as_mut() {
+        Some(gravity) => {
+            gravity.deflection = parsed;
+            Ok(())
+        }
+        None => Err(InputError::new_err(
+            "deflection: only for model=\"elasto-geometric\"",
+        )),
+    }
 }

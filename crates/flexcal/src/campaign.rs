@@ -156,6 +156,11 @@ pub struct ModelSection {
     /// Mass table of the elasto-geometric model (`--masses`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub masses: Option<PathBuf>,
+    /// How the elastic deflection is computed: `one-step`, `equilibrium`
+    /// or `auto` (`--deflection`; default the mass table's, else one
+    /// step; [`crate::calib::Deflection`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deflection: Option<String>,
     /// Solver (`--method`, default lm).
     #[serde(default)]
     pub method: SolverKind,
@@ -506,6 +511,19 @@ impl Campaign {
                 ));
             }
             (ModelKind::Geometric, None) => {}
+        }
+        if let Some(name) = &m.deflection {
+            let deflection: crate::calib::Deflection = name
+                .parse()
+                .map_err(|e: String| self.invalid("model.deflection", "--deflection", e))?;
+            let Some(gravity) = options.gravity.as_mut() else {
+                return Err(self.invalid(
+                    "model.deflection",
+                    "--deflection",
+                    "is for the elasto-geometric model (--model elasto-geometric)",
+                ));
+            };
+            gravity.deflection = deflection;
         }
         Ok(options)
     }

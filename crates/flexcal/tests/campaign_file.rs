@@ -43,6 +43,7 @@ fn full(dir: &Path) -> Campaign {
         model: ModelSection {
             kind: ModelKind::ElastoGeometric,
             masses: Some(touch(dir, "masses.toml")),
+            deflection: None,
             method: SolverKind::Gn,
             weights: Some(WeightsKind::Uniform),
             orientation: Some(true),
