@@ -84,6 +84,7 @@ use nalgebra::{DMatrix, Isometry3, Matrix6xX, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+use crate::coupling::CouplingGroup;
 use crate::error::CalibError;
 
 use crate::measurement::MeasurementSet;
@@ -138,6 +139,10 @@ pub struct GravityCompliance {
     /// per hand or target of a robot with several), each identified or
     /// known (module docs, "Several payloads"; default none).
     pub payloads: Vec<Payload>,
+    /// Coupled joint groups whose compliance is a symmetric matrix
+    /// ([`crate::coupling`]: unknowns `coupling_compliance_<A>_<B>`,
+    /// rad/N.m, starting at zero; default none).
+    pub coupling: Vec<CouplingGroup>,
 }
 
 /// A further payload ([`GravityCompliance::payloads`]): a load fixed to a
@@ -416,6 +421,7 @@ impl GravityCompliance {
             lateral: LateralCompliance::Off,
             springs: Vec::new(),
             payloads: Vec::new(),
+            coupling: Vec::new(),
         }
     }
 
@@ -435,11 +441,13 @@ impl GravityCompliance {
     /// Every elastic unknown of this loading, in order: the compliances
     /// and payload of [`GravityCompliance::unknown_names`], the identified
     /// further payloads' ([`Payload::unknown_names`]), then
-    /// [`GravityCompliance::lateral_unknown_names`].
+    /// [`GravityCompliance::lateral_unknown_names`], then the coupling
+    /// groups' off-diagonal compliances ([`CouplingGroup::unknown_names`]).
     pub fn elastic_unknown_names(&self, model: &Model) -> Vec<String> {
         let mut names = Self::unknown_names(model);
         names.extend(self.identified_payloads().flat_map(Payload::unknown_names));
         names.extend(self.lateral_unknown_names(model));
+        names.extend(self.coupling.iter().flat_map(CouplingGroup::unknown_names));
         names
     }
 
@@ -484,12 +492,12 @@ impl GravityCompliance {
 
     /// Starting values of the elastic unknowns, in the order of
     /// [`GravityCompliance::elastic_unknown_names`] (compliances, each
-    /// identified payload's mass and first moment, lateral compliances at
-    /// zero).
+    /// identified payload's mass and first moment, lateral and coupling
+    /// compliances at zero).
     pub fn initial_unknowns(&self, model: &Model) -> Vec<f64> {
         let mut x = vec![self.initial_compliance; model.n_actuated()];
         x.extend(self.payload_unknowns());
-        x.resize(x.len() + self.lateral_unknown_names(model).len(), 0.0);
+        x.resize(self.elastic_unknown_names(model).len(), 0.0);
         x
     }
 
@@ -763,6 +771,20 @@ impl GravityTerms {
         }
     }
 
+    /// The generalised gravity force of joint `i` at pose `k` for the
+    /// payload unknowns `payload` (one entry of [`GravityTerms::forces`]).
+    pub(crate) fn force(&self, k: usize, i: usize, payload: &[f64]) -> f64 {
+        let na = self.n_actuated;
+        let stride = na * (1 + self.n_payload);
+        self.terms[k * stride + i]
+            + self
+                .payload_derivatives(k, i)
+                .iter()
+                .zip(payload)
+                .map(|(d, p)| d * p)
+                .sum::<f64>()
+    }
+
     /// `d tau_i / d payload` of pose `k`: `[a_p, B_p0, B_p1, B_p2]` per
     /// identified payload.
     pub(crate) fn payload_derivatives(&self, k: usize, i: usize) -> &[f64] {
@@ -1001,6 +1023,9 @@ impl LateralTerms {
 /// center_mm = [0.0, 0.0, 80.0]          # in that frame
 /// identify = true                       # optional; false: known, no unknowns
 ///
+/// [[coupling_compliance]]              # optional: a coupled group's symmetric compliance
+/// joints = ["T2", "T3", "T4"]           # a passive joint and drives it is coupled to
+///
 /// [[mass]]
 /// name = "upper arm"
 /// frame = "2"                           # a frame of the robot description
@@ -1027,6 +1052,8 @@ struct MassTableFile {
     spring: Vec<SpringFile>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     payload: Vec<PayloadFile>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    coupling_compliance: Vec<CouplingGroup>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -1130,6 +1157,27 @@ fn payloads_of(
     Ok(payloads)
 }
 
+/// The coupling groups of a mass table's `[[coupling_compliance]]`
+/// entries: each on its own checked here (two or more joints, none twice),
+/// against the robot when the table meets one.
+fn coupling_of(
+    groups: Vec<CouplingGroup>,
+    bad: &dyn Fn(usize, String) -> CalibError,
+) -> Result<Vec<CouplingGroup>, CalibError> {
+    for group in &groups {
+        if let Some(defect) = group.defect() {
+            return Err(bad(
+                0,
+                format!(
+                    "coupling_compliance [{}]: {defect}",
+                    group.joints.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(groups)
+}
+
 fn default_gravity() -> [f64; 3] {
     [0.0, 0.0, -STANDARD_GRAVITY]
 }
@@ -1214,6 +1262,7 @@ impl GravityCompliance {
             lateral: file.lateral,
             springs: springs_of(&file.spring, &bad)?,
             payloads: payloads_of(&file.payload, &bad)?,
+            coupling: coupling_of(file.coupling_compliance, &bad)?,
         })
     }
 
@@ -1268,6 +1317,7 @@ impl GravityCompliance {
                     identify: p.identify,
                 })
                 .collect(),
+            coupling_compliance: self.coupling.clone(),
         };
         toml::to_string(&file).map_err(|e| CalibError::Serialise {
             what: "mass table",

@@ -82,6 +82,11 @@ pub struct Calibration {
     /// values are in `unknowns` by name.
     #[serde(skip)]
     pub elastic: Option<(GravityCompliance, Vec<f64>)>,
+    /// The coupling groups' compliance matrices with their standard
+    /// errors ([`crate::coupling`]; empty without
+    /// [`GravityCompliance::coupling`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub coupling: Vec<crate::coupling::CouplingMatrix>,
     /// The joint error terms of the model ([`crate::joint_law`]).
     pub joint_terms: JointTerms,
     /// Their identified values, in the order of
@@ -708,6 +713,9 @@ fn packed(
         ..
     } = found;
     let norms: Vec<f64> = errors_after.iter().map(|e| e.position).collect();
+    let coupling = options.gravity.as_ref().map_or_else(Vec::new, |g| {
+        crate::coupling::CouplingMatrix::of_estimates(model, g, &unknowns)
+    });
     Ok(Calibration {
         xi: x[..model.n_params()].to_vec(),
         nominal_xi: model.nominal_params().to_vec(),
@@ -727,6 +735,7 @@ fn packed(
             .gravity
             .as_ref()
             .map(|g| (g.clone(), x[fe..joint_start].to_vec())),
+        coupling,
         joint_terms: options.joint_terms,
         joint_term_values: x[joint_start..].to_vec(),
         identifiability,

@@ -299,6 +299,7 @@
 
 pub mod accuracy;
 pub mod analysis;
+pub mod coupling;
 pub mod coverage;
 pub mod cross;
 mod elastic_terms;
@@ -334,6 +335,7 @@ pub mod unknowns;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
+pub use coupling::{COUPLING_PREFIX, CouplingGroup, CouplingMatrix, is_coupling_compliance};
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;

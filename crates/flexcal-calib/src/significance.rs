@@ -197,6 +197,9 @@ pub(crate) type Judged = (SolveReport, Vec<bool>, Vec<Option<ScaleJudgement>>);
 pub(crate) struct Judging<'a> {
     /// Which unknowns are compliances.
     pub compliance: &'a [bool],
+    /// Which compliances are bounded below by zero (all but a coupling's
+    /// off-diagonal entries, [`crate::coupling`]).
+    pub nonnegative: &'a [bool],
     /// Absolute standard-error limits (unit of each unknown).
     pub limits: &'a [f64],
     /// [`crate::CalibrationOptions::min_compliance_z`].
@@ -239,7 +242,7 @@ pub(crate) fn judge_compliances(
                 settled.push((j, ScaleOutcome::LeftOut));
             } else if z < judging.z_min {
                 weak.push((j, z));
-            } else if value < -se {
+            } else if judging.nonnegative[j] && value < -se {
                 settled.push((j, ScaleOutcome::AtBound));
             }
         }
