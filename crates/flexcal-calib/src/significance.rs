@@ -35,6 +35,10 @@
 //! standard error is held at zero ([`ScaleOutcome::AtBound`]) and the rest
 //! fitted again; the report names it, since a bound that binds says that
 //! another term of the model is missing or that the mass table is off.
+//! A coupling group's off-diagonal entries (`coupling_compliance_*`) have
+//! no sign: they are judged on their own scale like the others, and their
+//! group's matrix is held positive semi-definite instead
+//! ([`crate::coupling`]).
 //!
 //! The noise: the instrument's stated figure when the user gives one
 //! ([`InstrumentNoise`], `--noise-mm`), the file's standard deviations when
