@@ -480,7 +480,8 @@ impl CouplingMatrix {
             .collect()
     }
 
-    /// The matrix as text lines (urad/N.m, standard errors in brackets).
+    /// The matrix as text lines (urad/N.m, each entry with its standard
+    /// error, or "not identified" for one fixed, left out or held).
     pub fn lines(&self) -> Vec<String> {
         let mut lines = vec![format!(
             "coupling compliance of [{}] (urad/N.m, +/- standard error; smallest eigenvalue {:.2}){}",
@@ -501,7 +502,7 @@ impl CouplingMatrix {
                 .zip(se)
                 .map(|(v, s)| match s {
                     Some(s) => format!("{:9.2} +/- {:6.2}", v * 1e6, s * 1e6),
-                    None => format!("{:9.2} (fixed)   ", v * 1e6),
+                    None => format!("{:9.2} (not identified)", v * 1e6),
                 })
                 .collect();
             lines.push(format!("  {:>6}: {}", self.joints[k], cells.join("  ")));
@@ -543,6 +544,47 @@ mod tests {
         assert_eq!(psd_scale(&indices(), &fine), 1.0);
         let negative = [-1e-6, 150e-6, 140e-6, 10e-6, -20e-6, 5e-6];
         assert_eq!(psd_scale(&indices(), &negative), 0.0);
+    }
+
+    #[test]
+    fn an_indefinite_group_is_held_on_the_boundary_and_fitted_again() {
+        // Cross terms too large for the diagonal; the refit leaves the
+        // held entries where they were put.
+        let x = vec![100e-6, 150e-6, 140e-6, 90e-6, -130e-6, 20e-6];
+        let s = psd_scale(&indices(), &x);
+        let mut calls = Vec::new();
+        let mut solve = |x0: &[f64], frozen: &[bool]| {
+            calls.push(frozen.to_vec());
+            Ok(crate::significance::report(x0.to_vec()))
+        };
+        let first = crate::significance::report(x.clone());
+        let (last, frozen, judgements) = hold_positive_semidefinite(
+            &[indices()],
+            (first, vec![false; 6], vec![None; 6]),
+            &mut solve,
+        )
+        .unwrap();
+        assert_eq!(calls.len(), 1);
+        assert_eq!(frozen, [false, false, false, true, true, true]);
+        for j in 3..6 {
+            assert!((last.x[j] - s * x[j]).abs() < 1e-18);
+            let judged = judgements[j].unwrap();
+            assert_eq!(judged.outcome, ScaleOutcome::AtBound);
+            assert_eq!(judged.value, x[j]);
+        }
+        assert!(smallest_eigenvalue(matrix(&indices(), &last.x, 1.0)) > -1e-12);
+        // A definite group: nothing held, no refit.
+        let fine = crate::significance::report(vec![100e-6, 150e-6, 140e-6, 10e-6, -20e-6, 5e-6]);
+        let mut never = |_: &[f64], _: &[bool]| -> Result<flexcal_optim::SolveReport, CalibError> {
+            panic!("nothing to hold")
+        };
+        let (_, frozen, _) = hold_positive_semidefinite(
+            &[indices()],
+            (fine, vec![false; 6], vec![None; 6]),
+            &mut never,
+        )
+        .unwrap();
+        assert!(frozen.iter().all(|f| !f));
     }
 
     #[test]

@@ -244,9 +244,8 @@ impl ElasticTerms {
     /// Offset of the first coupling compliance in the block (`None`
     /// without coupling groups).
     fn coupling_offset(&self) -> Option<usize> {
-        (self.coupling.len() > 0).then(|| {
-            self.na + self.n_payload + self.lateral.as_ref().map_or(0, LateralTerms::len)
-        })
+        (self.coupling.len() > 0)
+            .then(|| self.na + self.n_payload + self.lateral.as_ref().map_or(0, LateralTerms::len))
     }
 
     /// The gravity torque (N.m) of a coupling group's joint at pose `k`
@@ -545,11 +544,7 @@ impl ElasticTerms {
             };
             let torque = self.member_torque(k, other, payload);
             out.column_mut(j).axpy(torque, &unit, 1.0);
-            for (p, dp) in self
-                .member_torque_derivatives(k, other)
-                .iter()
-                .enumerate()
-            {
+            for (p, dp) in self.member_torque_derivatives(k, other).iter().enumerate() {
                 out.column_mut(na + p).axpy(xb[j] * dp, &unit, 1.0);
             }
         }

@@ -508,6 +508,16 @@ pub(crate) fn elastic_notes(
         &|_| None,
         largest,
     ));
+    let coupling: Vec<&UnknownEstimate> = unknowns
+        .iter()
+        .filter(|u| crate::coupling::is_coupling_compliance(&u.name))
+        .collect();
+    notes.extend(compliance_sentence(
+        "coupling compliances",
+        &coupling,
+        &|_| None,
+        largest,
+    ));
     let payload = names("payload_");
     if !payload.is_empty() {
         notes.push(format!(
@@ -573,6 +583,14 @@ fn compliance_sentence(
                 });
             }
             UnknownStatus::Fixed => {}
+            UnknownStatus::AtBound if crate::coupling::is_coupling_compliance(&u.name) => {
+                left.push(format!(
+                    "{} (held at {:.3} {unit}, on the positive semi-definite boundary of its group's matrix: the fit gave {:.3} {unit}; a bound that binds says a term of the model is missing or the mass table is off)",
+                    u.name,
+                    u.value * factor,
+                    u.judgement.map_or(f64::NAN, |j| j.value) * factor,
+                ))
+            }
             UnknownStatus::AtBound => left.push(format!(
                 "{} (held at 0, the fit put it below zero: {}; a bound that binds says a term of the model is missing or the mass table is off)",
                 u.name,

@@ -355,34 +355,37 @@ pub(crate) fn hold_monotone_laws(
     Ok((report, frozen, judgements))
 }
 
+/// A converged fit at `x` with unit standard errors, for the tests of the
+/// bounds.
+#[cfg(test)]
+pub(crate) fn report(x: Vec<f64>) -> SolveReport {
+    let n = x.len();
+    SolveReport {
+        standard_errors: vec![Some(1.0); n],
+        parameter_names: Vec::new(),
+        cost: 0.0,
+        cost_history: Vec::new(),
+        start_weighted_residuals: Vec::new(),
+        iterations: 1,
+        residual_evaluations: 1,
+        jacobian_evaluations: 1,
+        termination: flexcal_optim::Termination::SmallStep,
+        n_free: n,
+        rank: n,
+        not_identified: Vec::new(),
+        singular_values: Vec::new(),
+        condition_number: 1.0,
+        column_scales: Vec::new(),
+        sigma2: 1.0,
+        covariance: None,
+        x,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::coverage::CoordinateCoverage;
-
-    fn report(x: Vec<f64>) -> SolveReport {
-        let n = x.len();
-        SolveReport {
-            standard_errors: vec![Some(1.0); n],
-            parameter_names: Vec::new(),
-            cost: 0.0,
-            cost_history: Vec::new(),
-            start_weighted_residuals: Vec::new(),
-            iterations: 1,
-            residual_evaluations: 1,
-            jacobian_evaluations: 1,
-            termination: flexcal_optim::Termination::SmallStep,
-            n_free: n,
-            rank: n,
-            not_identified: Vec::new(),
-            singular_values: Vec::new(),
-            condition_number: 1.0,
-            column_scales: Vec::new(),
-            sigma2: 1.0,
-            covariance: None,
-            x,
-        }
-    }
 
     /// A softening the fit pushes past the yield is held at the floor of
     /// the compliance it is fitted with, the rest solved again; one within

@@ -261,7 +261,11 @@ impl Truth {
         };
         self.mechanism = vec![
             element(drive("thetaT3"), 5e6, 0.05),
-            element(drive("thetaT2"), 210e9 * std::f64::consts::PI * 0.003f64.powi(2) / 0.3, 0.04),
+            element(
+                drive("thetaT2"),
+                210e9 * std::f64::consts::PI * 0.003f64.powi(2) / 0.3,
+                0.04,
+            ),
         ];
         self
     }
@@ -730,8 +734,7 @@ fn the_coupling_mechanisms_cross_terms_are_recovered_by_the_groups_matrix() {
             method: default_method_for(train.len()),
             ..SelectionOptions::default()
         };
-        let (calibration, _, _) =
-            calibrate_selected(&model, &train, &options, &selection).unwrap();
+        let (calibration, _, _) = calibrate_selected(&model, &train, &options, &selection).unwrap();
         let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
         (calibration, held_out.after)
     };

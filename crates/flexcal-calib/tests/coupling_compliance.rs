@@ -124,8 +124,14 @@ fn bad_groups_are_named_errors() {
     for (group, expect) in [
         ("[\"T2\", \"T9\"]", "no frame `T9`"),
         ("[\"T2\", \"T3\"]", "no passive joint"),
-        ("[\"L1\", \"T4\"]", "joint `L1` is not a drive `T4` is coupled to"),
-        ("[\"T1\", \"T4\"]", "joint `T1` is not a drive `T4` is coupled to"),
+        (
+            "[\"L1\", \"T4\"]",
+            "joint `L1` is not a drive `T4` is coupled to",
+        ),
+        (
+            "[\"T1\", \"T4\"]",
+            "joint `T1` is not a drive `T4` is coupled to",
+        ),
     ] {
         let gravity = table(&format!("[[coupling_compliance]]\njoints = {group}\n")).unwrap();
         let error = problem(&model, &set, &gravity).err().unwrap().to_string();
@@ -190,7 +196,10 @@ fn the_coupling_columns_match_central_differences() {
     for (j, name) in problem.names().iter().enumerate() {
         if name.starts_with("coupling_compliance_") {
             let largest = (0..jac.nrows()).fold(0.0_f64, |a, i| a.max(jac[(i, j)].abs()));
-            assert!(largest > 1.0, "{name}: largest entry {largest} m per rad/N.m");
+            assert!(
+                largest > 1.0,
+                "{name}: largest entry {largest} m per rad/N.m"
+            );
         }
     }
 }
