@@ -60,7 +60,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::CalibError;
 use crate::gravity::{FrameAxis, GravityCompliance, lateral_joints};
-use crate::significance::{Judged, ScaleJudgement, ScaleOutcome, Solve};
+use crate::significance::{Judged, ScaleJudgement, Solve};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 
 /// The prefix of the off-diagonal unknowns' names.
@@ -396,13 +396,7 @@ pub(crate) fn hold_positive_semidefinite(
                 .filter(|&j| !frozen[j])
                 .collect();
             for j in free {
-                judgements[j] = Some(ScaleJudgement {
-                    value: report.x[j],
-                    standard_error: report.standard_errors[j]
-                        .filter(|s| s.is_finite())
-                        .unwrap_or(f64::INFINITY),
-                    outcome: ScaleOutcome::AtBound,
-                });
+                judgements[j] = Some(ScaleJudgement::at_bound(&report, j));
                 frozen[j] = true;
                 x0[j] = s * report.x[j];
                 held = true;
@@ -514,6 +508,7 @@ impl CouplingMatrix {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::significance::ScaleOutcome;
 
     fn indices() -> MatrixIndices {
         MatrixIndices {

@@ -140,7 +140,10 @@
 //! [`GravityCompliance::lateral`] each revolute joint also tilts about its
 //! frame's x axis under the gravity moment of everything it carries
 //! (`lateral_compliance_<joint>_x`, rad/N.m; [`gravity`], "Lateral joint
-//! compliances"). The built-in table
+//! compliances"). With [`GravityCompliance::coupling`] a coupled joint
+//! group's compliance is a symmetric, positive semi-definite matrix over
+//! the passive joint and its drives (`coupling_compliance_<A>_<B>`,
+//! rad/N.m; [`coupling`]). The built-in table
 //! [`GravityCompliance::ur10_urdf`] holds the UR10's URDF masses; other robots
 //! give a mass-table file ([`GravityCompliance::from_toml_file`]).
 //!

@@ -190,6 +190,20 @@ pub struct ScaleJudgement {
     pub outcome: ScaleOutcome,
 }
 
+impl ScaleJudgement {
+    /// Unknown `j` of the fit `report` held at a bound: its fitted value
+    /// and standard error (infinite when the fit gave none).
+    pub(crate) fn at_bound(report: &SolveReport, j: usize) -> Self {
+        Self {
+            value: report.x[j],
+            standard_error: report.standard_errors[j]
+                .filter(|s| s.is_finite())
+                .unwrap_or(f64::INFINITY),
+            outcome: ScaleOutcome::AtBound,
+        }
+    }
+}
+
 /// One solve from `x0` with the unknowns `frozen` held.
 pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError> + 'a;
 
@@ -335,13 +349,7 @@ pub(crate) fn hold_monotone_laws(
             };
             let bound = crate::joint_law::monotone_hardening_floor(report.x[c], largest);
             if let Some(bound) = bound.filter(|b| !frozen[j] && report.x[j] < *b) {
-                judgements[j] = Some(ScaleJudgement {
-                    value: report.x[j],
-                    standard_error: report.standard_errors[j]
-                        .filter(|s| s.is_finite())
-                        .unwrap_or(f64::INFINITY),
-                    outcome: ScaleOutcome::AtBound,
-                });
+                judgements[j] = Some(ScaleJudgement::at_bound(&report, j));
                 frozen[j] = true;
                 x0[j] = bound;
                 held = true;

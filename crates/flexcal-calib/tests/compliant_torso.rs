@@ -40,7 +40,7 @@ use flexcal_calib::{
     TargetObservation, TargetPose, UnknownStatus, calibrate_selected, default_method_for,
     read_targets, rotation_from_vector, validate_targets,
 };
-use flexcal_kinematics::{Data, Model, RobotDescription};
+use flexcal_kinematics::{Data, Model};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -53,18 +53,7 @@ const NOISE: f64 = 0.5e-3;
 /// Standard gravity (m/s^2), written here apart from the library's.
 const G: f64 = 9.80665;
 
-fn data_file(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
-}
-
-fn robot() -> Model {
-    RobotDescription::from_toml_file(&data_file("compliant_torso.toml"))
-        .unwrap()
-        .build()
-        .unwrap()
-}
+use common::{compliant_torso as robot, data_file};
 
 /// A spring of the truth: a rotation of everything beyond `frame` about
 /// its `axis` (0 x, 1 y, 2 z).

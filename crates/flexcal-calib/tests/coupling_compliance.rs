@@ -13,25 +13,14 @@ use flexcal_calib::{
     CouplingGroup, ErrorModel, FrameStarts, GravityCompliance, JointTerms, TargetMeasurementSet,
     TargetObservation, TargetPose, UnknownKind, read_targets,
 };
-use flexcal_kinematics::{Model, RobotDescription};
+use flexcal_kinematics::Model;
 use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 mod common;
 
-fn data_file(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
-}
-
-fn robot() -> Model {
-    RobotDescription::from_toml_file(&data_file("compliant_torso.toml"))
-        .unwrap()
-        .build()
-        .unwrap()
-}
+use common::{compliant_torso as robot, data_file};
 
 /// The compliant torso's mass table with `extra` TOML appended.
 fn table(extra: &str) -> Result<GravityCompliance, flexcal_calib::CalibError> {
