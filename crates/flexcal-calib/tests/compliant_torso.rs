@@ -786,10 +786,26 @@ fn the_coupling_mechanisms_cross_terms_are_recovered_by_the_groups_matrix() {
         }
     }
     assert!(misses.is_empty(), "not recovered: {misses:?}");
-    // The identified matrix is positive semi-definite.
+    // The identified matrix is positive semi-definite, and the JSON report
+    // carries it in urad/N.m with the entries' standard errors.
     for m in &coupled.coupling {
         assert!(m.smallest_eigenvalue >= -1e-12, "{:?}", m.lines());
     }
+    let json = flexcal_calib::CalibrationReportJson::new("compliant-torso", &coupled, None)
+        .to_json_string()
+        .unwrap();
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let matrix = &report["identification"]["coupling_compliance"][0];
+    assert_eq!(matrix["joints"], serde_json::json!(["T2", "T3", "T4"]));
+    let entry = matrix["compliance_urad_per_nm"][1][2].as_f64().unwrap();
+    let se = matrix["standard_error_urad_per_nm"][2][1].as_f64().unwrap();
+    let estimate = coupled
+        .unknowns
+        .iter()
+        .find(|u| u.name == "coupling_compliance_T3_T4")
+        .unwrap();
+    assert!((entry - estimate.value * 1e6).abs() < 1e-9, "{matrix}");
+    assert!((se - estimate.standard_error.unwrap() * 1e6).abs() < 1e-9);
     assert!(
         with_group.position_mean < plain.position_mean,
         "held-out mean {} m with the group, {} m without",
