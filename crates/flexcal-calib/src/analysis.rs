@@ -425,7 +425,7 @@ impl AnalysisContext<'_> {
         let nonnegative: Vec<bool> = self
             .names
             .iter()
-            .map(|n| !crate::coupling::is_coupling_compliance(n))
+            .map(|n| !crate::gravity::is_coupling_compliance(n))
             .collect();
         let (report, frozen, judgements) = judge_compliances(
             &Judging {

@@ -56,61 +56,12 @@
 
 use flexcal_kinematics::Model;
 use nalgebra::{DMatrix, SymmetricEigen};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::error::CalibError;
-use crate::gravity::{FrameAxis, GravityCompliance, lateral_joints};
-use crate::significance::{Judged, ScaleJudgement, Solve};
+use crate::gravity::{CouplingGroup, FrameAxis, GravityCompliance, lateral_joints};
+use crate::significance::{Judged, Solve, hold_at_bounds};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
-
-/// The prefix of the off-diagonal unknowns' names.
-pub const COUPLING_PREFIX: &str = "coupling_compliance_";
-
-/// A mass table's `[[coupling_compliance]]` entry: a passive joint and
-/// drives it is coupled to, whose compliance is one symmetric matrix
-/// (module docs).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CouplingGroup {
-    /// Frame names of the group's joints: exactly one passive (coupled)
-    /// joint and one or more actuated joints it is coupled to, each once.
-    pub joints: Vec<String>,
-}
-
-impl CouplingGroup {
-    /// The off-diagonal unknowns' names, `coupling_compliance_<A>_<B>`
-    /// (rad/N.m) for each pair of joints in the entry's order.
-    pub fn unknown_names(&self) -> Vec<String> {
-        let mut names = Vec::new();
-        for (a, first) in self.joints.iter().enumerate() {
-            for second in &self.joints[a + 1..] {
-                names.push(format!("{COUPLING_PREFIX}{first}_{second}"));
-            }
-        }
-        names
-    }
-
-    /// What is wrong with the entry on its own (too few joints, a joint
-    /// listed twice), if anything.
-    pub(crate) fn defect(&self) -> Option<String> {
-        if self.joints.len() < 2 {
-            return Some(
-                "give the passive joint and one or more drives it is coupled to".to_string(),
-            );
-        }
-        self.joints
-            .iter()
-            .enumerate()
-            .find(|(k, j)| self.joints[..*k].contains(j))
-            .map(|(_, j)| format!("joint `{j}` is listed twice"))
-    }
-}
-
-/// Whether `name` is an off-diagonal coupling compliance (no non-negative
-/// bound: its sign is free, the group's matrix is bounded instead).
-pub fn is_coupling_compliance(name: &str) -> bool {
-    name.starts_with(COUPLING_PREFIX)
-}
 
 /// A joint of a group in the elastic model: a drive (its actuated
 /// coordinate) or the passive joint (its spring's hinge among the lateral
@@ -122,8 +73,7 @@ pub(crate) enum Member {
 }
 
 /// The groups' joints resolved on a robot: for each off-diagonal unknown,
-/// in the order of [`GravityCompliance::elastic_unknown_names`], its two
-/// joints.
+/// in the order of the elastic unknowns' names, its two joints.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct CouplingTerms {
     pub pairs: Vec<[Member; 2]>,
@@ -378,36 +328,25 @@ pub(crate) fn psd_scale(indices: &MatrixIndices, x: &[f64]) -> f64 {
 /// (at most three passes: the diagonal moves in the refit).
 pub(crate) fn hold_positive_semidefinite(
     groups: &[MatrixIndices],
-    (mut report, mut frozen, mut judgements): Judged,
+    judged: Judged,
     solve: &mut Solve<'_>,
 ) -> Result<Judged, CalibError> {
-    for _ in 0..3 {
-        let mut x0 = report.x.clone();
-        let mut held = false;
+    hold_at_bounds(judged, solve, &|report, frozen| {
+        let mut held = Vec::new();
         for group in groups {
             let s = psd_scale(group, &report.x);
-            if s >= 1.0 {
-                continue;
-            }
-            let free: Vec<usize> = group
-                .off_diagonal
-                .iter()
-                .map(|e| e.2)
-                .filter(|&j| !frozen[j])
-                .collect();
-            for j in free {
-                judgements[j] = Some(ScaleJudgement::at_bound(&report, j));
-                frozen[j] = true;
-                x0[j] = s * report.x[j];
-                held = true;
+            if s < 1.0 {
+                held.extend(
+                    group
+                        .off_diagonal
+                        .iter()
+                        .filter(|e| !frozen[e.2])
+                        .map(|e| (e.2, s * report.x[e.2])),
+                );
             }
         }
-        if !held {
-            break;
-        }
-        report = solve(&x0, &frozen)?;
-    }
-    Ok((report, frozen, judgements))
+        held
+    })
 }
 
 /// A coupling group's identified compliance matrix (module docs), for

@@ -84,7 +84,6 @@ use nalgebra::{DMatrix, Isometry3, Matrix6xX, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use crate::coupling::CouplingGroup;
 use crate::error::CalibError;
 
 use crate::measurement::MeasurementSet;
@@ -140,7 +139,7 @@ pub struct GravityCompliance {
     /// known (module docs, "Several payloads"; default none).
     pub payloads: Vec<Payload>,
     /// Coupled joint groups whose compliance is a symmetric matrix
-    /// ([`crate::coupling`]: unknowns `coupling_compliance_<A>_<B>`,
+    /// ([`CouplingGroup`]: unknowns `coupling_compliance_<A>_<B>`,
     /// rad/N.m, starting at zero; default none).
     pub coupling: Vec<CouplingGroup>,
 }
@@ -267,6 +266,55 @@ impl Spring {
     pub fn unknown_name(&self) -> String {
         format!("lateral_compliance_{}_{}", self.frame, self.axis.letter())
     }
+}
+
+/// The prefix of the off-diagonal unknowns' names.
+pub const COUPLING_PREFIX: &str = "coupling_compliance_";
+
+/// A mass table's `[[coupling_compliance]]` entry: a passive joint and
+/// drives it is coupled to, whose compliance is one symmetric matrix
+/// (the coupling module's docs: the symmetric matrix, its bound).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingGroup {
+    /// Frame names of the group's joints: exactly one passive (coupled)
+    /// joint and one or more actuated joints it is coupled to, each once.
+    pub joints: Vec<String>,
+}
+
+impl CouplingGroup {
+    /// The off-diagonal unknowns' names, `coupling_compliance_<A>_<B>`
+    /// (rad/N.m) for each pair of joints in the entry's order.
+    pub fn unknown_names(&self) -> Vec<String> {
+        let mut names = Vec::new();
+        for (a, first) in self.joints.iter().enumerate() {
+            for second in &self.joints[a + 1..] {
+                names.push(format!("{COUPLING_PREFIX}{first}_{second}"));
+            }
+        }
+        names
+    }
+
+    /// What is wrong with the entry on its own (too few joints, a joint
+    /// listed twice), if anything.
+    pub(crate) fn defect(&self) -> Option<String> {
+        if self.joints.len() < 2 {
+            return Some(
+                "give the passive joint and one or more drives it is coupled to".to_string(),
+            );
+        }
+        self.joints
+            .iter()
+            .enumerate()
+            .find(|(k, j)| self.joints[..*k].contains(j))
+            .map(|(_, j)| format!("joint `{j}` is listed twice"))
+    }
+}
+
+/// Whether `name` is an off-diagonal coupling compliance (no non-negative
+/// bound: its sign is free, the group's matrix is bounded instead).
+pub fn is_coupling_compliance(name: &str) -> bool {
+    name.starts_with(COUPLING_PREFIX)
 }
 
 /// Which lateral (transversal) joint compliances the elasto-geometric

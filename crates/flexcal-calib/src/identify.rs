@@ -510,7 +510,7 @@ pub(crate) fn elastic_notes(
     ));
     let coupling: Vec<&UnknownEstimate> = unknowns
         .iter()
-        .filter(|u| crate::coupling::is_coupling_compliance(&u.name))
+        .filter(|u| crate::gravity::is_coupling_compliance(&u.name))
         .collect();
     notes.extend(compliance_sentence(
         "coupling compliances",
@@ -583,7 +583,7 @@ fn compliance_sentence(
                 });
             }
             UnknownStatus::Fixed => {}
-            UnknownStatus::AtBound if crate::coupling::is_coupling_compliance(&u.name) => {
+            UnknownStatus::AtBound if crate::gravity::is_coupling_compliance(&u.name) => {
                 left.push(format!(
                     "{} (held at {:.3} {unit}, on the positive semi-definite boundary of its group's matrix: the fit gave {:.3} {unit}; a bound that binds says a term of the model is missing or the mass table is off)",
                     u.name,

@@ -338,7 +338,7 @@ pub mod unknowns;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
-pub use coupling::{COUPLING_PREFIX, CouplingGroup, CouplingMatrix, is_coupling_compliance};
+pub use coupling::CouplingMatrix;
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use error::CalibError;
@@ -357,8 +357,8 @@ pub use folds::{
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
-    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, Payload, PointMass,
-    Spring,
+    COUPLING_PREFIX, CouplingGroup, FrameAxis, GravityCompliance, LateralCompliance,
+    PAYLOAD_PARAMETER_NAMES, Payload, PointMass, Spring, is_coupling_compliance,
 };
 pub use holdout::{StationHoldOut, hold_out_stations};
 pub use identification::ResidualNorms;

@@ -37,8 +37,8 @@
 //! another term of the model is missing or that the mass table is off.
 //! A coupling group's off-diagonal entries (`coupling_compliance_*`) have
 //! no sign: they are judged on their own scale like the others, and their
-//! group's matrix is held positive semi-definite instead
-//! ([`crate::coupling`]).
+//! group's matrix is held positive semi-definite instead (the coupling
+//! module).
 //!
 //! The noise: the instrument's stated figure when the user gives one
 //! ([`InstrumentNoise`], `--noise-mm`), the file's standard deviations when
@@ -215,8 +215,8 @@ pub(crate) type Judged = (SolveReport, Vec<bool>, Vec<Option<ScaleJudgement>>);
 pub(crate) struct Judging<'a> {
     /// Which unknowns are compliances.
     pub compliance: &'a [bool],
-    /// Which compliances are bounded below by zero (all but a coupling's
-    /// off-diagonal entries, [`crate::coupling`]).
+    /// Which compliances are bounded below by zero (all but a coupling
+    /// group's off-diagonal entries).
     pub nonnegative: &'a [bool],
     /// Absolute standard-error limits (unit of each unknown).
     pub limits: &'a [f64],
@@ -337,26 +337,45 @@ pub(crate) fn hardening_floors(
 /// of the fit in which it binds).
 pub(crate) fn hold_monotone_laws(
     floors: &[Option<(usize, f64)>],
-    (mut report, mut frozen, mut judgements): Judged,
+    judged: Judged,
     solve: &mut Solve<'_>,
 ) -> Result<Judged, CalibError> {
+    hold_at_bounds(judged, solve, &|report, frozen| {
+        floors
+            .iter()
+            .enumerate()
+            .filter_map(|(j, floor)| {
+                let (c, largest) = (*floor)?;
+                crate::joint_law::monotone_hardening_floor(report.x[c], largest)
+                    .filter(|b| !frozen[j] && report.x[j] < *b)
+                    .map(|b| (j, b))
+            })
+            .collect()
+    })
+}
+
+/// The bounds that bind in a fit: each unknown to hold and the value it is
+/// held at, from the fit and the unknowns already frozen.
+pub(crate) type Binding<'a> = dyn Fn(&SolveReport, &[bool]) -> Vec<(usize, f64)> + 'a;
+
+/// Holds the unknowns `binding` names at their bounds (status at-bound,
+/// frozen) and fits the rest again, at most three passes: a bound may
+/// depend on unknowns that move in the refit.
+pub(crate) fn hold_at_bounds(
+    (mut report, mut frozen, mut judgements): Judged,
+    solve: &mut Solve<'_>,
+    binding: &Binding<'_>,
+) -> Result<Judged, CalibError> {
     for _ in 0..3 {
-        let mut x0 = report.x.clone();
-        let mut held = false;
-        for (j, floor) in floors.iter().enumerate() {
-            let Some((c, largest)) = *floor else {
-                continue;
-            };
-            let bound = crate::joint_law::monotone_hardening_floor(report.x[c], largest);
-            if let Some(bound) = bound.filter(|b| !frozen[j] && report.x[j] < *b) {
-                judgements[j] = Some(ScaleJudgement::at_bound(&report, j));
-                frozen[j] = true;
-                x0[j] = bound;
-                held = true;
-            }
-        }
-        if !held {
+        let held = binding(&report, &frozen);
+        if held.is_empty() {
             break;
+        }
+        let mut x0 = report.x.clone();
+        for &(j, bound) in &held {
+            judgements[j] = Some(ScaleJudgement::at_bound(&report, j));
+            frozen[j] = true;
+            x0[j] = bound;
         }
         report = solve(&x0, &frozen)?;
     }
