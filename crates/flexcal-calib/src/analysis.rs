@@ -297,6 +297,9 @@ pub(crate) struct Rounds<'a> {
     /// and its joint's largest torque (the monotone bound,
     /// [`crate::significance::hardening_floors`]).
     pub hardening_floors: &'a [Option<(usize, f64)>],
+    /// The coupling groups' matrices among the unknowns (held positive
+    /// semi-definite, [`crate::coupling`]).
+    pub coupling_matrices: &'a [crate::coupling::MatrixIndices],
 }
 
 /// What the rounds of [`AnalysisContext::identify_in_rounds`] found: the
@@ -420,9 +423,17 @@ impl AnalysisContext<'_> {
             .iter()
             .map(|k| *k == UnknownKind::Compliance)
             .collect();
+        // A coupling's off-diagonal entry has no sign: its group's matrix
+        // is bounded instead.
+        let nonnegative: Vec<bool> = self
+            .names
+            .iter()
+            .map(|n| !crate::gravity::is_coupling_compliance(n))
+            .collect();
         let (report, frozen, judgements) = judge_compliances(
             &Judging {
                 compliance: &compliance,
+                nonnegative: &nonnegative,
                 limits: self.limits,
                 z_min: r.min_compliance_z,
                 x_start: r.x_start,
@@ -432,6 +443,11 @@ impl AnalysisContext<'_> {
         )?;
         let (report, frozen, judgements) =
             hold_monotone_laws(r.hardening_floors, (report, frozen, judgements), solve)?;
+        let (report, frozen, judgements) = crate::coupling::hold_positive_semidefinite(
+            r.coupling_matrices,
+            (report, frozen, judgements),
+            solve,
+        )?;
         Ok(RoundsOutcome {
             report,
             frozen,

@@ -6,7 +6,8 @@
 //!
 //! Their unknowns form one block `x_b`, in this order: the compliances
 //! (`n_actuated`), the payloads (4 per identified payload), the lateral
-//! compliances, then the
+//! compliances, the coupling groups' off-diagonal compliances
+//! ([`crate::coupling`]), then the
 //! law's hardening and lost motion (`n_actuated` each) and the cyclic
 //! amplitudes (4 per cyclic joint). A model puts the block after its
 //! frames; the offsets here are relative to the block's start.
@@ -14,6 +15,7 @@
 use flexcal_kinematics::Model;
 use nalgebra::{Matrix6xX, UnitQuaternion, Vector3, Vector6};
 
+use crate::coupling::{CouplingTerms, Member};
 use crate::equilibrium::{GravityStiffness, NotConverged, PoseEquilibrium, SpringLaw};
 use crate::error::CalibError;
 use crate::geometry::{left_jacobian, rotation_from_vector};
@@ -125,6 +127,8 @@ pub(crate) struct ElasticTerms {
     n_payload: usize,
     gravity: Option<(GravityTerms, Vec<f64>)>,
     lateral: Option<LateralTerms>,
+    /// The coupling groups' off-diagonal compliances (none by default).
+    coupling: CouplingTerms,
     /// The gravity stiffness and the iteration's tolerance and cap, when
     /// the deflection is the equilibrium ([`crate::equilibrium`]).
     stiffness: Option<(GravityStiffness, (f64, usize))>,
@@ -143,6 +147,7 @@ impl ElasticTerms {
             n_payload: 0,
             gravity: None,
             lateral: None,
+            coupling: CouplingTerms::default(),
             stiffness: None,
             joint_terms: JointTerms::default(),
             cyclic_joints: Vec::new(),
@@ -174,6 +179,16 @@ impl ElasticTerms {
         self.gravity = Some((terms, gravity.initial_unknowns(model)));
         let lateral = LateralTerms::new(model, poses, gravity)?;
         self.lateral = (lateral.len() > 0).then_some(lateral);
+        self.coupling = CouplingTerms::new(model, gravity)?;
+        if !gravity.coupling.is_empty() && !gravity.deflection.is_one_step() {
+            return Err(CalibError::InvalidOption {
+                name: "gravity",
+                reason: format!(
+                    "deflection `{}` with a coupling compliance group: the equilibrium is built for joint and lateral springs only; use the one step (`one-step`) with `[[coupling_compliance]]`",
+                    gravity.deflection.name()
+                ),
+            });
+        }
         self.stiffness = match gravity.deflection.iteration() {
             Some(iteration) => Some((GravityStiffness::new(model, poses, gravity)?, iteration)),
             None => None,
@@ -225,12 +240,15 @@ impl ElasticTerms {
         self.gravity.is_some()
     }
 
-    /// Unknowns of the elastic part: compliances, payloads and lateral
-    /// compliances (none when geometric).
+    /// Unknowns of the elastic part: compliances, payloads, lateral and
+    /// coupling compliances (none when geometric).
     fn n_elastic(&self) -> usize {
         match &self.gravity {
             Some(_) => {
-                self.na + self.n_payload + self.lateral.as_ref().map_or(0, LateralTerms::len)
+                self.na
+                    + self.n_payload
+                    + self.lateral.as_ref().map_or(0, LateralTerms::len)
+                    + self.coupling.len()
             }
             None => 0,
         }
@@ -258,7 +276,7 @@ impl ElasticTerms {
             }
             kinds.extend(std::iter::repeat_n(
                 UnknownKind::Compliance,
-                self.lateral.as_ref().map_or(0, LateralTerms::len),
+                self.lateral.as_ref().map_or(0, LateralTerms::len) + self.coupling.len(),
             ));
         }
         if self.joint_terms.law.is_some() {
@@ -286,6 +304,46 @@ impl ElasticTerms {
     /// Offset of the first lateral compliance in the block.
     pub(crate) fn lateral_offset(&self) -> Option<usize> {
         self.lateral.as_ref().map(|_| self.na + self.n_payload)
+    }
+
+    /// Offset of the first coupling compliance in the block (`None`
+    /// without coupling groups).
+    fn coupling_offset(&self) -> Option<usize> {
+        (self.coupling.len() > 0)
+            .then(|| self.na + self.n_payload + self.lateral.as_ref().map_or(0, LateralTerms::len))
+    }
+
+    /// The gravity torque (N.m) of a coupling group's joint at pose `k`
+    /// for the payload unknowns `payload`: a drive's generalised force, the
+    /// passive joint's moment about its spring's axis ([`crate::coupling`]).
+    fn member_torque(&self, k: usize, member: Member, payload: &[f64]) -> f64 {
+        match (member, &self.gravity, &self.lateral) {
+            (Member::Drive(i), Some((terms, _)), _) => terms.force(k, i, payload),
+            (Member::Passive(s), _, Some(lateral)) => lateral.joint(k, s).moment(payload),
+            _ => 0.0,
+        }
+    }
+
+    /// The derivatives of [`ElasticTerms::member_torque`] by the payload
+    /// unknowns.
+    fn member_torque_derivatives(&self, k: usize, member: Member) -> &[f64] {
+        match (member, &self.gravity, &self.lateral) {
+            (Member::Drive(i), Some((terms, _)), _) => terms.payload_derivatives(k, i),
+            (Member::Passive(s), _, Some(lateral)) => lateral.joint(k, s).payload_derivatives,
+            _ => &[],
+        }
+    }
+
+    /// Each coupling compliance with its two joints, the joint first whose
+    /// deflection it adds to and the joint whose torque it multiplies:
+    /// `(unknown index in the block, own, other)`, both ways per entry.
+    fn coupling_entries(&self) -> impl Iterator<Item = (usize, Member, Member)> + '_ {
+        let co = self.coupling_offset().unwrap_or(0);
+        self.coupling
+            .pairs
+            .iter()
+            .enumerate()
+            .flat_map(move |(e, &[a, b])| [(co + e, a, b), (co + e, b, a)])
     }
 
     /// Offset of the first joint-term unknown in the block.
@@ -413,6 +471,12 @@ impl ElasticTerms {
                     }
                 }
             }
+            let payload = &xb[na..na + self.n_payload];
+            for (j, own, other) in self.coupling_entries() {
+                if let Member::Drive(i) = own {
+                    state.q[i] += xb[j] * self.member_torque(k, other, payload);
+                }
+            }
         }
         if let Some(co) = self.cyclic_offset().filter(|_| self.joint_terms.cyclic) {
             let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
@@ -503,7 +567,14 @@ impl ElasticTerms {
                     .as_ref()
                     .filter(|_| self.stiffness.is_some())
                     .map_or(0.0, |e| e.moment_change[s]);
-            let delta = xb[lo + s] * moment;
+            // A coupling group with the equilibrium is refused by name
+            // (options check): the coupled torques are the one step's.
+            let coupled: f64 = self
+                .coupling_entries()
+                .filter(|(_, own, _)| *own == Member::Passive(s))
+                .map(|(j, _, other)| xb[j] * self.member_torque(k, other, payload))
+                .sum();
+            let delta = xb[lo + s] * moment + coupled;
             phi += delta * joint.axis;
             t -= delta * joint.axis.cross(&joint.origin);
             deltas.push((delta, moment));
@@ -566,6 +637,10 @@ impl ElasticTerms {
                 }
             }
         }
+        // The unit twist of each lateral rotation that moves the point
+        // (per rad), for the coupling entries below.
+        let mut lateral_units: Vec<Option<Vector6<f64>>> =
+            vec![None; self.lateral.as_ref().map_or(0, LateralTerms::len)];
         if let (Some(motion), Some(lateral), Some(lc)) =
             (motion, &self.lateral, self.lateral_offset())
         {
@@ -584,6 +659,7 @@ impl ElasticTerms {
                 let v = r_g_t * (turn.cross(&p_turned) - joint.axis.cross(&joint.origin));
                 let w = r_g_t * turn;
                 let unit = Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z);
+                lateral_units[s] = Some(unit);
                 out.column_mut(lc + s).axpy(moment, &unit, 0.0);
                 let compliance = xb[lc + s];
                 for (p, dp) in joint.payload_derivatives.iter().enumerate() {
@@ -603,12 +679,44 @@ impl ElasticTerms {
                 }
             }
         }
+        self.coupling_twists(xb, k, jq, &lateral_units, out);
         if let Some(co) = self.cyclic_offset().filter(|_| self.joint_terms.cyclic) {
             let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
             for (s, &i) in self.cyclic_joints.iter().enumerate() {
                 for (h, b) in bases[s].iter().enumerate() {
                     out.column_mut(co + 4 * s + h).axpy(*b, &jq.column(i), 0.0);
                 }
+            }
+        }
+    }
+
+    /// The coupling compliances' columns of [`ElasticTerms::twists`], and
+    /// what they add to the payload columns: an entry turns each of its
+    /// joints by the other's torque (a drive through its column of `jq`,
+    /// the passive joint through its rotation's unit twist
+    /// `lateral_units`, `None` where it does not move the point).
+    fn coupling_twists(
+        &self,
+        xb: &[f64],
+        k: usize,
+        jq: &Matrix6xX<f64>,
+        lateral_units: &[Option<Vector6<f64>>],
+        out: &mut Matrix6xX<f64>,
+    ) {
+        let na = self.na;
+        let payload = &xb[na..na + self.n_payload];
+        for (j, own, other) in self.coupling_entries() {
+            let unit: Vector6<f64> = match own {
+                Member::Drive(i) => jq.column(i).into_owned(),
+                Member::Passive(s) => match lateral_units.get(s).copied().flatten() {
+                    Some(unit) => unit,
+                    None => continue,
+                },
+            };
+            let torque = self.member_torque(k, other, payload);
+            out.column_mut(j).axpy(torque, &unit, 1.0);
+            for (p, dp) in self.member_torque_derivatives(k, other).iter().enumerate() {
+                out.column_mut(na + p).axpy(xb[j] * dp, &unit, 1.0);
             }
         }
     }

@@ -142,6 +142,10 @@ pub struct GravityCompliance {
     /// configuration (default), or the static equilibrium
     /// ([`crate::equilibrium`]).
     pub deflection: crate::equilibrium::Deflection,
+    /// Coupled joint groups whose compliance is a symmetric matrix
+    /// ([`CouplingGroup`]: unknowns `coupling_compliance_<A>_<B>`,
+    /// rad/N.m, starting at zero; default none).
+    pub coupling: Vec<CouplingGroup>,
 }
 
 /// A further payload ([`GravityCompliance::payloads`]): a load fixed to a
@@ -266,6 +270,55 @@ impl Spring {
     pub fn unknown_name(&self) -> String {
         format!("lateral_compliance_{}_{}", self.frame, self.axis.letter())
     }
+}
+
+/// The prefix of the off-diagonal unknowns' names.
+pub const COUPLING_PREFIX: &str = "coupling_compliance_";
+
+/// A mass table's `[[coupling_compliance]]` entry: a passive joint and
+/// drives it is coupled to, whose compliance is one symmetric matrix
+/// (the coupling module's docs: the symmetric matrix, its bound).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingGroup {
+    /// Frame names of the group's joints: exactly one passive (coupled)
+    /// joint and one or more actuated joints it is coupled to, each once.
+    pub joints: Vec<String>,
+}
+
+impl CouplingGroup {
+    /// The off-diagonal unknowns' names, `coupling_compliance_<A>_<B>`
+    /// (rad/N.m) for each pair of joints in the entry's order.
+    pub fn unknown_names(&self) -> Vec<String> {
+        let mut names = Vec::new();
+        for (a, first) in self.joints.iter().enumerate() {
+            for second in &self.joints[a + 1..] {
+                names.push(format!("{COUPLING_PREFIX}{first}_{second}"));
+            }
+        }
+        names
+    }
+
+    /// What is wrong with the entry on its own (too few joints, a joint
+    /// listed twice), if anything.
+    pub(crate) fn defect(&self) -> Option<String> {
+        if self.joints.len() < 2 {
+            return Some(
+                "give the passive joint and one or more drives it is coupled to".to_string(),
+            );
+        }
+        self.joints
+            .iter()
+            .enumerate()
+            .find(|(k, j)| self.joints[..*k].contains(j))
+            .map(|(_, j)| format!("joint `{j}` is listed twice"))
+    }
+}
+
+/// Whether `name` is an off-diagonal coupling compliance (no non-negative
+/// bound: its sign is free, the group's matrix is bounded instead).
+pub fn is_coupling_compliance(name: &str) -> bool {
+    name.starts_with(COUPLING_PREFIX)
 }
 
 /// Which lateral (transversal) joint compliances the elasto-geometric
@@ -421,6 +474,7 @@ impl GravityCompliance {
             springs: Vec::new(),
             payloads: Vec::new(),
             deflection: crate::equilibrium::Deflection::OneStep,
+            coupling: Vec::new(),
         }
     }
 
@@ -440,11 +494,13 @@ impl GravityCompliance {
     /// Every elastic unknown of this loading, in order: the compliances
     /// and payload of [`GravityCompliance::unknown_names`], the identified
     /// further payloads' ([`Payload::unknown_names`]), then
-    /// [`GravityCompliance::lateral_unknown_names`].
+    /// [`GravityCompliance::lateral_unknown_names`], then the coupling
+    /// groups' off-diagonal compliances ([`CouplingGroup::unknown_names`]).
     pub fn elastic_unknown_names(&self, model: &Model) -> Vec<String> {
         let mut names = Self::unknown_names(model);
         names.extend(self.identified_payloads().flat_map(Payload::unknown_names));
         names.extend(self.lateral_unknown_names(model));
+        names.extend(self.coupling.iter().flat_map(CouplingGroup::unknown_names));
         names
     }
 
@@ -489,12 +545,12 @@ impl GravityCompliance {
 
     /// Starting values of the elastic unknowns, in the order of
     /// [`GravityCompliance::elastic_unknown_names`] (compliances, each
-    /// identified payload's mass and first moment, lateral compliances at
-    /// zero).
+    /// identified payload's mass and first moment, lateral and coupling
+    /// compliances at zero).
     pub fn initial_unknowns(&self, model: &Model) -> Vec<f64> {
         let mut x = vec![self.initial_compliance; model.n_actuated()];
         x.extend(self.payload_unknowns());
-        x.resize(x.len() + self.lateral_unknown_names(model).len(), 0.0);
+        x.resize(self.elastic_unknown_names(model).len(), 0.0);
         x
     }
 
@@ -769,6 +825,20 @@ impl GravityTerms {
         }
     }
 
+    /// The generalised gravity force of joint `i` at pose `k` for the
+    /// payload unknowns `payload` (one entry of [`GravityTerms::forces`]).
+    pub(crate) fn force(&self, k: usize, i: usize, payload: &[f64]) -> f64 {
+        let na = self.n_actuated;
+        let stride = na * (1 + self.n_payload);
+        self.terms[k * stride + i]
+            + self
+                .payload_derivatives(k, i)
+                .iter()
+                .zip(payload)
+                .map(|(d, p)| d * p)
+                .sum::<f64>()
+    }
+
     /// `d tau_i / d payload` of pose `k`: `[a_p, B_p0, B_p1, B_p2]` per
     /// identified payload.
     pub(crate) fn payload_derivatives(&self, k: usize, i: usize) -> &[f64] {
@@ -1011,6 +1081,8 @@ impl LateralTerms {
 /// kind = "equilibrium"                  # "one-step", "equilibrium" (tolerance_rad, max_iterations) or "auto" (share)
 /// tolerance_rad = 1e-9
 /// max_iterations = 100
+/// [[coupling_compliance]]              # optional: a coupled group's symmetric compliance
+/// joints = ["T2", "T3", "T4"]           # a passive joint and drives it is coupled to
 ///
 /// [[mass]]
 /// name = "upper arm"
@@ -1043,6 +1115,8 @@ struct MassTableFile {
         skip_serializing_if = "crate::equilibrium::Deflection::is_one_step"
     )]
     deflection: crate::equilibrium::Deflection,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    coupling_compliance: Vec<CouplingGroup>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -1146,6 +1220,27 @@ fn payloads_of(
     Ok(payloads)
 }
 
+/// The coupling groups of a mass table's `[[coupling_compliance]]`
+/// entries: each on its own checked here (two or more joints, none twice),
+/// against the robot when the table meets one.
+fn coupling_of(
+    groups: Vec<CouplingGroup>,
+    bad: &dyn Fn(usize, String) -> CalibError,
+) -> Result<Vec<CouplingGroup>, CalibError> {
+    for group in &groups {
+        if let Some(defect) = group.defect() {
+            return Err(bad(
+                0,
+                format!(
+                    "coupling_compliance [{}]: {defect}",
+                    group.joints.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(groups)
+}
+
 fn default_gravity() -> [f64; 3] {
     [0.0, 0.0, -STANDARD_GRAVITY]
 }
@@ -1231,6 +1326,7 @@ impl GravityCompliance {
             springs: springs_of(&file.spring, &bad)?,
             payloads: payloads_of(&file.payload, &bad)?,
             deflection: file.deflection,
+            coupling: coupling_of(file.coupling_compliance, &bad)?,
         })
     }
 
@@ -1286,6 +1382,7 @@ impl GravityCompliance {
                 })
                 .collect(),
             deflection: self.deflection,
+            coupling_compliance: self.coupling.clone(),
         };
         toml::to_string(&file).map_err(|e| CalibError::Serialise {
             what: "mass table",

@@ -472,6 +472,9 @@ pub(crate) fn identify<'a>(
                 model.actuated_names(),
                 &torque_ranges,
             ),
+            coupling_matrices: &options.gravity.as_ref().map_or_else(Vec::new, |gravity| {
+                crate::coupling::matrix_indices(model, gravity, &layout.names)
+            }),
         },
         &noise_at,
         &mut solve,

@@ -82,6 +82,11 @@ pub struct Calibration {
     /// values are in `unknowns` by name.
     #[serde(skip)]
     pub elastic: Option<(GravityCompliance, Vec<f64>)>,
+    /// The coupling groups' compliance matrices with their standard
+    /// errors ([`crate::coupling`]; empty without
+    /// [`GravityCompliance::coupling`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub coupling: Vec<crate::coupling::CouplingMatrix>,
     /// The joint error terms of the model ([`crate::joint_law`]).
     pub joint_terms: JointTerms,
     /// Their identified values, in the order of
@@ -510,6 +515,16 @@ pub(crate) fn elastic_notes(
         &|_| None,
         largest,
     ));
+    let coupling: Vec<&UnknownEstimate> = unknowns
+        .iter()
+        .filter(|u| crate::gravity::is_coupling_compliance(&u.name))
+        .collect();
+    notes.extend(compliance_sentence(
+        "coupling compliances",
+        &coupling,
+        &|_| None,
+        largest,
+    ));
     let payload = names("payload_");
     if !payload.is_empty() {
         notes.push(format!(
@@ -575,6 +590,14 @@ fn compliance_sentence(
                 });
             }
             UnknownStatus::Fixed => {}
+            UnknownStatus::AtBound if crate::gravity::is_coupling_compliance(&u.name) => {
+                left.push(format!(
+                    "{} (held at {:.3} {unit}, on the positive semi-definite boundary of its group's matrix: the fit gave {:.3} {unit}; a bound that binds says a term of the model is missing or the mass table is off)",
+                    u.name,
+                    u.value * factor,
+                    u.judgement.map_or(f64::NAN, |j| j.value) * factor,
+                ))
+            }
             UnknownStatus::AtBound => left.push(format!(
                 "{} (held at 0, the fit put it below zero: {}; a bound that binds says a term of the model is missing or the mass table is off)",
                 u.name,
@@ -718,6 +741,9 @@ fn packed(
         ..
     } = found;
     let norms: Vec<f64> = errors_after.iter().map(|e| e.position).collect();
+    let coupling = options.gravity.as_ref().map_or_else(Vec::new, |g| {
+        crate::coupling::CouplingMatrix::of_estimates(model, g, &unknowns)
+    });
     Ok(Calibration {
         xi: x[..model.n_params()].to_vec(),
         nominal_xi: model.nominal_params().to_vec(),
@@ -737,6 +763,7 @@ fn packed(
             .gravity
             .as_ref()
             .map(|g| (g.clone(), x[fe..joint_start].to_vec())),
+        coupling,
         joint_terms: options.joint_terms,
         joint_term_values: x[joint_start..].to_vec(),
         identifiability,

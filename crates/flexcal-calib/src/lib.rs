@@ -140,7 +140,10 @@
 //! [`GravityCompliance::lateral`] each revolute joint also tilts about its
 //! frame's x axis under the gravity moment of everything it carries
 //! (`lateral_compliance_<joint>_x`, rad/N.m; [`gravity`], "Lateral joint
-//! compliances"). The built-in table
+//! compliances"). With [`GravityCompliance::coupling`] a coupled joint
+//! group's compliance is a symmetric, positive semi-definite matrix over
+//! the passive joint and its drives (`coupling_compliance_<A>_<B>`,
+//! rad/N.m; [`coupling`]). The built-in table
 //! [`GravityCompliance::ur10_urdf`] holds the UR10's URDF masses; other robots
 //! give a mass-table file ([`GravityCompliance::from_toml_file`]).
 //!
@@ -303,6 +306,7 @@
 
 pub mod accuracy;
 pub mod analysis;
+pub mod coupling;
 pub mod coverage;
 pub mod cross;
 mod elastic_terms;
@@ -339,6 +343,7 @@ pub mod unknowns;
 pub mod validate;
 
 pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
+pub use coupling::CouplingMatrix;
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
 pub use equilibrium::{Deflection, DeflectionChoice, DeflectionReport};
@@ -358,8 +363,8 @@ pub use folds::{
 pub use frames::TCP_FRAME;
 pub use geometry::{register_points, rotation_from_vector, vector_from_rotation};
 pub use gravity::{
-    FrameAxis, GravityCompliance, LateralCompliance, PAYLOAD_PARAMETER_NAMES, Payload, PointMass,
-    Spring,
+    COUPLING_PREFIX, CouplingGroup, FrameAxis, GravityCompliance, LateralCompliance,
+    PAYLOAD_PARAMETER_NAMES, Payload, PointMass, Spring, is_coupling_compliance,
 };
 pub use holdout::{StationHoldOut, hold_out_stations};
 pub use identification::ResidualNorms;

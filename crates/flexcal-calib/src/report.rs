@@ -328,6 +328,47 @@ pub struct IdentificationJson {
     /// `measurement_frame` (absent for one station).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub stations: Vec<StationJson>,
+    /// The coupling groups' compliance matrices (absent without
+    /// `[[coupling_compliance]]` groups in the mass table).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub coupling_compliance: Vec<CouplingMatrixJson>,
+}
+
+/// One coupling group's compliance matrix ([`crate::CouplingMatrix`]) in
+/// urad/N.m.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CouplingMatrixJson {
+    /// The group's joints (frame names): the rows and columns in order.
+    pub joints: Vec<String>,
+    /// The matrix, row by row (urad/N.m).
+    pub compliance_urad_per_nm: Vec<Vec<f64>>,
+    /// Each entry's standard error (urad/N.m; `null` when not identified).
+    pub standard_error_urad_per_nm: Vec<Vec<Option<f64>>>,
+    /// The matrix's smallest eigenvalue (urad/N.m; `>= 0` up to round-off).
+    pub smallest_eigenvalue_urad_per_nm: f64,
+    /// The off-diagonal entries held at the positive semi-definite bound.
+    pub held_at_bound: Vec<String>,
+}
+
+impl From<&crate::CouplingMatrix> for CouplingMatrixJson {
+    fn from(m: &crate::CouplingMatrix) -> Self {
+        let micro = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            rows.iter()
+                .map(|r| r.iter().map(|v| v * 1e6).collect())
+                .collect()
+        };
+        Self {
+            joints: m.joints.clone(),
+            compliance_urad_per_nm: micro(&m.compliance),
+            standard_error_urad_per_nm: m
+                .standard_error
+                .iter()
+                .map(|r| r.iter().map(|s| s.map(|s| s * 1e6)).collect())
+                .collect(),
+            smallest_eigenvalue_urad_per_nm: m.smallest_eigenvalue * 1e6,
+            held_at_bound: m.held_at_bound.clone(),
+        }
+    }
 }
 
 /// One station in the `stations` array.
@@ -640,6 +681,11 @@ impl CalibrationReportJson {
                     })
                     .collect()
             },
+            coupling_compliance: calibration
+                .coupling
+                .iter()
+                .map(CouplingMatrixJson::from)
+                .collect(),
         };
         let validation = validation.map(|v| ValidationJson {
             after: StatisticsJson::from(&v.after),

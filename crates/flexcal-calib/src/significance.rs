@@ -35,6 +35,10 @@
 //! standard error is held at zero ([`ScaleOutcome::AtBound`]) and the rest
 //! fitted again; the report names it, since a bound that binds says that
 //! another term of the model is missing or that the mass table is off.
+//! A coupling group's off-diagonal entries (`coupling_compliance_*`) have
+//! no sign: they are judged on their own scale like the others, and their
+//! group's matrix is held positive semi-definite instead (the coupling
+//! module).
 //!
 //! The noise: the instrument's stated figure when the user gives one
 //! ([`InstrumentNoise`], `--noise-mm`), the file's standard deviations when
@@ -186,6 +190,20 @@ pub struct ScaleJudgement {
     pub outcome: ScaleOutcome,
 }
 
+impl ScaleJudgement {
+    /// Unknown `j` of the fit `report` held at a bound: its fitted value
+    /// and standard error (infinite when the fit gave none).
+    pub(crate) fn at_bound(report: &SolveReport, j: usize) -> Self {
+        Self {
+            value: report.x[j],
+            standard_error: report.standard_errors[j]
+                .filter(|s| s.is_finite())
+                .unwrap_or(f64::INFINITY),
+            outcome: ScaleOutcome::AtBound,
+        }
+    }
+}
+
 /// One solve from `x0` with the unknowns `frozen` held.
 pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[bool]) -> Result<SolveReport, CalibError> + 'a;
 
@@ -197,6 +215,9 @@ pub(crate) type Judged = (SolveReport, Vec<bool>, Vec<Option<ScaleJudgement>>);
 pub(crate) struct Judging<'a> {
     /// Which unknowns are compliances.
     pub compliance: &'a [bool],
+    /// Which compliances are bounded below by zero (all but a coupling
+    /// group's off-diagonal entries).
+    pub nonnegative: &'a [bool],
     /// Absolute standard-error limits (unit of each unknown).
     pub limits: &'a [f64],
     /// [`crate::CalibrationOptions::min_compliance_z`].
@@ -239,7 +260,7 @@ pub(crate) fn judge_compliances(
                 settled.push((j, ScaleOutcome::LeftOut));
             } else if z < judging.z_min {
                 weak.push((j, z));
-            } else if value < -se {
+            } else if judging.nonnegative[j] && value < -se {
                 settled.push((j, ScaleOutcome::AtBound));
             }
         }
@@ -316,66 +337,82 @@ pub(crate) fn hardening_floors(
 /// of the fit in which it binds).
 pub(crate) fn hold_monotone_laws(
     floors: &[Option<(usize, f64)>],
-    (mut report, mut frozen, mut judgements): Judged,
+    judged: Judged,
     solve: &mut Solve<'_>,
 ) -> Result<Judged, CalibError> {
+    hold_at_bounds(judged, solve, &|report, frozen| {
+        floors
+            .iter()
+            .enumerate()
+            .filter_map(|(j, floor)| {
+                let (c, largest) = (*floor)?;
+                crate::joint_law::monotone_hardening_floor(report.x[c], largest)
+                    .filter(|b| !frozen[j] && report.x[j] < *b)
+                    .map(|b| (j, b))
+            })
+            .collect()
+    })
+}
+
+/// The bounds that bind in a fit: each unknown to hold and the value it is
+/// held at, from the fit and the unknowns already frozen.
+pub(crate) type Binding<'a> = dyn Fn(&SolveReport, &[bool]) -> Vec<(usize, f64)> + 'a;
+
+/// Holds the unknowns `binding` names at their bounds (status at-bound,
+/// frozen) and fits the rest again, at most three passes: a bound may
+/// depend on unknowns that move in the refit.
+pub(crate) fn hold_at_bounds(
+    (mut report, mut frozen, mut judgements): Judged,
+    solve: &mut Solve<'_>,
+    binding: &Binding<'_>,
+) -> Result<Judged, CalibError> {
     for _ in 0..3 {
-        let mut x0 = report.x.clone();
-        let mut held = false;
-        for (j, floor) in floors.iter().enumerate() {
-            let Some((c, largest)) = *floor else {
-                continue;
-            };
-            let bound = crate::joint_law::monotone_hardening_floor(report.x[c], largest);
-            if let Some(bound) = bound.filter(|b| !frozen[j] && report.x[j] < *b) {
-                judgements[j] = Some(ScaleJudgement {
-                    value: report.x[j],
-                    standard_error: report.standard_errors[j]
-                        .filter(|s| s.is_finite())
-                        .unwrap_or(f64::INFINITY),
-                    outcome: ScaleOutcome::AtBound,
-                });
-                frozen[j] = true;
-                x0[j] = bound;
-                held = true;
-            }
-        }
-        if !held {
+        let held = binding(&report, &frozen);
+        if held.is_empty() {
             break;
+        }
+        let mut x0 = report.x.clone();
+        for &(j, bound) in &held {
+            judgements[j] = Some(ScaleJudgement::at_bound(&report, j));
+            frozen[j] = true;
+            x0[j] = bound;
         }
         report = solve(&x0, &frozen)?;
     }
     Ok((report, frozen, judgements))
 }
 
+/// A converged fit at `x` with unit standard errors, for the tests of the
+/// bounds.
+#[cfg(test)]
+pub(crate) fn report(x: Vec<f64>) -> SolveReport {
+    let n = x.len();
+    SolveReport {
+        standard_errors: vec![Some(1.0); n],
+        parameter_names: Vec::new(),
+        cost: 0.0,
+        cost_history: Vec::new(),
+        start_weighted_residuals: Vec::new(),
+        iterations: 1,
+        residual_evaluations: 1,
+        jacobian_evaluations: 1,
+        termination: flexcal_optim::Termination::SmallStep,
+        n_free: n,
+        rank: n,
+        not_identified: Vec::new(),
+        singular_values: Vec::new(),
+        condition_number: 1.0,
+        column_scales: Vec::new(),
+        sigma2: 1.0,
+        covariance: None,
+        x,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::coverage::CoordinateCoverage;
-
-    fn report(x: Vec<f64>) -> SolveReport {
-        let n = x.len();
-        SolveReport {
-            standard_errors: vec![Some(1.0); n],
-            parameter_names: Vec::new(),
-            cost: 0.0,
-            cost_history: Vec::new(),
-            start_weighted_residuals: Vec::new(),
-            iterations: 1,
-            residual_evaluations: 1,
-            jacobian_evaluations: 1,
-            termination: flexcal_optim::Termination::SmallStep,
-            n_free: n,
-            rank: n,
-            not_identified: Vec::new(),
-            singular_values: Vec::new(),
-            condition_number: 1.0,
-            column_scales: Vec::new(),
-            sigma2: 1.0,
-            covariance: None,
-            x,
-        }
-    }
 
     /// A softening the fit pushes past the yield is held at the floor of
     /// the compliance it is fitted with, the rest solved again; one within

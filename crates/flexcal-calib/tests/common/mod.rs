@@ -13,6 +13,21 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
+/// A file of `tests/data`.
+pub fn data_file(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// The light two-armed robot of `tests/data/compliant_torso.toml`.
+pub fn compliant_torso() -> Model {
+    flexcal_kinematics::RobotDescription::from_toml_file(&data_file("compliant_torso.toml"))
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
 /// Asserts that the analytic Jacobian of `problem` at `x` matches central
 /// differences with step `step(j)` per unknown: entry by entry within
 /// `tolerance(analytic column, central difference)`. Returns the Jacobian.

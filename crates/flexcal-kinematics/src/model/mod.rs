@@ -433,6 +433,16 @@ impl Model {
         }
         false
     }
+    /// The frames a coupled joint's value is made of, for frame `frame`
+    /// coupled to others (a description's `coupled_to`: `q_frame = sum
+    /// ratio * q_source`): `(source frame index, ratio)` pairs; `None` for
+    /// a frame that is not coupled (or out of range).
+    pub fn coupled_to(&self, frame: usize) -> Option<&[(usize, f64)]> {
+        match self.frames.get(frame)?.source {
+            JointSource::Coupled(c) => Some(self.couplings[c].terms.as_slice()),
+            _ => None,
+        }
+    }
     /// Index of the end frame (the frame the tool transform is attached to).
     pub fn end_frame(&self) -> usize {
         self.end_frame

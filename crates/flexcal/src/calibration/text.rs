@@ -185,6 +185,9 @@ pub fn identification_text(c: &Calibration) -> String {
     for note in c.identifiability_notes() {
         put!(out, "note: {note}");
     }
+    for line in c.coupling.iter().flat_map(|m| m.lines()) {
+        put!(out, "{line}");
+    }
     put!(out);
     put!(
         out,

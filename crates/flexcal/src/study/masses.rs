@@ -187,6 +187,7 @@ pub fn ir663_mass_table(model: &Model, scale: f64) -> Result<GravityCompliance> 
         lateral: flexcal_calib::LateralCompliance::Off,
         springs: Vec::new(),
         payloads: Vec::new(),
+        coupling: Vec::new(),
         deflection: flexcal_calib::Deflection::OneStep,
     })
 }
