@@ -55,29 +55,9 @@
 use nalgebra::{DMatrix, Dyn, LU};
 use serde::{Deserialize, Serialize};
 
+use crate::deflection::Deflection;
 use crate::error::CalibError;
 use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTerms};
-
-/// Default tolerance of the equilibrium iteration: the largest change of a
-/// joint deflection between two iterations at which it stops (rad for a
-/// revolute coordinate, m for a prismatic one): 1e-9 rad moves a point 1 m
-/// away by 1 nm.
-pub const DEFAULT_EQUILIBRIUM_TOLERANCE: f64 = 1e-9;
-
-/// Default iteration cap of the equilibrium's Newton iterations: linear
-/// springs take two (the first solves, the second confirms), the
-/// stiffening law a few more.
-pub const DEFAULT_EQUILIBRIUM_ITERATIONS: usize = 100;
-
-/// Default share of [`Deflection::Auto`]: the equilibrium is switched on
-/// when the one step's deflection changes a joint's gravity torque by
-/// more than 5 % of that joint's torque span over the poses. The one step
-/// errs on a joint's deflection by its compliance times that change, so
-/// the identified compliance, which is read from the deflection's span, is
-/// biased by about that share; 5 % is the size of a well-determined
-/// compliance's standard error on the campaigns of the docs (3-10 %), the
-/// point where the bias stops hiding inside the statistical uncertainty.
-pub const DEFAULT_AUTO_SHARE: f64 = 0.05;
 
 /// Step of the central differences of the gravity stiffness (rad for a
 /// revolute coordinate, m for a prismatic one): their truncation error
@@ -89,135 +69,6 @@ pub const STIFFNESS_STEP: f64 = 1e-5;
 /// [`Deflection::Auto`] and [`DeflectionReport`], as a share of the largest
 /// joint's span (dimensionless): 1 %.
 pub const SPAN_FLOOR: f64 = 0.01;
-
-/// How the elasto-geometric model computes the elastic deflection (module
-/// docs): [`GravityCompliance::deflection`].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum Deflection {
-    /// One linear step on the commanded configuration (default; the
-    /// published figures): `dq = f(tau(q))`.
-    #[default]
-    OneStep,
-    /// The static equilibrium `dq = f(tau(q) + K dq)`, Newton's method until
-    /// no step moves a joint deflection by more than `tolerance_rad` (rad or m,
-    /// `> 0`; default [`DEFAULT_EQUILIBRIUM_TOLERANCE`]), at most
-    /// `max_iterations` times (`>= 1`; default
-    /// [`DEFAULT_EQUILIBRIUM_ITERATIONS`]).
-    Equilibrium {
-        /// Largest change of a joint deflection at which the iteration
-        /// stops (rad or m).
-        tolerance_rad: f64,
-        /// Iteration cap.
-        max_iterations: usize,
-    },
-    /// The one step, then the equilibrium (default tolerance and cap) when
-    /// the one step's deflection changes a joint's torque by more than
-    /// `share` of its span over the poses (in `(0, 1]`; default
-    /// [`DEFAULT_AUTO_SHARE`]).
-    Auto {
-        /// Share of a joint's torque span (dimensionless).
-        share: f64,
-    },
-}
-
-impl Deflection {
-    /// The equilibrium with the default tolerance and iteration cap.
-    pub fn equilibrium() -> Self {
-        Self::Equilibrium {
-            tolerance_rad: DEFAULT_EQUILIBRIUM_TOLERANCE,
-            max_iterations: DEFAULT_EQUILIBRIUM_ITERATIONS,
-        }
-    }
-
-    /// [`Deflection::Auto`] with [`DEFAULT_AUTO_SHARE`].
-    pub fn auto() -> Self {
-        Self::Auto {
-            share: DEFAULT_AUTO_SHARE,
-        }
-    }
-
-    /// Whether this is the default one step.
-    pub fn is_one_step(&self) -> bool {
-        *self == Self::OneStep
-    }
-
-    /// `one-step`, `equilibrium` or `auto`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::OneStep => "one-step",
-            Self::Equilibrium { .. } => "equilibrium",
-            Self::Auto { .. } => "auto",
-        }
-    }
-
-    /// Checks the values.
-    ///
-    /// # Errors
-    /// [`CalibError::InvalidOption`] (`deflection`) naming a tolerance
-    /// that is not finite and `> 0`, a cap of zero, a share outside
-    /// `(0, 1]`.
-    pub fn check(&self) -> Result<(), CalibError> {
-        let invalid = |reason: String| {
-            Err(CalibError::InvalidOption {
-                name: "deflection",
-                reason,
-            })
-        };
-        match *self {
-            Self::OneStep => Ok(()),
-            Self::Equilibrium {
-                tolerance_rad,
-                max_iterations,
-            } => {
-                if !(tolerance_rad.is_finite() && tolerance_rad > 0.0) {
-                    invalid(format!(
-                        "equilibrium tolerance must be finite and > 0 rad, found {tolerance_rad}"
-                    ))
-                } else if max_iterations == 0 {
-                    invalid("equilibrium max_iterations must be at least 1".into())
-                } else {
-                    Ok(())
-                }
-            }
-            Self::Auto { share } => {
-                if share.is_finite() && share > 0.0 && share <= 1.0 {
-                    Ok(())
-                } else {
-                    invalid(format!(
-                        "auto share must be in (0, 1] (a share of each joint's torque span), found {share}"
-                    ))
-                }
-            }
-        }
-    }
-
-    /// The tolerance and cap the model iterates with, `None` for the one
-    /// step (and for [`Deflection::Auto`], whose first fit is the one step).
-    pub(crate) fn iteration(&self) -> Option<(f64, usize)> {
-        match *self {
-            Self::Equilibrium {
-                tolerance_rad,
-                max_iterations,
-            } => Some((tolerance_rad, max_iterations)),
-            _ => None,
-        }
-    }
-}
-
-impl std::str::FromStr for Deflection {
-    type Err = String;
-    /// `one-step`, `equilibrium` (default tolerance and cap) or `auto`
-    /// (default share).
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "one-step" => Ok(Self::OneStep),
-            "equilibrium" => Ok(Self::equilibrium()),
-            "auto" => Ok(Self::auto()),
-            other => Err(format!("`{other}`: expected one-step, equilibrium or auto")),
-        }
-    }
-}
 
 /// Why the calibration used the deflection it used.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -428,7 +279,7 @@ impl GravityStiffness {
 }
 
 /// The equilibrium of one pose: what the deflection and its derivatives
-/// need beyond the one step's [`crate::elastic_terms`] state.
+/// need beyond the one step's elastic-terms state.
 #[derive(Debug, Clone)]
 pub(crate) struct PoseEquilibrium {
     /// The deflection `dq` (rad or m).
@@ -748,83 +599,6 @@ impl DeflectionComparison {
             position_difference_rms_mm: (distances.iter().map(|d| d * d).sum::<f64>() / n).sqrt()
                 * 1e3,
             position_difference_max_mm: distances.iter().fold(0.0, |a: f64, d| a.max(*d)) * 1e3,
-        }
-    }
-}
-
-/// Step 8 of [`crate::calibrate`]: the deflection settled. With
-/// [`Deflection::Auto`], measures the one-step fit's largest torque
-/// change and, beyond the share, identifies again with the equilibrium;
-/// then compares the one step and the equilibrium at the identified
-/// unknowns. Returns the identification kept, the options it was made with
-/// (the deflection resolved to the one it used) and the report (`None`
-/// for the geometric model and the default one step).
-///
-/// # Errors
-/// Those of the identification and of the comparison.
-pub(crate) fn settle<'a>(
-    model: &'a flexcal_kinematics::Model,
-    set: &'a crate::targets::TargetMeasurementSet,
-    options: &crate::CalibrationOptions,
-    found: crate::identification::Identification<'a>,
-) -> Result<
-    (
-        crate::identification::Identification<'a>,
-        crate::CalibrationOptions,
-        Option<DeflectionReport>,
-    ),
-    CalibError,
-> {
-    let deflection = match &options.gravity {
-        Some(gravity) if !gravity.deflection.is_one_step() => gravity.deflection,
-        _ => return Ok((found, options.clone(), None)),
-    };
-    let Some(comparison) = found.problem.compare_deflections(&found.report.x)? else {
-        return Ok((found, options.clone(), None));
-    };
-    let names = model.actuated_names();
-    let resolved = |deflection: Deflection| {
-        let mut resolved = options.clone();
-        if let Some(gravity) = resolved.gravity.as_mut() {
-            gravity.deflection = deflection;
-        }
-        resolved
-    };
-    match deflection {
-        Deflection::Auto { share } => {
-            let measured = comparison.largest().2;
-            if measured > share {
-                let switched = resolved(Deflection::equilibrium());
-                let again = crate::identification::identify(
-                    model,
-                    std::borrow::Cow::Borrowed(set),
-                    &switched,
-                )?;
-                let report = again
-                    .problem
-                    .compare_deflections(&again.report.x)?
-                    .map(|c| {
-                        c.report(
-                            names,
-                            Deflection::equilibrium(),
-                            DeflectionChoice::AutoSwitchedOn,
-                            Some((share, measured)),
-                        )
-                    });
-                Ok((again, switched, report))
-            } else {
-                let report = comparison.report(
-                    names,
-                    Deflection::OneStep,
-                    DeflectionChoice::AutoKeptOneStep,
-                    Some((share, measured)),
-                );
-                Ok((found, resolved(Deflection::OneStep), Some(report)))
-            }
-        }
-        asked => {
-            let report = comparison.report(names, asked, DeflectionChoice::Asked, None);
-            Ok((found, options.clone(), Some(report)))
         }
     }
 }

@@ -92,7 +92,7 @@ pub enum CalibError {
         /// Why.
         what: String,
     },
-    /// The elastic deflection's equilibrium ([`crate::equilibrium`]) did
+    /// The elastic deflection's equilibrium (the equilibrium module) did
     /// not converge at a pose: the springs are too soft for gravity's own
     /// stiffness there (the robot would buckle), or the iteration cap is
     /// too low.

@@ -19,8 +19,9 @@ use flexcal_kinematics::{Data, Model, ParamKind, forward_frames, frame_points_ja
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6xX, Translation3, UnitQuaternion, Vector3};
 
+use crate::deflection::Deflection;
 use crate::elastic_terms::{ElasticTerms, JointState};
-use crate::equilibrium::{Deflection, DeflectionComparison};
+use crate::equilibrium::DeflectionComparison;
 use crate::error::CalibError;
 use crate::frames::{TCP_FRAME, resolve_frame};
 use crate::geometry::{

@@ -140,8 +140,8 @@ pub struct GravityCompliance {
     pub payloads: Vec<Payload>,
     /// How the deflection is computed: one linear step on the commanded
     /// configuration (default), or the static equilibrium
-    /// ([`crate::equilibrium`]).
-    pub deflection: crate::equilibrium::Deflection,
+    /// ([`crate::deflection`]).
+    pub deflection: crate::deflection::Deflection,
     /// Coupled joint groups whose compliance is a symmetric matrix
     /// ([`CouplingGroup`]: unknowns `coupling_compliance_<A>_<B>`,
     /// rad/N.m, starting at zero; default none).
@@ -473,7 +473,7 @@ impl GravityCompliance {
             lateral: LateralCompliance::Off,
             springs: Vec::new(),
             payloads: Vec::new(),
-            deflection: crate::equilibrium::Deflection::OneStep,
+            deflection: crate::deflection::Deflection::OneStep,
             coupling: Vec::new(),
         }
     }
@@ -1112,9 +1112,9 @@ struct MassTableFile {
     payload: Vec<PayloadFile>,
     #[serde(
         default,
-        skip_serializing_if = "crate::equilibrium::Deflection::is_one_step"
+        skip_serializing_if = "crate::deflection::Deflection::is_one_step"
     )]
-    deflection: crate::equilibrium::Deflection,
+    deflection: crate::deflection::Deflection,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     coupling_compliance: Vec<CouplingGroup>,
 }

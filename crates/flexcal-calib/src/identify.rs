@@ -10,6 +10,8 @@ use nalgebra::Isometry3;
 use serde::Serialize;
 
 use crate::coverage::CoordinateCoverage;
+use crate::deflection::Deflection;
+use crate::equilibrium::{DeflectionChoice, DeflectionReport};
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, UnknownKind};
 use crate::frames::TCP_FRAME;
@@ -672,7 +674,7 @@ pub fn calibrate<S: Observations + ?Sized>(
         });
     }
     let found = identify(model, Cow::Borrowed(&*set), options)?;
-    let (found, options, deflection) = crate::equilibrium::settle(model, &set, options, found)?;
+    let (found, options, deflection) = settle(model, &set, options, found)?;
     // The one target of a set of one target per pose is not named.
     let named = matches!(original.kind(), SetKind::Targets(_));
     let mut calibration = packed(model, &set, found, &options, named)?;
@@ -861,4 +863,77 @@ pub(crate) fn weak_spread_note<'a>(
             weak.join(", ")
         )
     })
+}
+
+/// Step 8 of [`crate::calibrate`]: the deflection settled. With
+/// [`Deflection::Auto`], measures the one-step fit's largest torque
+/// change and, beyond the share, identifies again with the equilibrium;
+/// then compares the one step and the equilibrium at the identified
+/// unknowns. Returns the identification kept, the options it was made with
+/// (the deflection resolved to the one it used) and the report (`None`
+/// for the geometric model and the default one step).
+///
+/// # Errors
+/// Those of the identification and of the comparison.
+pub(crate) fn settle<'a>(
+    model: &'a Model,
+    set: &'a TargetMeasurementSet,
+    options: &CalibrationOptions,
+    found: Identification<'a>,
+) -> Result<
+    (
+        Identification<'a>,
+        CalibrationOptions,
+        Option<DeflectionReport>,
+    ),
+    CalibError,
+> {
+    let deflection = match &options.gravity {
+        Some(gravity) if !gravity.deflection.is_one_step() => gravity.deflection,
+        _ => return Ok((found, options.clone(), None)),
+    };
+    let Some(comparison) = found.problem.compare_deflections(&found.report.x)? else {
+        return Ok((found, options.clone(), None));
+    };
+    let names = model.actuated_names();
+    let resolved = |deflection: Deflection| {
+        let mut resolved = options.clone();
+        if let Some(gravity) = resolved.gravity.as_mut() {
+            gravity.deflection = deflection;
+        }
+        resolved
+    };
+    match deflection {
+        Deflection::Auto { share } => {
+            let measured = comparison.largest().2;
+            if measured > share {
+                let switched = resolved(Deflection::equilibrium());
+                let again = identify(model, Cow::Borrowed(set), &switched)?;
+                let report = again
+                    .problem
+                    .compare_deflections(&again.report.x)?
+                    .map(|c| {
+                        c.report(
+                            names,
+                            Deflection::equilibrium(),
+                            DeflectionChoice::AutoSwitchedOn,
+                            Some((share, measured)),
+                        )
+                    });
+                Ok((again, switched, report))
+            } else {
+                let report = comparison.report(
+                    names,
+                    Deflection::OneStep,
+                    DeflectionChoice::AutoKeptOneStep,
+                    Some((share, measured)),
+                );
+                Ok((found, resolved(Deflection::OneStep), Some(report)))
+            }
+        }
+        asked => {
+            let report = comparison.report(names, asked, DeflectionChoice::Asked, None);
+            Ok((found, options.clone(), Some(report)))
+        }
+    }
 }

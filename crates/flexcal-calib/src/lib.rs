@@ -309,6 +309,7 @@ pub mod analysis;
 pub mod coupling;
 pub mod coverage;
 pub mod cross;
+pub mod deflection;
 mod elastic_terms;
 pub mod equilibrium;
 mod error;
@@ -346,7 +347,8 @@ pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationE
 pub use coupling::CouplingMatrix;
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
-pub use equilibrium::{Deflection, DeflectionChoice, DeflectionReport};
+pub use deflection::Deflection;
+pub use equilibrium::{DeflectionChoice, DeflectionReport};
 pub use error::CalibError;
 pub use error_model::{
     ErrorModel, FRAME_PARAMETER_NAMES, FrameStarts, TARGET_PARAMETER_NAMES, UnknownKind,
