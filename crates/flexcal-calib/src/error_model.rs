@@ -402,20 +402,12 @@ impl<'a> ErrorModel<'a> {
         gravity: Option<&GravityCompliance>,
         terms: &JointTerms,
     ) -> Result<Self, CalibError> {
-        let set = &*self.set;
-        let label = |k: usize| set.poses()[k].label(k);
-        let poses = Configurations {
-            q: set.configurations(),
-            label: &label,
-        };
-        let mut elastic = ElasticTerms::none(self.model);
+        let elastic = self.elastic_terms(gravity, terms)?;
         let mut names = Vec::new();
         if let Some(gravity) = gravity {
-            elastic.add_gravity(self.model, &poses, gravity)?;
             names.extend(gravity.elastic_unknown_names(self.model));
         }
         if terms.any() {
-            elastic.add_joint_terms(self.model, &poses, terms)?;
             names.extend(terms.unknown_names(self.model));
         }
         self.lateral_masks = self
@@ -436,6 +428,20 @@ impl<'a> ErrorModel<'a> {
         let Some((gravity, terms)) = &self.elastic_source else {
             return Ok(None);
         };
+        let gravity = GravityCompliance {
+            deflection,
+            ..gravity.clone()
+        };
+        self.elastic_terms(Some(&gravity), terms).map(Some)
+    }
+
+    /// The elastic terms of `gravity` (when elasto-geometric) and `terms`
+    /// at this model's poses.
+    fn elastic_terms(
+        &self,
+        gravity: Option<&GravityCompliance>,
+        terms: &JointTerms,
+    ) -> Result<ElasticTerms, CalibError> {
         let set = &*self.set;
         let label = |k: usize| set.poses()[k].label(k);
         let poses = Configurations {
@@ -443,15 +449,13 @@ impl<'a> ErrorModel<'a> {
             label: &label,
         };
         let mut elastic = ElasticTerms::none(self.model);
-        let gravity = GravityCompliance {
-            deflection,
-            ..gravity.clone()
-        };
-        elastic.add_gravity(self.model, &poses, &gravity)?;
+        if let Some(gravity) = gravity {
+            elastic.add_gravity(self.model, &poses, gravity)?;
+        }
         if terms.any() {
             elastic.add_joint_terms(self.model, &poses, terms)?;
         }
-        Ok(Some(elastic))
+        Ok(elastic)
     }
 
     /// What the equilibrium changes at the unknowns `x`
