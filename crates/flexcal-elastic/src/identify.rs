@@ -641,10 +641,10 @@ fn identifiability_at(
 }
 
 /// Identifies Gamma from deflection measurements: differential evolution in
-/// log space within the bounds ([`global_search`]), then the structural
-/// identifiability analysis ([`structural_groups`], [`hold_groups`]), then
+/// log space within the bounds (`global_search`), then the structural
+/// identifiability analysis (`structural_groups`, `hold_groups`), then
 /// Levenberg-Marquardt on the separable parameters, and the
-/// identifiability report at the solution ([`identifiability_at`]).
+/// identifiability report at the solution (`identifiability_at`).
 ///
 /// # Errors
 /// No measurement, invalid options, a singular structure, solver failures.
