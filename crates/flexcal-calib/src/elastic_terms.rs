@@ -56,6 +56,40 @@ impl JointState {
             equilibrium: None,
         }
     }
+
+    /// The joint springs (with `law` at its offset, or linear), recording
+    /// their derivatives in this state, and beside them the state's
+    /// configuration, torques and equilibrium terms.
+    #[allow(clippy::type_complexity)]
+    fn springs<'a>(
+        &'a mut self,
+        xb: &'a [f64],
+        law: Option<(&'a JointLaw, usize)>,
+    ) -> (
+        Springs<'a>,
+        &'a mut Vec<f64>,
+        &'a mut Vec<f64>,
+        &'a mut Option<PoseEquilibrium>,
+    ) {
+        let JointState {
+            q,
+            tau,
+            by_torque,
+            by_compliance,
+            by_hardening,
+            by_lost_motion,
+            equilibrium,
+        } = self;
+        let springs = Springs {
+            xb,
+            law,
+            by_torque,
+            by_compliance,
+            by_hardening,
+            by_lost_motion,
+        };
+        (springs, q, tau, equilibrium)
+    }
 }
 
 /// The joint springs of [`ElasticTerms::deflect`] at one pose: linear, or
@@ -414,23 +448,8 @@ impl ElasticTerms {
         if let (Some((terms, _)), Some((stiffness, iteration))) = (&self.gravity, &self.stiffness) {
             let payload = &xb[na..na + self.n_payload];
             terms.forces(k, payload, &mut state.tau);
-            let JointState {
-                q,
-                tau,
-                by_torque,
-                by_compliance,
-                by_hardening,
-                by_lost_motion,
-                equilibrium,
-            } = state;
-            let mut springs = Springs {
-                xb,
-                law: self.joint_terms.law.as_ref().zip(self.law_offset()),
-                by_torque,
-                by_compliance,
-                by_hardening,
-                by_lost_motion,
-            };
+            let law = self.joint_terms.law.as_ref().zip(self.law_offset());
+            let (mut springs, q, tau, equilibrium) = state.springs(xb, law);
             let equilibrium = equilibrium.get_or_insert_with(|| PoseEquilibrium::new(na));
             crate::equilibrium::solve(
                 stiffness,
@@ -506,21 +525,8 @@ impl ElasticTerms {
         let payload = &xb[na..na + self.n_payload];
         let mut tau = vec![0.0; na];
         terms.forces(k, payload, &mut tau);
-        let JointState {
-            by_torque,
-            by_compliance,
-            by_hardening,
-            by_lost_motion,
-            ..
-        } = &mut state;
-        let mut springs = Springs {
-            xb,
-            law: self.joint_terms.law.as_ref().zip(self.law_offset()),
-            by_torque,
-            by_compliance,
-            by_hardening,
-            by_lost_motion,
-        };
+        let law = self.joint_terms.law.as_ref().zip(self.law_offset());
+        let (mut springs, ..) = state.springs(xb, law);
         let dq: Vec<f64> = (0..na).map(|i| springs.deflect(i, tau[i]).0).collect();
         let change = crate::equilibrium::one_step_torque_change(stiffness, k, payload, &dq);
         (tau, change)
