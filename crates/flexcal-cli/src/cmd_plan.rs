@@ -11,7 +11,7 @@ use anyhow::Context;
 use flexcal::calib::{CalibrationOptions, FrameTreatment};
 use flexcal::kinematics::Model;
 use flexcal::plan::output::PlanOutputs;
-use flexcal::plan::{JointBox, PlanConfig, PoseSource, plan_campaign};
+use flexcal::plan::{JointBox, LineOfSight, PlanConfig, PoseSource, Sight, plan_campaign};
 
 use flexcal::campaign::ModelKind;
 
@@ -52,6 +52,26 @@ pub struct PlanArgs {
     /// `x,y,z`. Default: positions only.
     #[arg(long, value_delimiter = ',')]
     pub orientation_noise_deg: Option<Vec<f64>>,
+    /// The instrument's reach box in the robot's base frame (mm),
+    /// `x_lo:x_hi,y_lo:y_hi,z_lo:z_hi`: candidates whose target lies
+    /// outside are left out.
+    #[arg(long, allow_hyphen_values = true)]
+    pub reach_box_mm: Option<String>,
+    /// The instrument's position in the robot's base frame (mm), `x,y,z`:
+    /// with --max-incidence-deg, candidates whose target faces away from
+    /// it are left out.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        requires = "max_incidence_deg"
+    )]
+    pub sight_from_mm: Option<Vec<f64>>,
+    /// Largest angle between the target's z axis (the tool axis for the
+    /// TCP) and the line to the instrument (deg): the reflector's
+    /// acceptance half-angle, the LEDs' viewing half-angle.
+    #[arg(long, requires = "sight_from_mm")]
+    pub max_incidence_deg: Option<f64>,
     /// Candidate configurations the cell allows (CSV q1..qn, rad or m).
     /// Default: --candidate-count configurations drawn in --box-deg.
     #[arg(long)]
@@ -182,10 +202,51 @@ fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
     };
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
     config.instrument.orientation_noise_deg = orientation_noise_deg;
+    config.instrument.sight = sight(args)?;
     config.count = args.poses;
     config.max_poses = args.max_poses;
     config.knee_tolerance = args.knee_tolerance;
     Ok(config)
+}
+
+/// The instrument's sight from `--reach-box-mm`, `--sight-from-mm` and
+/// `--max-incidence-deg` (checked by the plan).
+fn sight(args: &PlanArgs) -> anyhow::Result<Sight> {
+    let reach_box_mm = args.reach_box_mm.as_deref().map(reach_box).transpose()?;
+    let line_of_sight = match (&args.sight_from_mm, args.max_incidence_deg) {
+        (Some(p), Some(max_incidence_deg)) => match p[..] {
+            [x, y, z] => Some(LineOfSight {
+                position_mm: [x, y, z],
+                max_incidence_deg,
+            }),
+            _ => crate::usage_bail!(
+                "--sight-from-mm takes three values x,y,z (mm), got {}",
+                p.len()
+            ),
+        },
+        _ => None,
+    };
+    Ok(Sight {
+        reach_box_mm,
+        line_of_sight,
+    })
+}
+
+/// `x_lo:x_hi,y_lo:y_hi,z_lo:z_hi` (mm) of `--reach-box-mm`.
+fn reach_box(text: &str) -> anyhow::Result<[[f64; 2]; 3]> {
+    let ranges = text
+        .split(',')
+        .map(|r| {
+            let (lo, hi) = r.split_once(':')?;
+            Some([lo.trim().parse().ok()?, hi.trim().parse().ok()?])
+        })
+        .collect::<Option<Vec<[f64; 2]>>>();
+    match ranges.as_deref() {
+        Some(&[x, y, z]) => Ok([x, y, z]),
+        _ => crate::usage_bail!(
+            "--reach-box-mm takes three ranges lo:hi (mm) for x, y, z, comma-separated, got `{text}`"
+        ),
+    }
 }
 
 /// One value for the three axes or three `x,y,z` of the flag `flag` (unit

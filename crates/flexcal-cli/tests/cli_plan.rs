@@ -139,6 +139,59 @@ fn plan_with_full_poses() {
     assert_eq!(json["count"], 12);
 }
 
+/// An instrument that sees part of the cell: the plan says how many
+/// candidates it left out and why, and its JSON counts them.
+#[test]
+fn plan_within_the_instruments_sight() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("plan.json");
+    let out = flexcal(&[
+        "plan",
+        "--robot",
+        "ur10",
+        "--noise-mm",
+        "0.02",
+        "--box-deg",
+        BOX,
+        "--candidate-count",
+        "100",
+        "--region-count",
+        "20",
+        "--poses",
+        "15",
+        "--max-poses",
+        "20",
+        "--reach-box-mm",
+        "-2000:2000,-2000:2000,-200:2000",
+        "--sight-from-mm",
+        "2500,0,500",
+        "--max-incidence-deg",
+        "110",
+        "--out",
+        dir.path().join("poses.csv").to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    let count = |k: &str| json[k].as_u64().unwrap();
+    let left_out = count("outside_reach_box") + count("facing_away");
+    assert_eq!(count("candidates") + left_out, 100, "{json}");
+    assert!(left_out > 0, "{json}");
+    assert!(
+        stdout(&out).contains(&format!(
+            "left out {left_out} candidates the instrument cannot see"
+        )),
+        "{}",
+        stdout(&out)
+    );
+    assert_eq!(
+        json["instrument"]["sight"]["line_of_sight"]["max_incidence_deg"],
+        serde_json::json!(110.0)
+    );
+}
+
 /// Each bad input gets a one-line error naming what was wrong, and the
 /// output file is not written.
 #[test]
@@ -151,7 +204,7 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
     let empty = dir.path().join("empty.csv");
     std::fs::write(&empty, "q1,q2,q3,q4,q5,q6\n").unwrap();
     let empty = empty.display().to_string();
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 12] = [
         (
             &["--noise-mm", "0", "--box-deg", BOX],
             "noise along x must be finite and > 0",
@@ -217,6 +270,41 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
         (
             &["--noise-mm", "0.02", "--box-deg", BOX, "--region", &empty],
             "empty.csv",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                BOX,
+                "--reach-box-mm",
+                "-500:500,300:300,0:1000",
+            ],
+            "reach_box_mm: the range along y must be finite with lo < hi",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                BOX,
+                "--reach-box-mm",
+                "5000:6000,-9000:9000,-9000:9000",
+            ],
+            "the instrument sees none of the 200 candidates: 200 outside the reach box",
+        ),
+        (
+            &[
+                "--noise-mm",
+                "0.02",
+                "--box-deg",
+                BOX,
+                "--sight-from-mm",
+                "2000,0,500",
+                "--max-incidence-deg",
+                "0",
+            ],
+            "max_incidence_deg: must be in (0, 180] deg",
         ),
     ];
     for (args, expected) in cases {

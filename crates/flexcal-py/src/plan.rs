@@ -4,7 +4,7 @@
 
 use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{CalibrationOptions, FrameTreatment};
-use flexcal::plan::{JointBox, PlanConfig, PoseSource, plan_campaign};
+use flexcal::plan::{JointBox, LineOfSight, PlanConfig, PoseSource, Sight, plan_campaign};
 use flexcal::pose_file::Located;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -36,6 +36,30 @@ fn configurations(
     ))
 }
 
+/// The instrument's sight from the keywords (checked by the plan).
+fn sight(
+    reach_box_mm: Option<[[f64; 2]; 3]>,
+    sight_from_mm: Option<[f64; 3]>,
+    max_incidence_deg: Option<f64>,
+) -> PyResult<Sight> {
+    let line_of_sight = match (sight_from_mm, max_incidence_deg) {
+        (Some(position_mm), Some(max_incidence_deg)) => Some(LineOfSight {
+            position_mm,
+            max_incidence_deg,
+        }),
+        (None, None) => None,
+        _ => {
+            return Err(InputError::new_err(
+                "sight_from_mm and max_incidence_deg: give both (the instrument's position, mm, and the largest incidence, deg) or neither",
+            ));
+        }
+    };
+    Ok(Sight {
+        reach_box_mm,
+        line_of_sight,
+    })
+}
+
 /// Plans a measurement campaign before measuring: which poses, how many,
 /// and the predicted 95 % bound they buy over the region.
 ///
@@ -49,7 +73,12 @@ fn configurations(
 /// `fixed_target` as for `calibrate`; `orientation_noise_deg` (one value
 /// or three, deg) when the instrument measures full poses, the standard
 /// deviation of the measured orientation about each axis (checked finite
-/// and > 0 by the plan, as `--orientation-noise-deg`).
+/// and > 0 by the plan, as `--orientation-noise-deg`); `reach_box_mm`
+/// ((3, 2): x, y, z ranges in the base frame, mm), `sight_from_mm` (the
+/// instrument's position in the base frame, mm) with `max_incidence_deg`
+/// (the largest angle between the target's z axis and the line to the
+/// instrument, deg): candidates the instrument cannot see are left out
+/// (`outside_reach_box`, `facing_away` count them).
 ///
 /// Returns the plan as a dict: `configurations` (the planned poses),
 /// `selected` (candidate rows), `curve` (per count: `poses` and
@@ -57,7 +86,7 @@ fn configurations(
 /// `max_bound_95_mm`), `knee`, `prediction` (`accuracy`, `map`,
 /// `identifiability_notes`, ...). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None))]
+#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan<'py>(
     py: Python<'py>,
@@ -78,6 +107,9 @@ pub fn plan<'py>(
     fixed_target: bool,
     knee_tolerance: f64,
     orientation_noise_deg: Option<Vec<f64>>,
+    reach_box_mm: Option<[[f64; 2]; 3]>,
+    sight_from_mm: Option<[f64; 3]>,
+    max_incidence_deg: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let robot_model = Arc::clone(&robot.model);
     let dof = robot_model.n_actuated();
@@ -134,6 +166,7 @@ pub fn plan<'py>(
         .transpose()?;
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
     config.instrument.orientation_noise_deg = orientation_noise_deg;
+    config.instrument.sight = sight(reach_box_mm, sight_from_mm, max_incidence_deg)?;
     config.count = poses;
     config.max_poses = max_poses;
     config.knee_tolerance = knee_tolerance;

@@ -70,3 +70,35 @@ def test_full_poses_never_predict_worse_than_positions():
         flexcal.plan(robot, [0.02], orientation_noise_deg=[0.01, 0.02], **common)
     with pytest.raises(flexcal.FlexcalError, match="orientation"):
         flexcal.plan(robot, [0.02], orientation_noise_deg=[0.0], **common)
+
+
+def test_the_plan_leaves_out_what_the_instrument_cannot_see():
+    """A reach box and a line of sight: every planned pose's TCP lies in
+    the box and faces the instrument within the angle (checked here with
+    the robot's own forward kinematics), and the plan counts the rest."""
+    robot = flexcal.Robot.builtin("ur10")
+    rng = np.random.default_rng(6)
+    candidates = rng.uniform(BOX[:, 0], BOX[:, 1], size=(100, 6))
+    region = rng.uniform(BOX[:, 0], BOX[:, 1], size=(15, 6))
+    box = [[-2000.0, 2000.0], [-2000.0, 2000.0], [-200.0, 2000.0]]
+    at, angle = np.array([2500.0, 0.0, 500.0]), 110.0
+    plan = flexcal.plan(
+        robot, [0.02], candidates=candidates, region=region, poses=15, max_poses=20,
+        reach_box_mm=box, sight_from_mm=list(at), max_incidence_deg=angle,
+    )
+    left_out = plan["outside_reach_box"] + plan["facing_away"]
+    assert plan["candidates"] + left_out == 100
+    assert left_out > 0
+    for q in plan["configurations"]:
+        pose = np.asarray(robot.fk(np.asarray(q)))
+        p, z = pose[:3, 3] * 1e3, pose[:3, 2]
+        assert all(lo <= v <= hi for v, (lo, hi) in zip(p, box))
+        cos = z @ (at - p) / np.linalg.norm(at - p)
+        assert cos >= np.cos(np.radians(angle)) - 1e-12
+    with pytest.raises(flexcal.InputError, match="give both"):
+        flexcal.plan(robot, [0.02], candidates=candidates, region=region, sight_from_mm=[0, 0, 0])
+    with pytest.raises(flexcal.FlexcalError, match="sees none of the 100 candidates"):
+        flexcal.plan(
+            robot, [0.02], candidates=candidates, region=region,
+            reach_box_mm=[[5000, 6000], [0, 1], [0, 1]],
+        )

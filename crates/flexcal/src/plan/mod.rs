@@ -9,6 +9,8 @@
 //! configurations (a file, or a joint box sampled with a seed) and the
 //! region where accuracy matters (a path or configuration file, or a joint
 //! box sampled with a seed), [`plan_campaign`]:
+//! 0. leaves out the candidates the instrument cannot see (a reach box, a
+//!    line of sight: [`sight`]);
 //! 1. identifies the pool: `calibrate` on the positions (and orientations,
 //!    when the instrument measures them) the nominal robot would give at
 //!    every candidate, weighted by the instrument's noise
@@ -33,9 +35,10 @@
 //!
 //! ## Limitations
 //! - One target: the instrument measures a point on the flange or tool,
-//!   or its full pose; several targets, line of sight and a reach box of
-//!   the instrument are not modelled. The region's accuracy is that of
-//!   positions.
+//!   or its full pose; several targets are not planned. The region's
+//!   accuracy is that of positions.
+//! - The sight is tested on the nominal robot, the target alone: the
+//!   robot's own links hiding the target are not modelled.
 //! - The prediction is that of a model that holds: what the identified
 //!   model lacks (non-geometric errors, temperature, unmodelled
 //!   elasticity) is not in the bound unless the stated noise includes it
@@ -63,9 +66,11 @@ pub(crate) mod design;
 mod html;
 pub mod ipa_check;
 pub mod output;
+pub mod sight;
 pub mod twin_check;
 
 use design::Design;
+pub use sight::{LineOfSight, OutOfSight, Sight, SightFilter};
 
 /// The instrument of the campaign: what it measures (positions, or full
 /// poses) and its noise.
@@ -83,6 +88,11 @@ pub struct Instrument {
     /// (`srx_deg`, `sry_deg`, `srz_deg`).
     #[serde(default)]
     pub orientation_noise_deg: Option<[f64; 3]>,
+    /// Where it can measure the target (a reach box, a line of sight);
+    /// candidates it cannot see are left out of the plan. Default:
+    /// everywhere.
+    #[serde(default)]
+    pub sight: Sight,
 }
 
 impl Instrument {
@@ -91,6 +101,7 @@ impl Instrument {
         Self {
             noise_mm,
             orientation_noise_deg: None,
+            sight: Sight::default(),
         }
     }
 
@@ -429,14 +440,20 @@ impl PlanConfig {
         }
     }
 
-    /// The largest count on the curve for `n_candidates` candidates.
+    /// The largest count on the curve for `n_candidates` candidates (those
+    /// `sight` kept).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`]: a count of zero or above the candidates.
-    fn curve_end(&self, n_candidates: usize) -> Result<usize> {
+    fn curve_end(&self, n_candidates: usize, sight: &SightFilter) -> Result<usize> {
+        let seen = if sight.left_out() > 0 {
+            format!(" in the instrument's sight ({})", sight.describe())
+        } else {
+            String::new()
+        };
         let too_many = |name: &str, n: usize| Error::InvalidParameter {
             parameter: name.to_string(),
-            message: format!("{n} poses asked for, but only {n_candidates} candidates"),
+            message: format!("{n} poses asked for, but only {n_candidates} candidates{seen}"),
         };
         for (name, n) in [("count", self.count), ("max_poses", self.max_poses)] {
             match n {
@@ -542,8 +559,17 @@ pub struct CampaignPlan {
     pub criterion: String,
     /// The instrument.
     pub instrument: Instrument,
-    /// Number of candidate configurations.
+    /// Number of candidate configurations the instrument sees (those the
+    /// plan chooses among).
     pub candidates: usize,
+    /// Candidates left out because the target lies outside the
+    /// instrument's reach box ([`Sight::reach_box_mm`]).
+    #[serde(default)]
+    pub outside_reach_box: usize,
+    /// Candidates left out because the target faces away from the
+    /// instrument ([`Sight::line_of_sight`]).
+    #[serde(default)]
+    pub facing_away: usize,
     /// Number of region points.
     pub region_points: usize,
     /// The unknowns the whole pool identifies (the design's columns, the
@@ -557,8 +583,9 @@ pub struct CampaignPlan {
     pub knee: Option<usize>,
     /// Number of planned poses.
     pub count: usize,
-    /// The planned poses (rows of the candidates, 0-based), in greedy
-    /// order as refined by the exchange passes.
+    /// The planned poses (rows of the candidates as given, 0-based, those
+    /// out of sight counted), in greedy order as refined by the exchange
+    /// passes.
     pub selected: Vec<usize>,
     /// Where each planned pose came from (file and line, or sample).
     pub origins: Vec<String>,
@@ -574,16 +601,22 @@ pub struct CampaignPlan {
 ///
 /// # Errors
 /// Named errors before any work: the instrument's noise (zero, negative,
-/// NaN), an empty box or one outside the joint limits, a candidate or
-/// region configuration the robot cannot reach (by its row), more poses
-/// than candidates; then the identification's errors, and a pool that
+/// NaN) or sight (an empty reach box, an angle outside (0, 180] deg), an
+/// empty box or one outside the joint limits, a candidate or region
+/// configuration the robot cannot reach (by its row), no candidate in the
+/// instrument's sight, more poses than candidates it sees; then the identification's errors, and a pool that
 /// cannot determine the unknowns with all its poses.
 pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan> {
     config.instrument.check()?;
-    let candidates = config.candidates.configurations(model, "candidates")?;
+    let offered = config.candidates.configurations(model, "candidates")?;
     let region = config.region.configurations(model, "region")?;
-    let end = config.curve_end(candidates.len())?;
     let options = plan_options(&config.options, &config.instrument);
+    let sight = config
+        .instrument
+        .sight
+        .filter(model, &offered, &planned_target(&options))?;
+    let candidates: Vec<&Located<Vec<f64>>> = sight.kept.iter().map(|&k| &offered[k]).collect();
+    let end = config.curve_end(candidates.len(), &sight)?;
     let pool_q: Vec<Vec<f64>> = candidates.iter().map(|c| c.value.clone()).collect();
     let region_q: Vec<Vec<f64>> = region.iter().map(|c| c.value.clone()).collect();
     let (design, design_unknowns) =
@@ -631,13 +664,15 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         criterion: "I-optimal: greedy then exchange on the mean predicted position variance over the region".into(),
         instrument: config.instrument.clone(),
         candidates: candidates.len(),
+        outside_reach_box: sight.outside_box,
+        facing_away: sight.facing_away,
         region_points: region.len(),
         design_unknowns,
         curve,
         knee,
         count,
         origins: selected.iter().map(|&k| candidates[k].origin.clone()).collect(),
-        selected,
+        selected: selected.iter().map(|&k| sight.kept[k]).collect(),
         configurations,
         exchanges,
         prediction,
@@ -873,6 +908,15 @@ impl CampaignPlan {
             self.instrument.describe(),
             self.design_unknowns.len()
         );
+        if self.outside_reach_box + self.facing_away > 0 {
+            let _ = writeln!(
+                out,
+                "left out {} candidates the instrument cannot see: {} outside the reach box, {} facing away from it",
+                self.outside_reach_box + self.facing_away,
+                self.outside_reach_box,
+                self.facing_away
+            );
+        }
         let _ = writeln!(
             out,
             "criterion: {} ({} exchanges)",

@@ -236,6 +236,85 @@ fn bad_input_gets_named_errors() {
     );
 }
 
+/// A sight leaves out exactly the candidates whose TCP lies outside its
+/// box or faces away from the instrument (each tested here on the pose
+/// itself), plans among the rest, and names the rows as given.
+#[test]
+fn the_plan_chooses_only_among_the_poses_the_instrument_sees() {
+    let model = ur10();
+    let mut c = config(Some(12), 120, 20);
+    c.max_poses = Some(20);
+    let offered = c.candidates.configurations(&model, "candidates").unwrap();
+    let mut data = Data::new(&model);
+    let poses: Vec<Isometry3<f64>> = offered
+        .iter()
+        .map(|row| forward_pose(&model, &mut data, &row.value, model.nominal_params()).unwrap())
+        .collect();
+    // A box that cuts off the fifth of the TCPs farthest along x.
+    let mut x_mm: Vec<f64> = poses.iter().map(|x| x.translation.x * 1e3).collect();
+    x_mm.sort_by(f64::total_cmp);
+    let x_hi = x_mm[x_mm.len() * 4 / 5];
+    let instrument_mm = [2500.0, 0.0, 500.0];
+    let (box_mm, half_angle) = (
+        [[-2000.0, x_hi], [-2000.0, 2000.0], [-2000.0, 2000.0]],
+        110.0,
+    );
+    c.instrument.sight = Sight {
+        reach_box_mm: Some(box_mm),
+        line_of_sight: Some(LineOfSight {
+            position_mm: instrument_mm,
+            max_incidence_deg: half_angle,
+        }),
+    };
+    let seen: Vec<bool> = poses
+        .iter()
+        .map(|x| {
+            let p = x.translation.vector * 1e3;
+            let inside = (0..3).all(|i| p[i] >= box_mm[i][0] && p[i] <= box_mm[i][1]);
+            let facing = x.rotation * Vector3::z();
+            let cos = facing.dot(&(Vector3::from(instrument_mm) - p).normalize());
+            inside && cos >= half_angle.to_radians().cos()
+        })
+        .collect();
+    let n_seen = seen.iter().filter(|s| **s).count();
+    assert!(
+        n_seen > 20 && n_seen < offered.len(),
+        "the test's sight must cut: {n_seen}"
+    );
+    let plan = plan_campaign(&model, &c).unwrap();
+    assert_eq!(plan.candidates, n_seen);
+    assert_eq!(
+        plan.candidates + plan.outside_reach_box + plan.facing_away,
+        offered.len()
+    );
+    assert!(
+        plan.outside_reach_box > 0 && plan.facing_away > 0,
+        "{plan:?}"
+    );
+    for (k, q) in plan.selected.iter().zip(&plan.configurations) {
+        assert!(seen[*k], "pose {k} planned out of sight");
+        assert_eq!(&offered[*k].value, q);
+    }
+    assert!(plan.summary_text().contains("facing away from it"));
+    // A box the robot's TCP never enters: refused by name.
+    c.instrument.sight.reach_box_mm = Some([[5000.0, 6000.0], [0.0, 1.0], [0.0, 1.0]]);
+    let m = plan_campaign(&model, &c).unwrap_err().to_string();
+    assert!(
+        m.contains("the instrument sees none of the 120 candidates: 120 outside the reach box"),
+        "{m}"
+    );
+    // More poses than the sight leaves.
+    c.instrument.sight.reach_box_mm = Some(box_mm);
+    c.count = Some(n_seen + 1);
+    let m = plan_campaign(&model, &c).unwrap_err().to_string();
+    assert!(
+        m.contains(&format!(
+            "but only {n_seen} candidates in the instrument's sight"
+        )),
+        "{m}"
+    );
+}
+
 #[test]
 fn region_statistics_use_the_nearest_rank() {
     let bounds: Vec<f64> = (1..=20).map(f64::from).collect();

@@ -139,6 +139,7 @@ impl TwinData {
         Instrument {
             noise_mm: [self.noise_mm; 3],
             orientation_noise_deg: full_poses.then_some(self.orientation_noise_deg),
+            ..Instrument::positions([self.noise_mm; 3])
         }
     }
 
