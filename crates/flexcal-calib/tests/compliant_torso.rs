@@ -796,9 +796,10 @@ fn the_coupling_mechanisms_cross_terms_are_recovered_by_the_groups_matrix() {
     let train = truth.measure(&model, 400, 11);
     let validation = truth.measure(&model, 100, 12);
     let table = std::fs::read_to_string(data_file("compliant_torso_masses.toml")).unwrap();
-    let fit = |extra: &str| {
-        let gravity =
+    let fit = |extra: &str, deflection: flexcal_calib::Deflection| {
+        let mut gravity =
             GravityCompliance::from_toml_str(&format!("{table}\n{extra}"), "masses").unwrap();
+        gravity.deflection = deflection;
         let mut options = CalibrationOptions::for_model(&model);
         options.gravity = Some(gravity);
         let selection = SelectionOptions {
@@ -809,8 +810,27 @@ fn the_coupling_mechanisms_cross_terms_are_recovered_by_the_groups_matrix() {
         let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
         (calibration, held_out.after)
     };
-    let (_, plain) = fit("");
-    let (coupled, with_group) = fit("[[coupling_compliance]]\njoints = [\"T2\", \"T3\", \"T4\"]\n");
+    let group = "[[coupling_compliance]]\njoints = [\"T2\", \"T3\", \"T4\"]\n";
+    let (_, plain) = fit("", flexcal_calib::Deflection::OneStep);
+    let (coupled, with_group) = fit(group, flexcal_calib::Deflection::OneStep);
+    // The truth solves its equilibrium exactly: the equilibrium with the
+    // group's entries in its Newton system predicts the held-out poses no
+    // worse than the one step.
+    let (solved, solved_group) = fit(group, flexcal_calib::Deflection::equilibrium());
+    eprintln!(
+        "coupling mechanism with the equilibrium: held out mean / max {:.3} / {:.3} mm",
+        solved_group.position_mean * 1e3,
+        solved_group.position_max * 1e3
+    );
+    for line in solved.coupling.iter().flat_map(|m| m.lines()) {
+        eprintln!("  {line}");
+    }
+    assert!(
+        solved_group.position_mean <= with_group.position_mean,
+        "held-out mean {} m with the equilibrium, {} m with the one step",
+        solved_group.position_mean,
+        with_group.position_mean
+    );
     let floor = NOISE * (8.0 / std::f64::consts::PI).sqrt();
     eprintln!(
         "coupling mechanism: held out mean / max {:.3} / {:.3} mm with the group's matrix, {:.3} / {:.3} mm without (noise floor {:.3} mm)",
