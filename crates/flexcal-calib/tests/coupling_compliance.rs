@@ -308,13 +308,7 @@ fn exact_coupled_markers(
 ) -> Vec<Vector3<f64>> {
     let mut data = Data::new(model);
     let t4 = model.frame_index("T4").unwrap();
-    let drive = |name: &str| {
-        model
-            .actuated_names()
-            .iter()
-            .position(|a| a == name)
-            .unwrap()
-    };
+    let drive = |name: &str| common::actuated_index(model, name);
     let (i2, i3) = (drive("thetaT2"), drive("thetaT3"));
     let mut dq = vec![0.0; q.len()];
     let mut tau = vec![0.0; q.len()];

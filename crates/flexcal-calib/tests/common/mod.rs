@@ -318,3 +318,12 @@ pub fn lateral_turn(
     );
     t_f * turn * t_f.inverse()
 }
+
+/// The index of the actuated coordinate named `name` of `model`.
+pub fn actuated_index(model: &Model, name: &str) -> usize {
+    model
+        .actuated_names()
+        .iter()
+        .position(|a| a == name)
+        .unwrap_or_else(|| panic!("no actuated coordinate `{name}`"))
+}
