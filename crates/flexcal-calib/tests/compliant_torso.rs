@@ -827,11 +827,17 @@ fn the_coupling_mechanisms_cross_terms_are_recovered_by_the_groups_matrix() {
         plain.position_max * 1e3,
         floor * 1e3
     );
+    for line in coupled.coupling.iter().flat_map(|m| m.lines()) {
+        eprintln!("  {line}");
+    }
     eprintln!(
         "coupling mechanism with the equilibrium: held out mean / max {:.3} / {:.3} mm",
         solved_group.position_mean * 1e3,
         solved_group.position_max * 1e3
     );
+    for line in solved.coupling.iter().flat_map(|m| m.lines()) {
+        eprintln!("  {line}");
+    }
     assert!(
         solved_group.position_mean < 1.15 * floor,
         "held-out mean {} m with the equilibrium (noise floor {floor} m)",
