@@ -412,15 +412,11 @@ fn the_equilibrium_with_a_group_agrees_with_its_exact_fixed_point() {
         .iter()
         .map(|pose| exact_coupled_markers(&model, &set, &loads, &group, &pose.q))
         .collect();
-    let (mut one_step_error, mut equilibrium_error) = (0.0_f64, 0.0_f64);
-    for i in 0..one_step.n_observations() {
-        let (k, t) = one_step.observation(i);
-        let exact = exact[k][t];
-        one_step_error =
-            one_step_error.max((predicted_one_step[i].translation.vector - exact).norm());
-        equilibrium_error =
-            equilibrium_error.max((predicted_equilibrium[i].translation.vector - exact).norm());
-    }
+    let [one_step_error, equilibrium_error] = common::largest_errors(
+        &one_step,
+        [&predicted_one_step, &predicted_equilibrium],
+        |k, t| exact[k][t],
+    );
     eprintln!(
         "coupled group against its exact equilibrium, largest marker error: one step {:.4} mm, equilibrium {:.4} mm",
         one_step_error * 1e3,
