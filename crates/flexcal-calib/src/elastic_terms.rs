@@ -16,7 +16,7 @@ use flexcal_kinematics::Model;
 use nalgebra::{Matrix6xX, UnitQuaternion, Vector3, Vector6};
 
 use crate::coupling::{CouplingTerms, Member};
-use crate::equilibrium::{GravityStiffness, NotConverged, PoseEquilibrium, SpringLaw};
+use crate::equilibrium::{CrossTerm, GravityStiffness, NotConverged, PoseEquilibrium, SpringLaw};
 use crate::error::CalibError;
 use crate::geometry::{left_jacobian, rotation_from_vector};
 use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTerms};
@@ -214,15 +214,6 @@ impl ElasticTerms {
         let lateral = LateralTerms::new(model, poses, gravity)?;
         self.lateral = (lateral.len() > 0).then_some(lateral);
         self.coupling = CouplingTerms::new(model, gravity)?;
-        if !gravity.coupling.is_empty() && !gravity.deflection.is_one_step() {
-            return Err(CalibError::InvalidOption {
-                name: "gravity",
-                reason: format!(
-                    "deflection `{}` with a coupling compliance group: the equilibrium is built for joint and lateral springs only; use the one step (`one-step`) with `[[coupling_compliance]]`",
-                    gravity.deflection.name()
-                ),
-            });
-        }
         self.stiffness = match gravity.deflection.iteration() {
             Some(iteration) => Some((GravityStiffness::new(model, poses, gravity)?, iteration)),
             None => None,
@@ -358,6 +349,40 @@ impl ElasticTerms {
         }
     }
 
+    /// [`ElasticTerms::member_torque`] on the deflected robot: plus its
+    /// change through the deflection (`K dq` or `L_s dq`) when `state`
+    /// holds the equilibrium.
+    fn member_torque_at(
+        &self,
+        k: usize,
+        member: Member,
+        payload: &[f64],
+        equilibrium: Option<&PoseEquilibrium>,
+    ) -> f64 {
+        self.member_torque(k, member, payload)
+            + equilibrium.map_or(0.0, |e| match member {
+                Member::Drive(i) => e.torque_change[i],
+                Member::Passive(s) => e.moment_change[s],
+            })
+    }
+
+    /// The derivative of [`ElasticTerms::member_torque_at`] by payload
+    /// unknown `l` on the equilibrium `equilibrium`.
+    fn member_payload_derivative(
+        &self,
+        k: usize,
+        member: Member,
+        l: usize,
+        equilibrium: &PoseEquilibrium,
+    ) -> f64 {
+        let np = self.n_payload;
+        self.member_torque_derivatives(k, member)[l]
+            + match member {
+                Member::Drive(i) => equilibrium.payload_torque_change[l * self.na + i],
+                Member::Passive(s) => equilibrium.payload_moment_change[s * np + l],
+            }
+    }
+
     /// The derivatives of [`ElasticTerms::member_torque`] by the payload
     /// unknowns.
     fn member_torque_derivatives(&self, k: usize, member: Member) -> &[f64] {
@@ -448,6 +473,18 @@ impl ElasticTerms {
         if let (Some((terms, _)), Some((stiffness, iteration))) = (&self.gravity, &self.stiffness) {
             let payload = &xb[na..na + self.n_payload];
             terms.forces(k, payload, &mut state.tau);
+            let cross: Vec<CrossTerm> = self
+                .coupling_entries()
+                .filter_map(|(j, own, other)| match own {
+                    Member::Drive(drive) => Some(CrossTerm {
+                        drive,
+                        compliance: xb[j],
+                        other,
+                        torque: self.member_torque(k, other, payload),
+                    }),
+                    Member::Passive(_) => None,
+                })
+                .collect();
             let law = self.joint_terms.law.as_ref().zip(self.law_offset());
             let (mut springs, q, tau, equilibrium) = state.springs(xb, law);
             let equilibrium = equilibrium.get_or_insert_with(|| PoseEquilibrium::new(na));
@@ -456,6 +493,7 @@ impl ElasticTerms {
                 k,
                 payload,
                 *iteration,
+                &cross,
                 tau,
                 &mut springs,
                 equilibrium,
@@ -527,7 +565,12 @@ impl ElasticTerms {
         terms.forces(k, payload, &mut tau);
         let law = self.joint_terms.law.as_ref().zip(self.law_offset());
         let (mut springs, ..) = state.springs(xb, law);
-        let dq: Vec<f64> = (0..na).map(|i| springs.deflect(i, tau[i]).0).collect();
+        let mut dq: Vec<f64> = (0..na).map(|i| springs.deflect(i, tau[i]).0).collect();
+        for (j, own, other) in self.coupling_entries() {
+            if let Member::Drive(i) = own {
+                dq[i] += xb[j] * self.member_torque(k, other, payload);
+            }
+        }
         let change = crate::equilibrium::one_step_torque_change(stiffness, k, payload, &dq);
         (tau, change)
     }
@@ -559,6 +602,10 @@ impl ElasticTerms {
         let lateral = self.lateral.as_ref()?;
         let lo = self.lateral_offset()?;
         let payload = &xb[self.na..self.na + self.n_payload];
+        let equilibrium = state
+            .equilibrium
+            .as_ref()
+            .filter(|_| self.stiffness.is_some());
         let mut deltas = Vec::with_capacity(lateral.len());
         let (mut phi, mut t) = (Vector3::zeros(), Vector3::zeros());
         for (s, &moves) in carried.iter().enumerate().take(lateral.len()) {
@@ -567,18 +614,13 @@ impl ElasticTerms {
                 continue;
             }
             let joint = lateral.joint(k, s);
-            let moment = joint.moment(payload)
-                + state
-                    .equilibrium
-                    .as_ref()
-                    .filter(|_| self.stiffness.is_some())
-                    .map_or(0.0, |e| e.moment_change[s]);
-            // A coupling group with the equilibrium is refused by name
-            // (options check): the coupled torques are the one step's.
+            let moment = joint.moment(payload) + equilibrium.map_or(0.0, |e| e.moment_change[s]);
+            // The coupling entries turn the passive joint by the other
+            // joints' torques, on the deflected robot with the equilibrium.
             let coupled: f64 = self
                 .coupling_entries()
                 .filter(|(_, own, _)| *own == Member::Passive(s))
-                .map(|(j, _, other)| xb[j] * self.member_torque(k, other, payload))
+                .map(|(j, _, other)| xb[j] * self.member_torque_at(k, other, payload, equilibrium))
                 .sum();
             let delta = xb[lo + s] * moment + coupled;
             phi += delta * joint.axis;
@@ -613,7 +655,6 @@ impl ElasticTerms {
         p: &Vector3<f64>,
         out: &mut Matrix6xX<f64>,
     ) {
-        let na = self.na;
         // One memset over the storage (nalgebra's element-wise fill walks
         // the 6-row matrix by strides).
         out.as_mut_slice().fill(0.0);
@@ -621,77 +662,111 @@ impl ElasticTerms {
             .equilibrium
             .as_ref()
             .filter(|_| self.stiffness.is_some());
-        if let (Some((terms, _)), Some(equilibrium)) = (&self.gravity, equilibrium) {
-            self.equilibrium_twists(terms, k, state, equilibrium, jq, out);
-        } else if let Some((terms, _)) = &self.gravity {
-            let law_offset = self.law_offset();
-            for i in 0..na {
-                let column = jq.column(i);
-                // dq_i = f(tau_i(payload); c_i, ...): by c_i, df/dc_i; by the
-                // payload, df/dtau_i dtau_i/dpayload.
-                out.column_mut(i).axpy(state.by_compliance[i], &column, 0.0);
-                let d = terms.payload_derivatives(k, i);
-                for (p, dp) in d.iter().enumerate() {
-                    out.column_mut(na + p)
-                        .axpy(state.by_torque[i] * dp, &column, 1.0);
-                }
-                if let Some(lo) = law_offset {
-                    out.column_mut(lo + i)
-                        .axpy(state.by_hardening[i], &column, 0.0);
-                    out.column_mut(lo + na + i)
-                        .axpy(state.by_lost_motion[i], &column, 0.0);
-                }
-            }
-        }
         // The unit twist of each lateral rotation that moves the point
-        // (per rad), for the coupling entries below.
-        let mut lateral_units: Vec<Option<Vector6<f64>>> =
-            vec![None; self.lateral.as_ref().map_or(0, LateralTerms::len)];
-        if let (Some(motion), Some(lateral), Some(lc)) =
-            (motion, &self.lateral, self.lateral_offset())
-        {
-            let r_g = motion.rotation.to_rotation_matrix().into_inner();
-            // d G(p) / d delta_j = (Jl(phi) x_j) x (R_G p) - x_j x o_j,
-            // turning with Jl(phi) x_j; written before G (R_G^T).
-            let jl = left_jacobian(&motion.phi);
-            let p_turned = r_g * p;
-            let r_g_t = r_g.transpose();
-            for (s, &(_, moment)) in motion.deltas.iter().enumerate() {
-                if !carried[s] {
-                    continue;
-                }
-                let joint = lateral.joint(k, s);
-                let turn = jl * joint.axis;
-                let v = r_g_t * (turn.cross(&p_turned) - joint.axis.cross(&joint.origin));
-                let w = r_g_t * turn;
-                let unit = Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z);
-                lateral_units[s] = Some(unit);
-                out.column_mut(lc + s).axpy(moment, &unit, 0.0);
-                let compliance = xb[lc + s];
-                for (p, dp) in joint.payload_derivatives.iter().enumerate() {
-                    out.column_mut(na + p).axpy(compliance * dp, &unit, 1.0);
-                }
-                if let (Some((terms, _)), Some(equilibrium)) = (&self.gravity, equilibrium) {
-                    self.equilibrium_lateral_twists(
-                        terms,
-                        k,
-                        s,
-                        compliance,
-                        state,
-                        equilibrium,
-                        &unit,
-                        out,
-                    );
-                }
-            }
+        // (per rad).
+        let units = self.lateral_units(k, carried, motion, p);
+        if let (Some((terms, _)), Some(equilibrium)) = (&self.gravity, equilibrium) {
+            let sources = EquilibriumSources {
+                terms,
+                k,
+                state,
+                equilibrium,
+                units: &units,
+            };
+            self.equilibrium_twists(xb, &sources, jq, motion, out);
+        } else if let Some((terms, _)) = &self.gravity {
+            self.one_step_twists(terms, xb, k, state, jq, motion, &units, out);
+            self.coupling_twists(xb, k, jq, &units, out);
         }
-        self.coupling_twists(xb, k, jq, &lateral_units, out);
         if let Some(co) = self.cyclic_offset().filter(|_| self.joint_terms.cyclic) {
             let bases = &self.cyclic_bases[k * self.cyclic_joints.len()..];
             for (s, &i) in self.cyclic_joints.iter().enumerate() {
                 for (h, b) in bases[s].iter().enumerate() {
                     out.column_mut(co + 4 * s + h).axpy(*b, &jq.column(i), 0.0);
                 }
+            }
+        }
+    }
+
+    /// The unit twist of each lateral rotation of pose `k` that moves the
+    /// point `p` (`carried`), per radian, written before `G`: `d G(p) / d
+    /// delta_j = (Jl(phi) x_j) x (R_G p) - x_j x o_j`, turning with
+    /// `Jl(phi) x_j`; `None` for a joint that does not move it.
+    fn lateral_units(
+        &self,
+        k: usize,
+        carried: &[bool],
+        motion: Option<&LateralMotion>,
+        p: &Vector3<f64>,
+    ) -> Vec<Option<Vector6<f64>>> {
+        let n = self.lateral.as_ref().map_or(0, LateralTerms::len);
+        let mut units = vec![None; n];
+        let (Some(motion), Some(lateral)) = (motion, &self.lateral) else {
+            return units;
+        };
+        let r_g = motion.rotation.to_rotation_matrix().into_inner();
+        let jl = left_jacobian(&motion.phi);
+        let p_turned = r_g * p;
+        let r_g_t = r_g.transpose();
+        for (s, unit) in units.iter_mut().enumerate() {
+            if !carried[s] {
+                continue;
+            }
+            let joint = lateral.joint(k, s);
+            let turn = jl * joint.axis;
+            let v = r_g_t * (turn.cross(&p_turned) - joint.axis.cross(&joint.origin));
+            let w = r_g_t * turn;
+            *unit = Some(Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z));
+        }
+        units
+    }
+
+    /// The joint and lateral columns of [`ElasticTerms::twists`] with the
+    /// one step.
+    #[allow(clippy::too_many_arguments)]
+    fn one_step_twists(
+        &self,
+        terms: &GravityTerms,
+        xb: &[f64],
+        k: usize,
+        state: &JointState,
+        jq: &Matrix6xX<f64>,
+        motion: Option<&LateralMotion>,
+        units: &[Option<Vector6<f64>>],
+        out: &mut Matrix6xX<f64>,
+    ) {
+        let na = self.na;
+        let law_offset = self.law_offset();
+        for i in 0..na {
+            let column = jq.column(i);
+            // dq_i = f(tau_i(payload); c_i, ...): by c_i, df/dc_i; by the
+            // payload, df/dtau_i dtau_i/dpayload.
+            out.column_mut(i).axpy(state.by_compliance[i], &column, 0.0);
+            let d = terms.payload_derivatives(k, i);
+            for (p, dp) in d.iter().enumerate() {
+                out.column_mut(na + p)
+                    .axpy(state.by_torque[i] * dp, &column, 1.0);
+            }
+            if let Some(lo) = law_offset {
+                out.column_mut(lo + i)
+                    .axpy(state.by_hardening[i], &column, 0.0);
+                out.column_mut(lo + na + i)
+                    .axpy(state.by_lost_motion[i], &column, 0.0);
+            }
+        }
+        let (Some(motion), Some(lateral), Some(lc)) =
+            (motion, &self.lateral, self.lateral_offset())
+        else {
+            return;
+        };
+        for (s, &(_, moment)) in motion.deltas.iter().enumerate() {
+            let Some(unit) = units[s] else {
+                continue;
+            };
+            out.column_mut(lc + s).axpy(moment, &unit, 0.0);
+            let compliance = xb[lc + s];
+            for (p, dp) in lateral.joint(k, s).payload_derivatives.iter().enumerate() {
+                out.column_mut(na + p).axpy(compliance * dp, &unit, 1.0);
             }
         }
     }
@@ -726,89 +801,106 @@ impl ElasticTerms {
             }
         }
     }
+}
 
-    /// The source `b` of the deflection's derivative by payload unknown
-    /// `l` at joint `i`: `f'_i (d tau_i / d p_l + (K_l dq)_i)` (module
-    /// docs of [`crate::equilibrium`]).
-    fn payload_source(
-        &self,
-        terms: &GravityTerms,
-        k: usize,
-        state: &JointState,
-        equilibrium: &PoseEquilibrium,
-        i: usize,
-        l: usize,
-    ) -> f64 {
-        state.by_torque[i]
-            * (terms.payload_derivatives(k, i)[l]
-                + equilibrium.payload_torque_change[l * self.na + i])
-    }
+/// What the equilibrium's columns of [`ElasticTerms::twists`] read at one
+/// pose and point.
+struct EquilibriumSources<'a> {
+    terms: &'a GravityTerms,
+    k: usize,
+    state: &'a JointState,
+    equilibrium: &'a PoseEquilibrium,
+    /// [`ElasticTerms::lateral_units`] of the point.
+    units: &'a [Option<Vector6<f64>>],
+}
 
-    /// The joint-deflection columns of [`ElasticTerms::twists`] with the
-    /// equilibrium: each unknown's source through `jq A^-1`.
+impl ElasticTerms {
+    /// The elastic columns of [`ElasticTerms::twists`] with the equilibrium
+    /// (module docs of [`crate::equilibrium`]): an unknown's source `b` in
+    /// the joint deflections (`dq = A^-1 b`) and its direct part `e` in the
+    /// lateral rotations give the point `R b + sum_s u_s e_s`, where `u_s`
+    /// is lateral rotation `s`'s unit twist, `R = (jq + sum_s u_s h_s^T)
+    /// A^-1`, and `h_s = c_s L_s + sum c_j S_o` the rotation's derivative by
+    /// the joint deflections (its own spring and the coupling entries that
+    /// turn it by another joint's torque).
     fn equilibrium_twists(
         &self,
-        terms: &GravityTerms,
-        k: usize,
-        state: &JointState,
-        equilibrium: &PoseEquilibrium,
+        xb: &[f64],
+        sources: &EquilibriumSources<'_>,
         jq: &Matrix6xX<f64>,
+        motion: Option<&LateralMotion>,
         out: &mut Matrix6xX<f64>,
     ) {
-        let na = self.na;
-        let response = equilibrium.response(jq);
+        let (na, np) = (self.na, self.n_payload);
+        let EquilibriumSources {
+            terms,
+            k,
+            state,
+            equilibrium,
+            units,
+        } = *sources;
+        let payload = &xb[na..na + np];
+        let mut through = jq.clone();
+        if let Some(lc) = self.lateral_offset() {
+            for (s, unit) in units.iter().enumerate() {
+                let Some(unit) = unit else { continue };
+                for d in 0..na {
+                    let own = xb[lc + s] * equilibrium.hinge_stiffness[s * na + d];
+                    let coupled: f64 = self
+                        .coupling_entries()
+                        .filter(|(_, own, _)| *own == Member::Passive(s))
+                        .map(|(j, _, other)| xb[j] * equilibrium.stiffness_entry(other, d))
+                        .sum();
+                    through.column_mut(d).axpy(own + coupled, unit, 1.0);
+                }
+            }
+        }
+        let response = equilibrium.response(&through);
         let column = |i: usize| Vector6::from_fn(|r, _| response[(i, r)]);
         for i in 0..na {
             let twist = column(i);
-            out.column_mut(i).axpy(state.by_compliance[i], &twist, 0.0);
-            for l in 0..self.n_payload {
-                let source = self.payload_source(terms, k, state, equilibrium, i, l);
+            out.column_mut(i).axpy(state.by_compliance[i], &twist, 1.0);
+            for l in 0..np {
+                let source = state.by_torque[i]
+                    * (terms.payload_derivatives(k, i)[l]
+                        + equilibrium.payload_torque_change[l * na + i]);
                 out.column_mut(na + l).axpy(source, &twist, 1.0);
             }
             if let Some(lo) = self.law_offset() {
                 out.column_mut(lo + i)
-                    .axpy(state.by_hardening[i], &twist, 0.0);
+                    .axpy(state.by_hardening[i], &twist, 1.0);
                 out.column_mut(lo + na + i)
-                    .axpy(state.by_lost_motion[i], &twist, 0.0);
+                    .axpy(state.by_lost_motion[i], &twist, 1.0);
             }
         }
-    }
-
-    /// What the equilibrium adds to lateral spring `s`'s rotation
-    /// derivatives (its rotation twist per radian `unit`): `c_s` times its
-    /// moment's change through the deflection, `A^-T L_s` against each
-    /// unknown's source, and the payload parts of `L_s dq`.
-    #[allow(clippy::too_many_arguments)]
-    fn equilibrium_lateral_twists(
-        &self,
-        terms: &GravityTerms,
-        k: usize,
-        s: usize,
-        compliance: f64,
-        state: &JointState,
-        equilibrium: &PoseEquilibrium,
-        unit: &Vector6<f64>,
-        out: &mut Matrix6xX<f64>,
-    ) {
-        let na = self.na;
-        let np = self.n_payload;
-        let response = &equilibrium.hinge_response[s * na..(s + 1) * na];
-        for l in 0..np {
-            let through: f64 = (0..na)
-                .map(|i| response[i] * self.payload_source(terms, k, state, equilibrium, i, l))
-                .sum();
-            let moment = equilibrium.payload_moment_change[s * np + l] + through;
-            out.column_mut(na + l).axpy(compliance * moment, unit, 1.0);
+        for (j, own, other) in self.coupling_entries() {
+            let unit = match own {
+                Member::Drive(i) => column(i),
+                Member::Passive(s) => match units.get(s).copied().flatten() {
+                    Some(unit) => unit,
+                    None => continue,
+                },
+            };
+            let torque = self.member_torque_at(k, other, payload, Some(equilibrium));
+            out.column_mut(j).axpy(torque, &unit, 1.0);
+            for l in 0..np {
+                let dp = self.member_payload_derivative(k, other, l, equilibrium);
+                out.column_mut(na + l).axpy(xb[j] * dp, &unit, 1.0);
+            }
         }
-        for (i, r) in response.iter().enumerate() {
-            let weight = compliance * r;
-            out.column_mut(i)
-                .axpy(weight * state.by_compliance[i], unit, 1.0);
-            if let Some(lo) = self.law_offset() {
-                out.column_mut(lo + i)
-                    .axpy(weight * state.by_hardening[i], unit, 1.0);
-                out.column_mut(lo + na + i)
-                    .axpy(weight * state.by_lost_motion[i], unit, 1.0);
+        let (Some(motion), Some(lateral), Some(lc)) =
+            (motion, &self.lateral, self.lateral_offset())
+        else {
+            return;
+        };
+        for (s, &(_, moment)) in motion.deltas.iter().enumerate() {
+            let Some(unit) = units[s] else { continue };
+            out.column_mut(lc + s).axpy(moment, &unit, 1.0);
+            let joint = lateral.joint(k, s);
+            for l in 0..np {
+                let dp =
+                    joint.payload_derivatives[l] + equilibrium.payload_moment_change[s * np + l];
+                out.column_mut(na + l).axpy(xb[lc + s] * dp, &unit, 1.0);
             }
         }
     }

@@ -34,12 +34,29 @@
 //! does when the iterations do not converge (with how far the last one
 //! still moved).
 //!
+//! A coupling group's compliance matrix ([`crate::coupling`]) enters the
+//! same system: its entries turn a drive by the other joints' torques on
+//! the deflected robot, `dq_a += c_ab (tau_b + K_b dq) + c_ap (M_p + L_p
+//! dq)`, so the Newton system is `dq = f(tau + K dq) + X (T + S dq)` (`X`
+//! the entries, `S` the rows of `K` and `L` of the joints they multiply),
+//! and the passive joint turns by `c_p (M_p + L_p dq) + c_ap (tau_a + K_a
+//! dq) + ..`. On the compliant torso with a coupled group (100-400
+//! urad/N.m, cross terms -80 to 20) the one step misplaces the markers by
+//! up to 2.75 mm against the exact fixed point, this equilibrium by up to
+//! 0.10 mm (`tests/coupling_compliance.rs`, 40 poses, the passive rotation
+//! applied as the lateral springs apply it); the error falls with the cube
+//! of the compliances, the one step's with their square.
+//!
 //! The derivatives are exact for this model, by the implicit function
-//! theorem: with `A = I - diag(f') K`, `d dq / d theta = A^-1 (df/dtheta +
-//! diag(f') d(tau + K dq)/dtheta)` for a compliance, a law term or a
-//! payload unknown, and a lateral spring's rotation gains `c_s L_s d dq /
-//! d theta` ([`crate::ErrorModel`]'s Jacobian, checked against central
-//! differences in `tests/equilibrium.rs`).
+//! theorem: with `A = I - diag(f') K - X S`, `d dq / d theta = A^-1 b`,
+//! `b` the unknown's source at fixed `dq` (`df/dtheta + diag(f')
+//! d(tau + K dq)/dtheta + X d(T + S dq)/dtheta` for a compliance, a law
+//! term, a payload unknown; the other joint's torque `T_o + S_o dq` for a
+//! coupling entry that turns a drive), and a lateral rotation gains `h_s
+//! d dq / d theta` besides its direct part, `h_s = c_s L_s + sum c_j S_o`
+//! its derivative by the joint deflections ([`crate::ErrorModel`]'s
+//! Jacobian, checked against central differences in `tests/equilibrium.rs`
+//! and, with a group, `tests/coupling_compliance.rs`).
 //!
 //! [`Deflection::Auto`] fits the one step first and switches the
 //! equilibrium on (and fits again) when the one step's deflection changes
@@ -50,11 +67,15 @@
 //! the lateral springs and the cyclic joint errors stay on the commanded
 //! configuration (their effect on the torques is of the order of the
 //! product of two deflections); the torques are on the nominal geometry,
-//! as in the one step.
+//! as in the one step. A passive joint's rotation is no unknown of the
+//! Newton system: its lever arm does not load the torques (with the
+//! group above, the markers turned about the deflected robot's axis,
+//! exactly, differ from this model by up to 0.51 mm).
 
 use nalgebra::{DMatrix, Dyn, LU};
 use serde::{Deserialize, Serialize};
 
+use crate::coupling::Member;
 use crate::deflection::Deflection;
 use crate::error::CalibError;
 use crate::gravity::{Configurations, GravityCompliance, GravityTerms, LateralTerms};
@@ -242,6 +263,21 @@ impl GravityStiffness {
         }
     }
 
+    /// `L_s` of every lateral spring at pose `k` for the payload unknowns
+    /// `payload`, spring-major (`n_hinges x na`), into `out`.
+    fn hinge_stiffness(&self, k: usize, payload: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        for s in 0..self.n_hinges {
+            let start = out.len();
+            out.extend_from_slice(self.hinge_row(k, s, 0));
+            for (l, p) in payload.iter().enumerate().take(self.n_payload) {
+                for (o, v) in out[start..].iter_mut().zip(self.hinge_row(k, s, 1 + l)) {
+                    *o += p * v;
+                }
+            }
+        }
+    }
+
     /// `K` of pose `k` for the payload unknowns `payload`, into `out`
     /// (`na x na`).
     fn joint_stiffness(&self, k: usize, payload: &[f64], out: &mut DMatrix<f64>) {
@@ -292,9 +328,9 @@ pub(crate) struct PoseEquilibrium {
     pub moment_change: Vec<f64>,
     /// `L_l,s dq` per lateral spring, then per payload unknown.
     pub payload_moment_change: Vec<f64>,
-    /// `A^-T L_s` per lateral spring, `na` each: a spring's moment change
-    /// per unit source of the deflection.
-    pub hinge_response: Vec<f64>,
+    /// `L_s` per lateral spring with the payload unknowns, `na` each: its
+    /// moment's derivative by the joint deflections (N.m/rad).
+    pub hinge_stiffness: Vec<f64>,
     /// LU factors of `A^T`, `A = I - diag(f') K`.
     lu_transposed: Option<LU<f64, Dyn, Dyn>>,
     k: DMatrix<f64>,
@@ -308,10 +344,21 @@ impl PoseEquilibrium {
             payload_torque_change: Vec::new(),
             moment_change: Vec::new(),
             payload_moment_change: Vec::new(),
-            hinge_response: Vec::new(),
+            hinge_stiffness: Vec::new(),
             lu_transposed: None,
             k: DMatrix::zeros(na, na),
         }
+    }
+
+    /// Entry `d` of joint `member`'s row of the gravity stiffness: its
+    /// torque's derivative by joint deflection `d` (`K` for a drive, the
+    /// spring's `L_s` for a passive joint; N.m/rad).
+    pub(crate) fn stiffness_entry(&self, member: Member, d: usize) -> f64 {
+        Rows {
+            k: &self.k,
+            hinges: &self.hinge_stiffness,
+        }
+        .entry(member, d)
     }
 
     /// `M^T = A^-T jq^T` for a point's joint Jacobian `jq` (6 x na): the
@@ -335,26 +382,73 @@ pub(crate) trait SpringLaw {
     fn is_linear(&self) -> bool;
 }
 
+/// A coupling group's entry in a drive's deflection ([`crate::coupling`]):
+/// `compliance` times the other joint's torque on the deflected robot,
+/// `T_o + S_o dq` (`S_o` its row of `K`, or its spring's `L_s`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CrossTerm {
+    /// The actuated coordinate the entry deflects.
+    pub drive: usize,
+    /// The entry's compliance (rad/N.m).
+    pub compliance: f64,
+    /// The joint whose torque it multiplies.
+    pub other: Member,
+    /// That joint's torque on the commanded configuration, `T_o` (N.m).
+    pub torque: f64,
+}
+
+/// The rows of `K` and of the lateral springs' `L` of one pose (payload
+/// unknowns included): the torques' derivatives by the joint deflections.
+struct Rows<'a> {
+    k: &'a DMatrix<f64>,
+    hinges: &'a [f64],
+}
+
+impl Rows<'_> {
+    /// `S_o . dq`: the change of joint `o`'s torque (N.m).
+    fn times(&self, member: Member, dq: &[f64]) -> f64 {
+        match member {
+            Member::Drive(b) => (0..dq.len()).map(|d| self.k[(b, d)] * dq[d]).sum(),
+            Member::Passive(s) => {
+                let row = &self.hinges[s * dq.len()..(s + 1) * dq.len()];
+                row.iter().zip(dq).map(|(a, b)| a * b).sum()
+            }
+        }
+    }
+
+    /// Entry `d` of `S_o`.
+    fn entry(&self, member: Member, d: usize) -> f64 {
+        match member {
+            Member::Drive(b) => self.k[(b, d)],
+            Member::Passive(s) => self.hinges[s * self.k.ncols() + d],
+        }
+    }
+}
+
 /// Solves the equilibrium of pose `k` (module docs) from the one step's
 /// torques `tau` (on the commanded configuration, with the payload unknowns
-/// `payload`) by Newton's method on `r(dq) = dq - f(tau + K dq)` from
-/// `dq = 0` (the first step is the linearised solution, exact for linear
-/// springs; the law converges quadratically, its steps halved when they do
-/// not reduce the residual), until no step moves a joint by more than the
-/// tolerance; then, for linear springs, checks that the equilibrium is
-/// stable (`I - D^1/2 K_sym D^1/2` positive definite, `D = diag(c)`: the
-/// springs are stiffer than gravity's own stiffness) and factors `A` for the
-/// derivatives. On return `tau` holds `tau + K dq` and `law` has been
-/// called last at it.
+/// `payload`) by Newton's method on `r(dq) = dq - f(tau + K dq) - X (T +
+/// S dq)` from `dq = 0`, `X (T + S dq)` the coupling groups' entries
+/// `cross` in the drives' deflections (the first step is the linearised
+/// solution, exact for linear springs; the law converges quadratically,
+/// its steps halved when they do not reduce the residual), until no step
+/// moves a joint by more than the tolerance; then, for linear springs,
+/// checks that the equilibrium is stable (`I - D^1/2 K_sym D^1/2` positive
+/// definite, `D = diag(c)`: the springs are stiffer than gravity's own
+/// stiffness; with coupling entries also every eigenvalue of `A` with a
+/// positive real part) and factors `A` for the derivatives. On return
+/// `tau` holds `tau + K dq` and `law` has been called last at it.
 ///
 /// # Errors
 /// [`NotConverged`] when the steps do not fall below the tolerance within
 /// the cap, `A` is singular, or the equilibrium is not stable.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn solve(
     stiffness: &GravityStiffness,
     k: usize,
     payload: &[f64],
     (tolerance, max_iterations): (f64, usize),
+    cross: &[CrossTerm],
     tau: &mut [f64],
     law: &mut dyn SpringLaw,
     out: &mut PoseEquilibrium,
@@ -365,29 +459,70 @@ pub(crate) fn solve(
         kmat = DMatrix::zeros(na, na);
     }
     stiffness.joint_stiffness(k, payload, &mut kmat);
+    stiffness.hinge_stiffness(k, payload, &mut out.hinge_stiffness);
+    let hinges = std::mem::take(&mut out.hinge_stiffness);
+    let result = iterate(
+        &Rows {
+            k: &kmat,
+            hinges: &hinges,
+        },
+        (tolerance, max_iterations),
+        cross,
+        tau,
+        law,
+        out,
+    );
+    out.hinge_stiffness = hinges;
+    if result.is_ok() {
+        let np = stiffness.n_payload;
+        out.payload_torque_change.resize(np * na, 0.0);
+        for l in 0..np {
+            stiffness.payload_stiffness_times(
+                k,
+                l,
+                &out.dq,
+                &mut out.payload_torque_change[l * na..(l + 1) * na],
+            );
+        }
+        hinge_changes(stiffness, k, out);
+    }
+    out.k = kmat;
+    result
+}
+
+/// Newton's iterations of [`solve`] on the rows `rows`, then the stability
+/// check and the factors of `A^T` into `out`.
+fn iterate(
+    rows: &Rows<'_>,
+    (tolerance, max_iterations): (f64, usize),
+    cross: &[CrossTerm],
+    tau: &mut [f64],
+    law: &mut dyn SpringLaw,
+    out: &mut PoseEquilibrium,
+) -> Result<(), NotConverged> {
     let tau0 = tau.to_vec();
+    let na = tau0.len();
     let mut slopes = vec![0.0; na];
     out.dq.iter_mut().for_each(|d| *d = 0.0);
     let mut change = f64::INFINITY;
     let mut iterations = 0;
-    let failed = |out: &mut PoseEquilibrium, kmat, iterations, change, unstable| {
-        out.k = kmat;
+    let failed = |iterations, change, unstable| {
         Err(NotConverged {
             iterations,
             change,
             unstable,
         })
     };
-    let mut value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
+    let mut value = evaluate(rows, cross, &tau0, out, tau, law, &mut slopes);
     // A NaN change ends the loop too (`NaN > tolerance` is false).
     while iterations < max_iterations && change > tolerance {
         iterations += 1;
         let residual: Vec<f64> = out.dq.iter().zip(&value).map(|(d, v)| d - v).collect();
-        let Some(step) = system(&slopes, &kmat)
+        let Some(step) = system(&slopes, rows, cross)
             .lu()
             .solve(&nalgebra::DVector::from_vec(residual.clone()))
         else {
-            return failed(out, kmat, iterations, f64::INFINITY, false);
+            return failed(iterations, f64::INFINITY, false);
         };
         // Backtracking: a step of a non-linear law that does not reduce
         // the residual is halved (down to a millionth).
@@ -398,7 +533,7 @@ pub(crate) fn solve(
             for ((d, s0), st) in out.dq.iter_mut().zip(&start).zip(step.iter()) {
                 *d = s0 - scale * st;
             }
-            value = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
+            value = evaluate(rows, cross, &tau0, out, tau, law, &mut slopes);
             let after = largest_difference(&out.dq, &value);
             if law.is_linear() || after <= before || scale < 1e-6 {
                 break;
@@ -407,48 +542,51 @@ pub(crate) fn solve(
         }
         change = scale * step.amax();
     }
-    let converged = change <= tolerance;
-    if !converged {
-        return failed(out, kmat, iterations, change, false);
+    if change > tolerance || change.is_nan() {
+        return failed(iterations, change, false);
     }
-    out.dq = evaluate(&kmat, &tau0, out, tau, law, &mut slopes);
-    if law.is_linear() && !stable(&slopes, &kmat) {
-        return failed(out, kmat, iterations, change, true);
+    out.dq = evaluate(rows, cross, &tau0, out, tau, law, &mut slopes);
+    let a = system(&slopes, rows, cross);
+    if law.is_linear() && !stable(&slopes, rows.k, (!cross.is_empty()).then_some(&a)) {
+        return failed(iterations, change, true);
     }
-    let np = stiffness.n_payload;
-    out.payload_torque_change.resize(np * na, 0.0);
-    for l in 0..np {
-        stiffness.payload_stiffness_times(
-            k,
-            l,
-            &out.dq,
-            &mut out.payload_torque_change[l * na..(l + 1) * na],
-        );
-    }
-    let lu = system(&slopes, &kmat).transpose().lu();
-    hinge_changes(stiffness, k, payload, &lu, out);
-    out.lu_transposed = Some(lu);
-    out.k = kmat;
+    out.lu_transposed = Some(a.transpose().lu());
     Ok(())
 }
 
 /// Whether the springs of slopes `f'` are stiffer than the gravity
 /// stiffness `K`: `I - D^1/2 K_sym D^1/2` positive definite, with `D` the
 /// non-negative slopes (the potential's Hessian `C^-1 - K` scaled by
-/// `C^1/2`).
-fn stable(slopes: &[f64], kmat: &DMatrix<f64>) -> bool {
+/// `C^1/2`); with coupling entries, also every eigenvalue of the system
+/// `a` with a positive real part (a small disturbance of the deflection
+/// decays).
+fn stable(slopes: &[f64], kmat: &DMatrix<f64>, a: Option<&DMatrix<f64>>) -> bool {
     let root: Vec<f64> = slopes.iter().map(|s| s.max(0.0).sqrt()).collect();
     let na = slopes.len();
     let hessian = DMatrix::from_fn(na, na, |i, d| {
         f64::from(u8::from(i == d)) - root[i] * root[d] * 0.5 * (kmat[(i, d)] + kmat[(d, i)])
     });
-    hessian.cholesky().is_some()
+    hessian.cholesky().is_some() && a.is_none_or(decays)
 }
 
-/// `f(tau0 + K dq)` at `out.dq`: writes the torques into `tau`, `K dq`
-/// into `out.torque_change` and each spring's `f'` into `slopes`.
+/// Whether every eigenvalue of `a` has a positive real part (real Schur
+/// form, at most [`SCHUR_SWEEPS`] sweeps per row; a form that does not
+/// converge leaves the decision to the springs' own check).
+fn decays(a: &DMatrix<f64>) -> bool {
+    nalgebra::linalg::Schur::try_new(a.clone(), f64::EPSILON, SCHUR_SWEEPS * a.nrows())
+        .is_none_or(|schur| schur.complex_eigenvalues().iter().all(|e| e.re > 0.0))
+}
+
+/// Sweeps per row of the real Schur form of [`decays`] (a few per
+/// eigenvalue converge; nalgebra's default has no cap).
+const SCHUR_SWEEPS: usize = 30;
+
+/// `f(tau0 + K dq) + X (T + S dq)` at `out.dq`: writes the torques into
+/// `tau`, `K dq` into `out.torque_change` and each spring's `f'` into
+/// `slopes`.
 fn evaluate(
-    kmat: &DMatrix<f64>,
+    rows: &Rows<'_>,
+    cross: &[CrossTerm],
     tau0: &[f64],
     out: &mut PoseEquilibrium,
     tau: &mut [f64],
@@ -456,26 +594,35 @@ fn evaluate(
     slopes: &mut [f64],
 ) -> Vec<f64> {
     let na = tau0.len();
-    (0..na)
+    let mut value: Vec<f64> = (0..na)
         .map(|i| {
-            let kdq: f64 = (0..na).map(|d| kmat[(i, d)] * out.dq[d]).sum();
+            let kdq: f64 = (0..na).map(|d| rows.k[(i, d)] * out.dq[d]).sum();
             tau[i] = tau0[i] + kdq;
             out.torque_change[i] = kdq;
             let (dq, slope) = law.deflect(i, tau[i]);
             slopes[i] = slope;
             dq
         })
-        .collect()
+        .collect();
+    for term in cross {
+        value[term.drive] += term.compliance * (term.torque + rows.times(term.other, &out.dq));
+    }
+    value
 }
 
-/// `A = I - diag(f') K`.
-fn system(slopes: &[f64], kmat: &DMatrix<f64>) -> DMatrix<f64> {
+/// `A = I - diag(f') K - X S`.
+fn system(slopes: &[f64], rows: &Rows<'_>, cross: &[CrossTerm]) -> DMatrix<f64> {
     let na = slopes.len();
-    DMatrix::from_fn(na, na, |i, d| {
-        f64::from(u8::from(i == d)) - slopes[i] * kmat[(i, d)]
-    })
+    let mut a = DMatrix::from_fn(na, na, |i, d| {
+        f64::from(u8::from(i == d)) - slopes[i] * rows.k[(i, d)]
+    });
+    for term in cross {
+        for d in 0..na {
+            a[(term.drive, d)] -= term.compliance * rows.entry(term.other, d);
+        }
+    }
+    a
 }
-
 /// The largest `|a_i - b_i|`.
 fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
@@ -500,34 +647,17 @@ pub(crate) fn one_step_torque_change(
         .collect()
 }
 
-/// The lateral springs' moment changes `L_s dq`, their payload parts and
-/// `A^-T L_s`.
-fn hinge_changes(
-    stiffness: &GravityStiffness,
-    k: usize,
-    payload: &[f64],
-    lu: &LU<f64, Dyn, Dyn>,
-    out: &mut PoseEquilibrium,
-) {
+/// The lateral springs' moment changes `L_s dq` and their payload parts.
+fn hinge_changes(stiffness: &GravityStiffness, k: usize, out: &mut PoseEquilibrium) {
     let (na, np, nh) = (stiffness.na, stiffness.n_payload, stiffness.n_hinges);
     out.moment_change.resize(nh, 0.0);
     out.payload_moment_change.resize(nh * np, 0.0);
-    out.hinge_response.resize(nh * na, 0.0);
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     for s in 0..nh {
-        let mut row = stiffness.hinge_row(k, s, 0).to_vec();
-        for (l, p) in payload.iter().enumerate().take(np) {
-            let part = stiffness.hinge_row(k, s, 1 + l);
-            out.payload_moment_change[s * np + l] = dot(part, &out.dq);
-            for (r, v) in row.iter_mut().zip(part) {
-                *r += p * v;
-            }
+        for l in 0..np {
+            out.payload_moment_change[s * np + l] = dot(stiffness.hinge_row(k, s, 1 + l), &out.dq);
         }
-        out.moment_change[s] = dot(&row, &out.dq);
-        let solved = lu
-            .solve(&nalgebra::DVector::from_vec(row.clone()))
-            .unwrap_or_else(|| nalgebra::DVector::from_vec(row));
-        out.hinge_response[s * na..(s + 1) * na].copy_from_slice(solved.as_slice());
+        out.moment_change[s] = dot(&out.hinge_stiffness[s * na..(s + 1) * na], &out.dq);
     }
 }
 

@@ -282,8 +282,10 @@
 //!   deflected one ([`equilibrium`], opt-in or automatic) takes the
 //!   torques to first order in the deflection (on a robot of 100-400
 //!   urad/N.m it leaves 0.037 mm of the one step's 1.69 mm against the
-//!   exact fixed point), and keeps the lateral springs' axes and the
-//!   lateral rotations' own lever arms on the commanded configuration.
+//!   exact fixed point), takes a coupling group's entries into its Newton
+//!   system, and keeps the lateral springs' axes and the lateral
+//!   rotations' own lever arms (a passive joint's too) on the commanded
+//!   configuration.
 //! - The noise-aware rank decision depends on the standard-error limits; they
 //!   are judgement, not physics (see the options' defaults).
 //! - The IPA standard-deviation columns are sample spreads, not accuracies:

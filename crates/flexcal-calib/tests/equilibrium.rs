@@ -201,25 +201,23 @@ fn the_equilibrium_agrees_with_the_exact_fixed_point() {
     gravity.deflection = Deflection::equilibrium();
     let equilibrium = problem(&model, &set, &gravity, &JointTerms::default());
     let predicted_equilibrium = equilibrium.predict(&x).unwrap();
-    let (mut one_step_error, mut equilibrium_error) = (0.0_f64, 0.0_f64);
     let mut data = Data::new(&model);
-    for i in 0..one_step.n_observations() {
-        let (k, t) = one_step.observation(i);
-        let q = &set.poses()[k].q;
-        let dq = exact_deflection(&model, &gravity, &c, q);
-        let moved: Vec<f64> = q.iter().zip(&dq).map(|(a, b)| a + b).collect();
-        flexcal_kinematics::forward_frames(&model, &mut data, &moved, model.nominal_params())
-            .unwrap();
-        let target = &set.targets()[t];
-        let frame = model.frame_index(&target.frame).unwrap();
-        let exact = (data.frame_pose(frame).unwrap() * target.pose())
-            .translation
-            .vector;
-        one_step_error =
-            one_step_error.max((predicted_one_step[i].translation.vector - exact).norm());
-        equilibrium_error =
-            equilibrium_error.max((predicted_equilibrium[i].translation.vector - exact).norm());
-    }
+    let [one_step_error, equilibrium_error] = common::largest_errors(
+        &one_step,
+        [&predicted_one_step, &predicted_equilibrium],
+        |k, t| {
+            let q = &set.poses()[k].q;
+            let dq = exact_deflection(&model, &gravity, &c, q);
+            let moved: Vec<f64> = q.iter().zip(&dq).map(|(a, b)| a + b).collect();
+            flexcal_kinematics::forward_frames(&model, &mut data, &moved, model.nominal_params())
+                .unwrap();
+            let target = &set.targets()[t];
+            let frame = model.frame_index(&target.frame).unwrap();
+            (data.frame_pose(frame).unwrap() * target.pose())
+                .translation
+                .vector
+        },
+    );
     eprintln!(
         "against the exact equilibrium, largest marker error: one step {:.4} mm, equilibrium {:.4} mm",
         one_step_error * 1e3,

@@ -318,3 +318,31 @@ pub fn lateral_turn(
     );
     t_f * turn * t_f.inverse()
 }
+
+/// The index of the actuated coordinate named `name` of `model`.
+pub fn actuated_index(model: &Model, name: &str) -> usize {
+    model
+        .actuated_names()
+        .iter()
+        .position(|a| a == name)
+        .unwrap_or_else(|| panic!("no actuated coordinate `{name}`"))
+}
+
+/// The largest distance (m) of each of two predictions of `problem` (one
+/// pose per observation, as [`ErrorModel::predict`] gives them) from the
+/// exact marker position `exact(pose, target)` of each observation.
+pub fn largest_errors(
+    problem: &ErrorModel<'_>,
+    predictions: [&[Isometry3<f64>]; 2],
+    mut exact: impl FnMut(usize, usize) -> Vector3<f64>,
+) -> [f64; 2] {
+    let mut largest = [0.0_f64; 2];
+    for i in 0..problem.n_observations() {
+        let (k, t) = problem.observation(i);
+        let exact = exact(k, t);
+        for (l, predicted) in largest.iter_mut().zip(predictions) {
+            *l = l.max((predicted[i].translation.vector - exact).norm());
+        }
+    }
+    largest
+}
