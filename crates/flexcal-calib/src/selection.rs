@@ -1061,18 +1061,10 @@ pub fn select_model<S: Observations + ?Sized>(
     }
 }
 
-/// The search of [`select_model`] over any [`Selectable`] set.
-fn select_in<D: Selectable>(
-    model: &Model,
-    set: &D,
-    base: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
-    let mut groups = available_groups(model, base);
-    if let Some(allowed) = &selection.groups {
-        groups.retain(|g| allowed.contains(g));
-    }
-    let mut report = SelectionReport {
+/// The report of a search with `selection`'s settings, before any
+/// candidate is scored.
+fn empty_report(selection: &SelectionOptions) -> SelectionReport {
+    SelectionReport {
         method: selection.method,
         scheme: selection.scheme,
         folds: selection.folds,
@@ -1085,10 +1077,209 @@ fn select_in<D: Selectable>(
         chosen_on_reason: String::new(),
         extrapolation_end_share: 0.0,
         extrapolation_folds: Vec::new(),
-    };
-    if selection.method != SelectionMethod::None {
-        remove_unidentified_groups(model, set, base, &mut groups, &mut report.reasons);
     }
+}
+
+/// Scores candidates of one search: each set of groups once (backward
+/// steps reach some twice), the candidates of one step fitted together
+/// ([`run_fits`]).
+struct Scorer<'s, D: Selectable> {
+    model: &'s Model,
+    set: &'s D,
+    base: &'s CalibrationOptions,
+    /// The folds of cross-validation (empty for BIC).
+    folds: Vec<(D, D)>,
+    /// The number of ordinary folds (cross-validation), `None` for BIC.
+    ordinary: Option<usize>,
+    /// The score the search chooses on.
+    on: SelectOn,
+    /// Every set of groups scored so far (sorted), with its score.
+    scored: Vec<(Vec<TermGroup>, Option<Score>)>,
+}
+
+impl<D: Selectable> Scorer<'_, D> {
+    /// The scores of `trials` (`None` where a score failed), fitting the
+    /// sets of groups not scored yet and recording them in `report`.
+    fn score(
+        &mut self,
+        trials: &[Vec<TermGroup>],
+        report: &mut SelectionReport,
+    ) -> Vec<Option<Score>> {
+        let keys: Vec<Vec<TermGroup>> = trials
+            .iter()
+            .map(|t| {
+                let mut sorted = t.clone();
+                sorted.sort();
+                sorted
+            })
+            .collect();
+        let mut new: Vec<Vec<TermGroup>> = Vec::new();
+        for key in &keys {
+            if !self.scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
+                new.push(key.clone());
+            }
+        }
+        let options: Vec<CalibrationOptions> = new
+            .iter()
+            .map(|key| {
+                let mut options = candidate_options(self.model, self.base, key);
+                // Scores need no spread ratios.
+                options.spread_reference = false;
+                options
+            })
+            .collect();
+        let fits = run_fits(self.model, self.set, &self.folds, &options);
+        for (key, fits) in new.into_iter().zip(fits) {
+            let mut candidate = CandidateScore::unscored(key.clone());
+            let out = score_candidate(&mut candidate, fits, self.ordinary, self.on);
+            report.candidates.push(candidate);
+            self.scored.push((key, out));
+        }
+        keys.iter()
+            .map(|key| {
+                self.scored
+                    .iter()
+                    .find(|(g, _)| g == key)
+                    .and_then(|(_, s)| s.clone())
+            })
+            .collect()
+    }
+}
+
+/// The candidates of one backward step from `chosen`: each group removed
+/// in turn (the compliances take the payload, the law and the lateral
+/// compliances with them), with the group removed.
+fn removal_trials(chosen: &[TermGroup]) -> Vec<(TermGroup, Vec<TermGroup>)> {
+    chosen
+        .iter()
+        .map(|&g| {
+            let trial = chosen
+                .iter()
+                .copied()
+                .filter(|&c| {
+                    c != g
+                        && !(g == TermGroup::Compliances
+                            && matches!(
+                                c,
+                                TermGroup::Payload
+                                    | TermGroup::JointLaw
+                                    | TermGroup::LateralCompliances
+                            ))
+                })
+                .collect();
+            (g, trial)
+        })
+        .collect()
+}
+
+/// Whether removing `g` (score `s`) from the current model (score
+/// `current`) is taken, and the reason in words. `cv`: the scores are
+/// cross-validation means (m), else BIC.
+fn judge_removal(g: TermGroup, s: &Score, current: &Score, cv: bool) -> (bool, String) {
+    let unit = if cv { "mm" } else { "" };
+    let show = |v: f64| if cv { v * 1e3 } else { v };
+    // The uncertainty of the difference: paired over the folds (CV), or
+    // 2 (BIC: positive evidence for the richer model).
+    let margin = if cv {
+        let d: Vec<f64> = s.1.iter().zip(&current.1).map(|(a, b)| a - b).collect();
+        let k = d.len() as f64;
+        let m = d.iter().sum::<f64>() / k;
+        // A difference below 1 nm in a mean position error is
+        // round-off (noise-free data), not a loss.
+        ((d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0)).sqrt() / k.sqrt())
+            .max(ROUND_OFF_SCORE)
+    } else {
+        2.0
+    };
+    let loss = s.0 - current.0;
+    // A group none of whose unknowns was identified (all left at their
+    // starting values by the identifiability analysis) leaves the same
+    // number of identified unknowns and nearly the same fits: the
+    // paired uncertainty then collapses to almost nothing and would
+    // keep a group that does nothing. Such a removal goes when it
+    // costs less than 0.1 % of the score (cross-validation; BIC's
+    // margin of 2 already lets it go).
+    let empty_group = cv && s.2 >= current.2 && loss <= 1e-3 * current.0.abs();
+    if loss > margin && empty_group {
+        let why = format!(
+            "without {} the score is {:.4} {unit} against {:.4} with as many unknowns identified ({:.0}): none of the group's was, removed",
+            g.label(),
+            show(s.0),
+            show(current.0),
+            s.2
+        );
+        (true, why)
+    } else if loss <= margin {
+        let why = format!(
+            "without {} the score is {:.4} {unit} against {:.4}, not worse by more than its uncertainty {:.4}: removed (the simpler model)",
+            g.label(),
+            show(s.0),
+            show(current.0),
+            show(margin)
+        );
+        (true, why)
+    } else {
+        let why = format!(
+            "every removal worsens the score by more than its uncertainty (the least, {}, from {:.4} to {:.4} {unit}, uncertainty {:.4}): the search stops",
+            g.label(),
+            show(current.0),
+            show(s.0),
+            show(margin)
+        );
+        (false, why)
+    }
+}
+
+/// The backward search from `chosen` (score `current`): at each step the
+/// removal that leaves the best score, taken while [`judge_removal`]
+/// allows. Returns the groups kept.
+fn backward_search<D: Selectable>(
+    scorer: &mut Scorer<'_, D>,
+    mut chosen: Vec<TermGroup>,
+    mut current: Score,
+    report: &mut SelectionReport,
+) -> Vec<TermGroup> {
+    let cv = scorer.ordinary.is_some();
+    loop {
+        let (removed, trials): (Vec<TermGroup>, Vec<Vec<TermGroup>>) =
+            removal_trials(&chosen).into_iter().unzip();
+        let scores = scorer.score(&trials, report);
+        let mut best: Option<(TermGroup, Vec<TermGroup>, Score)> = None;
+        for ((g, trial), s) in removed.into_iter().zip(trials).zip(scores) {
+            if let Some(s) = s {
+                if best.as_ref().is_none_or(|(_, _, b)| s.0 < b.0) {
+                    best = Some((g, trial, s));
+                }
+            }
+        }
+        let Some((g, trial, s)) = best else {
+            report.reasons.push("no group left to remove".into());
+            return chosen;
+        };
+        let (take, why) = judge_removal(g, &s, &current, cv);
+        report.reasons.push(why);
+        if !take {
+            return chosen;
+        }
+        chosen = trial;
+        current = s;
+    }
+}
+
+/// The search of [`select_model`] over any [`Selectable`] set: the
+/// candidate groups, the folds, the score to choose on, the model with
+/// every group, then [`backward_search`].
+fn select_in<D: Selectable>(
+    model: &Model,
+    set: &D,
+    base: &CalibrationOptions,
+    selection: &SelectionOptions,
+) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
+    let mut groups = available_groups(model, base);
+    if let Some(allowed) = &selection.groups {
+        groups.retain(|g| allowed.contains(g));
+    }
+    let mut report = empty_report(selection);
     if selection.method == SelectionMethod::None {
         report.chosen = groups.clone();
         report
@@ -1096,6 +1287,7 @@ fn select_in<D: Selectable>(
             .push("no selection: every group identified".into());
         return Ok((report, candidate_options(model, base, &groups)));
     }
+    remove_unidentified_groups(model, set, base, &mut groups, &mut report.reasons);
     let cv = selection.method == SelectionMethod::CrossValidation;
     // Ordinary folds first, then the extrapolating ones: one queue of fits.
     let (folds, ordinary) = if cv {
@@ -1106,53 +1298,17 @@ fn select_in<D: Selectable>(
     let (chosen_on, why) = score_to_choose_on(model, set, selection, folds.len() > ordinary);
     report.chosen_on = chosen_on;
     report.chosen_on_reason = if cv { why } else { String::new() };
-    // Score of a candidate: (score, per-fold means). Each set of groups is
-    // scored once (backward steps reach some twice); the candidates of one
-    // step are fitted together (`run_fits`).
-    let mut scored: Vec<(Vec<TermGroup>, Option<Score>)> = Vec::new();
-    let mut score_all =
-        |trials: &[Vec<TermGroup>], report: &mut SelectionReport| -> Vec<Option<Score>> {
-            let keys: Vec<Vec<TermGroup>> = trials
-                .iter()
-                .map(|t| {
-                    let mut sorted = t.clone();
-                    sorted.sort();
-                    sorted
-                })
-                .collect();
-            let mut new: Vec<Vec<TermGroup>> = Vec::new();
-            for key in &keys {
-                if !scored.iter().any(|(g, _)| g == key) && !new.contains(key) {
-                    new.push(key.clone());
-                }
-            }
-            let options: Vec<CalibrationOptions> = new
-                .iter()
-                .map(|key| {
-                    let mut options = candidate_options(model, base, key);
-                    // Scores need no spread ratios.
-                    options.spread_reference = false;
-                    options
-                })
-                .collect();
-            let fits = run_fits(model, set, &folds, &options);
-            for (key, fits) in new.into_iter().zip(fits) {
-                let mut candidate = CandidateScore::unscored(key.clone());
-                let out = score_candidate(&mut candidate, fits, cv.then_some(ordinary), chosen_on);
-                report.candidates.push(candidate);
-                scored.push((key, out));
-            }
-            keys.iter()
-                .map(|key| {
-                    scored
-                        .iter()
-                        .find(|(g, _)| g == key)
-                        .and_then(|(_, s)| s.clone())
-                })
-                .collect()
-        };
-    let mut chosen: Vec<TermGroup> = groups.clone();
-    let Some(mut current) = score_all(std::slice::from_ref(&chosen), &mut report)
+    let mut scorer = Scorer {
+        model,
+        set,
+        base,
+        folds,
+        ordinary: cv.then_some(ordinary),
+        on: chosen_on,
+        scored: Vec::new(),
+    };
+    let Some(current) = scorer
+        .score(std::slice::from_ref(&groups), &mut report)
         .pop()
         .flatten()
     else {
@@ -1167,96 +1323,7 @@ fn select_in<D: Selectable>(
             reason: format!("the model with every group could not be scored: {failure}"),
         });
     };
-    let unit = if cv { "mm" } else { "" };
-    let show = |v: f64| if cv { v * 1e3 } else { v };
-    loop {
-        // The removal that leaves the best score (the law goes with the
-        // compliances it modifies).
-        let mut best: Option<(TermGroup, Vec<TermGroup>, Score)> = None;
-        let trials: Vec<Vec<TermGroup>> = chosen
-            .iter()
-            .map(|&g| {
-                chosen
-                    .iter()
-                    .copied()
-                    .filter(|&c| {
-                        c != g
-                            && !(g == TermGroup::Compliances
-                                && matches!(
-                                    c,
-                                    TermGroup::Payload
-                                        | TermGroup::JointLaw
-                                        | TermGroup::LateralCompliances
-                                ))
-                    })
-                    .collect()
-            })
-            .collect();
-        let scores = score_all(&trials, &mut report);
-        for ((&g, trial), s) in chosen.iter().zip(trials).zip(scores) {
-            if let Some(s) = s {
-                if best.as_ref().is_none_or(|(_, _, b)| s.0 < b.0) {
-                    best = Some((g, trial, s));
-                }
-            }
-        }
-        let Some((g, trial, s)) = best else {
-            report.reasons.push("no group left to remove".into());
-            break;
-        };
-        // The uncertainty of the difference: paired over the folds (CV), or
-        // 2 (BIC: positive evidence for the richer model).
-        let margin = if cv {
-            let d: Vec<f64> = s.1.iter().zip(&current.1).map(|(a, b)| a - b).collect();
-            let k = d.len() as f64;
-            let m = d.iter().sum::<f64>() / k;
-            // A difference below 1 nm in a mean position error is
-            // round-off (noise-free data), not a loss.
-            ((d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0)).sqrt() / k.sqrt())
-                .max(ROUND_OFF_SCORE)
-        } else {
-            2.0
-        };
-        let loss = s.0 - current.0;
-        // A group none of whose unknowns was identified (all left at their
-        // starting values by the identifiability analysis) leaves the same
-        // number of identified unknowns and nearly the same fits: the
-        // paired uncertainty then collapses to almost nothing and would
-        // keep a group that does nothing. Such a removal goes when it
-        // costs less than 0.1 % of the score (cross-validation; BIC's
-        // margin of 2 already lets it go).
-        let empty_group = cv && s.2 >= current.2 && loss <= 1e-3 * current.0.abs();
-        if loss > margin && empty_group {
-            report.reasons.push(format!(
-                "without {} the score is {:.4} {unit} against {:.4} with as many unknowns identified ({:.0}): none of the group's was, removed",
-                g.label(),
-                show(s.0),
-                show(current.0),
-                s.2
-            ));
-            chosen = trial;
-            current = s;
-        } else if loss <= margin {
-            report.reasons.push(format!(
-                "without {} the score is {:.4} {unit} against {:.4}, not worse by more than its uncertainty {:.4}: removed (the simpler model)",
-                g.label(),
-                show(s.0),
-                show(current.0),
-                show(margin)
-            ));
-            chosen = trial;
-            current = s;
-        } else {
-            report.reasons.push(format!(
-                "every removal worsens the score by more than its uncertainty (the least, {}, from {:.4} to {:.4} {unit}, uncertainty {:.4}): the search stops",
-                g.label(),
-                show(current.0),
-                show(s.0),
-                show(margin)
-            ));
-            break;
-        }
-    }
+    let mut chosen = backward_search(&mut scorer, groups, current, &mut report);
     chosen.sort();
     report.chosen = chosen.clone();
     Ok((report, candidate_options(model, base, &chosen)))
