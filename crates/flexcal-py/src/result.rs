@@ -9,8 +9,7 @@ use std::sync::Arc;
 
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ExtrapolationModel,
-    SelectionReport, SplitCheck, StationHoldOut, TargetMeasurementSet as TargetSet,
-    validate_targets,
+    MeasurementSet as TargetSet, SelectionReport, SplitCheck, StationHoldOut, validate_targets,
 };
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
