@@ -180,70 +180,24 @@ pub(crate) fn station_index(names: &mut Vec<String>, name: &str) -> usize {
     })
 }
 
-/// Checks the measurements of a one-target set, row by row.
-fn check_rows(source: &str, measurements: &[Measurement]) -> Result<(), CalibError> {
-    let bad = |k: usize, what: String| CalibError::BadMeasurement {
-        source_name: source.to_string(),
-        line: 0,
-        what: format!("pose {k}: {what}"),
-    };
-    let Some(first) = measurements.first() else {
-        return Err(CalibError::BadMeasurement {
-            source_name: source.to_string(),
-            line: 0,
-            what: "no measurements".into(),
-        });
-    };
-    let n = first.q.len();
-    let pattern = first.observation().pattern();
-    for (k, m) in measurements.iter().enumerate() {
-        if m.q.len() != n {
-            return Err(bad(
-                k,
-                format!("{} actuated coordinates, the first pose has {n}", m.q.len()),
-            ));
-        }
-        if m.observation().pattern() != pattern {
-            return Err(bad(
-                k,
-                "orientation and standard deviations must be given for all poses or none".into(),
-            ));
-        }
-        let finite = m.q.iter().all(|v| v.is_finite())
-            && m.position.iter().all(|v| v.is_finite())
-            && m.orientation
-                .is_none_or(|o| o.iter().all(|v| v.is_finite()))
-            && m.wrench.is_none_or(|w| w.iter().all(|v| v.is_finite()))
-            && m.temperature_c.is_none_or(f64::is_finite);
-        if !finite {
-            return Err(bad(k, "a value is NaN or infinite".into()));
-        }
-        check_stds(&m.observation()).map_err(|what| bad(k, what))?;
-    }
-    Ok(())
-}
-
-/// Checks that the standard deviations of an observation are finite and
-/// positive; the message says what is wrong.
-fn check_stds(o: &TargetObservation) -> Result<(), String> {
-    for s in [o.position_std, o.orientation_std].into_iter().flatten() {
-        if !s.iter().all(|v| v.is_finite() && *v > 0.0) {
-            return Err(format!(
-                "standard deviations must be finite and > 0, found {s:?}"
-            ));
-        }
-    }
-    Ok(())
-}
-
 /// Checks poses of `targets`: same number of coordinates, one observation
-/// per target and at least one seen, finite values, each target's
-/// optional groups on all its observations or none, every target seen.
+/// per target and at least one seen, finite values, standard deviations
+/// `> 0`, each target's optional groups on all its observations or none,
+/// every target seen. Messages name the pose and, but for the one target
+/// of a one-target set, the target.
 fn check_poses(source: &str, targets: &[Target], poses: &[TargetPose]) -> Result<(), CalibError> {
     let bad = |k: usize, what: String| CalibError::BadMeasurement {
         source_name: source.to_string(),
         line: 0,
         what: format!("pose {k}: {what}"),
+    };
+    let one_target = targets.len() == 1 && targets[0].name == TCP_TARGET;
+    let about = |t: usize, what: &str| {
+        if one_target {
+            what.to_string()
+        } else {
+            format!("target `{}`: {what}", targets[t].name)
+        }
     };
     let Some(first) = poses.first() else {
         return Err(CalibError::BadMeasurement {
@@ -268,10 +222,7 @@ fn check_poses(source: &str, targets: &[Target], poses: &[TargetPose]) -> Result
             && pose.wrench.is_none_or(|w| w.iter().all(|v| v.is_finite()))
             && pose.temperature_c.is_none_or(f64::is_finite);
         if !finite {
-            return Err(bad(
-                k,
-                "an actuated coordinate, the wrench or the temperature is NaN or infinite".into(),
-            ));
+            return Err(bad(k, "a value is NaN or infinite".into()));
         }
         if pose.observations.len() != targets.len() {
             return Err(bad(
@@ -288,24 +239,26 @@ fn check_poses(source: &str, targets: &[Target], poses: &[TargetPose]) -> Result
         }
         for (t, o) in pose.observations.iter().enumerate() {
             let Some(o) = o else { continue };
-            let name = &targets[t].name;
             let finite = o.position.iter().all(|v| v.is_finite())
                 && o.orientation
                     .is_none_or(|r| r.iter().all(|v| v.is_finite()));
             if !finite {
-                return Err(bad(
-                    k,
-                    format!("target `{name}`: a value is NaN or infinite"),
-                ));
+                return Err(bad(k, about(t, "a value is NaN or infinite")));
             }
-            check_stds(o).map_err(|what| bad(k, format!("target `{name}`: {what}")))?;
+            for s in [o.position_std, o.orientation_std].into_iter().flatten() {
+                if !s.iter().all(|v| v.is_finite() && *v > 0.0) {
+                    let what = format!("standard deviations must be finite and > 0, found {s:?}");
+                    return Err(bad(k, about(t, &what)));
+                }
+            }
             match pattern[t] {
                 None => pattern[t] = Some(o.pattern()),
                 Some(p) if p != o.pattern() => {
                     return Err(bad(
                         k,
-                        format!(
-                            "target `{name}`: orientation and standard deviations must be given on all its observations or none"
+                        about(
+                            t,
+                            "orientation and standard deviations must be given on all observations or none",
                         ),
                     ));
                 }
@@ -333,17 +286,14 @@ impl MeasurementSet {
     /// numbers of coordinates, a non-finite value, orientation or standard
     /// deviations on some poses only, a standard deviation not `> 0`.
     pub fn new(source: &str, measurements: Vec<Measurement>) -> Result<Self, CalibError> {
-        check_rows(source, &measurements)?;
-        Ok(Self {
-            source: source.to_string(),
-            targets: vec![Target::new(TCP_TARGET, TCP_FRAME, Vector3::zeros())],
-            poses: measurements
+        Self::from_poses(
+            source,
+            vec![Target::new(TCP_TARGET, TCP_FRAME, Vector3::zeros())],
+            measurements
                 .into_iter()
                 .map(Measurement::into_pose)
                 .collect(),
-            stations: Vec::new(),
-            station_of: Vec::new(),
-        })
+        )
     }
 
     /// Validates and wraps targets and the poses they were seen at.
