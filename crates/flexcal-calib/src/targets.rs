@@ -1,9 +1,9 @@
 //! Targets, the named frames of the robot a measurement system sees
 //! (laser-tracker reflectors on a tool, markers on the two hands of a
 //! two-armed robot, a probe on a link), their observations and poses, and
-//! the files of several targets per pose. A [`MeasurementSet`] of one
+//! their targets description (TOML). A `MeasurementSet` of one
 //! target per pose is the case of one target on the TCP
-//! ([`crate::measurement::TCP_TARGET`]).
+//! (`tcp`, the one-target files).
 //!
 //! ## Files
 //! A targets description (TOML) names each target, the frame it is fixed
@@ -20,7 +20,7 @@
 //! identify = true           # default true; false keeps the offset fixed
 //! ```
 //!
-//! The measurements are flexcal's CSV ([`MeasurementSet`]'s conventions:
+//! The measurements are flexcal's CSV (`MeasurementSet::read_targets_csv`, the conventions of the one-target CSV:
 //! comma-separated, `#` comments, columns in any order) with `q1..qn`, an
 //! optional `pose_id` and `station`, and per target `<name>_x_mm, <name>_y_mm,
 //! <name>_z_mm` (position in the measurement frame), optionally
@@ -28,17 +28,15 @@
 //! deviations) and `<name>_srx_deg..`. A target not seen on a pose has empty
 //! cells on that row (all of its cells).
 
-use std::fmt::Write as _;
 use std::path::Path;
 
-use flexcal_io::{CsvOptions, CsvTable, write_atomic};
+use flexcal_io::write_atomic;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CalibError;
+use crate::frames::FrameTreatment;
 use crate::geometry::{rotation_from_vector, vector_from_rotation};
-use crate::measurement::{MeasurementSet, station_index};
-use crate::options::FrameTreatment;
 
 /// A measured target fixed to a frame of the robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -137,135 +135,6 @@ impl TargetPose {
     }
 }
 
-/// Every `<name>_x_mm` column of `table` names a target of `targets`.
-fn check_target_columns(
-    table: &CsvTable,
-    source: &str,
-    targets: &[Target],
-) -> Result<(), CalibError> {
-    for h in table.header() {
-        let Some(prefix) = h.strip_suffix("_x_mm") else {
-            continue;
-        };
-        if !targets.iter().any(|t| t.name == prefix) {
-            return Err(CalibError::BadMeasurement {
-                source_name: source.to_string(),
-                line: 1,
-                what: format!(
-                    "column `{h}`: no target `{prefix}` in the targets description (targets: {})",
-                    targets
-                        .iter()
-                        .map(|t| t.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// The columns of one target in the CSV format: position (required),
-/// orientation, position and orientation standard deviations (optional,
-/// each all three or none).
-struct TargetColumns {
-    position: [usize; 3],
-    orientation: Option<[usize; 3]>,
-    position_std: Option<[usize; 3]>,
-    orientation_std: Option<[usize; 3]>,
-}
-
-/// A cell error of the table (`Ok`), or what is wrong with a target's
-/// cells on a row (`Err`, for the caller to name the target and line).
-type CellProblem = Result<CalibError, String>;
-
-impl TargetColumns {
-    /// The columns of `target` in `table`.
-    fn find(table: &CsvTable, target: &Target) -> Result<Self, CalibError> {
-        let names = |suffixes: [&str; 3]| suffixes.map(|s| format!("{}_{s}", target.name));
-        let required = |suffixes: [&str; 3]| -> Result<[usize; 3], CalibError> {
-            let names = names(suffixes);
-            let mut out = [0; 3];
-            for (i, n) in names.iter().enumerate() {
-                out[i] = table.column_index(n)?;
-            }
-            Ok(out)
-        };
-        let optional = |suffixes: [&str; 3]| -> Result<Option<[usize; 3]>, CalibError> {
-            if names(suffixes)
-                .iter()
-                .all(|n| table.find_column(n).is_none())
-            {
-                return Ok(None);
-            }
-            required(suffixes).map(Some)
-        };
-        Ok(Self {
-            position: required(["x_mm", "y_mm", "z_mm"])?,
-            orientation: optional(["rx_deg", "ry_deg", "rz_deg"])?,
-            position_std: optional(["sx_mm", "sy_mm", "sz_mm"])?,
-            orientation_std: optional(["srx_deg", "sry_deg", "srz_deg"])?,
-        })
-    }
-
-    /// The target's observation on `row` (SI units), `None` when all its
-    /// cells are empty (not seen).
-    fn observation(
-        &self,
-        table: &CsvTable,
-        row: usize,
-    ) -> Result<Option<TargetObservation>, CellProblem> {
-        let all: Vec<usize> = std::iter::once(&self.position)
-            .chain(&self.orientation)
-            .chain(&self.position_std)
-            .chain(&self.orientation_std)
-            .flatten()
-            .copied()
-            .collect();
-        let empty = all
-            .iter()
-            .filter(|&&c| table.cell(row, c).is_empty())
-            .count();
-        if empty == all.len() {
-            return Ok(None);
-        }
-        if empty > 0 {
-            return Err(Err(
-                "some of its cells are empty (leave all of them empty when it is not seen)".into(),
-            ));
-        }
-        let deg = 1f64.to_radians();
-        let vec3 = |cols: &[usize; 3], scale: f64| -> Result<Vector3<f64>, CellProblem> {
-            let at = |c: usize| table.f64_at(row, c).map_err(|e| Ok(CalibError::from(e)));
-            Ok(Vector3::new(at(cols[0])?, at(cols[1])?, at(cols[2])?) * scale)
-        };
-        let o = TargetObservation {
-            position: vec3(&self.position, 1e-3)?,
-            orientation: self
-                .orientation
-                .as_ref()
-                .map(|c| vec3(c, deg))
-                .transpose()?,
-            position_std: self
-                .position_std
-                .as_ref()
-                .map(|c| vec3(c, 1e-3))
-                .transpose()?,
-            orientation_std: self
-                .orientation_std
-                .as_ref()
-                .map(|c| vec3(c, deg))
-                .transpose()?,
-        };
-        for s in [o.position_std, o.orientation_std].into_iter().flatten() {
-            if s.iter().any(|v| *v <= 0.0) {
-                return Err(Err("standard deviations must be > 0".into()));
-            }
-        }
-        Ok(Some(o))
-    }
-}
-
 fn valid_target_name(name: &str) -> bool {
     !name.is_empty()
         && name
@@ -304,182 +173,6 @@ pub(crate) fn check_targets(source: &str, targets: &[Target]) -> Result<(), Cali
         }
     }
     Ok(())
-}
-
-impl MeasurementSet {
-    /// Reads flexcal's CSV with per-target columns (see the module docs),
-    /// the targets given by their description.
-    ///
-    /// # Errors
-    /// File and CSV errors with line and column, a target without its
-    /// position columns, position columns of a target the description does
-    /// not know, partly empty cells, and the checks of
-    /// [`MeasurementSet::from_poses`].
-    pub fn read_targets_csv(path: &Path, targets: &[Target]) -> Result<Self, CalibError> {
-        let table = CsvTable::read(path, &CsvOptions::default())?;
-        Self::from_targets_table(&table, targets)
-    }
-
-    /// Parses the CSV format from text; `source` names it in errors.
-    ///
-    /// # Errors
-    /// As [`MeasurementSet::read_targets_csv`].
-    pub fn from_targets_csv_str(
-        text: &str,
-        source: &str,
-        targets: &[Target],
-    ) -> Result<Self, CalibError> {
-        let table = CsvTable::from_str(text, source, &CsvOptions::default())?;
-        Self::from_targets_table(&table, targets)
-    }
-
-    fn from_targets_table(table: &CsvTable, targets: &[Target]) -> Result<Self, CalibError> {
-        let source = table.path().display().to_string();
-        check_targets(&source, targets)?;
-        table.require_rows()?;
-        let mut q_columns = Vec::new();
-        while let Some(c) = table.find_column(&format!("q{}", q_columns.len() + 1)) {
-            q_columns.push(c);
-        }
-        if q_columns.is_empty() {
-            table.column_index("q1")?;
-        }
-        check_target_columns(table, &source, targets)?;
-        let groups = targets
-            .iter()
-            .map(|t| TargetColumns::find(table, t))
-            .collect::<Result<Vec<_>, _>>()?;
-        let pose_id = table.find_column("pose_id");
-        let station = table.find_column("station");
-        let mut stations: Vec<String> = Vec::new();
-        let mut station_of = Vec::with_capacity(table.len());
-        let mut poses = Vec::with_capacity(table.len());
-        for row in 0..table.len() {
-            let line = table.line_of(row);
-            let bad = |what: String| CalibError::BadMeasurement {
-                source_name: source.clone(),
-                line,
-                what,
-            };
-            let q = q_columns
-                .iter()
-                .map(|&c| table.f64_at(row, c))
-                .collect::<Result<Vec<_>, _>>()?;
-            let observations = groups
-                .iter()
-                .zip(targets)
-                .map(|(columns, target)| {
-                    columns.observation(table, row).map_err(|e| {
-                        e.unwrap_or_else(|what| bad(format!("target `{}`: {what}", target.name)))
-                    })
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            if observations.iter().all(Option::is_none) {
-                return Err(bad("no target observed on this pose".into()));
-            }
-            if let Some(column) = station {
-                // Stations by name, in the order they first appear.
-                let name = table.cell(row, column).trim();
-                if name.is_empty() {
-                    return Err(bad("empty `station` cell".into()));
-                }
-                station_of.push(station_index(&mut stations, name));
-            }
-            poses.push(TargetPose {
-                pose_id: pose_id.map(|c| table.cell(row, c).to_string()),
-                q,
-                observations,
-                wrench: None,
-                temperature_c: None,
-            });
-        }
-        let set = Self::from_poses(&source, targets.to_vec(), poses)?;
-        if station.is_some() {
-            set.with_stations(stations, station_of)
-        } else {
-            Ok(set)
-        }
-    }
-
-    /// The set in the CSV format with per-target columns (mm and deg, full
-    /// precision; empty cells where a target was not seen). The targets go
-    /// to their own file ([`targets_to_toml_string`]).
-    pub(crate) fn to_targets_csv_string(&self) -> String {
-        let with_ids = self.poses().iter().any(|p| p.pose_id.is_some());
-        let mut header: Vec<String> = if with_ids {
-            vec!["pose_id".into()]
-        } else {
-            Vec::new()
-        };
-        header.extend((1..=self.n_actuated()).map(|i| format!("q{i}")));
-        // Which optional groups each target has (from any observation: they
-        // are all alike, see `new`).
-        let has: Vec<[bool; 3]> = (0..self.targets().len())
-            .map(|t| {
-                // Every target is observed somewhere (`from_poses`); a subset
-                // can leave one unseen: no optional groups then.
-                let (o, p, s) = self
-                    .observations_of(t)
-                    .next()
-                    .map_or((false, false, false), TargetObservation::pattern);
-                [o, p, s]
-            })
-            .collect();
-        let suffixes: [[&str; 3]; 4] = [
-            ["x_mm", "y_mm", "z_mm"],
-            ["rx_deg", "ry_deg", "rz_deg"],
-            ["sx_mm", "sy_mm", "sz_mm"],
-            ["srx_deg", "sry_deg", "srz_deg"],
-        ];
-        for (t, target) in self.targets().iter().enumerate() {
-            for (g, group) in suffixes.iter().enumerate() {
-                if g == 0 || has[t][g - 1] {
-                    header.extend(group.iter().map(|s| format!("{}_{s}", target.name)));
-                }
-            }
-        }
-        let with_stations = self.n_stations() > 1;
-        if with_stations {
-            header.push("station".into());
-        }
-        let mut text = header.join(",");
-        text.push('\n');
-        for (k, pose) in self.poses().iter().enumerate() {
-            let mut cells: Vec<String> = Vec::new();
-            if with_ids {
-                let id = pose
-                    .pose_id
-                    .clone()
-                    .unwrap_or_else(|| format!("pose-{}", k + 1));
-                cells.push(id.trim_start_matches('#').replace(',', ";"));
-            }
-            cells.extend(pose.q.iter().map(|v| v.to_string()));
-            for (t, o) in pose.observations.iter().enumerate() {
-                let values: [Option<Vector3<f64>>; 4] = match o {
-                    Some(o) => [
-                        Some(o.position * 1e3),
-                        o.orientation.map(|v| v.map(f64::to_degrees)),
-                        o.position_std.map(|v| v * 1e3),
-                        o.orientation_std.map(|v| v.map(f64::to_degrees)),
-                    ],
-                    None => [None; 4],
-                };
-                for (g, v) in values.iter().enumerate() {
-                    if g == 0 || has[t][g - 1] {
-                        match v {
-                            Some(v) => cells.extend(v.iter().map(|x| x.to_string())),
-                            None => cells.extend(std::iter::repeat_n(String::new(), 3)),
-                        }
-                    }
-                }
-            }
-            if with_stations {
-                cells.push(self.station_names()[self.station_of(k)].replace(',', ";"));
-            }
-            let _ = writeln!(text, "{}", cells.join(","));
-        }
-        text
-    }
 }
 
 #[derive(Debug, Serialize, Deserialize)]
