@@ -674,7 +674,7 @@ pub fn calibrate(
         });
     }
     let found = identify(model, Cow::Borrowed(set), options)?;
-    let (found, options, deflection) = settle(model, &set, options, found)?;
+    let (found, options, deflection) = settle(model, set, options, found)?;
     // The one target of a set of one target per pose is not named.
     let named = !set.is_one_target();
     let mut calibration = packed(model, set, found, &options, named)?;

@@ -164,7 +164,7 @@ pub fn calibrate<'py>(
     let (identified, targets_data) = match data {
         AnySet::One(set, _) => (
             run_cancellable(py, Some(cancel), move || {
-                identify(&model, &*set, &options, &selection, checks)
+                identify(&model, &set, &options, &selection, checks)
             })?,
             None,
         ),
@@ -172,7 +172,7 @@ pub fn calibrate<'py>(
             let data = Arc::clone(&set);
             (
                 run_cancellable(py, Some(cancel), move || {
-                    identify(&model, &*set, &options, &selection, checks)
+                    identify(&model, &set, &options, &selection, checks)
                 })?,
                 Some(data),
             )
