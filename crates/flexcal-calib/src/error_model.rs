@@ -89,7 +89,7 @@ pub struct FrameStarts {
     /// calibration with that many, with zero columns).
     pub stations: Vec<Isometry3<f64>>,
     /// Starting pose `x_frame_target` of each target of the set in its
-    /// frame (after the tool for a target on [`TCP_FRAME`]).
+    /// frame (after the tool for a target on [`crate::TCP_FRAME`]).
     pub targets: Vec<Isometry3<f64>>,
     /// Whether each target's orientation rows are fitted (every
     /// observation of the target then carries an orientation).
