@@ -362,11 +362,7 @@ impl MeasurementSet {
         stations: Vec<String>,
         station_of: Vec<usize>,
     ) -> Result<Self, CalibError> {
-        let bad = |what: String| CalibError::BadMeasurement {
-            source_name: self.source.clone(),
-            line: 0,
-            what,
-        };
+        let bad = |what: String| self.error(what);
         if station_of.len() != self.len() {
             return Err(bad(format!(
                 "{} station indices for {} poses",
@@ -429,13 +425,18 @@ impl MeasurementSet {
             .with_stations(pool.stations, pool.station_of)
     }
 
-    /// Checks that this set measures what `first` does, to pool them.
-    fn check_poolable_with(&self, first: &MeasurementSet) -> Result<(), CalibError> {
-        let bad = |what: String| CalibError::BadMeasurement {
+    /// An error about this set (no line): `what` is wrong.
+    fn error(&self, what: String) -> CalibError {
+        CalibError::BadMeasurement {
             source_name: self.source.clone(),
             line: 0,
             what,
-        };
+        }
+    }
+
+    /// Checks that this set measures what `first` does, to pool them.
+    fn check_poolable_with(&self, first: &MeasurementSet) -> Result<(), CalibError> {
+        let bad = |what: String| self.error(what);
         if self.n_actuated() != first.n_actuated() {
             return Err(bad(format!(
                 "{} actuated coordinates, {} has {}",
@@ -638,11 +639,7 @@ impl MeasurementSet {
     /// [`CalibError::BadMeasurement`] when an index is out of range or the
     /// subset is empty.
     pub fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
-        let bad = |what: String| CalibError::BadMeasurement {
-            source_name: self.source.clone(),
-            line: 0,
-            what,
-        };
+        let bad = |what: String| self.error(what);
         if indices.is_empty() {
             return Err(bad("no measurements".into()));
         }
