@@ -26,8 +26,8 @@ use std::path::PathBuf;
 use criterion::{Criterion, criterion_group, criterion_main};
 use flexcal_calib::{
     CalibrationOptions, GravityCompliance, JointLaw, JointTerms, MeasurementSet, SelectionOptions,
-    TargetMeasurementSet, TargetObservation, TargetPose, Weighting, calibrate, read_targets,
-    rotation_from_vector, select_model,
+    TargetObservation, TargetPose, Weighting, calibrate, read_targets, rotation_from_vector,
+    select_model,
 };
 use flexcal_kinematics::{
     Data, PointLoad, RobotDescription, actuated_forces_into, forward_frame_pose,
@@ -103,7 +103,7 @@ fn target_set(
     n: usize,
     compliance: f64,
     noise: f64,
-) -> (flexcal_kinematics::Model, TargetMeasurementSet) {
+) -> (flexcal_kinematics::Model, MeasurementSet) {
     let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     let model = RobotDescription::from_toml_file(&data.join(format!("{robot}.toml")))
         .and_then(|d| d.build())
@@ -163,10 +163,12 @@ fn target_set(
                 pose_id: Some(format!("p{k}")),
                 q,
                 observations,
+                wrench: None,
+                temperature_c: None,
             }
         })
         .collect();
-    let set = TargetMeasurementSet::new("bench", targets, poses).expect("a valid set");
+    let set = MeasurementSet::from_poses("bench", targets, poses).expect("a valid set");
     (model, set)
 }
 

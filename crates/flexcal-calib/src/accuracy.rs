@@ -35,7 +35,7 @@
 //! (extrapolation, another day's temperature), which no statistic of the
 //! training data can know.
 //!
-//! With several targets per pose ([`crate::TargetMeasurementSet`]) the same
+//! With several targets per pose ([`crate::MeasurementSet`]) the same
 //! holds for each target: `J_S` holds the position rows of that target's
 //! point (its offset's columns among them), N counts observations, and the
 //! map has one entry per pose and target ([`PoseAccuracy::target`]).
@@ -47,10 +47,10 @@ use std::path::Path;
 
 use crate::error::CalibError;
 use crate::identify::Calibration;
-use crate::prediction::{PredictedAt, covariance_of, covariance_size};
+use crate::measurement::MeasurementSet;
+use crate::prediction::{covariance_of, covariance_size};
 use crate::split::SplitCheck;
-use crate::targets::{Observations, SetKind};
-use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
+use crate::targets::{TargetObservation, TargetPose};
 use crate::unknowns::UnknownStatus;
 use crate::validate::{TargetValidation, ValidationReport, validate_targets};
 
@@ -282,9 +282,11 @@ impl Calibration {
                     Some(TargetObservation::new(Vector3::zeros()));
                     self.targets.len()
                 ],
+                wrench: None,
+                temperature_c: None,
             })
             .collect();
-        let set = TargetMeasurementSet::new("accuracy grid", self.targets.clone(), poses)?;
+        let set = MeasurementSet::from_poses("accuracy grid", self.targets.clone(), poses)?;
         if self.has_implicit_target() {
             // The one target of a set of one target per pose is not named.
             let mut map = accuracy_at(self, model, &set, &grid_row, None, split)?;
@@ -302,22 +304,18 @@ impl Calibration {
     ///
     /// # Errors
     /// As [`Calibration::predicted_accuracy`] and the validation.
-    pub fn accuracy_coverage<S: Observations + ?Sized>(
+    pub fn accuracy_coverage(
         &self,
         model: &Model,
-        validation: &S,
+        validation: &MeasurementSet,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        match validation.kind() {
-            SetKind::OneTarget(set) => {
-                let report = self.validate(model, set, false)?;
-                self.accuracy_coverage_of(model, set, &report, split)
-            }
-            SetKind::Targets(set) => {
-                let report = validate_targets(model, self, set, true)?;
-                self.accuracy_coverage_of(model, set, &report, split)
-            }
+        if validation.is_one_target() {
+            let report = self.validate(model, validation, false)?;
+            return self.accuracy_coverage_of(model, validation, &report, split);
         }
+        let report = validate_targets(model, self, validation, true)?;
+        self.accuracy_coverage_of(model, validation, &report, split)
     }
 
     /// [`Calibration::accuracy_coverage`] from the validation `report` of
@@ -326,18 +324,18 @@ impl Calibration {
     /// # Errors
     /// As [`Calibration::predicted_accuracy`], and a report that is not
     /// of `validation` (another number of observations).
-    pub fn accuracy_coverage_of<S: Observations + ?Sized, R: ValidationErrors>(
+    pub fn accuracy_coverage_of<R: ValidationErrors>(
         &self,
         model: &Model,
-        validation: &S,
+        validation: &MeasurementSet,
         report: &R,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
         let actual = report.position_errors();
-        let set = validation.observations()?;
+        let set = validation;
         check_report_size(actual.len(), set.n_observations(), &set.source)?;
         let label = |k: usize| set.poses()[k].label(k);
-        accuracy_at(self, model, &*set, &label, Some(&actual), split)
+        accuracy_at(self, model, set, &label, Some(&actual), split)
     }
 }
 
@@ -360,10 +358,10 @@ pub(crate) fn grid_row(k: usize) -> String {
 /// The accuracy map of `calibration` at the observations of `set`, pose `k`
 /// labelled `label(k)`, with the measured errors `actual` (m, one per
 /// observation) when `set` is measured.
-pub(crate) fn accuracy_at<S: PredictedAt>(
+pub(crate) fn accuracy_at(
     calibration: &Calibration,
     model: &Model,
-    set: &S,
+    set: &MeasurementSet,
     label: &dyn Fn(usize) -> String,
     actual: Option<&[f64]>,
     split: Option<&SplitCheck>,

@@ -96,7 +96,7 @@ impl CoordinateCoverage {
     /// `set`: an arc of the circle for a revolute coordinate, an interval
     /// for a prismatic or screw one.
     pub fn of_actuated(model: &Model, set: &MeasurementSet) -> Vec<Self> {
-        let q: Vec<&[f64]> = set.measurements().iter().map(|m| m.q.as_slice()).collect();
+        let q: Vec<&[f64]> = set.configurations();
         Self::of_configurations(model, &q)
     }
 

@@ -29,12 +29,11 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::identify::Calibration;
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
-use crate::selection::Selectable;
 use crate::split::{
     SplitCheck, compared_unknowns, median, not_compared_note, reidentification_options, split_check,
 };
-use crate::targets::{Observations, SetKind};
 use crate::unknowns::UnknownStatus;
 
 /// A `|z|` above this is named in [`CrossCheck::notes`]: for a standard
@@ -104,17 +103,14 @@ impl CrossCheck {
     /// kinematic failure naming the pose) or on its halves (but too few
     /// poses there, which leaves `z_split` unknown and says why in
     /// [`CrossCheck::other_split_failure`]).
-    pub fn new<S: Observations + ?Sized>(
+    pub fn new(
         model: &Model,
-        other: &S,
+        other: &MeasurementSet,
         options: &CalibrationOptions,
         calibration: &Calibration,
         split: Option<&SplitCheck>,
     ) -> Result<Self, CalibError> {
-        match other.kind() {
-            SetKind::OneTarget(other) => cross_check(model, other, options, calibration, split),
-            SetKind::Targets(other) => cross_check(model, other, options, calibration, split),
-        }
+        cross_check(model, other, options, calibration, split)
     }
 
     /// The unknowns whose `|z|` exceeds [`CROSS_Z_WARNING`].
@@ -182,9 +178,9 @@ impl CrossCheck {
 }
 
 /// [`CrossCheck::new`] on either kind of set.
-fn cross_check<S: Selectable>(
+fn cross_check(
     model: &Model,
-    other: &S,
+    other: &MeasurementSet,
     options: &CalibrationOptions,
     calibration: &Calibration,
     split: Option<&SplitCheck>,
@@ -244,8 +240,8 @@ fn cross_check<S: Selectable>(
         })
         .collect();
     Ok(CrossCheck {
-        other_set: other.source().to_string(),
-        other_poses: other.n_poses(),
+        other_set: other.source.clone(),
+        other_poses: other.len(),
         unknowns,
         other_split_failure,
     })

@@ -23,14 +23,15 @@ use crate::deflection::Deflection;
 use crate::elastic_terms::{ElasticTerms, JointState};
 use crate::equilibrium::DeflectionComparison;
 use crate::error::CalibError;
-use crate::frames::{TCP_FRAME, resolve_frame};
+use crate::frames::resolve_frame;
 use crate::geometry::{
     left_jacobian, left_jacobian_inverse, rotation_from_vector, skew, vector_from_rotation,
 };
 use crate::gravity::{Configurations, GravityCompliance};
 use crate::joint_law::JointTerms;
+use crate::measurement::MeasurementSet;
 use crate::metrics::PoseError;
-use crate::targets::{TargetMeasurementSet, TargetObservation};
+use crate::targets::TargetObservation;
 
 /// Names of the six unknowns of the measurement frame `x_meas_base`: a
 /// translation (m) added to the starting estimate and a rotation vector (rad)
@@ -88,7 +89,7 @@ pub struct FrameStarts {
     /// calibration with that many, with zero columns).
     pub stations: Vec<Isometry3<f64>>,
     /// Starting pose `x_frame_target` of each target of the set in its
-    /// frame (after the tool for a target on [`TCP_FRAME`]).
+    /// frame (after the tool for a target on [`crate::TCP_FRAME`]).
     pub targets: Vec<Isometry3<f64>>,
     /// Whether each target's orientation rows are fitted (every
     /// observation of the target then carries an orientation).
@@ -110,7 +111,7 @@ impl FrameStarts {
     /// [`CalibError::BadMeasurement`] when orientations are asked for and a
     /// target carries none.
     pub fn nominal(
-        set: &TargetMeasurementSet,
+        set: &MeasurementSet,
         x_meas_base: Isometry3<f64>,
         use_orientation: Option<bool>,
     ) -> Result<Self, CalibError> {
@@ -195,7 +196,7 @@ struct PointJacobians {
 /// Jacobian.
 pub struct ErrorModel<'a> {
     model: &'a Model,
-    set: Cow<'a, TargetMeasurementSet>,
+    set: Cow<'a, MeasurementSet>,
     targets: Vec<TargetTerms>,
     blocks: Vec<Block>,
     /// First residual row of each block, and the number of rows last.
@@ -233,7 +234,7 @@ impl<'a> ErrorModel<'a> {
     /// starts that do not match the set.
     pub fn new(
         model: &'a Model,
-        set: Cow<'a, TargetMeasurementSet>,
+        set: Cow<'a, MeasurementSet>,
         starts: &FrameStarts,
     ) -> Result<Self, CalibError> {
         check_starts(model, &set, starts)?;
@@ -335,15 +336,14 @@ impl<'a> ErrorModel<'a> {
     /// As [`ErrorModel::new`].
     pub fn one_target(
         model: &'a Model,
-        set: &crate::measurement::MeasurementSet,
+        set: &'a MeasurementSet,
         use_orientation: bool,
         x_meas_base: Isometry3<f64>,
         x_tcp_target: Isometry3<f64>,
     ) -> Result<Self, CalibError> {
-        let set = TargetMeasurementSet::from_measurement_set(set, TCP_FRAME)?;
-        let mut starts = FrameStarts::nominal(&set, x_meas_base, Some(use_orientation))?;
+        let mut starts = FrameStarts::nominal(set, x_meas_base, Some(use_orientation))?;
         starts.targets[0] = x_tcp_target;
-        Self::new(model, Cow::Owned(set), &starts)
+        Self::new(model, Cow::Borrowed(set), &starts)
     }
 
     /// The starting measurement frames of the second and later stations
@@ -506,7 +506,7 @@ impl<'a> ErrorModel<'a> {
     }
 
     /// The measurement set the model predicts.
-    pub fn set(&self) -> &TargetMeasurementSet {
+    pub fn set(&self) -> &MeasurementSet {
         &self.set
     }
     /// Names of all unknowns.
@@ -819,7 +819,7 @@ fn rotation_error(predicted: &Isometry3<f64>, measured: &TargetObservation) -> V
 /// Checks that `starts` match `set` and that `set` matches `model`.
 fn check_starts(
     model: &Model,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     starts: &FrameStarts,
 ) -> Result<(), CalibError> {
     if set.n_actuated() != model.n_actuated() {
@@ -1237,9 +1237,11 @@ mod tests {
                         Some(seen)
                     })
                     .collect(),
+                wrench: None,
+                temperature_c: None,
             })
             .collect();
-        let set = TargetMeasurementSet::new("fd", targets, poses)
+        let set = MeasurementSet::from_poses("fd", targets, poses)
             .unwrap()
             .with_stations(vec!["a".into(), "b".into()], vec![0, 0, 0, 1, 1, 1])
             .unwrap();

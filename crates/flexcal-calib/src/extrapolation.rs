@@ -56,10 +56,8 @@ use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::folds::range_ends;
 use crate::identify::Calibration;
-use crate::measurement::PoseSet;
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
-use crate::selection::Selectable;
-use crate::targets::{Observations, SetKind};
 
 /// Share of a coordinate's covered length held out at each end (0.2: the
 /// outer fifth).
@@ -198,22 +196,14 @@ impl Calibration {
     /// [`CalibError::InvalidOption`] when `training` has another number of
     /// poses than the calibration; a model failure at a held-out pose. A
     /// fold whose identification fails is skipped and says why.
-    pub fn extrapolation<S: Observations + ?Sized>(
+    pub fn extrapolation(
         &self,
         model: &Model,
-        training: &S,
+        training: &MeasurementSet,
         options: &CalibrationOptions,
     ) -> Result<ExtrapolationModel, CalibError> {
-        match training.kind() {
-            SetKind::OneTarget(set) => {
-                check_training(self.n_poses, set.n_poses())?;
-                extrapolation_model(model, set, options)
-            }
-            SetKind::Targets(set) => {
-                check_training(self.n_poses, set.n_poses())?;
-                extrapolation_model(model, set, options)
-            }
-        }
+        check_training(self.n_poses, training.len())?;
+        extrapolation_model(model, training, options)
     }
 }
 
@@ -240,12 +230,12 @@ struct Excess {
 
 /// The folds of every coordinate's ends, the held-out errors and the
 /// growth fitted to them (module docs, steps 1 to 3).
-fn extrapolation_model<S: Selectable>(
+fn extrapolation_model(
     model: &Model,
-    training: &S,
+    training: &MeasurementSet,
     options: &CalibrationOptions,
 ) -> Result<ExtrapolationModel, CalibError> {
-    let configurations: Vec<&[f64]> = (0..training.n_poses())
+    let configurations: Vec<&[f64]> = (0..training.len())
         .map(|k| training.configuration(k))
         .collect();
     let ranges = CoordinateCoverage::of_configurations(model, &configurations);
@@ -297,9 +287,9 @@ fn extrapolation_model<S: Selectable>(
 /// One fold: the poses `held` of `training` held out at `end` of
 /// coordinate `j` (named `name`), the rest identified with `options`; the
 /// held-out observations appended to `excess`.
-fn run_fold<S: Selectable>(
+fn run_fold(
     model: &Model,
-    training: &S,
+    training: &MeasurementSet,
     options: &CalibrationOptions,
     held: &[usize],
     (j, name, end): (usize, &str, &str),
@@ -321,9 +311,7 @@ fn run_fold<S: Selectable>(
         ));
         return Ok(fold);
     }
-    let kept: Vec<usize> = (0..training.n_poses())
-        .filter(|k| !held.contains(k))
-        .collect();
+    let kept: Vec<usize> = (0..training.len()).filter(|k| !held.contains(k)).collect();
     let fitted = training
         .subset(&kept)
         .and_then(|rest| rest.fit(model, options));
@@ -335,7 +323,7 @@ fn run_fold<S: Selectable>(
         }
     };
     let held_out = training.subset(held)?;
-    let errors = S::held_out_errors(model, &fitted, &held_out)?;
+    let errors = MeasurementSet::held_out_errors(model, &fitted, &held_out)?;
     let map = match accuracy_at(&fitted, model, &held_out, &grid_row, None, None) {
         Ok(map) => map,
         Err(e) => {

@@ -399,7 +399,7 @@ mod tests {
 
     fn fold_poses(set: &MeasurementSet) -> FoldPoses<'_> {
         FoldPoses {
-            q: set.measurements().iter().map(|m| m.q.as_slice()).collect(),
+            q: set.configurations(),
             station: (0..set.len()).map(|k| set.station_of(k)).collect(),
             n_stations: set.n_stations(),
         }

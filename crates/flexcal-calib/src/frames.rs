@@ -5,6 +5,16 @@ use flexcal_kinematics::Model;
 
 use crate::error::CalibError;
 
+/// Whether a frame (measurement frame or target offset) is identified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum FrameTreatment {
+    /// Identified together with the robot (default).
+    #[default]
+    Identify,
+    /// Kept at its given (or nominal) value.
+    Fixed,
+}
+
 /// The frame name that stands for the TCP: the end frame followed by the
 /// robot's tool transform.
 pub const TCP_FRAME: &str = "tcp";

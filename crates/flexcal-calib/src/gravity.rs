@@ -573,7 +573,7 @@ impl GravityCompliance {
         model: &Model,
         set: &MeasurementSet,
     ) -> Result<Vec<Vec<f64>>, CalibError> {
-        let label = |k: usize| set.measurements()[k].label(k);
+        let label = |k: usize| set.poses()[k].label(k);
         let terms = GravityTerms::new(model, &Configurations::of_set(set, &label), self)?;
         let payload = self.payload_unknowns();
         Ok((0..set.len())
@@ -724,7 +724,7 @@ impl<'a> Configurations<'a> {
     /// The configurations of a measurement set.
     pub(crate) fn of_set(set: &'a MeasurementSet, label: &'a dyn Fn(usize) -> String) -> Self {
         Self {
-            q: set.measurements().iter().map(|m| m.q.as_slice()).collect(),
+            q: set.configurations(),
             label,
         }
     }

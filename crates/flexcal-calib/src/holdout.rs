@@ -1,6 +1,6 @@
 //! Each station held out in turn: with measurements from several stations
 //! (tracker placements, campaigns of other days; [`crate::MeasurementSet::pooled`],
-//! or with several targets [`crate::TargetMeasurementSet::pooled`]), the
+//! or with several targets [`crate::MeasurementSet::pooled`]), the
 //! calibration identified from the other stations, its model selected
 //! on their poses alone, predicts the held-out station's poses with only
 //! that station's measurement frame re-fitted. It is the cross-series
@@ -12,10 +12,10 @@ use flexcal_kinematics::Model;
 use serde::Serialize;
 
 use crate::error::CalibError;
+use crate::measurement::MeasurementSet;
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
-use crate::selection::{Selectable, SelectionOptions, calibrate_selected_in};
-use crate::targets::{Observations, SetKind};
+use crate::selection::{SelectionOptions, calibrate_selected};
 
 /// One station held out.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -37,29 +37,16 @@ pub struct StationHoldOut {
 /// Every station of `set` held out in turn: identified on the others with
 /// `options` and `selection` ([`crate::calibrate_selected`]), validated on it
 /// with its measurement frame fitted again; with several targets per pose
-/// ([`crate::TargetMeasurementSet::pooled`]) the errors are those of every
+/// ([`crate::MeasurementSet::pooled`]) the errors are those of every
 /// observation.
 ///
 /// # Errors
 /// [`CalibError::InvalidOption`] for a set of one station; what
 /// [`crate::calibrate_selected`] and [`crate::Calibration::validate`] return,
 /// naming the held-out station.
-pub fn hold_out_stations<S: Observations + ?Sized>(
+pub fn hold_out_stations(
     model: &Model,
-    set: &S,
-    options: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<Vec<StationHoldOut>, CalibError> {
-    match set.kind() {
-        SetKind::OneTarget(set) => hold_out(model, set, options, selection),
-        SetKind::Targets(set) => hold_out(model, set, options, selection),
-    }
-}
-
-/// [`hold_out_stations`] on either kind of set.
-fn hold_out<S: Selectable>(
-    model: &Model,
-    set: &S,
+    set: &MeasurementSet,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<Vec<StationHoldOut>, CalibError> {
@@ -68,13 +55,13 @@ fn hold_out<S: Selectable>(
             name: "hold_out_stations",
             reason: format!(
                 "{} holds one station: holding one out needs measurements from at least two (calibrate --data A --data B)",
-                set.source()
+                set.source
             ),
         });
     }
     (0..set.n_stations())
         .map(|s| {
-            let name = set.station_name(s);
+            let name = set.station_names()[s].as_str();
             // The failure, named by station and step (a cancellation stays
             // one).
             let in_step = |step: &str, e: CalibError| match e {
@@ -84,17 +71,16 @@ fn hold_out<S: Selectable>(
                     reason: format!("station `{name}` held out, {step}: {e}"),
                 },
             };
-            let others: Vec<usize> = (0..set.n_poses())
-                .filter(|&k| set.station_of(k) != s)
-                .collect();
+            let others: Vec<usize> = (0..set.len()).filter(|&k| set.station_of(k) != s).collect();
             let held_out = set
                 .station_poses(s)
                 .ok_or_else(|| in_step("its poses", CalibError::NothingToIdentify))?;
             let train = set.subset(&others)?;
-            let (calibration, report, _) = calibrate_selected_in(model, &train, options, selection)
+            let (calibration, report, _) = calibrate_selected(model, &train, options, selection)
                 .map_err(|e| in_step("identification on the other stations", e))?;
-            let (before, after) = S::held_out_statistics(model, &calibration, &held_out)
-                .map_err(|e| in_step("validation", e))?;
+            let (before, after) =
+                MeasurementSet::held_out_statistics(model, &calibration, &held_out)
+                    .map_err(|e| in_step("validation", e))?;
             Ok(StationHoldOut {
                 station: name.to_string(),
                 chosen: report.map(|r| r.chosen.iter().map(|g| g.label().to_string()).collect()),

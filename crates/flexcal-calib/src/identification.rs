@@ -35,6 +35,7 @@ use crate::analysis::{
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts, UnknownKind};
+use crate::measurement::MeasurementSet;
 use crate::metrics::PoseError;
 use crate::options::{
     CalibrationOptions, FrameTreatment, GEODESIC_ACCELERATION_LIMIT, Method, Weighting,
@@ -42,7 +43,6 @@ use crate::options::{
 use crate::significance::{NoiseSource, barely_loaded};
 use crate::spread::{SpreadReference, spread_ratios};
 use crate::start::frame_starts;
-use crate::targets::TargetMeasurementSet;
 use crate::unknowns::{Combination, UnknownEstimate};
 
 /// Unweighted residual norms at one iterate of the identification (Figure 7
@@ -380,7 +380,7 @@ fn check_counts(problem: &ErrorModel<'_>, layout: &Layout) -> Result<usize, Cali
 /// The error model of `set` from `starts`, with the options' elastic terms.
 fn error_model<'a>(
     model: &'a Model,
-    set: Cow<'a, TargetMeasurementSet>,
+    set: Cow<'a, MeasurementSet>,
     starts: &FrameStarts,
     options: &CalibrationOptions,
 ) -> Result<ErrorModel<'a>, CalibError> {
@@ -395,7 +395,7 @@ fn error_model<'a>(
 /// As [`crate::calibrate`].
 pub(crate) fn identify<'a>(
     model: &'a Model,
-    set: Cow<'a, TargetMeasurementSet>,
+    set: Cow<'a, MeasurementSet>,
     options: &CalibrationOptions,
 ) -> Result<Identification<'a>, CalibError> {
     options.check()?;

@@ -18,6 +18,7 @@ use crate::frames::TCP_FRAME;
 use crate::gravity::GravityCompliance;
 use crate::identification::{Identification, ResidualNorms, identify};
 use crate::joint_law::JointTerms;
+use crate::measurement::MeasurementSet;
 use crate::metrics::{
     ErrorStatistics, ObservationError, PoseError, TargetErrors, error_statistics,
 };
@@ -25,7 +26,7 @@ use crate::options::CalibrationOptions;
 use crate::screen::DataChecks;
 use crate::significance::{MIN_TORQUE_SHARE, NoiseSource, torque_magnitude};
 use crate::spread::WEAK_SPREAD_RATIO;
-use crate::targets::{Observations, SetKind, Target, TargetMeasurementSet};
+use crate::targets::Target;
 use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// A fitted calibration of one target or several: the identified robot
@@ -57,7 +58,7 @@ pub struct Calibration {
     pub station_errors: Vec<ErrorStatistics>,
     /// The targets with their identified (or fixed) offsets and rotations
     /// (one target `tcp` on the TCP for a set of one target per pose,
-    /// [`TargetMeasurementSet::from_measurement_set`]).
+    /// [`crate::TCP_TARGET`]).
     pub targets: Vec<Target>,
     /// The targets with their offsets fitted for the nominal robot (the
     /// "before"; the starting ones when fixed or not identifiable).
@@ -649,8 +650,8 @@ fn compliance_sentence(
 /// `options.joint_terms`) ask for them: equations (7)-(12) and (49)-(53)
 /// of the reference paper, with the frames of the note in the crate docs,
 /// by the steps of [`crate::identification`]. A set of one target per
-/// pose is one target `tcp` on the TCP
-/// ([`TargetMeasurementSet::from_measurement_set`]). `fixed` and
+/// pose is one target `tcp` on the TCP ([`crate::TCP_TARGET`]), not
+/// named in the report. `fixed` and
 /// `deferred` take robot, `frame_*`, target and elastic names; a starting
 /// offset (`target_value`) only for a set of one target.
 ///
@@ -660,12 +661,11 @@ fn compliance_sentence(
 /// degenerate registration, a model failure at a pose, a solver failure,
 /// [`CalibError::RankDeficient`] when `require_full_rank` is set,
 /// [`CalibError::NothingToIdentify`].
-pub fn calibrate<S: Observations + ?Sized>(
+pub fn calibrate(
     model: &Model,
-    original: &S,
+    set: &MeasurementSet,
     options: &CalibrationOptions,
 ) -> Result<Calibration, CalibError> {
-    let set = original.observations()?;
     if options.target_value.is_some() && set.targets().len() > 1 {
         return Err(CalibError::InvalidOption {
             name: "target",
@@ -673,11 +673,11 @@ pub fn calibrate<S: Observations + ?Sized>(
                 .into(),
         });
     }
-    let found = identify(model, Cow::Borrowed(&*set), options)?;
-    let (found, options, deflection) = settle(model, &set, options, found)?;
+    let found = identify(model, Cow::Borrowed(set), options)?;
+    let (found, options, deflection) = settle(model, set, options, found)?;
     // The one target of a set of one target per pose is not named.
-    let named = matches!(original.kind(), SetKind::Targets(_));
-    let mut calibration = packed(model, &set, found, &options, named)?;
+    let named = !set.is_one_target();
+    let mut calibration = packed(model, set, found, &options, named)?;
     calibration.deflection = deflection;
     Ok(calibration)
 }
@@ -685,7 +685,7 @@ pub fn calibrate<S: Observations + ?Sized>(
 /// The [`Calibration`] of what [`identify`] found on `set`.
 fn packed(
     model: &Model,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     found: Identification<'_>,
     options: &CalibrationOptions,
     named: bool,
@@ -877,7 +877,7 @@ pub(crate) fn weak_spread_note<'a>(
 /// Those of the identification and of the comparison.
 pub(crate) fn settle<'a>(
     model: &'a Model,
-    set: &'a TargetMeasurementSet,
+    set: &'a MeasurementSet,
     options: &CalibrationOptions,
     found: Identification<'a>,
 ) -> Result<

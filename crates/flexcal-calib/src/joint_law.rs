@@ -167,7 +167,7 @@ pub fn partial_period_mask(
     set: &crate::measurement::MeasurementSet,
     names: &[String],
 ) -> Vec<bool> {
-    let q: Vec<&[f64]> = set.measurements().iter().map(|m| m.q.as_slice()).collect();
+    let q: Vec<&[f64]> = set.configurations();
     partial_period_mask_of(model, &q, names)
 }
 

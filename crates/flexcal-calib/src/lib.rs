@@ -43,10 +43,17 @@
 //!    target (a named frame of the robot with an offset) seen at a pose,
 //!    with its position and, where the target carries one, its
 //!    orientation, each with its standard deviation; observations are
-//!    grouped by pose and by station. The one-target files (flexcal's CSV,
-//!    the IPA export) read into [`MeasurementSet`], one target `tcp` on the
-//!    TCP ([`TargetMeasurementSet::from_measurement_set`]); several targets
-//!    into [`TargetMeasurementSet`].
+//!    grouped by pose and by station, each pose with its actuated
+//!    coordinates and, when known, the wrench on the tool and the
+//!    temperature: one type, [`MeasurementSet`]. The one-target files
+//!    (flexcal's CSV, the IPA export) read into it as one target
+//!    [`TCP_TARGET`] on the TCP (the IPA probe offset its nominal pose),
+//!    and [`Measurement`] is the convenient row of such a set
+//!    ([`MeasurementSet::new`], [`MeasurementSet::measurements`]); the CSV
+//!    with per-target columns and its targets description read into the
+//!    same type ([`MeasurementSet::read_targets_csv`]).
+//!    `TargetMeasurementSet` remains one release as a deprecated alias of
+//!    [`MeasurementSet`].
 //! 3. **Measurement model** ([`error_model`]): [`ErrorModel`], the stacked
 //!    residuals and their exact Jacobian, with the elasto-geometric terms
 //!    ([`gravity`], [`joint_law`]).
@@ -59,9 +66,8 @@
 //!    compliances on their own scale, [`significance`]), the statistics
 //!    ([`unknowns`], [`spread`]).
 //! 6. **Results**: [`calibrate`] packs what it found into one
-//!    [`Calibration`] ([`identify`]), target by target, for a set of one
-//!    target per pose ([`MeasurementSet`]) or of several
-//!    ([`TargetMeasurementSet`]); both are [`Observations`].
+//!    [`Calibration`] ([`identify`]), target by target, the one target of
+//!    a one-target set unnamed.
 //! 7. **Checks and reports**: validation ([`validate`],
 //!    [`validate_targets`]), data checks ([`screen`]), split-half
 //!    ([`split`]), cross-series ([`cross`]), station hold-out ([`holdout`]),
@@ -99,7 +105,7 @@
 //! all stations but one and validates on it, for each.
 //!
 //! ## Several targets, tree-structured robots
-//! [`TargetMeasurementSet`] holds several targets per pose, each fixed to a
+//! A [`MeasurementSet`] holds several targets per pose, each fixed to a
 //! named frame of the robot (markers on the two hands of a two-armed robot,
 //! reflectors on a tool, a probe on a link), possibly occluded on some
 //! poses; its files are the CSV above with `<target>_x_mm..` columns and a
@@ -121,8 +127,8 @@
 //! ratios, [`SplitCheck::new`], [`CrossCheck::new`],
 //! [`Calibration::predicted_accuracy`] and
 //! [`Calibration::accuracy_coverage`] (one entry per pose and target).
-//! The one-target [`MeasurementSet`] is the case of one target on the TCP
-//! ([`TargetMeasurementSet::from_measurement_set`]).
+//! A set of one target per pose is the case of one target on the TCP
+//! ([`TCP_TARGET`]).
 //!
 //! ## Elasto-geometric model
 //! With [`CalibrationOptions::gravity`] (a [`GravityCompliance`]: the link
@@ -190,8 +196,8 @@
 //!   exceeds [`SUSPECT_ERROR_RATIO`] times the RMS error; poses are left out
 //!   by label with [`MeasurementSet::excluding`]. With several targets the
 //!   same checks run per observation ([`DataChecks::new`], in
-//!   [`Calibration::data_checks`] and [`TargetValidation::data_checks`])
-//!   and [`TargetMeasurementSet::excluding`] leaves poses out.
+//!   [`Calibration::data_checks`] and [`TargetValidation::data_checks`]),
+//!   and [`MeasurementSet::excluding`] also leaves one observation out.
 //! - Beyond the paper, a split-half check of the standard errors
 //!   ([`SplitCheck`]): the identified unknowns again on odd / even and first /
 //!   second halves of the poses; where the halves differ by more than the
@@ -374,8 +380,11 @@ pub use holdout::{StationHoldOut, hold_out_stations};
 pub use identification::ResidualNorms;
 pub use identify::{Calibration, calibrate};
 pub use joint_law::{JointLaw, JointTerms};
+#[allow(deprecated)]
+pub use measurement::TargetMeasurementSet;
 pub use measurement::{
-    IPA_JOINT_COLUMNS, Measurement, MeasurementSet, PoseSet, read_configurations, read_transform_mm,
+    IPA_JOINT_COLUMNS, Measurement, MeasurementSet, TCP_TARGET, read_configurations,
+    read_transform_mm,
 };
 pub use metrics::{
     ErrorStatistics, ObservationError, PoseError, TargetErrors, error_statistics,
@@ -402,8 +411,8 @@ pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcom
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};
 pub use spread::{SPREAD_REFERENCE_POSES, WEAK_SPREAD_RATIO};
 pub use targets::{
-    Observations, SetKind, Target, TargetMeasurementSet, TargetObservation, TargetPose,
-    read_targets, targets_from_toml_str, targets_to_toml_string, write_targets,
+    Target, TargetObservation, TargetPose, read_targets, targets_from_toml_str,
+    targets_to_toml_string, write_targets,
 };
 pub use unknowns::{Combination, UnknownEstimate, UnknownStatus};
 pub use validate::{

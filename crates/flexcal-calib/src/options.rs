@@ -37,15 +37,7 @@ pub enum Weighting {
     Uniform,
 }
 
-/// Whether a frame (measurement frame or target offset) is identified.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-pub enum FrameTreatment {
-    /// Identified together with the robot (default).
-    #[default]
-    Identify,
-    /// Kept at its given (or nominal) value.
-    Fixed,
-}
+pub use crate::frames::FrameTreatment;
 
 /// Settings of [`crate::calibrate`]. Defaults suit a laser tracker or photogrammetry
 /// campaign of a few tens to thousands of poses.

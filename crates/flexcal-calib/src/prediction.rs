@@ -13,8 +13,6 @@ use crate::error_model::target_unknown_names;
 use crate::error_model::{ErrorModel, FrameStarts};
 use crate::identify::Calibration;
 use crate::measurement::MeasurementSet;
-use crate::targets::Observations;
-use crate::targets::TargetMeasurementSet;
 use crate::unknowns::UnknownStatus;
 use flexcal_optim::Jacobian;
 
@@ -39,54 +37,17 @@ pub(crate) struct Linearised {
     pub observed: Vec<Observed>,
 }
 
-/// A kind of measurement set (one target per pose, or several) at whose
-/// poses a [`Calibration`] predicts, with an uncertainty.
-pub(crate) trait PredictedAt {
+/// What a [`Calibration`] predicts at the poses of a set, with an
+/// uncertainty.
+impl MeasurementSet {
     /// Actuated coordinates of pose `k` (rad or m).
-    fn configuration(&self, k: usize) -> &[f64];
-    /// The prediction of `calibration` at these poses, linearised.
-    fn linearise(&self, calibration: &Calibration, model: &Model)
-    -> Result<Linearised, CalibError>;
-    /// The calibrated model's target position at each observation, in the
-    /// measurement frame (m): [`Linearised::predicted`] without the
-    /// Jacobian.
-    fn predicted_positions(
-        &self,
-        calibration: &Calibration,
-        model: &Model,
-    ) -> Result<Vec<Vector3<f64>>, CalibError>;
-}
-
-impl PredictedAt for MeasurementSet {
-    fn configuration(&self, k: usize) -> &[f64] {
-        &self.measurements()[k].q
-    }
-    fn linearise(
-        &self,
-        calibration: &Calibration,
-        model: &Model,
-    ) -> Result<Linearised, CalibError> {
-        // The one target of the set is not named.
-        let mut linearised = self.observations()?.linearise(calibration, model)?;
-        for o in &mut linearised.observed {
-            o.target = None;
-        }
-        Ok(linearised)
-    }
-    fn predicted_positions(
-        &self,
-        calibration: &Calibration,
-        model: &Model,
-    ) -> Result<Vec<Vector3<f64>>, CalibError> {
-        self.observations()?.predicted_positions(calibration, model)
-    }
-}
-
-impl PredictedAt for TargetMeasurementSet {
-    fn configuration(&self, k: usize) -> &[f64] {
+    pub(crate) fn configuration(&self, k: usize) -> &[f64] {
         &self.poses()[k].q
     }
-    fn linearise(
+
+    /// The prediction of `calibration` at these poses, linearised; the
+    /// observations name their target, but the one of a one-target set.
+    pub(crate) fn linearise(
         &self,
         calibration: &Calibration,
         model: &Model,
@@ -94,6 +55,7 @@ impl PredictedAt for TargetMeasurementSet {
         let (problem, x) = calibration.error_model_at(model, self, false)?;
         let (jacobian, residuals) = jacobian_and_residuals(&problem, &x)?;
         let calibrated = problem.set();
+        let named = !self.is_one_target();
         Ok(Linearised {
             jacobian,
             predicted: (0..problem.n_observations())
@@ -106,13 +68,17 @@ impl PredictedAt for TargetMeasurementSet {
                     let (pose, t) = problem.observation(i);
                     Observed {
                         pose,
-                        target: Some(calibrated.targets()[t].name.clone()),
+                        target: named.then(|| calibrated.targets()[t].name.clone()),
                     }
                 })
                 .collect(),
         })
     }
-    fn predicted_positions(
+
+    /// The calibrated model's target position at each observation, in the
+    /// measurement frame (m): [`Linearised::predicted`] without the
+    /// Jacobian.
+    pub(crate) fn predicted_positions(
         &self,
         calibration: &Calibration,
         model: &Model,
@@ -172,13 +138,13 @@ impl Calibration {
     /// Targets that differ from the identification's by name;
     /// [`CalibError::InvalidOption`] when `set` gives the model another
     /// number of unknowns than the identification's; the model's errors.
-    pub fn error_model_at<'a, S: Observations + ?Sized>(
+    pub fn error_model_at<'a>(
         &self,
         model: &'a Model,
-        set: &S,
+        set: &MeasurementSet,
         use_orientation: bool,
     ) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
-        let calibrated = set.observations()?.with_targets(self.targets.clone())?;
+        let calibrated = set.with_targets(self.targets.clone())?;
         let orientation = if use_orientation { None } else { Some(false) };
         let mut starts = FrameStarts::nominal(&calibrated, self.x_meas_base, orientation)?;
         starts.stations = self.measurement_frames();
@@ -232,10 +198,10 @@ pub(crate) fn covariance_of(calibration: &Calibration) -> Result<&DMatrix<f64>, 
 /// identified unknown with the frame's: `tr(J_k Sigma J_k^T)` (m^2,
 /// measurement frame). What the split-half check compares in the
 /// prediction space.
-pub(crate) fn prediction_variances<S: PredictedAt>(
+pub(crate) fn prediction_variances(
     calibration: &Calibration,
     model: &Model,
-    set: &S,
+    set: &MeasurementSet,
 ) -> Result<Vec<f64>, CalibError> {
     let covariance = covariance_of(calibration)?;
     let linearised = set.linearise(calibration, model)?;

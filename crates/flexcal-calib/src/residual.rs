@@ -98,7 +98,7 @@ impl ResidualModel {
             .collect();
         let columns: Vec<Vec<f64>> = indices
             .iter()
-            .map(|&i| set.measurements().iter().map(|m| m.q[i]).collect())
+            .map(|&i| set.poses().iter().map(|p| p.q[i]).collect())
             .collect();
         let input_names: Vec<String> = indices.iter().map(|&i| names[i].clone()).collect();
         let fit_axis = |axis: usize| -> Result<(FuzzyModel, FitReport), CalibError> {
@@ -199,7 +199,9 @@ impl Calibration {
                 })
                 .collect();
             let mut corrected = MeasurementSet::new(&set.source, moved)?;
-            corrected.nominal_target = set.nominal_target;
+            if let Some(x_tcp_target) = set.nominal_target() {
+                corrected.set_nominal_target(x_tcp_target);
+            }
             (report.after_per_pose, report.measurement_frame) =
                 self.errors_after(model, &corrected, policy)?;
         }

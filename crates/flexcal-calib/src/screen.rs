@@ -18,7 +18,7 @@
 //!   all observations.
 //!
 //! Poses can then be left out by label ([`MeasurementSet::excluding`],
-//! [`TargetMeasurementSet::excluding`]).
+//! [`MeasurementSet::excluding`]).
 
 use std::collections::HashMap;
 
@@ -26,8 +26,6 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::measurement::MeasurementSet;
-use crate::targets::TargetMeasurementSet;
-use crate::targets::{Observations, SetKind};
 
 /// A pose whose position error exceeds this many times the set's RMS
 /// position error is reported as suspect.
@@ -84,25 +82,24 @@ pub struct DataChecks {
 }
 
 impl DataChecks {
-    /// Both checks on `set` (either kind, [`Observations`]), with `errors`
+    /// Both checks on `set`, with `errors`
     /// the position error (m) of each of its observations after a fit, in
     /// its order (pose by pose, target by target): a suspect is one
     /// observation, judged against the RMS over all observations, named
     /// by its pose and, with several targets, its target.
     ///
     /// # Errors
-    /// As [`Observations::observations`]; [`CalibError::InvalidOption`]
+    /// [`CalibError::InvalidOption`]
     /// when `errors` has another length than the observations.
-    pub fn new<S: Observations + ?Sized>(set: &S, errors: &[f64]) -> Result<Self, CalibError> {
+    pub fn new(set: &MeasurementSet, errors: &[f64]) -> Result<Self, CalibError> {
         // The one target of a set of one target per pose is not named.
-        let named = matches!(set.kind(), SetKind::Targets(_));
-        Self::of(&*set.observations()?, errors, named)
+        Self::of(set, errors, !set.is_one_target())
     }
 
     /// [`DataChecks::new`] on `set`, its targets `named` in the findings or
     /// not.
     pub(crate) fn of(
-        set: &TargetMeasurementSet,
+        set: &MeasurementSet,
         errors: &[f64],
         named: bool,
     ) -> Result<Self, CalibError> {
@@ -304,7 +301,7 @@ fn reading_bits(
 /// Pairs of poses of `set` whose actuated coordinates differ but whose
 /// measured position (and orientation, when measured) of one target is
 /// bit-identical (a stale reading), target by target.
-pub fn repeated_readings(set: &TargetMeasurementSet) -> Vec<RepeatedReading> {
+pub fn repeated_readings(set: &MeasurementSet) -> Vec<RepeatedReading> {
     let poses = set.poses();
     set.targets()
         .iter()
@@ -369,26 +366,10 @@ fn kept_poses(
 }
 
 impl MeasurementSet {
-    /// The set without the poses labelled `labels` ([`crate::Measurement::label`]:
-    /// `line 534` for the IPA format, the `pose_id` or `#k` for flexcal's own,
-    /// `s2:` before the label of a second station's pose).
-    /// A bare number `N` stands for `line N`. The poses kept keep their
-    /// labels: `#7` stays `#7` after `#3` is left out.
-    ///
-    /// # Errors
-    /// [`CalibError::InvalidOption`] (`exclude`) naming a label that matches
-    /// no pose of the set; [`CalibError::BadMeasurement`] when nothing is left.
-    pub fn excluding(&self, labels: &[impl AsRef<str>]) -> Result<Self, CalibError> {
-        let labels_now = self.labels();
-        let kept = kept_poses(&labels_now, labels, &self.source)?;
-        self.labelled().subset(&kept)
-    }
-}
-
-impl TargetMeasurementSet {
     /// The set without what `labels` name: a pose by its label
-    /// ([`crate::TargetPose::label`]: the `pose_id` or `#k`, `s2:` before
-    /// the label of a second station's pose), every target of it left out
+    /// ([`crate::TargetPose::label`]: `line 534` for the IPA format, the
+    /// `pose_id` or `#k` for flexcal's CSV, `s2:` before the label of a
+    /// second station's pose), every target of it left out
     /// with it; or one observation as the data checks print it, `<target>
     /// at <pose>` (`right at p7`), the pose's other targets kept. A pose
     /// left without observations goes too. A bare number `N` stands for
@@ -482,7 +463,7 @@ mod tests {
 
     #[test]
     fn identical_readings_at_other_coordinates_are_found() {
-        let pairs = repeated_readings(&set().observations().unwrap());
+        let pairs = repeated_readings(&set());
         assert_eq!(
             pairs,
             vec![RepeatedReading {
@@ -502,7 +483,7 @@ mod tests {
             ],
         )
         .unwrap();
-        assert!(repeated_readings(&same.observations().unwrap()).is_empty());
+        assert!(repeated_readings(&same).is_empty());
     }
 
     #[test]
@@ -575,13 +556,13 @@ mod tests {
 
     /// Two targets, four unlabelled poses: target `a` reads the same at
     /// poses 0 and 2 (other coordinates), target `b` never repeats.
-    fn target_set() -> TargetMeasurementSet {
+    fn target_set() -> MeasurementSet {
         targets_at(4)
     }
 
     /// Two targets at `n` poses: target `a` reads the same at poses 0 and
     /// 2 (other coordinates), target `b` never repeats.
-    fn targets_at(n: usize) -> TargetMeasurementSet {
+    fn targets_at(n: usize) -> MeasurementSet {
         use crate::targets::{Target, TargetObservation, TargetPose};
         let o = |p: [f64; 3]| Some(TargetObservation::new(Vector3::from(p)));
         let pose = |k: usize| {
@@ -590,9 +571,11 @@ mod tests {
                 pose_id: None,
                 q: vec![0.1 * k as f64, 0.0],
                 observations: vec![o([1.0 + a, 0.0, 0.0]), o([2.0 + k as f64, 0.0, 0.0])],
+                wrench: None,
+                temperature_c: None,
             }
         };
-        TargetMeasurementSet::new(
+        MeasurementSet::from_poses(
             "m.csv",
             vec![
                 Target::new("a", "tcp", Vector3::zeros()),
@@ -690,7 +673,7 @@ mod tests {
         let kept = one.excluding(&["#1"]).unwrap();
         assert_eq!(kept.labels(), ["#0", "#2", "#3"]);
         // Pooled stations: labels carry the station's number.
-        let pooled = TargetMeasurementSet::pooled(&[set.clone(), set]).unwrap();
+        let pooled = MeasurementSet::pooled(&[set.clone(), set]).unwrap();
         let kept = pooled.excluding(&["s2:#0"]).unwrap();
         assert_eq!(kept.len(), 7);
         assert_eq!(kept.n_stations(), 2);

@@ -74,136 +74,66 @@ use crate::folds::{
 };
 use crate::identify::{Calibration, calibrate};
 use crate::joint_law::JointLaw;
-use crate::measurement::{MeasurementSet, PoseSet};
+use crate::measurement::MeasurementSet;
 use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
-use crate::prediction::PredictedAt;
-use crate::targets::{Observations, SetKind, TargetMeasurementSet};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
 use crate::validate::{target_position_errors, validate_targets};
 
-/// What model selection needs of a set of measurements: each pose's
-/// configuration and station (for the folds), subsets of the poses, and
-/// fits scored on held-out poses. One target per pose
-/// ([`MeasurementSet`]) and several ([`TargetMeasurementSet`]) are
-/// selected alike.
-pub(crate) trait Selectable: PoseSet + PredictedAt + Sync {
-    /// Number of stations (measurement frames).
-    fn n_stations(&self) -> usize {
-        1
-    }
-    /// Station of pose `k`.
-    fn station_of(&self, _k: usize) -> usize {
-        0
-    }
-    /// The poses `indices`, in that order.
-    fn subset(&self, indices: &[usize]) -> Result<Self, CalibError>;
+/// What model selection needs of a set of measurements: fits, scored on
+/// held-out poses.
+impl MeasurementSet {
     /// Identifies the candidate `options` on these poses.
-    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Calibration, CalibError>;
-    /// Position errors (m) of `held_out` predicted by `fitted`, its
-    /// measurement frame as identified (same instrument).
-    fn held_out_errors(
+    pub(crate) fn fit(
+        &self,
         model: &Model,
-        fitted: &Calibration,
-        held_out: &Self,
-    ) -> Result<Vec<f64>, CalibError>;
-    /// Name of station `s`.
-    fn station_name(&self, s: usize) -> &str;
-    /// The poses of station `s` as a set of their own (`None` when there
-    /// are none).
-    fn station_poses(&self, s: usize) -> Option<Self>;
-    /// Errors of `held_out` (poses of another station) with the nominal
-    /// robot and with `fitted`'s, each with the measurement frame fitted
-    /// again on `held_out`: (before, after).
-    fn held_out_statistics(
-        model: &Model,
-        fitted: &Calibration,
-        held_out: &Self,
-    ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError>;
-    /// The BIC of a fit.
-    fn bic(fitted: &Calibration) -> f64;
-}
-
-impl Selectable for MeasurementSet {
-    fn n_stations(&self) -> usize {
-        MeasurementSet::n_stations(self)
-    }
-    fn station_of(&self, k: usize) -> usize {
-        MeasurementSet::station_of(self, k)
-    }
-    fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
-        MeasurementSet::subset(self, indices)
-    }
-    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Calibration, CalibError> {
+        options: &CalibrationOptions,
+    ) -> Result<Calibration, CalibError> {
         calibrate(model, self, options)
     }
-    fn held_out_errors(
+
+    /// Position errors (m) of each observation of `held_out` predicted by
+    /// `fitted`, its measurement frame as identified (same instrument).
+    pub(crate) fn held_out_errors(
         model: &Model,
         fitted: &Calibration,
-        held_out: &Self,
+        held_out: &MeasurementSet,
     ) -> Result<Vec<f64>, CalibError> {
+        if !held_out.is_one_target() {
+            return target_position_errors(model, fitted, held_out);
+        }
         let (errors, _) =
             fitted.errors_after(model, held_out, FramePolicy::Fixed(fitted.x_meas_base))?;
         Ok(errors.iter().map(|e| e.position).collect())
     }
-    fn station_name(&self, s: usize) -> &str {
-        &self.station_names()[s]
-    }
-    fn station_poses(&self, s: usize) -> Option<Self> {
-        MeasurementSet::station_poses(self, s)
-    }
-    fn held_out_statistics(
+
+    /// Errors of `held_out` (poses of another station) with the nominal
+    /// robot and with `fitted`'s, each with the measurement frame fitted
+    /// again on `held_out`: (before, after).
+    pub(crate) fn held_out_statistics(
         model: &Model,
         fitted: &Calibration,
-        held_out: &Self,
+        held_out: &MeasurementSet,
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
+        if !held_out.is_one_target() {
+            let validation = validate_targets(model, fitted, held_out, true)?;
+            return Ok((validation.before, validation.after));
+        }
         let validation = fitted.validate(model, held_out, false)?;
         Ok((validation.before, validation.after))
     }
-    fn bic(fitted: &Calibration) -> f64 {
-        let rows = fitted.n_poses * if fitted.use_orientation { 6 } else { 3 };
-        bic(rows, fitted.solve.cost, &fitted.unknowns)
-    }
-}
 
-impl Selectable for TargetMeasurementSet {
-    fn n_stations(&self) -> usize {
-        TargetMeasurementSet::n_stations(self)
-    }
-    fn station_of(&self, k: usize) -> usize {
-        TargetMeasurementSet::station_of(self, k)
-    }
-    fn subset(&self, indices: &[usize]) -> Result<Self, CalibError> {
-        TargetMeasurementSet::subset(self, indices)
-    }
-    fn fit(&self, model: &Model, options: &CalibrationOptions) -> Result<Calibration, CalibError> {
-        calibrate(model, self, options)
-    }
-    fn held_out_errors(
-        model: &Model,
-        fitted: &Calibration,
-        held_out: &Self,
-    ) -> Result<Vec<f64>, CalibError> {
-        target_position_errors(model, fitted, held_out)
-    }
-    fn station_name(&self, s: usize) -> &str {
-        &self.station_names()[s]
-    }
-    fn station_poses(&self, s: usize) -> Option<Self> {
-        TargetMeasurementSet::station_poses(self, s)
-    }
-    fn held_out_statistics(
-        model: &Model,
-        fitted: &Calibration,
-        held_out: &Self,
-    ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
-        let validation = validate_targets(model, fitted, held_out, true)?;
-        Ok((validation.before, validation.after))
-    }
-    fn bic(fitted: &Calibration) -> f64 {
+    /// The BIC of a fit: three rows per observation, six where
+    /// orientations were fitted on a set of one target per pose.
+    pub(crate) fn bic(fitted: &Calibration) -> f64 {
+        let rows_per_observation = if fitted.use_orientation && fitted.targets.len() == 1 {
+            6
+        } else {
+            3
+        };
         bic(
-            3 * fitted.n_observations,
+            rows_per_observation * fitted.n_observations,
             fitted.solve.cost,
             &fitted.unknowns,
         )
@@ -699,9 +629,9 @@ fn in_group(model: &Model, group: TermGroup, name: &str) -> bool {
 /// scoring its removal would cost a fit per fold at every step for nothing.
 /// One fit on the whole set; when it fails the search goes on with every
 /// group and reports the failure as it would.
-fn remove_unidentified_groups<D: Selectable>(
+fn remove_unidentified_groups(
     model: &Model,
-    set: &D,
+    set: &MeasurementSet,
     base: &CalibrationOptions,
     groups: &mut Vec<TermGroup>,
     reasons: &mut Vec<String>,
@@ -734,8 +664,11 @@ fn remove_unidentified_groups<D: Selectable>(
 }
 
 /// The subset of `set` whose poses have `keep(k)`.
-fn subset<D: Selectable>(set: &D, keep: impl Fn(usize) -> bool) -> Result<D, CalibError> {
-    let indices: Vec<usize> = (0..set.n_poses()).filter(|&k| keep(k)).collect();
+fn subset(
+    set: &MeasurementSet,
+    keep: impl Fn(usize) -> bool,
+) -> Result<MeasurementSet, CalibError> {
+    let indices: Vec<usize> = (0..set.len()).filter(|&k| keep(k)).collect();
     set.subset(&indices)
 }
 
@@ -751,10 +684,10 @@ type FitOutcome = (Vec<f64>, usize, f64);
 /// where scoring candidate by candidate waited at each candidate for its
 /// slowest fold. Each fit owns its workspaces (each [`calibrate`] builds
 /// its own). Results come back in the order of `candidates`, then folds.
-fn run_fits<D: Selectable>(
+fn run_fits(
     model: &Model,
-    set: &D,
-    folds: &[(D, D)],
+    set: &MeasurementSet,
+    folds: &[(MeasurementSet, MeasurementSet)],
     candidates: &[CalibrationOptions],
 ) -> Vec<Vec<Result<FitOutcome, CalibError>>> {
     let per_candidate = folds.len().max(1);
@@ -770,11 +703,11 @@ fn run_fits<D: Selectable>(
         let options = &candidates[job / per_candidate];
         if folds.is_empty() {
             let fitted = set.fit(model, options)?;
-            return Ok((Vec::new(), rank(&fitted), D::bic(&fitted)));
+            return Ok((Vec::new(), rank(&fitted), MeasurementSet::bic(&fitted)));
         }
         let (train, held_out) = &folds[job % per_candidate];
         let fitted = train.fit(model, options)?;
-        let errors = D::held_out_errors(model, &fitted, held_out)?;
+        let errors = MeasurementSet::held_out_errors(model, &fitted, held_out)?;
         Ok((errors, rank(&fitted), f64::NAN))
     };
     // At least one thread per fold, as when the folds of a candidate were
@@ -853,19 +786,19 @@ fn bic(rows: usize, cost: f64, unknowns: &[UnknownEstimate]) -> f64 {
 /// # Errors
 /// [`CalibError::InvalidOption`] for fewer than 2 folds or more folds than
 /// poses; what the gravity torques of the extrapolating folds return.
-fn build_folds<D: Selectable>(
+fn build_folds(
     model: &Model,
-    set: &D,
+    set: &MeasurementSet,
     base: &CalibrationOptions,
     selection: &SelectionOptions,
     report: &mut SelectionReport,
-) -> Result<(Vec<(D, D)>, usize), CalibError> {
-    if selection.folds < 2 || selection.folds > set.n_poses() {
+) -> Result<(Vec<(MeasurementSet, MeasurementSet)>, usize), CalibError> {
+    if selection.folds < 2 || selection.folds > set.len() {
         return Err(CalibError::InvalidOption {
             name: "folds",
             reason: format!(
                 "must be between 2 and the number of poses ({}), found {}",
-                set.n_poses(),
+                set.len(),
                 selection.folds
             ),
         });
@@ -882,7 +815,7 @@ fn build_folds<D: Selectable>(
     for f in 0..selection.folds {
         let train = subset(set, |k| assignment[k] != f)?;
         let held_out = subset(set, |k| assignment[k] == f)?;
-        report.fold_sizes.push(held_out.n_poses());
+        report.fold_sizes.push(held_out.len());
         folds.push((train, held_out));
     }
     report.extrapolation_end_share = EXTRAPOLATION_END_SHARE;
@@ -899,10 +832,10 @@ fn build_folds<D: Selectable>(
 }
 
 /// The configurations and stations of `set`'s poses.
-fn fold_poses<D: Selectable>(set: &D) -> FoldPoses<'_> {
+fn fold_poses(set: &MeasurementSet) -> FoldPoses<'_> {
     FoldPoses {
-        q: (0..set.n_poses()).map(|k| set.configuration(k)).collect(),
-        station: (0..set.n_poses()).map(|k| set.station_of(k)).collect(),
+        q: (0..set.len()).map(|k| set.configuration(k)).collect(),
+        station: (0..set.len()).map(|k| set.station_of(k)).collect(),
         n_stations: set.n_stations(),
     }
 }
@@ -912,9 +845,9 @@ fn fold_poses<D: Selectable>(set: &D) -> FoldPoses<'_> {
 /// whether [`SelectionOptions::region`] leaves the training poses' range
 /// (the check of the validation report,
 /// [`crate::ValidationReport::extrapolated_coordinates`]).
-fn score_to_choose_on<D: Selectable>(
+fn score_to_choose_on(
     model: &Model,
-    set: &D,
+    set: &MeasurementSet,
     selection: &SelectionOptions,
     has_extrapolating: bool,
 ) -> (SelectOn, String) {
@@ -930,7 +863,7 @@ fn score_to_choose_on<D: Selectable>(
             "no region of use given (validation poses, accuracy map), so none known to leave the training range".into(),
         ),
         SelectOn::Auto => {
-            let q: Vec<&[f64]> = (0..set.n_poses()).map(|k| set.configuration(k)).collect();
+            let q: Vec<&[f64]> = (0..set.len()).map(|k| set.configuration(k)).collect();
             let ranges = CoordinateCoverage::of_configurations(model, &q);
             let outside = crate::coverage::extrapolated_coordinates(
                 model.actuated_names(),
@@ -1035,31 +968,6 @@ fn score_candidate(
     }
 }
 
-/// Chooses from `set` alone which groups of unknowns to identify (module
-/// docs), starting from `base` (the richest model the user allows: its
-/// mass table makes compliances and the law available). Returns the
-/// report and the chosen options.
-///
-/// # Errors
-/// [`CalibError::InvalidOption`] for fewer than 2 folds or more folds than
-/// poses; what [`calibrate`] returns when even the base model fails.
-///
-/// With several targets per pose the folds are clusters of poses (every
-/// target of a pose in the same fold) and the score the mean position
-/// error over the held-out observations; a fold that leaves a target
-/// unobserved in its training or held-out part fails its candidate, named
-/// in the report.
-pub fn select_model<S: Observations + ?Sized>(
-    model: &Model,
-    set: &S,
-    base: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
-    match set.kind() {
-        SetKind::OneTarget(set) => select_in(model, set, base, selection),
-        SetKind::Targets(set) => select_in(model, set, base, selection),
-    }
-}
 
 /// The report of a search with `selection`'s settings, before any
 /// candidate is scored.
@@ -1083,12 +991,12 @@ fn empty_report(selection: &SelectionOptions) -> SelectionReport {
 /// Scores candidates of one search: each set of groups once (backward
 /// steps reach some twice), the candidates of one step fitted together
 /// ([`run_fits`]).
-struct Scorer<'s, D: Selectable> {
+struct Scorer<'s> {
     model: &'s Model,
-    set: &'s D,
+    set: &'s MeasurementSet,
     base: &'s CalibrationOptions,
     /// The folds of cross-validation (empty for BIC).
-    folds: Vec<(D, D)>,
+    folds: Vec<(MeasurementSet, MeasurementSet)>,
     /// The number of ordinary folds (cross-validation), `None` for BIC.
     ordinary: Option<usize>,
     /// The score the search chooses on.
@@ -1097,7 +1005,7 @@ struct Scorer<'s, D: Selectable> {
     scored: Vec<(Vec<TermGroup>, Option<Score>)>,
 }
 
-impl<D: Selectable> Scorer<'_, D> {
+impl Scorer<'_> {
     /// The scores of `trials` (`None` where a score failed), fitting the
     /// sets of groups not scored yet and recording them in `report`.
     fn score(
@@ -1233,8 +1141,8 @@ fn judge_removal(g: TermGroup, s: &Score, current: &Score, cv: bool) -> (bool, S
 /// The backward search from `chosen` (score `current`): at each step the
 /// removal that leaves the best score, taken while [`judge_removal`]
 /// allows. Returns the groups kept.
-fn backward_search<D: Selectable>(
-    scorer: &mut Scorer<'_, D>,
+fn backward_search(
+    scorer: &mut Scorer<'_>,
     mut chosen: Vec<TermGroup>,
     mut current: Score,
     report: &mut SelectionReport,
@@ -1266,12 +1174,23 @@ fn backward_search<D: Selectable>(
     }
 }
 
-/// The search of [`select_model`] over any [`Selectable`] set: the
-/// candidate groups, the folds, the score to choose on, the model with
-/// every group, then [`backward_search`].
-fn select_in<D: Selectable>(
+/// Chooses from `set` alone which groups of unknowns to identify (module
+/// docs), starting from `base` (the richest model the user allows: its
+/// mass table makes compliances and the law available). Returns the
+/// report and the chosen options.
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] for fewer than 2 folds or more folds than
+/// poses; what [`calibrate`] returns when even the base model fails.
+///
+/// With several targets per pose the folds are clusters of poses (every
+/// target of a pose in the same fold) and the score the mean position
+/// error over the held-out observations; a fold that leaves a target
+/// unobserved in its training or held-out part fails its candidate, named
+/// in the report.
+pub fn select_model(
     model: &Model,
-    set: &D,
+    set: &MeasurementSet,
     base: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<(SelectionReport, CalibrationOptions), CalibError> {
@@ -1336,29 +1255,16 @@ fn select_in<D: Selectable>(
 ///
 /// # Errors
 /// As [`select_model`] and [`calibrate`].
-pub fn calibrate_selected<S: Observations + ?Sized>(
+pub fn calibrate_selected(
     model: &Model,
-    set: &S,
-    options: &CalibrationOptions,
-    selection: &SelectionOptions,
-) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
-    match set.kind() {
-        SetKind::OneTarget(set) => calibrate_selected_in(model, set, options, selection),
-        SetKind::Targets(set) => calibrate_selected_in(model, set, options, selection),
-    }
-}
-
-/// [`calibrate_selected`] over any [`Selectable`] set.
-pub(crate) fn calibrate_selected_in<D: Selectable>(
-    model: &Model,
-    set: &D,
+    set: &MeasurementSet,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
 ) -> Result<(Calibration, Option<SelectionReport>, CalibrationOptions), CalibError> {
     if selection.method == SelectionMethod::None {
         return Ok((set.fit(model, options)?, None, options.clone()));
     }
-    let (report, chosen) = select_in(model, set, options, selection).map_err(|e| {
+    let (report, chosen) = select_model(model, set, options, selection).map_err(|e| {
         // A fit cancelled during the search fails its candidate: say why.
         match &options.cancel {
             Some(token) if token.is_cancelled() => CalibError::Cancelled,

@@ -23,10 +23,9 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::identify::Calibration;
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
 use crate::prediction::prediction_variances;
-use crate::selection::Selectable;
-use crate::targets::{Observations, SetKind};
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 
 /// A split error above this many standard errors is named in
@@ -130,16 +129,13 @@ impl SplitCheck {
     /// With several targets the halves are made of whole poses (every
     /// target seen at a pose goes with it), the prediction space that of
     /// every observation.
-    pub fn new<S: Observations + ?Sized>(
+    pub fn new(
         model: &Model,
-        set: &S,
+        set: &MeasurementSet,
         options: &CalibrationOptions,
         calibration: &Calibration,
     ) -> Result<Self, CalibError> {
-        match set.kind() {
-            SetKind::OneTarget(set) => split_check(model, set, options, calibration),
-            SetKind::Targets(set) => split_check(model, set, options, calibration),
-        }
+        split_check(model, set, options, calibration)
     }
 
     /// What the check found, in sentences.
@@ -182,9 +178,9 @@ impl SplitCheck {
 }
 
 /// [`SplitCheck::new`] on either kind of set.
-pub(crate) fn split_check<S: Selectable>(
+pub(crate) fn split_check(
     model: &Model,
-    set: &S,
+    set: &MeasurementSet,
     options: &CalibrationOptions,
     calibration: &Calibration,
 ) -> Result<SplitCheck, CalibError> {
@@ -192,7 +188,7 @@ pub(crate) fn split_check<S: Selectable>(
     // Odd, even, first-half and second-half poses; with several
     // stations, the halves of each station's poses (every half fit
     // then places every station).
-    let n = set.n_poses();
+    let n = set.len();
     let mut station_sizes = vec![0usize; set.n_stations()];
     let rank_in_station: Vec<usize> = (0..n)
         .map(|k| {
@@ -253,9 +249,9 @@ pub(crate) fn split_check<S: Selectable>(
 
 /// [`SplitCheck::prediction_ratio`] from the four half fits (odd, even,
 /// first half, second half).
-fn prediction_ratio<S: Selectable>(
+fn prediction_ratio(
     model: &Model,
-    set: &S,
+    set: &MeasurementSet,
     calibration: &Calibration,
     fits: &[Calibration],
 ) -> Result<Option<f64>, CalibError> {

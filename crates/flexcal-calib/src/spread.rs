@@ -14,8 +14,9 @@ use crate::analysis::AnalysisContext;
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
-use crate::targets::{TargetMeasurementSet, TargetObservation, TargetPose};
+use crate::targets::{TargetObservation, TargetPose};
 
 /// Most poses drawn for the spread reference of
 /// [`crate::UnknownEstimate::spread_ratio`] (its standard errors are rescaled to the
@@ -60,7 +61,7 @@ pub(crate) fn unit_covariance_diagonal(s: &Mat<f64>, cols: &[usize]) -> Option<V
 /// What the spread reference needs from the identification.
 pub(crate) struct SpreadReference<'a> {
     pub model: &'a Model,
-    pub set: &'a TargetMeasurementSet,
+    pub set: &'a MeasurementSet,
     pub options: &'a CalibrationOptions,
     /// What the identification poses cover of each actuated coordinate.
     pub actuated_ranges: &'a [CoordinateCoverage],
@@ -120,9 +121,11 @@ pub(crate) fn spread_ratios(
             observations: (0..set.targets().len())
                 .map(|t| Some(observation(t)))
                 .collect(),
+            wrench: None,
+            temperature_c: None,
         })
         .collect();
-    let spread = TargetMeasurementSet::new("spread reference", set.targets().to_vec(), poses)?
+    let spread = MeasurementSet::from_poses("spread reference", set.targets().to_vec(), poses)?
         .with_stations(
             set.station_names().to_vec(),
             (0..count).map(|k| k % stations).collect(),

@@ -15,9 +15,9 @@ use crate::error::CalibError;
 use crate::error_model::FrameStarts;
 use crate::frames::resolve_frame;
 use crate::geometry::{mean_rotation, register_points, rotation_from_vector};
+use crate::measurement::MeasurementSet;
 use crate::options::CalibrationOptions;
 use crate::options::FrameTreatment;
-use crate::targets::TargetMeasurementSet;
 
 /// The pose `x_base_f` of each target's frame (after the tool for a target
 /// on the TCP) at every pose of `set`, the robot rigid at `xi`: one entry
@@ -28,7 +28,7 @@ use crate::targets::TargetMeasurementSet;
 /// frame.
 pub(crate) fn target_frames(
     model: &Model,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     xi: &[f64],
 ) -> Result<Vec<Vec<Isometry3<f64>>>, CalibError> {
     let frames = set
@@ -79,7 +79,7 @@ pub(crate) fn target_frames(
 /// without them; a degenerate registration; a model failure at a pose.
 pub(crate) fn frame_starts(
     model: &Model,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     options: &CalibrationOptions,
 ) -> Result<FrameStarts, CalibError> {
     let mut starts = FrameStarts::nominal(set, Isometry3::identity(), options.use_orientation)?;
@@ -122,7 +122,7 @@ pub(crate) fn frame_starts(
 /// # Errors
 /// [`CalibError::DegenerateRegistration`].
 pub(crate) fn register_stations(
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     frames: &[Vec<Isometry3<f64>>],
     targets: &[Isometry3<f64>],
 ) -> Result<Vec<Option<Isometry3<f64>>>, CalibError> {
@@ -145,10 +145,7 @@ pub(crate) fn register_stations(
 }
 
 /// `(pose, target)` of every observation of station `s`.
-fn observations_at(
-    set: &TargetMeasurementSet,
-    s: usize,
-) -> impl Iterator<Item = (usize, usize)> + '_ {
+fn observations_at(set: &MeasurementSet, s: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
     set.poses()
         .iter()
         .enumerate()
@@ -169,7 +166,7 @@ fn observations_at(
 /// nominal pose assumes (a quarter turn about the tool axis, say) then
 /// starts where the data put it.
 fn register_target_rotation(
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     frames: &[Vec<Isometry3<f64>>],
     stations: &[Isometry3<f64>],
     t: usize,

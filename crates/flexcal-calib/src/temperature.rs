@@ -31,7 +31,7 @@ impl TemperatureCheck {
     /// poses carry a temperature.
     pub fn of(set: &MeasurementSet, errors: &[PoseError]) -> Option<Self> {
         let pairs: Vec<(f64, f64)> = set
-            .measurements()
+            .poses()
             .iter()
             .zip(errors)
             .filter_map(|(m, e)| m.temperature_c.map(|t| (t, e.position * 1e3)))
@@ -71,7 +71,7 @@ pub fn pose_errors_csv(set: &MeasurementSet, errors: &[PoseError]) -> String {
     let mut text = String::from(
         "pose,temperature_c,position_error_mm,orientation_error_deg,dx_mm,dy_mm,dz_mm\n",
     );
-    for (k, (e, m)) in errors.iter().zip(set.measurements()).enumerate() {
+    for (k, (e, m)) in errors.iter().zip(set.poses()).enumerate() {
         let optional = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
         text.push_str(&format!(
             "{},{},{},{},{},{},{}\n",

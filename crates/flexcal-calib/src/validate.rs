@@ -12,7 +12,6 @@ use serde::Serialize;
 
 use crate::error::CalibError;
 use crate::error_model::{ErrorModel, FrameStarts};
-use crate::frames::TCP_FRAME;
 use crate::gravity::GravityCompliance;
 use crate::identify::{Calibration, observation_errors, per_target};
 use crate::joint_law::JointTerms;
@@ -22,7 +21,7 @@ use crate::metrics::{ObservationError, TargetErrors};
 use crate::options::FrameTreatment;
 use crate::screen::DataChecks;
 use crate::start::{register_stations, target_frames};
-use crate::targets::{Target, TargetMeasurementSet};
+use crate::targets::Target;
 
 /// How the measurement frame is obtained when errors are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,7 +115,7 @@ fn evaluate_errors_at_stations(
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
-    let targets = TargetMeasurementSet::from_measurement_set(set, TCP_FRAME)?;
+    let targets = set.clone();
     let mut starts = FrameStarts::nominal(&targets, Isometry3::identity(), Some(use_orientation))?;
     starts.targets[0] = *x_tcp_target;
     let refit_target = match policy {
@@ -360,7 +359,7 @@ impl Calibration {
         let extrapolated_coordinates = crate::coverage::extrapolated_coordinates(
             model.actuated_names(),
             &self.actuated_ranges,
-            set.measurements().iter().map(|m| m.q.as_slice()),
+            set.poses().iter().map(|p| p.q.as_slice()),
         );
         Ok(ValidationReport {
             before,
@@ -421,7 +420,7 @@ pub struct TargetValidation {
 fn fitted_model<'a>(
     model: &'a Model,
     calibration: &Calibration,
-    set: &'a TargetMeasurementSet,
+    set: &'a MeasurementSet,
     (xi, identified): (&[f64], bool),
     first: Isometry3<f64>,
     orientation: bool,
@@ -458,7 +457,7 @@ fn fitted_model<'a>(
 pub fn target_position_errors(
     model: &Model,
     calibration: &Calibration,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
 ) -> Result<Vec<f64>, CalibError> {
     let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
     let (problem, x) = fitted_model(
@@ -492,12 +491,12 @@ fn fixed_offsets(targets: &[Target]) -> Vec<Target> {
 pub fn validate_targets(
     model: &Model,
     calibration: &Calibration,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     refit_frame: bool,
 ) -> Result<TargetValidation, CalibError> {
     let nominal = set.with_targets(fixed_offsets(&calibration.targets_nominal_robot))?;
     let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
-    let evaluate = |set: &TargetMeasurementSet,
+    let evaluate = |set: &MeasurementSet,
                     robot: (&[f64], bool),
                     x_meas_base: Isometry3<f64>|
      -> Result<

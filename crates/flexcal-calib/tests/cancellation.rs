@@ -72,7 +72,13 @@ fn model_selection_passes_the_token_to_its_fits() {
 fn a_cancelled_multi_target_identification_returns_the_named_error() {
     // The same campaign as one target on the TCP.
     let (model, set) = campaign(60);
-    let targets = flexcal_calib::TargetMeasurementSet::from_measurement_set(&set, "probe").unwrap();
+    let probe = flexcal_calib::Target {
+        name: "probe".into(),
+        ..set.targets()[0].clone()
+    };
+    let targets =
+        flexcal_calib::MeasurementSet::from_poses(&set.source, vec![probe], set.poses().to_vec())
+            .unwrap();
     let token = CancelToken::new();
     let mut options = CalibrationOptions::for_model(&model);
     options.cancel = Some(token.clone());

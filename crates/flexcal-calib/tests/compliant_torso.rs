@@ -36,9 +36,9 @@
 //! flexcal fits to it).
 
 use flexcal_calib::{
-    CalibrationOptions, GravityCompliance, SelectionOptions, TargetMeasurementSet,
-    TargetObservation, TargetPose, UnknownStatus, calibrate_selected, default_method_for,
-    read_targets, rotation_from_vector, validate_targets,
+    CalibrationOptions, GravityCompliance, MeasurementSet, SelectionOptions, TargetObservation,
+    TargetPose, UnknownStatus, calibrate_selected, default_method_for, read_targets,
+    rotation_from_vector, validate_targets,
 };
 use flexcal_kinematics::{Data, Model};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -384,7 +384,7 @@ impl Truth {
         panic!("the truth's equilibrium did not converge at {q:?}");
     }
 
-    fn measure(&self, model: &Model, n: usize, seed: u64) -> TargetMeasurementSet {
+    fn measure(&self, model: &Model, n: usize, seed: u64) -> MeasurementSet {
         let targets = read_targets(&data_file("compliant_torso_targets.toml")).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let noise = Normal::new(0.0, NOISE).unwrap();
@@ -410,10 +410,12 @@ impl Truth {
                     pose_id: Some(format!("p{k}")),
                     q,
                     observations,
+                    wrench: None,
+                    temperature_c: None,
                 }
             })
             .collect();
-        TargetMeasurementSet::new("compliant torso (simulated)", targets, poses).unwrap()
+        MeasurementSet::from_poses("compliant torso (simulated)", targets, poses).unwrap()
     }
 }
 

@@ -10,7 +10,7 @@
 use std::borrow::Cow;
 
 use flexcal_calib::{
-    CouplingGroup, ErrorModel, FrameStarts, GravityCompliance, JointTerms, TargetMeasurementSet,
+    CouplingGroup, ErrorModel, FrameStarts, GravityCompliance, JointTerms, MeasurementSet,
     TargetObservation, TargetPose, UnknownKind, read_targets,
 };
 use flexcal_kinematics::{Data, Model, PointLoad, actuated_forces_into, forward_frames};
@@ -32,7 +32,7 @@ const GROUP: &str = "[[coupling_compliance]]\njoints = [\"T2\", \"T3\", \"T4\"]\
 
 /// `n` poses over the joint limits, both markers seen (observations at
 /// zero: the Jacobian and predictions do not depend on them).
-fn poses(model: &Model, n: usize, seed: u64) -> TargetMeasurementSet {
+fn poses(model: &Model, n: usize, seed: u64) -> MeasurementSet {
     let targets = read_targets(&data_file("compliant_torso_targets.toml")).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let poses = (0..n)
@@ -44,14 +44,16 @@ fn poses(model: &Model, n: usize, seed: u64) -> TargetMeasurementSet {
                 .map(|&(lo, hi)| rng.random_range(lo..hi))
                 .collect(),
             observations: vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
+            wrench: None,
+            temperature_c: None,
         })
         .collect();
-    TargetMeasurementSet::new("poses", targets, poses).unwrap()
+    MeasurementSet::from_poses("poses", targets, poses).unwrap()
 }
 
 fn problem<'a>(
     model: &'a Model,
-    set: &'a TargetMeasurementSet,
+    set: &'a MeasurementSet,
     gravity: &GravityCompliance,
 ) -> Result<ErrorModel<'a>, flexcal_calib::CalibError> {
     let starts = FrameStarts::nominal(set, Isometry3::identity(), None)?;

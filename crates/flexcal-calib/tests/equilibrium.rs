@@ -8,7 +8,7 @@ use std::borrow::Cow;
 
 use flexcal_calib::{
     CalibError, Deflection, ErrorModel, FrameStarts, GravityCompliance, JointLaw, JointTerms,
-    LateralCompliance, Payload, TargetMeasurementSet, TargetObservation, TargetPose, UnknownKind,
+    LateralCompliance, MeasurementSet, Payload, TargetObservation, TargetPose, UnknownKind,
     read_targets,
 };
 use flexcal_kinematics::{Data, Model, RobotDescription, actuated_forces_into};
@@ -37,7 +37,7 @@ fn masses() -> GravityCompliance {
 
 /// `n` poses drawn uniformly over the joint limits, both markers seen at
 /// arbitrary positions (the Jacobian does not depend on them).
-fn poses(model: &Model, n: usize, seed: u64) -> TargetMeasurementSet {
+fn poses(model: &Model, n: usize, seed: u64) -> MeasurementSet {
     let targets = read_targets(&data_file("compliant_torso_targets.toml")).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let poses = (0..n)
@@ -55,14 +55,16 @@ fn poses(model: &Model, n: usize, seed: u64) -> TargetMeasurementSet {
                     })))
                 })
                 .collect(),
+            wrench: None,
+            temperature_c: None,
         })
         .collect();
-    TargetMeasurementSet::new("equilibrium", targets, poses).unwrap()
+    MeasurementSet::from_poses("equilibrium", targets, poses).unwrap()
 }
 
 fn problem<'a>(
     model: &'a Model,
-    set: &'a TargetMeasurementSet,
+    set: &'a MeasurementSet,
     gravity: &GravityCompliance,
     terms: &JointTerms,
 ) -> ErrorModel<'a> {

@@ -323,7 +323,7 @@ fn target_orientation_starts_where_the_data_put_it() {
     let mut options = CalibrationOptions::for_model(&model);
     options.use_orientation = Some(true);
     let mut nominal_set = set.clone();
-    nominal_set.nominal_target = Some(quarter(1.0));
+    nominal_set.set_nominal_target(quarter(1.0));
     let calibration = calibrate(&model, &nominal_set, &options).unwrap();
     assert!(
         calibration.training_after.position_max < 1e-9

@@ -157,7 +157,7 @@ fn ipa_series_b_imports_with_the_probe_offset() {
     assert!((first.q[0] + 314_159.0 * 1e-5).abs() < 1e-12);
     assert!(first.temperature_c.is_some() && first.position_std.is_some());
     // The probe sits about 109 mm along the flange's z axis.
-    let target = set.nominal_target.unwrap();
+    let target = set.nominal_target().unwrap();
     assert!(
         (target.translation.vector.z - 0.109).abs() < 1e-4,
         "{target}"

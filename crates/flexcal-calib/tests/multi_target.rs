@@ -11,7 +11,7 @@
 //! a laser tracker's repeatability at a few metres.
 
 use flexcal_calib::{
-    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, TargetMeasurementSet,
+    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, MeasurementSet, Target,
     TargetObservation, TargetPose, UnknownStatus, calibrate, read_targets, rotation_from_vector,
     validate_targets, vector_from_rotation,
 };
@@ -84,7 +84,7 @@ fn measure(
     targets: &[flexcal_calib::Target],
     poses: usize,
     rng: &mut ChaCha8Rng,
-) -> TargetMeasurementSet {
+) -> MeasurementSet {
     let limits = model.actuated_limits().to_vec();
     measure_with(model, truth, targets, poses, rng, |rng| {
         limits
@@ -103,7 +103,7 @@ fn measure_with(
     poses: usize,
     rng: &mut ChaCha8Rng,
     mut draw: impl FnMut(&mut ChaCha8Rng) -> Vec<f64>,
-) -> TargetMeasurementSet {
+) -> MeasurementSet {
     let noise = Normal::new(0.0, NOISE).unwrap();
     let mut data = Data::new(model);
     let frames: Vec<usize> = targets
@@ -150,10 +150,12 @@ fn measure_with(
                 pose_id: Some(format!("p{k}")),
                 q,
                 observations,
+                wrench: None,
+                temperature_c: None,
             }
         })
         .collect();
-    TargetMeasurementSet::new("simulated", targets.to_vec(), poses).unwrap()
+    MeasurementSet::from_poses("simulated", targets.to_vec(), poses).unwrap()
 }
 
 /// The true value of every unknown of `calibration`, in its order: robot
@@ -440,7 +442,7 @@ fn identifiability_names_what_two_markers_cannot_see() {
             ..p.clone()
         })
         .collect();
-    let one = TargetMeasurementSet::new("left only", targets[..1].to_vec(), left_only).unwrap();
+    let one = MeasurementSet::from_poses("left only", targets[..1].to_vec(), left_only).unwrap();
     let calibration = calibrate(&model, &one, &CalibrationOptions::default()).unwrap();
     let notes = calibration.identifiability_notes().join("\n");
     for p in model.params().iter().filter(|p| p.frame.starts_with('R')) {
@@ -510,10 +512,15 @@ fn one_target_on_the_tcp_matches_the_one_target_identification() {
         })
         .collect();
     let mut set = MeasurementSet::new("ur10", poses).unwrap();
-    set.nominal_target = Some(Isometry3::translation(0.01, -0.02, 0.149));
+    set.set_nominal_target(Isometry3::translation(0.01, -0.02, 0.149));
     let options = CalibrationOptions::default();
     let single = calibrate(&model, &set, &options).unwrap();
-    let multi_set = TargetMeasurementSet::from_measurement_set(&set, "probe").unwrap();
+    // The same poses, the target named: a set of (one) named target.
+    let probe = Target {
+        name: "probe".into(),
+        ..set.targets()[0].clone()
+    };
+    let multi_set = MeasurementSet::from_poses("ur10", vec![probe], set.poses().to_vec()).unwrap();
     let multi = calibrate(&model, &multi_set, &options).unwrap();
     println!(
         "one target: {:.5} mm RMS, rank {}; as a target set: {:.5} mm RMS, rank {}",
@@ -804,7 +811,7 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
     );
     let first = measure(&model, &truth, &targets, 60, &mut rng);
     let second = measure(&model, &moved, &targets, 60, &mut rng);
-    let set = TargetMeasurementSet::pooled(&[first, second]).unwrap();
+    let set = MeasurementSet::pooled(&[first, second]).unwrap();
     assert_eq!(set.n_stations(), 2);
     assert_eq!(set.poses()[60].pose_id.as_deref(), Some("s2:p0"));
     let options = CalibrationOptions::default();
@@ -903,7 +910,7 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
     // The pooled set's CSV keeps the stations.
     let text = set.to_csv_string();
     assert!(text.lines().next().unwrap().ends_with(",station"), "{text}");
-    let back = TargetMeasurementSet::from_csv_str(&text, "back", &targets).unwrap();
+    let back = MeasurementSet::from_targets_csv_str(&text, "back", &targets).unwrap();
     assert_eq!(back.n_stations(), 2);
     assert_eq!(back.station_of(60), 1);
     assert_eq!(back.station_names(), set.station_names());

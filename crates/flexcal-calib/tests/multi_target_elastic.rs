@@ -30,8 +30,8 @@
 //!   measured value).
 
 use flexcal_calib::{
-    Calibration, CalibrationOptions, GravityCompliance, LateralCompliance, SelectionOptions,
-    TargetMeasurementSet, TargetObservation, TargetPose, TermGroup, UnknownStatus, calibrate,
+    Calibration, CalibrationOptions, GravityCompliance, LateralCompliance, MeasurementSet,
+    SelectionOptions, TargetObservation, TargetPose, TermGroup, UnknownStatus, calibrate,
     calibrate_selected, read_targets, rotation_from_vector, validate_targets, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, PointLoad, RobotDescription, actuated_forces_into};
@@ -109,7 +109,7 @@ fn measure(
     targets: &[flexcal_calib::Target],
     n: usize,
     rng: &mut ChaCha8Rng,
-) -> TargetMeasurementSet {
+) -> MeasurementSet {
     let noise = Normal::new(0.0, NOISE).unwrap();
     let mut data = Data::new(model);
     let links = common::link_loads(model, gravity);
@@ -185,10 +185,12 @@ fn measure(
                 pose_id: Some(format!("p{k}")),
                 q,
                 observations,
+                wrench: None,
+                temperature_c: None,
             }
         })
         .collect();
-    TargetMeasurementSet::new("simulated, elastic", targets.to_vec(), poses).unwrap()
+    MeasurementSet::from_poses("simulated, elastic", targets.to_vec(), poses).unwrap()
 }
 
 /// The true value of every unknown of `calibration` by name.

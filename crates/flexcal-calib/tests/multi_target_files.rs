@@ -2,9 +2,8 @@
 //! targets description (TOML), written and read back, and their errors.
 
 use flexcal_calib::{
-    FrameTreatment, Measurement, MeasurementSet, TCP_FRAME, Target, TargetMeasurementSet,
-    TargetObservation, TargetPose, read_targets, targets_from_toml_str, targets_to_toml_string,
-    write_targets,
+    FrameTreatment, Measurement, MeasurementSet, TCP_FRAME, Target, TargetObservation, TargetPose,
+    read_targets, targets_from_toml_str, targets_to_toml_string, write_targets,
 };
 use nalgebra::Vector3;
 
@@ -19,7 +18,7 @@ fn targets() -> Vec<Target> {
 
 /// Five poses: the left target with orientation and standard deviations,
 /// the right one position only, and each missing on one pose.
-fn sample() -> TargetMeasurementSet {
+fn sample() -> MeasurementSet {
     let poses = (0..5)
         .map(|k| {
             let t = k as f64;
@@ -34,10 +33,12 @@ fn sample() -> TargetMeasurementSet {
                 pose_id: Some(format!("p{k}")),
                 q: vec![0.1 * t, -0.2, 0.3, 1.0 / 3.0, 0.5, -0.6, 0.7, 0.8, -0.9],
                 observations: vec![(k != 2).then_some(left), (k != 4).then_some(right)],
+                wrench: None,
+                temperature_c: None,
             }
         })
         .collect();
-    TargetMeasurementSet::new("sample", targets(), poses).unwrap()
+    MeasurementSet::from_poses("sample", targets(), poses).unwrap()
 }
 
 #[test]
@@ -56,7 +57,7 @@ fn measurements_and_targets_round_trip_through_their_files() {
         assert_eq!(a.treatment, b.treatment);
         assert!((a.offset - b.offset).norm() < 1e-15);
     }
-    let back = TargetMeasurementSet::read_csv(&csv, &targets).unwrap();
+    let back = MeasurementSet::read_targets_csv(&csv, &targets).unwrap();
     assert_eq!(back.len(), set.len());
     assert_eq!(back.n_observations(), 8);
     for (a, b) in back.poses().iter().zip(set.poses()) {
@@ -118,7 +119,7 @@ fn malformed_measurement_files_are_named_errors() {
     let header = "q1,q2,left_x_mm,left_y_mm,left_z_mm,right_x_mm,right_y_mm,right_z_mm\n";
     // A row with some of a target's cells empty.
     let text = format!("{header}0.1,0.2,1,2,3,4,5,6\n0.1,0.2,1,,3,4,5,6\n");
-    let err = TargetMeasurementSet::from_csv_str(&text, "m.csv", &targets)
+    let err = MeasurementSet::from_targets_csv_str(&text, "m.csv", &targets)
         .unwrap_err()
         .to_string();
     assert!(
@@ -127,7 +128,7 @@ fn malformed_measurement_files_are_named_errors() {
     );
     // A row where no target was seen.
     let text = format!("{header}0.1,0.2,1,2,3,4,5,6\n0.1,0.2,,,,,,\n");
-    let err = TargetMeasurementSet::from_csv_str(&text, "m.csv", &targets)
+    let err = MeasurementSet::from_targets_csv_str(&text, "m.csv", &targets)
         .unwrap_err()
         .to_string();
     assert!(
@@ -139,7 +140,7 @@ fn malformed_measurement_files_are_named_errors() {
         "{}0.1,0.2,1,2,3,4,5,6,7,8,9\n",
         header.replace('\n', ",lfet_x_mm,lfet_y_mm,lfet_z_mm\n")
     );
-    let err = TargetMeasurementSet::from_csv_str(&text, "m.csv", &targets)
+    let err = MeasurementSet::from_targets_csv_str(&text, "m.csv", &targets)
         .unwrap_err()
         .to_string();
     assert!(
@@ -148,19 +149,19 @@ fn malformed_measurement_files_are_named_errors() {
     );
     // A target of the description without its columns.
     let text = "q1,left_x_mm,left_y_mm,left_z_mm\n0.1,1,2,3\n";
-    let err = TargetMeasurementSet::from_csv_str(text, "m.csv", &targets)
+    let err = MeasurementSet::from_targets_csv_str(text, "m.csv", &targets)
         .unwrap_err()
         .to_string();
     assert!(err.contains("right_x_mm"), "{err}");
     // A target never seen.
     let text = format!("{header}0.1,0.2,1,2,3,,,\n");
-    let err = TargetMeasurementSet::from_csv_str(&text, "m.csv", &targets)
+    let err = MeasurementSet::from_targets_csv_str(&text, "m.csv", &targets)
         .unwrap_err()
         .to_string();
     assert!(err.contains("`right` is observed on no pose"), "{err}");
     // A number that is not one.
     let text = format!("{header}0.1,0.2,1,2,3,4,5,x\n");
-    let err = TargetMeasurementSet::from_csv_str(&text, "m.csv", &targets)
+    let err = MeasurementSet::from_targets_csv_str(&text, "m.csv", &targets)
         .unwrap_err()
         .to_string();
     assert!(err.contains("m.csv") && err.contains("right_z_mm"), "{err}");
@@ -171,11 +172,28 @@ fn a_one_target_set_is_a_set_of_one_target_on_the_tcp() {
     let mut m = Measurement::new(vec![0.1, 0.2], Vector3::new(1.0, 2.0, 3.0));
     m.pose_id = Some("a".into());
     let mut set = MeasurementSet::new("one", vec![m.clone(), m]).unwrap();
-    set.nominal_target = Some(nalgebra::Isometry3::translation(0.0, 0.0, 0.1));
-    let multi = TargetMeasurementSet::from_measurement_set(&set, "probe").unwrap();
-    assert_eq!(multi.targets()[0].frame, TCP_FRAME);
-    assert!((multi.targets()[0].offset.z - 0.1).abs() < 1e-15);
-    assert_eq!(multi.n_observations(), 2);
+    set.set_nominal_target(nalgebra::Isometry3::translation(0.0, 0.0, 0.1));
+    assert!(set.is_one_target());
+    assert_eq!(set.targets().len(), 1);
+    assert_eq!(set.targets()[0].name, flexcal_calib::TCP_TARGET);
+    assert_eq!(set.targets()[0].frame, TCP_FRAME);
+    assert!((set.targets()[0].offset.z - 0.1).abs() < 1e-15);
+    assert_eq!(set.n_observations(), 2);
+    // A one-target set writes the one-target CSV, its rows as given.
+    assert!(
+        set.to_csv_string()
+            .starts_with("pose_id,q1,q2,x_mm,y_mm,z_mm\n"),
+        "{}",
+        set.to_csv_string()
+    );
+    assert_eq!(set.measurements()[1].position, Vector3::new(1.0, 2.0, 3.0));
+    // The target named otherwise, the per-target columns.
+    let probe = Target {
+        name: "probe".into(),
+        ..set.targets()[0].clone()
+    };
+    let multi = MeasurementSet::from_poses("one", vec![probe], set.poses().to_vec()).unwrap();
+    assert!(!multi.is_one_target());
     let text = multi.to_csv_string();
     assert!(
         text.starts_with("pose_id,q1,q2,probe_x_mm,probe_y_mm,probe_z_mm\n"),

@@ -8,7 +8,7 @@ use std::borrow::Cow;
 
 use flexcal_calib::{
     ErrorModel, FrameStarts, GravityCompliance, JointTerms, LateralCompliance, Measurement,
-    MeasurementSet, Payload, PointMass, TargetMeasurementSet, TargetObservation, TargetPose,
+    MeasurementSet, Payload, PointMass, TargetObservation, TargetPose,
 };
 use flexcal_kinematics::{Model, RobotDescription};
 use nalgebra::{Isometry3, Vector3};
@@ -123,9 +123,11 @@ fn a_payload_on_a_link_deflects_both_hands_as_that_link_would() {
             pose_id: None,
             q,
             observations: vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
+            wrench: None,
+            temperature_c: None,
         })
         .collect();
-    let set = TargetMeasurementSet::new("poses", targets, poses).unwrap();
+    let set = MeasurementSet::from_poses("poses", targets, poses).unwrap();
     let starts = FrameStarts::nominal(&set, Isometry3::identity(), None).unwrap();
     let predict = |table: &GravityCompliance| {
         let problem = ErrorModel::new(&model, Cow::Borrowed(&set), &starts)

@@ -138,7 +138,7 @@ fn ipa_reader_survives_mutated_files() {
 /// left one with orientation and standard deviations, each missing on a
 /// pose, and the targets description beside it.
 fn multi_target_files() -> (String, String) {
-    use flexcal_calib::{Target, TargetMeasurementSet, TargetObservation, TargetPose};
+    use flexcal_calib::{MeasurementSet, Target, TargetObservation, TargetPose};
     use nalgebra::Vector3;
     let targets = vec![
         Target::new("left", "LH", Vector3::new(0.03, 0.0, 0.04)),
@@ -160,10 +160,12 @@ fn multi_target_files() -> (String, String) {
                     (k != 3).then_some(left),
                     (k != 6).then(|| TargetObservation::new(Vector3::new(0.8, t, -0.2))),
                 ],
+                wrench: None,
+                temperature_c: None,
             }
         })
         .collect();
-    let set = TargetMeasurementSet::new("source", targets.clone(), poses).unwrap();
+    let set = MeasurementSet::from_poses("source", targets.clone(), poses).unwrap();
     (
         set.to_csv_string(),
         flexcal_calib::targets_to_toml_string(&targets).unwrap(),
@@ -172,16 +174,16 @@ fn multi_target_files() -> (String, String) {
 
 #[test]
 fn multi_target_readers_survive_mutated_files() {
-    use flexcal_calib::{TargetMeasurementSet, targets_from_toml_str};
+    use flexcal_calib::{MeasurementSet, targets_from_toml_str};
     let (csv, toml) = multi_target_files();
     let targets = targets_from_toml_str(&toml, "source.toml").expect("the source file is valid");
-    TargetMeasurementSet::from_csv_str(&csv, "source.csv", &targets)
+    MeasurementSet::from_targets_csv_str(&csv, "source.csv", &targets)
         .expect("the source file is valid");
     let mut mutator = TextMutator::new(23);
     let mut valid = 0;
     for _ in 0..CASES {
         let text = mutator.mutate(&csv);
-        match TargetMeasurementSet::from_csv_str(&text, "fuzz.csv", &targets) {
+        match MeasurementSet::from_targets_csv_str(&text, "fuzz.csv", &targets) {
             Ok(set) => {
                 valid += 1;
                 assert!(set.n_observations() > 0);

@@ -342,7 +342,7 @@ fn pooling_names_the_set_that_does_not_fit() {
     assert!(e.to_string().contains("orientations"), "{e}");
     // Another target.
     let mut moved = b.clone();
-    moved.nominal_target = Some(Isometry3::translation(0.0, 0.0, 0.1));
+    moved.set_nominal_target(Isometry3::translation(0.0, 0.0, 0.1));
     let e = MeasurementSet::pooled(&[a.clone(), moved]).unwrap_err();
     assert!(
         e.to_string().contains("other.csv") && e.to_string().contains("target"),

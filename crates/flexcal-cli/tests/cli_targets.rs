@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use flexcal::calib::{
-    Target, TargetMeasurementSet, TargetObservation, TargetPose, read_targets, rotation_from_vector,
+    MeasurementSet, Target, TargetObservation, TargetPose, read_targets, rotation_from_vector,
 };
 use flexcal::kinematics::{Data, ParamKind, RobotDescription, forward_frame_pose};
 use flexcal::nalgebra::{Isometry3, Translation3, Vector3};
@@ -23,7 +23,7 @@ fn calib_data(name: &str) -> PathBuf {
 /// Weyl sequence within the joint limits, one prime's square root per
 /// coordinate), starting at `first`, of the
 /// robot with every parameter off by up to 0.2 mm or 0.2 mrad.
-fn simulate(targets: &[Target], first: usize, poses: usize) -> TargetMeasurementSet {
+fn simulate(targets: &[Target], first: usize, poses: usize) -> MeasurementSet {
     let model = RobotDescription::from_toml_file(&calib_data("two_arms.toml"))
         .unwrap()
         .build()
@@ -74,10 +74,12 @@ fn simulate(targets: &[Target], first: usize, poses: usize) -> TargetMeasurement
                 pose_id: Some(format!("p{k}")),
                 q,
                 observations,
+                wrench: None,
+                temperature_c: None,
             }
         })
         .collect();
-    TargetMeasurementSet::new("simulated", targets.to_vec(), poses).unwrap()
+    MeasurementSet::from_poses("simulated", targets.to_vec(), poses).unwrap()
 }
 
 #[test]
@@ -278,7 +280,7 @@ fn two_markers_from_two_stations_calibrate_end_to_end() {
             p
         })
         .collect();
-    TargetMeasurementSet::new("b", targets.clone(), poses)
+    MeasurementSet::from_poses("b", targets.clone(), poses)
         .unwrap()
         .write_csv(&second)
         .unwrap();
@@ -471,14 +473,14 @@ fn a_marker_recording_fault_is_named_and_left_out() {
     let d = dir.path();
     let targets_file = calib_data("two_arms_targets.toml");
     let targets = read_targets(&targets_file).unwrap();
-    let with_fault = |set: TargetMeasurementSet, pose: usize, target: usize| {
+    let with_fault = |set: MeasurementSet, pose: usize, target: usize| {
         let mut poses = set.poses().to_vec();
         poses[pose].observations[target]
             .as_mut()
             .unwrap()
             .position
             .y += 2e-3;
-        TargetMeasurementSet::new("simulated", targets.clone(), poses).unwrap()
+        MeasurementSet::from_poses("simulated", targets.clone(), poses).unwrap()
     };
     let identification = d.join("markers.csv");
     let validation = d.join("markers-validation.csv");

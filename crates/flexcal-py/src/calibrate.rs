@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::calib::{
-    Calibration, CalibrationOptions, FrameTreatment, Method, Observations, SelectionOptions,
+    Calibration, CalibrationOptions, FrameTreatment, MeasurementSet, Method, SelectionOptions,
     SelectionReport, SplitCheck, Weighting, calibrate_selected,
 };
 use flexcal::kinematics::Model;
@@ -164,7 +164,7 @@ pub fn calibrate<'py>(
     let (identified, targets_data) = match data {
         AnySet::One(set, _) => (
             run_cancellable(py, Some(cancel), move || {
-                identify(&model, &*set, &options, &selection, checks)
+                identify(&model, &set, &options, &selection, checks)
             })?,
             None,
         ),
@@ -172,7 +172,7 @@ pub fn calibrate<'py>(
             let data = Arc::clone(&set);
             (
                 run_cancellable(py, Some(cancel), move || {
-                    identify(&model, &*set, &options, &selection, checks)
+                    identify(&model, &set, &options, &selection, checks)
                 })?,
                 Some(data),
             )
@@ -212,9 +212,9 @@ struct Identified {
 
 /// The selected model identified on `set` (either kind), the calibrated
 /// robot, and the checks asked for.
-fn identify<S: Observations + ?Sized>(
+fn identify(
     model: &Model,
-    set: &S,
+    set: &MeasurementSet,
     options: &CalibrationOptions,
     selection: &SelectionOptions,
     checks: Checks,
@@ -310,7 +310,7 @@ fn target_keywords(
     if let Some(target) = target {
         let (t, _) = exact("target", &target, &[Some(3)])?;
         let rotation = set
-            .nominal_target
+            .nominal_target()
             .map(|t| t.rotation)
             .unwrap_or_else(UnitQuaternion::identity);
         options.target_value = Some(Isometry3::from_parts(

@@ -249,7 +249,7 @@ impl MeasurementSet {
     /// format knows it (the IPA probe offset), else None.
     #[getter]
     fn nominal_target<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArrayDyn<f64>>> {
-        self.set.nominal_target.map(|x| {
+        self.set.nominal_target().map(|x| {
             let m = x.to_homogeneous();
             to_numpy(py, m.transpose().as_slice().to_vec(), &[4, 4])
         })

@@ -9,8 +9,7 @@ use std::sync::Arc;
 
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ExtrapolationModel,
-    SelectionReport, SplitCheck, StationHoldOut, TargetMeasurementSet as TargetSet,
-    validate_targets,
+    MeasurementSet as TargetSet, SelectionReport, SplitCheck, StationHoldOut, validate_targets,
 };
 use flexcal::kinematics::Model;
 use flexcal::targets::TargetCalibrationRun;
@@ -579,11 +578,9 @@ impl CalibrationResult {
         let check = run_cancellable(py, Some(cancel), move || {
             let split = split.as_deref();
             Ok(match &set {
-                AnySet::One(set, _) => {
-                    CrossCheck::new(&model, &**set, &options, &calibration, split)?
-                }
+                AnySet::One(set, _) => CrossCheck::new(&model, set, &options, &calibration, split)?,
                 AnySet::Targets(set) => {
-                    CrossCheck::new(&model, &**set, &options, &calibration, split)?
+                    CrossCheck::new(&model, set, &options, &calibration, split)?
                 }
             })
         })?;
@@ -625,8 +622,8 @@ impl CalibrationResult {
         let map = run_interruptible(py, move || {
             let split = split.as_deref();
             Ok(match &set {
-                AnySet::One(set, _) => calibration.accuracy_coverage(&model, &**set, split)?,
-                AnySet::Targets(set) => calibration.accuracy_coverage(&model, &**set, split)?,
+                AnySet::One(set, _) => calibration.accuracy_coverage(&model, set, split)?,
+                AnySet::Targets(set) => calibration.accuracy_coverage(&model, set, split)?,
             })
         })?;
         Ok(self.widened(map))

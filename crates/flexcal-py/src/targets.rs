@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
-    FrameTreatment, Target, TargetMeasurementSet as Set, TargetObservation, TargetPose,
-    TargetValidation, read_targets,
+    FrameTreatment, MeasurementSet as Set, Target, TargetObservation, TargetPose, TargetValidation,
+    read_targets,
 };
 use nalgebra::Vector3;
 use numpy::PyArrayDyn;
@@ -136,10 +136,12 @@ impl TargetMeasurementSet {
                 pose_id: pose_ids.as_ref().map(|ids| ids[k].clone()),
                 q: q[k * dof..(k + 1) * dof].to_vec(),
                 observations,
+                wrench: None,
+                temperature_c: None,
             });
         }
         Ok(Self {
-            set: Arc::new(Set::new(source, described, poses).map_err(|e| calib_error(&e))?),
+            set: Arc::new(Set::from_poses(source, described, poses).map_err(|e| calib_error(&e))?),
         })
     }
 
@@ -149,7 +151,7 @@ impl TargetMeasurementSet {
     fn read_csv(path: PathBuf, targets: PathBuf) -> PyResult<Self> {
         let targets = read_targets(&targets).map_err(|e| calib_error(&e))?;
         Ok(Self {
-            set: Arc::new(Set::read_csv(&path, &targets).map_err(|e| calib_error(&e))?),
+            set: Arc::new(Set::read_targets_csv(&path, &targets).map_err(|e| calib_error(&e))?),
         })
     }
 

@@ -387,13 +387,13 @@ pub(crate) fn station_files(config: &CalibrationConfig) -> Result<Vec<&PathBuf>>
 /// The growth of `calibration`'s error outside its training ranges
 /// ([`calib::Calibration::extrapolation`]) when the configuration asks for
 /// it and there are bounds to widen (a validation set, an accuracy grid).
-pub(crate) fn extrapolation_growth<S: calib::Observations + ?Sized>(
+pub(crate) fn extrapolation_growth(
     config: &CalibrationConfig,
     has_validation: bool,
     (robot, calibration, data, options): (
         &crate::kinematics::Model,
         &calib::Calibration,
-        &S,
+        &MeasurementSet,
         &calib::CalibrationOptions,
     ),
 ) -> Result<Option<calib::ExtrapolationModel>> {
@@ -454,25 +454,28 @@ fn read_excluding(
 }
 
 /// `set` without the poses labelled `labels`, the exclusion recorded.
-pub(crate) fn exclude<S: calib::PoseSet>(
-    set: S,
+pub(crate) fn exclude(
+    set: MeasurementSet,
     labels: &[String],
     option: &'static str,
     exclusions: &mut Vec<Exclusion>,
-) -> Result<S> {
+) -> Result<MeasurementSet> {
     if labels.is_empty() {
         return Ok(set);
     }
     let kept = set.excluding(labels).map_err(step(option))?;
     exclusions.push(Exclusion {
         option: option.to_string(),
-        left_out: set.n_poses() - kept.n_poses(),
-        total: set.n_poses(),
-        source: set.source().to_string(),
-        observations: set
-            .n_observations()
-            .zip(kept.n_observations())
-            .map(|(before, after)| (before - after, before)),
+        left_out: set.len() - kept.len(),
+        total: set.len(),
+        source: set.source.clone(),
+        // A one-target set has one observation per pose.
+        observations: (!set.is_one_target()).then(|| {
+            (
+                set.n_observations() - kept.n_observations(),
+                set.n_observations(),
+            )
+        }),
     });
     Ok(kept)
 }
@@ -666,7 +669,7 @@ fn target_start(
         });
     }
     let rotation = data
-        .nominal_target
+        .nominal_target()
         .map(|t| t.rotation)
         .unwrap_or_else(UnitQuaternion::identity);
     Ok(Some(Isometry3::from_parts(

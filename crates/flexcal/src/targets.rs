@@ -10,8 +10,8 @@
 use serde::Serialize;
 
 use crate::calib::{
-    self, AccuracyMap, Calibration, CrossCheck, SelectionReport, SplitCheck, TargetErrors,
-    TargetMeasurementSet, TargetValidation, UnknownStatus,
+    self, AccuracyMap, Calibration, CrossCheck, MeasurementSet, SelectionReport, SplitCheck,
+    TargetErrors, TargetValidation, UnknownStatus,
 };
 use crate::calibration::html::{
     calibration_page, check_sections, data_checks_section, errors_chart, statistics_row,
@@ -33,13 +33,13 @@ use crate::{Error, Result};
 #[derive(Debug, Clone, Serialize)]
 pub struct TargetCalibrationRun {
     /// The identification set (exclusions applied).
-    pub data: TargetMeasurementSet,
+    pub data: MeasurementSet,
     /// The validation set (exclusions applied).
-    pub validation_set: Option<TargetMeasurementSet>,
+    pub validation_set: Option<MeasurementSet>,
     /// What was left out of each set ([`CalibrationConfig::exclude`],
     /// [`CalibrationConfig::exclude_validation`]): whole poses, or single
     /// observations named `<target> at <pose>`
-    /// ([`TargetMeasurementSet::excluding`]).
+    /// ([`MeasurementSet::excluding`]).
     pub exclusions: Vec<Exclusion>,
     /// The model selection, when one ran (`config.selection`; by default
     /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
@@ -209,17 +209,17 @@ fn read_target_sets(
     config: &CalibrationConfig,
     targets_path: &std::path::Path,
     exclusions: &mut Vec<Exclusion>,
-) -> Result<(TargetMeasurementSet, Option<TargetMeasurementSet>)> {
+) -> Result<(MeasurementSet, Option<MeasurementSet>)> {
     let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
     let targets = calib::read_targets(targets_path).map_err(step("targets description"))?;
     // One station per file (each with its own measurement frame).
     let sets = station_files(config)?
         .into_iter()
-        .map(|path| TargetMeasurementSet::read_csv(path, &targets))
+        .map(|path| MeasurementSet::read_targets_csv(path, &targets))
         .collect::<std::result::Result<Vec<_>, _>>()
         .map_err(step("identification measurements"))?;
     let data = exclude(
-        TargetMeasurementSet::pooled(&sets).map_err(step("identification measurements"))?,
+        MeasurementSet::pooled(&sets).map_err(step("identification measurements"))?,
         &config.exclude,
         "--exclude",
         exclusions,
@@ -228,7 +228,7 @@ fn read_target_sets(
         .validate
         .as_deref()
         .map(|p| {
-            let set = TargetMeasurementSet::read_csv(p, &targets)
+            let set = MeasurementSet::read_targets_csv(p, &targets)
                 .map_err(step("validation measurements"))?;
             exclude(
                 set,
@@ -626,11 +626,13 @@ mod tests {
                     pose_id: None,
                     q,
                     observations,
+                    wrench: None,
+                    temperature_c: None,
                 }
             })
             .collect();
         let measurements = dir.join("markers.csv");
-        TargetMeasurementSet::new("nominal", targets, poses)
+        MeasurementSet::from_poses("nominal", targets, poses)
             .unwrap()
             .write_csv(&measurements)
             .unwrap();

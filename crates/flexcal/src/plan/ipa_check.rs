@@ -47,7 +47,7 @@ pub struct IpaPlanCheck {
 fn ipa_options(model: &Model, set: &MeasurementSet) -> CalibrationOptions {
     let mut options = CalibrationOptions::for_model(model);
     options.use_orientation = Some(false);
-    options.target_value = set.nominal_target;
+    options.target_value = set.nominal_target();
     options
 }
 
@@ -88,7 +88,7 @@ pub fn ipa_plan_check(
     let validate = MeasurementSet::read_ipa(validate)?;
     let mut options = ipa_options(model, &train);
     let q = |set: &MeasurementSet| -> Vec<Vec<f64>> {
-        set.measurements().iter().map(|m| m.q.clone()).collect()
+        set.poses().iter().map(|p| p.q.clone()).collect()
     };
     let instrument = Instrument::positions([noise_mm; 3]);
     let mut predicted = predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;

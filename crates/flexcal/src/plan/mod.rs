@@ -745,7 +745,7 @@ pub fn synthetic_set(
         })
         .collect::<Result<Vec<_>>>()?;
     let mut set = MeasurementSet::new("planned poses", measurements)?;
-    set.nominal_target = Some(*x_tcp_target);
+    set.set_nominal_target(*x_tcp_target);
     Ok(set)
 }
 

@@ -123,7 +123,7 @@ fn twin_data(seed: u64) -> Result<TwinData> {
 }
 
 fn located(set: &MeasurementSet) -> Vec<Located<Vec<f64>>> {
-    set.measurements()
+    set.poses()
         .iter()
         .enumerate()
         .map(|(k, m)| Located {
@@ -263,9 +263,9 @@ pub fn twin_plan_check(
     random_mean_errors_mm.sort_by(f64::total_cmp);
     let q: Vec<Vec<f64>> = data
         .candidates
-        .measurements()
+        .poses()
         .iter()
-        .map(|m| m.q.clone())
+        .map(|p| p.q.clone())
         .collect();
     let o1 = calib::select_calibration_poses(
         &data.model,
@@ -276,12 +276,7 @@ pub fn twin_plan_check(
         &[],
     )?;
     let o1_rows = o1.selection.selected;
-    let region_q: Vec<Vec<f64>> = data
-        .region
-        .measurements()
-        .iter()
-        .map(|m| m.q.clone())
-        .collect();
+    let region_q: Vec<Vec<f64>> = data.region.poses().iter().map(|p| p.q.clone()).collect();
     let o1_q: Vec<Vec<f64>> = o1_rows.iter().map(|&k| q[k].clone()).collect();
     let o1_predicted = predict_campaign(
         &data.model,

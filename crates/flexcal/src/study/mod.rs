@@ -666,11 +666,8 @@ fn geometric_step(
         summary.loaded.geometric.position_mean_mm,
         summary.loaded.elasto_geometric.position_mean_mm
     ));
-    let identification_q: Vec<Vec<f64>> = identification
-        .measurements()
-        .iter()
-        .map(|m| m.q.clone())
-        .collect();
+    let identification_q: Vec<Vec<f64>> =
+        identification.poses().iter().map(|p| p.q.clone()).collect();
     let mut data = Data::new(&model);
     let sensitivity =
         sensitivity_indices(&model, &mut data, &identification_q, model.nominal_params())?;
