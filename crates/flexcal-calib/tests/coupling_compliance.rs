@@ -185,7 +185,7 @@ fn the_coupling_columns_match_central_differences() {
     }
 }
 
-fn coupling_columns_match(model: &Model, set: &TargetMeasurementSet, gravity: &GravityCompliance) {
+fn coupling_columns_match(model: &Model, set: &MeasurementSet, gravity: &GravityCompliance) {
     let problem = problem(model, set, gravity).unwrap();
     let kinds = problem.kinds();
     let eo = problem.elastic_offset().unwrap();
@@ -303,7 +303,7 @@ struct Group {
 /// Returns the marker positions of pose `q` (m), one per target.
 fn exact_coupled_markers(
     model: &Model,
-    set: &TargetMeasurementSet,
+    set: &MeasurementSet,
     loads: &[PointLoad],
     group: &Group,
     q: &[f64],
