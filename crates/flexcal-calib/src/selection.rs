@@ -968,7 +968,6 @@ fn score_candidate(
     }
 }
 
-
 /// The report of a search with `selection`'s settings, before any
 /// candidate is scored.
 fn empty_report(selection: &SelectionOptions) -> SelectionReport {
