@@ -1219,28 +1219,7 @@ mod tests {
             },
         ];
         let mut rng = ChaCha8Rng::seed_from_u64(0x6664);
-        let poses: Vec<TargetPose> = (0..6)
-            .map(|k| TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q: (0..model.n_actuated())
-                    .map(|_| rng.random_range(-1.5..1.5))
-                    .collect(),
-                observations: (0..targets.len())
-                    .map(|t| {
-                        let mut seen = TargetObservation::new(Vector3::from_fn(|_, _| {
-                            rng.random_range(-1.0..1.0)
-                        }));
-                        if t == 0 {
-                            seen.orientation =
-                                Some(Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)));
-                        }
-                        Some(seen)
-                    })
-                    .collect(),
-                wrench: None,
-                temperature_c: None,
-            })
-            .collect();
+        let poses = random_poses(&model, targets.len(), &mut rng);
         let set = MeasurementSet::from_poses("fd", targets, poses)
             .unwrap()
             .with_stations(vec!["a".into(), "b".into()], vec![0, 0, 0, 1, 1, 1])
@@ -1318,10 +1297,43 @@ mod tests {
                 );
             }
         }
-        // With columns frozen (every third unknown; then every elastic and
-        // joint-term one, which skips the joint Jacobians), the other
-        // columns are the same to the bit, the frozen robot and elastic
-        // ones zero (frame columns are always computed).
+        frozen_columns_are_skipped(&problem, &x, &analytic);
+        frames_move_their_own_station(&problem, &set, &analytic);
+    }
+
+    /// Six random poses of `model`, `n_targets` observations each, the
+    /// first target's with an orientation.
+    fn random_poses(model: &Model, n_targets: usize, rng: &mut ChaCha8Rng) -> Vec<TargetPose> {
+        (0..6)
+            .map(|k| TargetPose {
+                pose_id: Some(format!("p{k}")),
+                q: (0..model.n_actuated())
+                    .map(|_| rng.random_range(-1.5..1.5))
+                    .collect(),
+                observations: (0..n_targets)
+                    .map(|t| {
+                        let mut seen = TargetObservation::new(Vector3::from_fn(|_, _| {
+                            rng.random_range(-1.0..1.0)
+                        }));
+                        if t == 0 {
+                            seen.orientation =
+                                Some(Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)));
+                        }
+                        Some(seen)
+                    })
+                    .collect(),
+                wrench: None,
+                temperature_c: None,
+            })
+            .collect()
+    }
+
+    /// With columns frozen (every third unknown; then every elastic and
+    /// joint-term one, which skips the joint Jacobians), the other columns
+    /// are those of `analytic` to the bit, the frozen robot and elastic ones
+    /// zero (frame columns are always computed).
+    fn frozen_columns_are_skipped(problem: &ErrorModel<'_>, x: &[f64], analytic: &Mat<f64>) {
+        let (rows, n) = (problem.n_residuals(), problem.n_unknowns());
         let frames = problem.frame_offset()..problem.frames_end();
         for frozen in [
             (0..n).map(|j| j % 3 == 1).collect::<Vec<bool>>(),
@@ -1329,7 +1341,7 @@ mod tests {
         ] {
             problem.set_frozen_columns(&frozen);
             let mut lean = Mat::<f64>::zeros(rows, n);
-            problem.jacobian(&x, lean.as_mut()).unwrap();
+            problem.jacobian(x, lean.as_mut()).unwrap();
             problem.set_frozen_columns(&[]);
             for j in 0..n {
                 let skipped = frozen[j] && !frames.contains(&j);
@@ -1339,9 +1351,15 @@ mod tests {
                 }
             }
         }
-        // Each frame moves its own station's observations only; the
-        // payload on the right arm loads the right arm's and the torso's
-        // joints only.
+    }
+
+    /// Each frame moves its own station's observations only.
+    fn frames_move_their_own_station(
+        problem: &ErrorModel<'_>,
+        set: &MeasurementSet,
+        analytic: &Mat<f64>,
+    ) {
+        let rows = problem.n_residuals();
         let station_of_row = |row: usize| {
             let i = (0..problem.n_observations())
                 .find(|&i| problem.block_rows(i).contains(&row))
