@@ -220,15 +220,10 @@ fn the_equilibrium_agrees_with_the_exact_fixed_point() {
                 .vector
         },
     );
-    eprintln!(
-        "against the exact equilibrium, largest marker error: one step {:.4} mm, equilibrium {:.4} mm",
-        one_step_error * 1e3,
-        equilibrium_error * 1e3
-    );
-    assert!(one_step_error > 0.3e-3, "one step {one_step_error}");
-    assert!(
-        equilibrium_error < 0.05 * one_step_error,
-        "equilibrium {equilibrium_error} against one step {one_step_error}"
+    common::equilibrium_beats_one_step(
+        "against the exact equilibrium",
+        one_step_error,
+        equilibrium_error,
     );
 }
 

@@ -346,3 +346,19 @@ pub fn largest_errors(
     }
     largest
 }
+
+/// Prints the largest marker errors (m) of the one step and the
+/// equilibrium against an exact equilibrium (`what`), and checks that the
+/// one step errs visibly (over 0.3 mm) and the equilibrium by under 5 % of it.
+pub fn equilibrium_beats_one_step(what: &str, one_step_error: f64, equilibrium_error: f64) {
+    eprintln!(
+        "{what}, largest marker error: one step {:.4} mm, equilibrium {:.4} mm",
+        one_step_error * 1e3,
+        equilibrium_error * 1e3
+    );
+    assert!(one_step_error > 0.3e-3, "one step {one_step_error}");
+    assert!(
+        equilibrium_error < 0.05 * one_step_error,
+        "equilibrium {equilibrium_error} against one step {one_step_error}"
+    );
+}
