@@ -396,6 +396,8 @@ pub(crate) fn report(x: Vec<f64>) -> SolveReport {
         iterations: 1,
         residual_evaluations: 1,
         jacobian_evaluations: 1,
+        refused_trials: 0,
+        last_refusal: None,
         termination: flexcal_optim::Termination::SmallStep,
         n_free: n,
         rank: n,

@@ -198,6 +198,14 @@ pub struct SolveReport {
     pub residual_evaluations: usize,
     /// Jacobian evaluations.
     pub jacobian_evaluations: usize,
+    /// Trial points the problem could not evaluate (its error, or a
+    /// non-finite residual), each refused as a step that raised the cost:
+    /// a loop that cannot close or an equilibrium that does not converge far
+    /// from the solution. Zero in a smooth fit.
+    pub refused_trials: usize,
+    /// The problem's error at the last refused trial point, with its cause
+    /// (`None` when there was none).
+    pub last_refusal: Option<String>,
     /// Why the solver stopped.
     pub termination: Termination,
     /// Number of free (not fixed) parameters.
@@ -403,6 +411,12 @@ struct Solver<'a, P: ?Sized> {
     work_rhs: Vec<f64>,
     residual_evaluations: usize,
     jacobian_evaluations: usize,
+    /// The error of the last trial point that could not be evaluated, while
+    /// no later trial was evaluated (see [`Self::trial_cost`]).
+    failed_trial: Option<OptimError>,
+    /// Trial points that could not be evaluated, and the last one's error
+    /// with its cause.
+    refusals: (usize, Option<String>),
 }
 
 impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
@@ -452,6 +466,8 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
             work_rhs: vec![0.0; 2 * nf],
             residual_evaluations: 0,
             jacobian_evaluations: 0,
+            failed_trial: None,
+            refusals: (0, None),
         })
     }
 
@@ -483,6 +499,29 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
             ssr += *r * *r;
         }
         Ok(0.5 * ssr)
+    }
+
+    /// The cost at a trial point, or infinity when the problem cannot be
+    /// evaluated there (its error, or a non-finite residual): the step is then
+    /// refused as if the cost had risen, and shortened or damped further, as
+    /// a trust region does. The error is kept until a later trial is
+    /// evaluated; the solver returns it if it stops on it.
+    fn trial_cost(&mut self) -> f64 {
+        match self.evaluate_trial() {
+            Ok(cost) => {
+                self.failed_trial = None;
+                cost
+            }
+            Err(error) => {
+                let mut message = error.to_string();
+                if let Some(cause) = std::error::Error::source(&error) {
+                    message = format!("{message}: {cause}");
+                }
+                self.refusals = (self.refusals.0 + 1, Some(message));
+                self.failed_trial = Some(error);
+                f64::INFINITY
+            }
+        }
     }
 
     /// Evaluates J at `x` and updates the scales.
@@ -592,6 +631,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
         std::mem::swap(&mut self.residual, &mut self.residual_trial);
         let start = self.residual.clone();
         let mut history = vec![cost];
+        let mut moved = false;
         let mut iterations = 0;
         let mut damping = 0.0;
         let mut nu = 2.0;
@@ -651,6 +691,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
                 } => {
                     std::mem::swap(&mut self.x, &mut self.x_trial);
                     std::mem::swap(&mut self.residual, &mut self.residual_trial);
+                    moved = true;
                     let decrease = cost - new_cost;
                     cost = new_cost;
                     history.push(cost);
@@ -681,6 +722,12 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
                 }
             }
         };
+        // Stuck at the start on trial points the problem could not evaluate
+        // (no step accepted, none evaluated after them): the problem's error
+        // says why better than a stop for lack of descent.
+        if let (Some(error), false) = (self.failed_trial.take(), moved) {
+            return Err(error);
+        }
         if !linearised && nf > 0 {
             self.linearise()?;
         }
@@ -725,7 +772,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
                 return Ok(StepOutcome::Stop(Termination::MaxEvaluations));
             }
             self.set_trial(rank, t);
-            let new_cost = self.evaluate_trial()?;
+            let new_cost = self.trial_cost();
             if new_cost <= cost {
                 return Ok(StepOutcome::Accepted {
                     new_cost,
@@ -787,7 +834,7 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
             };
             if shaped {
                 self.set_trial(rank, 1.0);
-                let new_cost = self.evaluate_trial()?;
+                let new_cost = self.trial_cost();
                 // The predicted decrease is the velocity's (the acceleration
                 // is a second-order correction), as in GSL.
                 let rho = if predicted > 0.0 {
@@ -827,7 +874,11 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
     fn accelerate(&mut self, rank: usize, damping: f64, alpha: f64) -> Result<bool> {
         const H: f64 = 0.1;
         self.set_trial(rank, H);
-        self.evaluate_trial()?;
+        if !self.trial_cost().is_finite() {
+            // The bend cannot be measured: refuse the step, as for a bend
+            // too strong.
+            return Ok(false);
+        }
         self.second_derivative.clear();
         self.second_derivative.resize(self.m, 0.0);
         // J v, unweighted, over the columns the step moves.
@@ -994,6 +1045,8 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
             sigma2,
             covariance,
             standard_errors,
+            refused_trials: self.refusals.0,
+            last_refusal: self.refusals.1,
         })
     }
 }

@@ -16,8 +16,13 @@ pub trait Residuals {
     /// Writes `r(x)` into `out` (length `m`). `x` has length `n`.
     ///
     /// # Errors
-    /// Whatever the model cannot evaluate (a loop that cannot close, ...); the
-    /// solver stops and returns it inside [`crate::OptimError::Problem`].
+    /// Whatever the model cannot evaluate (a loop that cannot close, ...).
+    /// At the starting point the solver stops and returns it inside
+    /// [`crate::OptimError::Problem`]. At a trial point it refuses the step
+    /// (as if the cost had risen) and tries a shorter or more damped one
+    /// (counted in [`crate::SolveReport::refused_trials`]); it returns the
+    /// error only when it stops on such a failure without having moved from
+    /// the start.
     fn residuals(&self, x: &[f64], out: &mut [f64]) -> std::result::Result<(), ProblemError>;
     /// Name of parameter `j`, used in every report (default `x[j]`).
     fn parameter_name(&self, j: usize) -> String {

@@ -6,6 +6,7 @@ use faer::{Mat, MatMut};
 use flexcal_optim::{Jacobian, ProblemError, Residuals};
 
 /// `y_i = a exp(b t_i) + c`, parameters `[a, b, c]`.
+#[derive(Clone)]
 pub struct ExponentialFit {
     pub t: Vec<f64>,
     pub y: Vec<f64>,
