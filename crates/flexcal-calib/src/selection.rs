@@ -79,7 +79,7 @@ use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
-use crate::validate::{target_position_errors, validate_targets};
+use crate::validate::target_position_errors;
 
 /// What model selection needs of a set of measurements: fits, scored on
 /// held-out poses.
@@ -116,10 +116,6 @@ impl MeasurementSet {
         fitted: &Calibration,
         held_out: &MeasurementSet,
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
-        if !held_out.is_one_target() {
-            let validation = validate_targets(model, fitted, held_out, true)?;
-            return Ok((validation.before, validation.after));
-        }
         let validation = fitted.validate(model, held_out, false)?;
         Ok((validation.before, validation.after))
     }

@@ -11,9 +11,9 @@
 //! a laser tracker's repeatability at a few metres.
 
 use flexcal_calib::{
-    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, MeasurementSet, Target,
+    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, MeasurementSet, Refit, Target,
     TargetObservation, TargetPose, UnknownStatus, calibrate, read_targets, rotation_from_vector,
-    validate_targets, vector_from_rotation,
+    vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, RobotDescription, forward_frame_pose};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -369,7 +369,9 @@ fn two_markers_on_a_two_armed_tree_recover_the_truth_within_three_standard_error
 
     // Validation on other poses measured from the same tracker placement.
     let validation_set = measure(&model, &truth, &targets, 40, &mut rng);
-    let validation = validate_targets(&model, &calibration, &validation_set, false).unwrap();
+    let validation = calibration
+        .validate(&model, &validation_set, Refit::Nothing)
+        .unwrap();
     for (before, after) in validation
         .per_target_before
         .iter()
@@ -610,12 +612,32 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
         map.residual_scatter_mm
     );
     // A validation report of another set is refused by name.
-    let report = validate_targets(&model, &calibration, &validation, true).unwrap();
+    let report = calibration
+        .validate(&model, &validation, Refit::Frames)
+        .unwrap();
     let err = calibration
         .accuracy_coverage_of(&model, &set, &report, None)
         .unwrap_err()
         .to_string();
     assert!(err.contains("validation report of"), "{err}");
+    // The target offsets are re-fitted for one target per pose only:
+    // refused by the option's name.
+    let err = calibration
+        .validate(&model, &validation, Refit::FramesAndTarget)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("refit") && err.contains("one target per pose"),
+        "{err}"
+    );
+    // Per-target figures: each target's observations counted once.
+    let per_target: usize = report
+        .per_target_after
+        .iter()
+        .map(|t| t.statistics.n_poses)
+        .sum();
+    assert_eq!(per_target, validation.n_observations());
+    assert_eq!(report.per_target_after.len(), targets.len());
     // Every observation once, labelled by pose and marker.
     assert_eq!(map.poses.len(), validation.n_observations());
     assert!(map.poses.iter().all(|p| p.actual_error_mm.is_some()));
@@ -763,7 +785,7 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
     // Validated on the spread poses, the held robot is told where it
     // extrapolates: the left elbow, on every spread pose outside the held
     // poses' range of it.
-    let validation = validate_targets(&model, &held, &spread_set, true).unwrap();
+    let validation = held.validate(&model, &spread_set, Refit::Frames).unwrap();
     let (lo, hi) = held_set
         .poses()
         .iter()
@@ -884,7 +906,9 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
     // A third campaign from the first placement, the frame kept: at the
     // noise (mean norm of three axes of 0.02 mm: 0.032 mm).
     let third = measure(&model, &truth, &targets, 40, &mut rng);
-    let validation = validate_targets(&model, &calibration, &third, false).unwrap();
+    let validation = calibration
+        .validate(&model, &third, Refit::Nothing)
+        .unwrap();
     assert!(
         validation.after.position_mean < 0.045e-3,
         "{:?}",
