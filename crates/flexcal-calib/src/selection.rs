@@ -120,19 +120,15 @@ impl MeasurementSet {
         Ok((validation.before, validation.after))
     }
 
-    /// The BIC of a fit: three rows per observation, six where
-    /// orientations were fitted on a set of one target per pose.
+    /// The BIC of a fit: three rows per observation, six where the
+    /// observation's orientation was fitted (one target or several).
     pub(crate) fn bic(fitted: &Calibration) -> f64 {
-        let rows_per_observation = if fitted.use_orientation && fitted.targets.len() == 1 {
-            6
-        } else {
-            3
-        };
-        bic(
-            rows_per_observation * fitted.n_observations,
-            fitted.solve.cost,
-            &fitted.unknowns,
-        )
+        let rows = fitted
+            .observation_errors
+            .iter()
+            .map(|e| if e.orientation_error.is_some() { 6 } else { 3 })
+            .sum();
+        bic(rows, fitted.solve.cost, &fitted.unknowns)
     }
 }
 
