@@ -52,7 +52,7 @@ use crate::prediction::{covariance_of, covariance_size};
 use crate::split::SplitCheck;
 use crate::targets::{TargetObservation, TargetPose};
 use crate::unknowns::UnknownStatus;
-use crate::validate::{TargetValidation, ValidationReport, validate_targets};
+use crate::validate::ValidationReport;
 
 /// `chi2` quantile of 3 degrees of freedom at 95 %.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
@@ -232,31 +232,6 @@ impl AccuracyMap {
     }
 }
 
-/// A validation of a calibration on a measured set, as the predicted
-/// accuracy compares its errors with the bounds:
-/// [`crate::ValidationReport`] (one target per pose) and
-/// [`crate::TargetValidation`] (several).
-pub trait ValidationErrors {
-    /// The position error (m) after calibration of every observation, in
-    /// the set's order.
-    fn position_errors(&self) -> Vec<f64>;
-}
-
-impl ValidationErrors for ValidationReport {
-    fn position_errors(&self) -> Vec<f64> {
-        self.after_per_pose.iter().map(|e| e.position).collect()
-    }
-}
-
-impl ValidationErrors for TargetValidation {
-    fn position_errors(&self) -> Vec<f64> {
-        self.observation_errors
-            .iter()
-            .map(|e| e.error.norm())
-            .collect()
-    }
-}
-
 impl Calibration {
     /// Predicted accuracy of every target at the configurations
     /// `configurations` (rad or m): one entry per configuration and
@@ -298,8 +273,7 @@ impl Calibration {
 
     /// Predicted accuracy at the observations of the measured set
     /// `validation`, with their measured errors after calibration (the
-    /// measurement frame fitted again: [`Calibration::validate`] for one
-    /// target, [`crate::validate_targets`] with `refit_frame` for several)
+    /// measurement frame fitted again: [`Calibration::validate`])
     /// and the share within the bound.
     ///
     /// # Errors
@@ -310,11 +284,7 @@ impl Calibration {
         validation: &MeasurementSet,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        if validation.is_one_target() {
-            let report = self.validate(model, validation, false)?;
-            return self.accuracy_coverage_of(model, validation, &report, split);
-        }
-        let report = validate_targets(model, self, validation, true)?;
+        let report = self.validate(model, validation, false)?;
         self.accuracy_coverage_of(model, validation, &report, split)
     }
 
@@ -324,14 +294,14 @@ impl Calibration {
     /// # Errors
     /// As [`Calibration::predicted_accuracy`], and a report that is not
     /// of `validation` (another number of observations).
-    pub fn accuracy_coverage_of<R: ValidationErrors>(
+    pub fn accuracy_coverage_of(
         &self,
         model: &Model,
         validation: &MeasurementSet,
-        report: &R,
+        report: &ValidationReport,
         split: Option<&SplitCheck>,
     ) -> Result<AccuracyMap, CalibError> {
-        let actual = report.position_errors();
+        let actual: Vec<f64> = report.after_per_pose.iter().map(|e| e.position).collect();
         let set = validation;
         check_report_size(actual.len(), set.n_observations(), &set.source)?;
         let label = |k: usize| set.poses()[k].label(k);

@@ -68,8 +68,8 @@
 //! 6. **Results**: [`calibrate`] packs what it found into one
 //!    [`Calibration`] ([`identify`]), target by target, the one target of
 //!    a one-target set unnamed.
-//! 7. **Checks and reports**: validation ([`validate`],
-//!    [`validate_targets`]), data checks ([`screen`]), split-half
+//! 7. **Checks and reports**: validation ([`validate`]:
+//!    [`Calibration::validate`], overall and target by target), data checks ([`screen`]), split-half
 //!    ([`split`]), cross-series ([`cross`]), station hold-out ([`holdout`]),
 //!    predicted accuracy ([`accuracy`]), model selection ([`selection`]),
 //!    the JSON report ([`report`]).
@@ -119,7 +119,8 @@
 //! ([`Calibration::identifiability_notes`] names what the targets
 //! cannot see: the other branch of a tree when its marker is missing, a
 //! marker's offset along its hand's axis against the hand frame's `r`).
-//! Reports give per-target figures ([`TargetErrors`], [`validate_targets`]).
+//! Reports give per-target figures ([`TargetErrors`], in [`Calibration`]
+//! and [`ValidationReport`]).
 //! The elasto-geometric terms below work with several targets too: the
 //! joint springs of each target's branch deflect it, and a torso's
 //! lateral tilt under both arms moves both hands. The checks and the
@@ -196,7 +197,7 @@
 //!   exceeds [`SUSPECT_ERROR_RATIO`] times the RMS error; poses are left out
 //!   by label with [`MeasurementSet::excluding`]. With several targets the
 //!   same checks run per observation ([`DataChecks::new`], in
-//!   [`Calibration::data_checks`] and [`TargetValidation::data_checks`]),
+//!   [`Calibration::data_checks`] and [`ValidationReport::data_checks`]),
 //!   and [`MeasurementSet::excluding`] also leaves one observation out.
 //! - Beyond the paper, a split-half check of the standard errors
 //!   ([`SplitCheck`]): the identified unknowns again on odd / even and first /
@@ -351,7 +352,7 @@ mod unknown_kind;
 pub mod unknowns;
 pub mod validate;
 
-pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, ValidationErrors, bound_95};
+pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, bound_95};
 pub use coupling::CouplingMatrix;
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};
@@ -416,6 +417,6 @@ pub use targets::{
 };
 pub use unknowns::{Combination, UnknownEstimate, UnknownStatus};
 pub use validate::{
-    FramePolicy, TargetValidation, ValidationReport, evaluate_errors, evaluate_errors_with_terms,
-    target_position_errors, validate_targets,
+    FramePolicy, Refit, ValidationReport, evaluate_errors, evaluate_errors_with_terms,
+    target_position_errors,
 };

@@ -7,7 +7,7 @@ use serde::Serialize;
 
 /// Errors of one pose: position error norm (m) and orientation error angle
 /// (rad) when orientations are used.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PoseError {
     /// `|p_predicted - p_measured|` (m).
     pub position: f64,

@@ -140,7 +140,7 @@ impl TargetSummaryJson {
     /// (with the number of poses of the validation set).
     pub fn new(
         calibration: &crate::identify::Calibration,
-        validation: Option<(&crate::validate::TargetValidation, usize)>,
+        validation: Option<(&crate::validate::ValidationReport, usize)>,
     ) -> Self {
         Self {
             identification: TargetStatisticsJson::new(

@@ -15,8 +15,6 @@ use nalgebra::Vector3;
 use crate::error::CalibError;
 use crate::identify::Calibration;
 use crate::measurement::{Measurement, MeasurementSet};
-use crate::metrics::error_statistics;
-use crate::screen::DataChecks;
 use crate::validate::ValidationReport;
 
 /// Share of the identification poses held out (seeded) to choose the fuzzy
@@ -182,7 +180,7 @@ impl Calibration {
         // Before, notes and extrapolation as without the model; the "after"
         // is then recomputed with the corrections.
         let mut report = self.validate(model, set, refit_target)?;
-        let (policy, _) = self.validation_policy(refit_target);
+        let ([_, policy], _) = self.validation_policy(refit_target.into());
         let rounds = if self.measurement_frame_fixed { 1 } else { 3 };
         for _ in 0..rounds {
             let rotation = report.measurement_frame.rotation;
@@ -202,12 +200,9 @@ impl Calibration {
             if let Some(x_tcp_target) = set.nominal_target() {
                 corrected.set_nominal_target(x_tcp_target);
             }
-            (report.after_per_pose, report.measurement_frame) =
-                self.errors_after(model, &corrected, policy)?;
+            let (errors, frame) = self.errors_after(model, &corrected, policy)?;
+            report.set_after(set, errors, frame)?;
         }
-        report.after = error_statistics(&report.after_per_pose);
-        let norms: Vec<f64> = report.after_per_pose.iter().map(|e| e.position).collect();
-        report.data_checks = DataChecks::new(set, &norms)?;
         Ok(report)
     }
 }

@@ -79,7 +79,7 @@ use crate::metrics::ErrorStatistics;
 use crate::options::CalibrationOptions;
 use crate::unknowns::{UnknownEstimate, UnknownStatus};
 use crate::validate::FramePolicy;
-use crate::validate::{target_position_errors, validate_targets};
+use crate::validate::target_position_errors;
 
 /// What model selection needs of a set of measurements: fits, scored on
 /// held-out poses.
@@ -116,27 +116,19 @@ impl MeasurementSet {
         fitted: &Calibration,
         held_out: &MeasurementSet,
     ) -> Result<(ErrorStatistics, ErrorStatistics), CalibError> {
-        if !held_out.is_one_target() {
-            let validation = validate_targets(model, fitted, held_out, true)?;
-            return Ok((validation.before, validation.after));
-        }
         let validation = fitted.validate(model, held_out, false)?;
         Ok((validation.before, validation.after))
     }
 
-    /// The BIC of a fit: three rows per observation, six where
-    /// orientations were fitted on a set of one target per pose.
+    /// The BIC of a fit: three rows per observation, six where the
+    /// observation's orientation was fitted (one target or several).
     pub(crate) fn bic(fitted: &Calibration) -> f64 {
-        let rows_per_observation = if fitted.use_orientation && fitted.targets.len() == 1 {
-            6
-        } else {
-            3
-        };
-        bic(
-            rows_per_observation * fitted.n_observations,
-            fitted.solve.cost,
-            &fitted.unknowns,
-        )
+        let rows = fitted
+            .observation_errors
+            .iter()
+            .map(|e| if e.orientation_error.is_some() { 6 } else { 3 })
+            .sum();
+        bic(rows, fitted.solve.cost, &fitted.unknowns)
     }
 }
 

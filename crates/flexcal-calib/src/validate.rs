@@ -88,7 +88,7 @@ pub fn evaluate_errors_with_terms(
     policy: FramePolicy,
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
-    evaluate_errors_at_stations(
+    let (problem, x) = one_target_model(
         model,
         set,
         xi,
@@ -97,15 +97,18 @@ pub fn evaluate_errors_with_terms(
         x_tcp_target,
         (policy, &[]),
         use_orientation,
-    )
+    )?;
+    Ok((problem.errors(&x)?, first_station_frame(&problem, &x)))
 }
 
-/// [`evaluate_errors_with_terms`] where a fixed measurement frame comes
-/// with the fixed frames of the later stations of `set` (a calibration's
+/// The model of [`evaluate_errors_with_terms`] with its unknowns: the
+/// robot at `xi`, the target at `x_tcp_target`, the measurement frames
+/// taken or re-fitted according to `policy` (a fixed first frame comes
+/// with the fixed frames of the later stations of `set`: a calibration's
 /// [`Calibration::station_frames`]).
 #[allow(clippy::too_many_arguments)]
-fn evaluate_errors_at_stations(
-    model: &Model,
+fn one_target_model<'a>(
+    model: &'a Model,
     set: &MeasurementSet,
     xi: &[f64],
     elastic: Option<(&GravityCompliance, &[f64])>,
@@ -113,7 +116,7 @@ fn evaluate_errors_at_stations(
     x_tcp_target: &Isometry3<f64>,
     (policy, fixed_stations): (FramePolicy, &[Isometry3<f64>]),
     use_orientation: bool,
-) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
+) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
     let use_orientation = use_orientation && set.has_orientation();
     let targets = set.clone();
     let mut starts = FrameStarts::nominal(&targets, Isometry3::identity(), Some(use_orientation))?;
@@ -196,10 +199,15 @@ fn evaluate_errors_at_stations(
             ))?
             .x;
     }
-    // The frame of the first station the poses come from.
+    Ok((problem, x))
+}
+
+/// The measurement frame `x_meas_base` at `x` of the first station the
+/// poses of `problem` come from.
+fn first_station_frame(problem: &ErrorModel<'_>, x: &[f64]) -> Isometry3<f64> {
+    let set = problem.set();
     let first = (0..set.len()).map(|k| set.station_of(k)).min().unwrap_or(0);
-    let x_meas_base = problem.station_frame(&x, first);
-    Ok((problem.errors(&x)?, x_meas_base))
+    problem.station_frame(x, first)
 }
 
 /// Writes the elastic unknowns `elastic` and the joint terms' `joint`
@@ -241,27 +249,124 @@ fn set_elastic_values(
     Ok(())
 }
 
-/// Errors on a validation set before (nominal robot with the target offset
-/// fitted for it) and after (identified robot and target) calibration.
-#[derive(Debug, Clone, PartialEq)]
+/// What validation fits again on the validation set, the robot frozen
+/// ([`Calibration::validate`]). `false` and `true` convert to
+/// [`Refit::Frames`] and [`Refit::FramesAndTarget`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Refit {
+    /// Nothing: the calibration's measurement frames (the frames fitted
+    /// with the nominal robot for the "before") and target offsets, as
+    /// for a validation set measured from the same tracker placement.
+    Nothing,
+    /// The measurement frames, as when the tracker was moved between the
+    /// series. With one target per pose they stay fixed when the
+    /// identification fixed them.
+    Frames,
+    /// The measurement frames and the offset of the one target of a set of
+    /// one target per pose (not offered with several targets).
+    FramesAndTarget,
+}
+
+impl From<bool> for Refit {
+    /// `refit_target`: the frames, and the target offset when `true`.
+    fn from(refit_target: bool) -> Self {
+        if refit_target {
+            Self::FramesAndTarget
+        } else {
+            Self::Frames
+        }
+    }
+}
+
+/// Errors on a validation set before (nominal robot with the frames and
+/// target offsets fitted for it) and after (identified robot and targets)
+/// calibration, overall and target by target.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ValidationReport {
     /// Nominal robot.
     pub before: ErrorStatistics,
     /// Calibrated robot.
     pub after: ErrorStatistics,
-    /// Per-pose errors after calibration.
+    /// Errors before, target by target (one entry, the whole set, for one
+    /// target per pose).
+    pub per_target_before: Vec<TargetErrors>,
+    /// Errors after, target by target.
+    pub per_target_after: Vec<TargetErrors>,
+    /// Errors after calibration of every observation, in the set's order
+    /// (pose by pose, target by target; one per pose for one target).
     pub after_per_pose: Vec<PoseError>,
+    /// The same errors labelled with their pose and target.
+    pub observation_errors: Vec<ObservationError>,
     /// Measurement frame `x_meas_base` of the "after" errors: re-fitted on
-    /// the validation data, or the identification's when it was fixed.
+    /// the validation data, or the identification's when it was kept.
     pub measurement_frame: Isometry3<f64>,
+    /// Whether the measurement frames were fitted again on this set.
+    pub frame_refitted: bool,
     /// How the measurement frame was obtained, in words.
     pub frame_note: String,
     /// Per actuated coordinate outside the identification range on some
     /// validation poses: `(name, fraction of the validation poses outside)`.
     pub extrapolated_coordinates: Vec<(String, f64)>,
-    /// Repeated readings and suspect poses of the validation set (with the
-    /// calibrated robot).
+    /// Repeated readings and suspect observations of the validation set
+    /// (with the calibrated robot).
     pub data_checks: DataChecks,
+}
+
+/// The errors of a model on a set: per observation, labelled, per target,
+/// and the measurement frame they were taken in.
+struct Evaluation {
+    errors: Vec<PoseError>,
+    observations: Vec<ObservationError>,
+    per_target: Vec<TargetErrors>,
+    frame: Isometry3<f64>,
+}
+
+impl Evaluation {
+    /// The errors of `problem` at its unknowns `x`.
+    fn of(problem: &ErrorModel<'_>, x: &[f64]) -> Result<Self, CalibError> {
+        let errors = problem.errors(x)?;
+        Ok(Self {
+            observations: observation_errors(problem, &errors),
+            per_target: per_target(problem, &errors),
+            frame: first_station_frame(problem, x),
+            errors,
+        })
+    }
+}
+
+impl ValidationReport {
+    /// Replaces the errors after calibration by `errors` (one per
+    /// observation, in the same order, in the measurement frame
+    /// `frame`) and updates every figure drawn from them.
+    ///
+    /// # Errors
+    /// As [`DataChecks::new`].
+    pub(crate) fn set_after(
+        &mut self,
+        set: &MeasurementSet,
+        errors: Vec<PoseError>,
+        frame: Isometry3<f64>,
+    ) -> Result<(), CalibError> {
+        for (o, e) in self.observation_errors.iter_mut().zip(&errors) {
+            o.error = e.position_vector;
+            o.orientation_error = e.orientation;
+        }
+        for t in &mut self.per_target_after {
+            let mine: Vec<PoseError> = errors
+                .iter()
+                .zip(&self.observation_errors)
+                .filter(|(_, o)| o.target == t.target)
+                .map(|(e, _)| *e)
+                .collect();
+            t.statistics = error_statistics(&mine);
+        }
+        self.after = error_statistics(&errors);
+        let norms: Vec<f64> = errors.iter().map(|e| e.position).collect();
+        self.data_checks = DataChecks::new(set, &norms)?;
+        self.after_per_pose = errors;
+        self.measurement_frame = frame;
+        Ok(())
+    }
 }
 
 impl Calibration {
@@ -287,7 +392,19 @@ impl Calibration {
         set: &MeasurementSet,
         policy: FramePolicy,
     ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
-        evaluate_errors_at_stations(
+        let (problem, x) = self.after_model(model, set, policy)?;
+        Ok((problem.errors(&x)?, first_station_frame(&problem, &x)))
+    }
+
+    /// The model of the calibrated robot on a set of one target per pose,
+    /// the frames taken or re-fitted according to `policy`.
+    fn after_model<'a>(
+        &self,
+        model: &'a Model,
+        set: &MeasurementSet,
+        policy: FramePolicy,
+    ) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
+        one_target_model(
             model,
             set,
             &self.xi,
@@ -299,18 +416,30 @@ impl Calibration {
         )
     }
 
-    /// How validation treats the measurement frame, and that in words: the
-    /// identification's frame when it was fixed, else re-fitted (with the
-    /// target position when `refit_target`).
-    pub(crate) fn validation_policy(&self, refit_target: bool) -> (FramePolicy, String) {
+    /// How validation of a set of one target per pose treats the
+    /// measurement frame, and that in words: the identification's frame
+    /// when it was fixed or `refit` is [`Refit::Nothing`], else re-fitted
+    /// (with the target position for [`Refit::FramesAndTarget`]). The
+    /// policy of the "before" comes first, then that of the "after".
+    pub(crate) fn validation_policy(&self, refit: Refit) -> ([FramePolicy; 2], String) {
+        let refit_target = refit == Refit::FramesAndTarget;
         if self.measurement_frame_fixed {
             (
-                FramePolicy::Fixed(self.x_meas_base),
+                [FramePolicy::Fixed(self.x_meas_base); 2],
                 "measurement frame fixed (as in the identification); nothing re-fitted".to_string(),
+            )
+        } else if refit == Refit::Nothing {
+            (
+                [
+                    FramePolicy::Fixed(self.x_meas_base_nominal_robot),
+                    FramePolicy::Fixed(self.x_meas_base),
+                ],
+                "measurement frame as identified (same tracker placement); nothing re-fitted"
+                    .to_string(),
             )
         } else {
             (
-                FramePolicy::Refit { refit_target },
+                [FramePolicy::Refit { refit_target }; 2],
                 format!(
                     "measurement frame (tracker -> base){} re-fitted on the validation data; robot parameters{} frozen",
                     if refit_target {
@@ -328,86 +457,166 @@ impl Calibration {
         }
     }
 
-    /// Validates on a separate set. If the identification kept the
-    /// measurement frame fixed, the same frame is used; otherwise only the
-    /// measurement frame (and, with `refit_target`, the target position) is
-    /// re-fitted on the validation data, robot parameters frozen.
+    /// Validates on a separate set `set` of the same targets: the errors of
+    /// the nominal robot (with the frames and offsets fitted for it) and of
+    /// the calibrated robot, overall and target by target, with what
+    /// `refit` says fitted again on `set`, the robot frozen (`false`: the
+    /// measurement frames, `true`: also the offset of the one target of a
+    /// set of one target per pose; see [`Refit`]).
     ///
     /// # Errors
-    /// As [`evaluate_errors`].
+    /// Targets that differ from the calibration's by name, mismatched
+    /// coordinates, a model failure at a pose, a degenerate registration,
+    /// a failing re-fit; [`CalibError::InvalidOption`] (`refit`) for
+    /// [`Refit::FramesAndTarget`] with several targets.
     pub fn validate(
         &self,
         model: &Model,
         set: &MeasurementSet,
-        refit_target: bool,
+        refit: impl Into<Refit>,
     ) -> Result<ValidationReport, CalibError> {
-        let (policy, frame_note) = self.validation_policy(refit_target);
-        let (before, _) = evaluate_errors(
+        let refit = refit.into();
+        let (before, after, frame_refitted, frame_note) =
+            if set.is_one_target() && self.has_implicit_target() {
+                self.validate_one_target(model, set, refit)?
+            } else {
+                self.validate_several(model, set, refit)?
+            };
+        Ok(ValidationReport {
+            before: error_statistics(&before.errors),
+            after: error_statistics(&after.errors),
+            per_target_before: before.per_target,
+            per_target_after: after.per_target,
+            data_checks: DataChecks::new(
+                set,
+                &after.errors.iter().map(|e| e.position).collect::<Vec<_>>(),
+            )?,
+            after_per_pose: after.errors,
+            observation_errors: after.observations,
+            measurement_frame: after.frame,
+            frame_refitted,
+            frame_note,
+            // Which coordinates of the validation poses leave the
+            // identification poses' ranges (a joint whose motion does not
+            // change the errors, like a vertical first axis, may do so
+            // harmlessly).
+            extrapolated_coordinates: crate::coverage::extrapolated_coordinates(
+                model.actuated_names(),
+                &self.actuated_ranges,
+                set.poses().iter().map(|p| p.q.as_slice()),
+            ),
+        })
+    }
+
+    /// [`Calibration::validate`] on a set of one target per pose: the
+    /// measurement frame registered in closed form and refined, the target
+    /// offset with it when asked. Before, after, whether the frame was
+    /// re-fitted, and how in words.
+    fn validate_one_target(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+        refit: Refit,
+    ) -> Result<(Evaluation, Evaluation, bool, String), CalibError> {
+        let ([before_policy, after_policy], note) = self.validation_policy(refit);
+        let (problem, x) = one_target_model(
             model,
             set,
             &self.nominal_xi,
             None,
+            (&JointTerms::default(), &[]),
             &self.x_tcp_target_nominal_robot(),
-            policy,
+            (before_policy, &[]),
             self.use_orientation,
         )?;
-        let before = error_statistics(&before);
-        let (after_per_pose, measurement_frame) = self.errors_after(model, set, policy)?;
-        // Extrapolation: which coordinates of the validation poses leave the
-        // identification poses' ranges (a joint whose motion does not change
-        // the errors, like a vertical first axis, may do so harmlessly).
-        let extrapolated_coordinates = crate::coverage::extrapolated_coordinates(
-            model.actuated_names(),
-            &self.actuated_ranges,
-            set.poses().iter().map(|p| p.q.as_slice()),
-        );
-        Ok(ValidationReport {
-            before,
-            after: error_statistics(&after_per_pose),
-            data_checks: DataChecks::new(
-                set,
-                &after_per_pose
-                    .iter()
-                    .map(|e| e.position)
-                    .collect::<Vec<_>>(),
-            )?,
-            after_per_pose,
-            measurement_frame,
-            frame_note,
-            extrapolated_coordinates,
-        })
+        let before = Evaluation::of(&problem, &x)?;
+        let (problem, x) = self.after_model(model, set, after_policy)?;
+        let after = Evaluation::of(&problem, &x)?;
+        let refitted = matches!(after_policy, FramePolicy::Refit { .. });
+        Ok((before, after, refitted, note))
+    }
+
+    /// [`Calibration::validate`] on a set of several targets: the target
+    /// offsets kept, the measurement frames of every station fitted again
+    /// unless `refit` is [`Refit::Nothing`].
+    fn validate_several(
+        &self,
+        model: &Model,
+        set: &MeasurementSet,
+        refit: Refit,
+    ) -> Result<(Evaluation, Evaluation, bool, String), CalibError> {
+        if refit == Refit::FramesAndTarget {
+            return Err(CalibError::InvalidOption {
+                name: "refit",
+                reason: format!(
+                    "the target offsets are re-fitted on a set of one target per pose only; {} has {} targets",
+                    set.source,
+                    set.targets().len()
+                ),
+            });
+        }
+        let refit_frame = refit == Refit::Frames;
+        let nominal = set.with_targets(fixed_offsets(&self.targets_nominal_robot))?;
+        let calibrated = set.with_targets(fixed_offsets(&self.targets))?;
+        let evaluate = |set: &MeasurementSet, robot: (&[f64], bool), x_meas_base| {
+            let (problem, mut x) = fitted_model(model, self, set, robot, x_meas_base, true)?;
+            if refit_frame {
+                x = refit_frames(&problem, x)?;
+            }
+            Evaluation::of(&problem, &x)
+        };
+        let before = evaluate(
+            &nominal,
+            (&self.nominal_xi, false),
+            self.x_meas_base_nominal_robot,
+        )?;
+        let after = evaluate(&calibrated, (&self.xi, true), self.x_meas_base)?;
+        let note = if refit_frame {
+            "measurement frames (tracker -> base) re-fitted on the validation data; robot parameters and target offsets frozen"
+        } else {
+            "measurement frames as identified (same tracker placement); nothing re-fitted"
+        };
+        Ok((before, after, refit_frame, note.to_string()))
     }
 }
 
-/// Validation of a multi-target calibration on another set of the same
-/// targets: per-target errors of the nominal robot (frames and offsets as
-/// fitted for it) and of the calibrated robot and offsets. With
-/// `refit_frame` the measurement frame is fitted again on the set (the
-/// instrument was moved between the series), for the nominal robot and for
-/// the calibrated one alike; otherwise the calibration's frame is used for
-/// both (each its own: the one fitted with the nominal robot for the
-/// "before").
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TargetValidation {
-    /// Errors of all observations with the nominal robot and offsets (before).
-    pub before: ErrorStatistics,
-    /// Errors of all observations with the calibrated robot and offsets (after).
-    pub after: ErrorStatistics,
-    /// Per-target errors before.
-    pub per_target_before: Vec<TargetErrors>,
-    /// Per-target errors after.
-    pub per_target_after: Vec<TargetErrors>,
-    /// Whether the measurement frame was fitted again on this set.
-    pub frame_refitted: bool,
-    /// The error of every observation after calibration, pose by pose.
-    pub observation_errors: Vec<ObservationError>,
-    /// Repeated readings and suspect observations of the validation set
-    /// (with the calibrated robot).
-    pub data_checks: DataChecks,
-    /// Actuated coordinates at which some validation poses leave the
-    /// identification poses' range, with the fraction of the poses that do
-    /// (the prediction there is an extrapolation), as for one target.
-    pub extrapolated_coordinates: Vec<(String, f64)>,
+/// The unknowns `x` of `problem` with the measurement frame of every
+/// station fitted again, everything else frozen.
+///
+/// # Errors
+/// A failing solver.
+fn refit_frames(problem: &ErrorModel<'_>, x: Vec<f64>) -> Result<Vec<f64>, CalibError> {
+    let mut frozen = vec![true; x.len()];
+    for s in 0..problem.n_stations() {
+        let o = problem.station_frame_offset(s);
+        frozen[o..o + 6].fill(false);
+    }
+    // 0.01 deg weighs like 50 um, as in the identification defaults.
+    let weights = (0..problem.n_observations())
+        .flat_map(|i| {
+            let rows = problem.block_rows(i).len();
+            (0..rows).map(|r| {
+                if r < 3 {
+                    1.0
+                } else {
+                    50e-6 / 0.01f64.to_radians()
+                }
+            })
+        })
+        .collect();
+    let setup = ProblemSetup {
+        row_weights: Some(weights),
+        weights_are_absolute: false,
+        fixed: frozen,
+        column_scaling: ColumnScaling::ColumnNorm,
+    };
+    let mut observer = |_: &IterationState| Control::Continue;
+    problem.set_robot_columns(false);
+    Ok(LevenbergMarquardt::params()
+        .max_iterations(100)
+        .solve(problem, &x, &setup, &mut observer)
+        .map_err(CalibError::optim("validation frame fit"))?
+        .x)
 }
 
 /// The model of `calibration` on `set` (whose targets carry the offsets to
@@ -480,98 +689,4 @@ fn fixed_offsets(targets: &[Target]) -> Vec<Target> {
             ..t.clone()
         })
         .collect()
-}
-
-/// Evaluates `calibration` on `set` (same targets by name; see
-/// [`TargetValidation`]).
-///
-/// # Errors
-/// Targets that differ from the calibration's by name, mismatched
-/// coordinates, a model failure at a pose, a solver failure of the frame fit.
-pub fn validate_targets(
-    model: &Model,
-    calibration: &Calibration,
-    set: &MeasurementSet,
-    refit_frame: bool,
-) -> Result<TargetValidation, CalibError> {
-    let nominal = set.with_targets(fixed_offsets(&calibration.targets_nominal_robot))?;
-    let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
-    let evaluate = |set: &MeasurementSet,
-                    robot: (&[f64], bool),
-                    x_meas_base: Isometry3<f64>|
-     -> Result<
-        (ErrorStatistics, Vec<TargetErrors>, Vec<ObservationError>),
-        CalibError,
-    > {
-        let (problem, mut x) = fitted_model(model, calibration, set, robot, x_meas_base, true)?;
-        if refit_frame {
-            let mut frozen = vec![true; x.len()];
-            for s in 0..problem.n_stations() {
-                let o = problem.station_frame_offset(s);
-                frozen[o..o + 6].fill(false);
-            }
-            // 0.01 deg weighs like 50 um, as in the identification defaults.
-            let weights = (0..problem.n_observations())
-                .flat_map(|i| {
-                    let rows = problem.block_rows(i).len();
-                    (0..rows).map(|r| {
-                        if r < 3 {
-                            1.0
-                        } else {
-                            50e-6 / 0.01f64.to_radians()
-                        }
-                    })
-                })
-                .collect();
-            let setup = ProblemSetup {
-                row_weights: Some(weights),
-                weights_are_absolute: false,
-                fixed: frozen,
-                column_scaling: ColumnScaling::ColumnNorm,
-            };
-            let mut observer = |_: &IterationState| Control::Continue;
-            problem.set_robot_columns(false);
-            x = LevenbergMarquardt::params()
-                .max_iterations(100)
-                .solve(&problem, &x, &setup, &mut observer)
-                .map_err(CalibError::optim("validation frame fit"))?
-                .x;
-        }
-        let errors = problem.errors(&x)?;
-        Ok((
-            error_statistics(&errors),
-            per_target(&problem, &errors),
-            observation_errors(&problem, &errors),
-        ))
-    };
-    let (before, per_target_before, _) = evaluate(
-        &nominal,
-        (&calibration.nominal_xi, false),
-        calibration.x_meas_base_nominal_robot,
-    )?;
-    let (after, per_target_after, observation_errors) = evaluate(
-        &calibrated,
-        (&calibration.xi, true),
-        calibration.x_meas_base,
-    )?;
-    Ok(TargetValidation {
-        before,
-        after,
-        per_target_before,
-        per_target_after,
-        frame_refitted: refit_frame,
-        data_checks: DataChecks::new(
-            set,
-            &observation_errors
-                .iter()
-                .map(|e| e.error.norm())
-                .collect::<Vec<_>>(),
-        )?,
-        observation_errors,
-        extrapolated_coordinates: crate::coverage::extrapolated_coordinates(
-            model.actuated_names(),
-            &calibration.actuated_ranges,
-            set.poses().iter().map(|p| p.q.as_slice()),
-        ),
-    })
 }

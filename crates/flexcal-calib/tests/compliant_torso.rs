@@ -36,9 +36,9 @@
 //! flexcal fits to it).
 
 use flexcal_calib::{
-    CalibrationOptions, GravityCompliance, MeasurementSet, SelectionOptions, TargetObservation,
-    TargetPose, UnknownStatus, calibrate_selected, default_method_for, read_targets,
-    rotation_from_vector, validate_targets,
+    CalibrationOptions, GravityCompliance, MeasurementSet, Refit, SelectionOptions,
+    TargetObservation, TargetPose, UnknownStatus, calibrate_selected, default_method_for,
+    read_targets, rotation_from_vector,
 };
 use flexcal_kinematics::{Data, Model};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -544,11 +544,15 @@ fn defaults_calibrate_the_compliant_torso_to_the_noise() {
     };
     let (calibration, report, _) =
         calibrate_selected(&model, &train, &options, &selection).unwrap();
-    let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
+    let held_out = calibration
+        .validate(&model, &validation, Refit::Nothing)
+        .unwrap();
     let mut geometric_options = CalibrationOptions::for_model(&model);
     geometric_options.spread_reference = false;
     let geometric = flexcal_calib::calibrate(&model, &train, &geometric_options).unwrap();
-    let geometric_held_out = validate_targets(&model, &geometric, &validation, false).unwrap();
+    let geometric_held_out = geometric
+        .validate(&model, &validation, Refit::Nothing)
+        .unwrap();
     // The noise floor: the mean norm of a 3D Gaussian error of NOISE per
     // axis (measurement noise alone, a perfect model).
     let floor = NOISE * (8.0 / std::f64::consts::PI).sqrt();
@@ -658,7 +662,9 @@ fn a_payload_on_each_hand_is_recovered_within_three_standard_errors() {
         .map(String::from)
         .to_vec();
     let calibration = flexcal_calib::calibrate(&model, &train, &options).unwrap();
-    let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
+    let held_out = calibration
+        .validate(&model, &validation, Refit::Nothing)
+        .unwrap();
     let floor = NOISE * (8.0 / std::f64::consts::PI).sqrt();
     eprintln!(
         "two payloads: held out mean {:.3} mm, max {:.3} mm (noise floor {:.3} mm)",
@@ -729,7 +735,9 @@ fn the_equilibrium_against_the_one_step_on_the_compliant_torso() {
             ..table.clone()
         });
         let calibration = flexcal_calib::calibrate(&model, &train, &options).unwrap();
-        let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
+        let held_out = calibration
+            .validate(&model, &validation, Refit::Nothing)
+            .unwrap();
         eprintln!(
             "{}: held out mean {:.3} mm, max {:.3} mm; report {:?}",
             deflection.name(),
@@ -809,7 +817,9 @@ fn the_coupling_mechanisms_cross_terms_are_recovered_by_the_groups_matrix() {
             ..SelectionOptions::default()
         };
         let (calibration, _, _) = calibrate_selected(&model, &train, &options, &selection).unwrap();
-        let held_out = validate_targets(&model, &calibration, &validation, false).unwrap();
+        let held_out = calibration
+            .validate(&model, &validation, Refit::Nothing)
+            .unwrap();
         (calibration, held_out.after)
     };
     let group = "[[coupling_compliance]]\njoints = [\"T2\", \"T3\", \"T4\"]\n";

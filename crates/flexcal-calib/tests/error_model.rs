@@ -2,8 +2,8 @@
 //! identification of a simulated serial robot with free frames, masks.
 
 use flexcal_calib::{
-    CalibError, CalibrationOptions, ErrorModel, FrameTreatment, Measurement, MeasurementSet,
-    UnknownStatus, calibrate, rotation_from_vector, vector_from_rotation,
+    CalibError, CalibrationOptions, ErrorModel, FrameTreatment, Measurement, MeasurementSet, Refit,
+    TCP_TARGET, UnknownStatus, calibrate, rotation_from_vector, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, RobotDescription, forward_pose};
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
@@ -126,6 +126,23 @@ fn identifies_a_serial_robot_with_unknown_frames_exactly() {
     let report = calibration.validate(&model, &validation, false).unwrap();
     assert!(report.after.position_max < 1e-8, "{:?}", report.after);
     assert!(report.before.position_mean > 1e-4);
+    // One target per pose is the case of one target named `tcp`: its
+    // figures are the whole set's, every observation labelled.
+    assert_eq!(report.per_target_after.len(), 1);
+    assert_eq!(report.per_target_after[0].target, TCP_TARGET);
+    assert_eq!(report.per_target_after[0].statistics, report.after);
+    assert_eq!(report.per_target_before[0].statistics, report.before);
+    assert_eq!(report.observation_errors.len(), validation.n_observations());
+    assert!(report.frame_refitted);
+    // The validation set was measured from the identification's frame:
+    // kept as identified, it fits as exactly as the re-fitted one.
+    let same = calibration
+        .validate(&model, &validation, Refit::Nothing)
+        .unwrap();
+    assert!(!same.frame_refitted);
+    assert_eq!(same.measurement_frame, calibration.x_meas_base);
+    assert!(same.after.position_max < 1e-8, "{:?}", same.after);
+    assert!(same.before.position_mean > 1e-4);
     // Gauss-Newton reaches the same fit.
     options.method = flexcal_calib::Method::GaussNewton;
     let gn = calibrate(&model, &set, &options).unwrap();

@@ -11,9 +11,9 @@
 //! a laser tracker's repeatability at a few metres.
 
 use flexcal_calib::{
-    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, MeasurementSet, Target,
+    CHI2_3_95, Calibration, CalibrationOptions, FrameTreatment, MeasurementSet, Refit, Target,
     TargetObservation, TargetPose, UnknownStatus, calibrate, read_targets, rotation_from_vector,
-    validate_targets, vector_from_rotation,
+    vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, ParamKind, RobotDescription, forward_frame_pose};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -188,21 +188,21 @@ fn true_unknowns(
     x
 }
 
-/// Markers with orientations (a 6-DOF target on each hand: 0.02 mm, 0.005
-/// deg per axis, a tracker with a 6-DOF probe): the identification fits
-/// their rotations with the robot and recovers the truth within 3 standard
-/// errors; it identifies what positions alone cannot: each marker's
-/// rotation, standing for its hand's orientation (the hand frame's alpha
-/// and theta and the last joint's theta offset, which no position sees
-/// but in combination with the markers' offsets).
-#[test]
-fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
+/// The two-armed robot with a 6-DOF marker on each hand (glued within a
+/// few degrees of the hand's axes; 0.02 mm, 0.005 deg per axis), seen at
+/// 80 poses, and the identification options weighting them by that noise.
+fn six_dof_markers() -> (
+    Model,
+    Vec<Target>,
+    Truth,
+    MeasurementSet,
+    CalibrationOptions,
+) {
     let model = robot();
     let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0x3664_6f66);
     let nominal: Vec<Vector3<f64>> = targets.iter().map(|t| t.offset).collect();
     let mut truth = truth(&model, &nominal, &mut rng);
-    // Glued within a few degrees of the hand's axes.
     truth.rotations = (0..targets.len())
         .map(|_| rotation_from_vector(&Vector3::from_fn(|_, _| rng.random_range(-0.05..0.05))))
         .collect();
@@ -214,6 +214,59 @@ fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
         weighting: flexcal_calib::Weighting::Uniform,
         ..CalibrationOptions::default()
     };
+    (model, targets, truth, set, options)
+}
+
+/// Model selection by BIC counts the rows of the fit: six for each
+/// observation of a 6-DOF marker (three for position, three for
+/// orientation), as for one target whose orientations are fitted. The
+/// chosen candidate's BIC is evaluated again here from the fit's cost and
+/// identified unknowns.
+#[test]
+fn bic_counts_six_rows_per_oriented_observation_with_several_targets() {
+    let (model, _, _, set, options) = six_dof_markers();
+    let selection = flexcal_calib::SelectionOptions {
+        method: flexcal_calib::SelectionMethod::Bic,
+        ..Default::default()
+    };
+    let (fitted, report, _) =
+        flexcal_calib::calibrate_selected(&model, &set, &options, &selection).unwrap();
+    let report = report.expect("a BIC selection report");
+    let chosen = report
+        .candidates
+        .iter()
+        .find(|c| c.groups == report.chosen)
+        .expect("the chosen candidate among the scored ones");
+    let rows: usize = fitted
+        .observation_errors
+        .iter()
+        .map(|e| if e.orientation_error.is_some() { 6 } else { 3 })
+        .sum();
+    assert_eq!(rows, 6 * set.n_observations());
+    let n = rows as f64;
+    let p = fitted
+        .unknowns
+        .iter()
+        .filter(|u| u.status == UnknownStatus::Identified)
+        .count() as f64;
+    let expected = n * (2.0 * fitted.solve.cost / n).ln() + p * n.ln();
+    let bic = chosen.bic.expect("scored by BIC");
+    assert!(
+        (bic - expected).abs() < 1e-6 * expected.abs().max(1.0),
+        "BIC {bic} against {expected} for {rows} rows"
+    );
+}
+
+/// Markers with orientations (a 6-DOF target on each hand: 0.02 mm, 0.005
+/// deg per axis, a tracker with a 6-DOF probe): the identification fits
+/// their rotations with the robot and recovers the truth within 3 standard
+/// errors; it identifies what positions alone cannot: each marker's
+/// rotation, standing for its hand's orientation (the hand frame's alpha
+/// and theta and the last joint's theta offset, which no position sees
+/// but in combination with the markers' offsets).
+#[test]
+fn six_dof_markers_on_both_hands_identify_what_positions_cannot() {
+    let (model, targets, truth, set, options) = six_dof_markers();
     let six = calibrate(&model, &set, &options).unwrap();
     let x_true = true_unknowns(&six, &truth, &targets);
     assert_eq!(x_true.len(), six.unknowns.len());
@@ -369,7 +422,9 @@ fn two_markers_on_a_two_armed_tree_recover_the_truth_within_three_standard_error
 
     // Validation on other poses measured from the same tracker placement.
     let validation_set = measure(&model, &truth, &targets, 40, &mut rng);
-    let validation = validate_targets(&model, &calibration, &validation_set, false).unwrap();
+    let validation = calibration
+        .validate(&model, &validation_set, Refit::Nothing)
+        .unwrap();
     for (before, after) in validation
         .per_target_before
         .iter()
@@ -610,12 +665,32 @@ fn predicted_bounds_of_two_markers_cover_their_validation_errors() {
         map.residual_scatter_mm
     );
     // A validation report of another set is refused by name.
-    let report = validate_targets(&model, &calibration, &validation, true).unwrap();
+    let report = calibration
+        .validate(&model, &validation, Refit::Frames)
+        .unwrap();
     let err = calibration
         .accuracy_coverage_of(&model, &set, &report, None)
         .unwrap_err()
         .to_string();
     assert!(err.contains("validation report of"), "{err}");
+    // The target offsets are re-fitted for one target per pose only:
+    // refused by the option's name.
+    let err = calibration
+        .validate(&model, &validation, Refit::FramesAndTarget)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("refit") && err.contains("one target per pose"),
+        "{err}"
+    );
+    // Per-target figures: each target's observations counted once.
+    let per_target: usize = report
+        .per_target_after
+        .iter()
+        .map(|t| t.statistics.n_poses)
+        .sum();
+    assert_eq!(per_target, validation.n_observations());
+    assert_eq!(report.per_target_after.len(), targets.len());
     // Every observation once, labelled by pose and marker.
     assert_eq!(map.poses.len(), validation.n_observations());
     assert!(map.poses.iter().all(|p| p.actual_error_mm.is_some()));
@@ -763,7 +838,7 @@ fn poses_that_hold_an_elbow_still_are_named_by_the_spread_ratio() {
     // Validated on the spread poses, the held robot is told where it
     // extrapolates: the left elbow, on every spread pose outside the held
     // poses' range of it.
-    let validation = validate_targets(&model, &held, &spread_set, true).unwrap();
+    let validation = held.validate(&model, &spread_set, Refit::Frames).unwrap();
     let (lo, hi) = held_set
         .poses()
         .iter()
@@ -884,7 +959,9 @@ fn two_stations_each_with_its_frame_recover_the_truth() {
     // A third campaign from the first placement, the frame kept: at the
     // noise (mean norm of three axes of 0.02 mm: 0.032 mm).
     let third = measure(&model, &truth, &targets, 40, &mut rng);
-    let validation = validate_targets(&model, &calibration, &third, false).unwrap();
+    let validation = calibration
+        .validate(&model, &third, Refit::Nothing)
+        .unwrap();
     assert!(
         validation.after.position_mean < 0.045e-3,
         "{:?}",

@@ -30,9 +30,9 @@
 //!   measured value).
 
 use flexcal_calib::{
-    Calibration, CalibrationOptions, GravityCompliance, LateralCompliance, MeasurementSet,
+    Calibration, CalibrationOptions, GravityCompliance, LateralCompliance, MeasurementSet, Refit,
     SelectionOptions, TargetObservation, TargetPose, TermGroup, UnknownStatus, calibrate,
-    calibrate_selected, read_targets, rotation_from_vector, validate_targets, vector_from_rotation,
+    calibrate_selected, read_targets, rotation_from_vector, vector_from_rotation,
 };
 use flexcal_kinematics::{Data, Model, PointLoad, RobotDescription, actuated_forces_into};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -358,10 +358,12 @@ fn markers_on_both_hands_recover_the_joint_springs_and_the_torso_tilt() {
     // noise (three axes of 0.02 mm: a mean error norm of about 0.032 mm);
     // the geometric one, identified on the same poses, does not.
     let geometric = calibrate(&model, &training, &CalibrationOptions::default()).unwrap();
-    let elastic_validation =
-        validate_targets(&model, &calibration, &validation_set, false).unwrap();
-    let geometric_validation =
-        validate_targets(&model, &geometric, &validation_set, false).unwrap();
+    let elastic_validation = calibration
+        .validate(&model, &validation_set, Refit::Nothing)
+        .unwrap();
+    let geometric_validation = geometric
+        .validate(&model, &validation_set, Refit::Nothing)
+        .unwrap();
     for (e, g) in elastic_validation
         .per_target_after
         .iter()
@@ -427,7 +429,9 @@ fn selection_with_two_markers_keeps_the_shoulder_law_and_the_torso_tilt() {
             "lateral_compliance_theta1_x",
         ],
     );
-    let validation = validate_targets(&model, &calibration, &validation_set, false).unwrap();
+    let validation = calibration
+        .validate(&model, &validation_set, Refit::Nothing)
+        .unwrap();
     for e in &validation.per_target_after {
         println!(
             "validation, target {}: mean / max {:.4} / {:.4} mm",

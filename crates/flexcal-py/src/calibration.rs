@@ -12,6 +12,7 @@ use flexcal::kinematics::Model;
 use nalgebra::Isometry3;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 use crate::arrays::to_numpy;
 use crate::errors::{InputError, calib_error};
@@ -165,6 +166,35 @@ pub(crate) fn matrix<'py>(py: Python<'py>, x: &Isometry3<f64>) -> Bound<'py, PyA
     to_numpy(py, m.as_slice().to_vec(), &[4, 4])
 }
 
+/// `{target name: ErrorStatistics}`.
+pub(crate) fn per_target<'py>(
+    py: Python<'py>,
+    errors: &[flexcal::calib::TargetErrors],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for e in errors {
+        d.set_item(&e.target, ErrorStatistics::from(&e.statistics))?;
+    }
+    Ok(d)
+}
+
+/// `([(pose, target)], errors (n_observations, 3) in m)`: measured minus
+/// predicted position of every observation, in the measurement frame.
+pub(crate) fn observation_errors<'py>(
+    py: Python<'py>,
+    errors: &[flexcal::calib::ObservationError],
+) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
+    let labels = errors
+        .iter()
+        .map(|e| (e.pose.clone(), e.target.clone()))
+        .collect();
+    let values = errors
+        .iter()
+        .flat_map(|e| e.error.iter().copied())
+        .collect();
+    (labels, to_numpy(py, values, &[errors.len(), 3]))
+}
+
 /// Errors of a calibrated robot on another measurement set (validation).
 #[pyclass(frozen, module = "flexcal", name = "ValidationResult")]
 #[derive(Debug, Clone)]
@@ -236,6 +266,34 @@ impl ValidationResult {
     #[getter]
     fn extrapolated_coordinates(&self) -> Vec<(String, f64)> {
         self.report.extrapolated_coordinates.clone()
+    }
+
+    /// `{target: ErrorStatistics}` before (`tcp` for one target per pose).
+    #[getter]
+    fn per_target_before<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        per_target(py, &self.report.per_target_before)
+    }
+
+    /// `{target: ErrorStatistics}` after.
+    #[getter]
+    fn per_target_after<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        per_target(py, &self.report.per_target_after)
+    }
+
+    /// Whether the measurement frame was fitted again on the set.
+    #[getter]
+    fn frame_refitted(&self) -> bool {
+        self.report.frame_refitted
+    }
+
+    /// `([(pose, target)], errors (n_observations, 3) in m)` after
+    /// calibration: measured minus predicted, in the measurement frame.
+    #[getter]
+    fn observation_errors<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
+        observation_errors(py, &self.report.observation_errors)
     }
 
     fn __repr__(&self) -> String {

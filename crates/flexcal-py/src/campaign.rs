@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use flexcal::calib::CancelToken;
-use flexcal::campaign::{Campaign as Inner, CampaignResult, CampaignRun};
+use flexcal::campaign::{Campaign as Inner, CampaignRun};
 use pyo3::prelude::*;
 
 use crate::errors::{Failure, facade_error};
@@ -87,23 +87,15 @@ impl Campaign {
                 run.write_outputs()?;
             }
             let CampaignRun { robot, result, .. } = run;
-            let calibration = match &result {
-                CampaignResult::Poses(run) => &run.calibration,
-                CampaignResult::Targets(run) => &run.calibration,
-            };
-            let calibrated = calibration
+            let calibrated = result
+                .calibration
                 .description(&robot)?
                 .build()
                 .map_err(Failure::Kinematics)?;
             Ok((result, robot, calibrated))
         })?;
         let (robot, calibrated) = (Arc::new(robot), Robot::new(calibrated));
-        Ok(match result {
-            CampaignResult::Poses(run) => CalibrationResult::from_run(*run, robot, calibrated),
-            CampaignResult::Targets(run) => {
-                CalibrationResult::from_target_run(*run, robot, calibrated)
-            }
-        })
+        Ok(CalibrationResult::from_run(result, robot, calibrated))
     }
 
     fn __repr__(&self) -> String {

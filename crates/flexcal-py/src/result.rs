@@ -9,10 +9,10 @@ use std::sync::Arc;
 
 use flexcal::calib::{
     Calibration, CalibrationOptions, CalibrationReportJson, CrossCheck, ExtrapolationModel,
-    MeasurementSet as TargetSet, SelectionReport, SplitCheck, StationHoldOut, validate_targets,
+    MeasurementSet as TargetSet, Refit, SelectionReport, SplitCheck, StationHoldOut,
 };
+use flexcal::calibration::CalibrationRun;
 use flexcal::kinematics::Model;
-use flexcal::targets::TargetCalibrationRun;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -21,16 +21,14 @@ use crate::accuracy::{AccuracyResult, configurations};
 use crate::arrays::{AllowTypeChange, PyArrayLikeDyn, to_numpy};
 use crate::calibration::{
     ErrorStatistics, HoldOutRow, SelectionResult, UnknownEstimate, ValidationResult, cancellable,
-    hold_out_rows, matrix, unknown_estimates,
+    hold_out_rows, matrix, observation_errors, per_target, unknown_estimates,
 };
 use crate::checks::{CrossCheckResult, SplitCheckResult};
 use crate::errors::{Failure, InputError, calib_error};
 use crate::interrupt::{run_cancellable, run_interruptible};
 use crate::measurement::MeasurementSet;
 use crate::robot::Robot;
-use crate::targets::{
-    TargetMeasurementSet, TargetValidationResult, observation_errors, per_target,
-};
+use crate::targets::TargetMeasurementSet;
 
 /// A measurement set of either kind, as `calibrate` and the result's
 /// checks take it.
@@ -96,6 +94,16 @@ pub struct CalibrationResult {
 }
 
 impl CalibrationResult {
+    /// Whether `report` validates this result's targets (by name, in
+    /// order): what `to_json` takes.
+    fn same_targets(&self, report: &flexcal::calib::ValidationReport) -> bool {
+        report.per_target_after.iter().map(|t| &t.target).eq(self
+            .calibration
+            .targets
+            .iter()
+            .map(|t| &t.name))
+    }
+
     /// The result of a calibration run of the facade (a campaign's), the
     /// robot `nominal`, calibrated as `calibrated`.
     pub(crate) fn from_run(
@@ -103,6 +111,9 @@ impl CalibrationResult {
         nominal: Arc<Model>,
         calibrated: Robot,
     ) -> Self {
+        // A set of several targets stays with the result: its JSON and
+        // checks give per-target figures.
+        let targets_data = run.several_targets().then(|| Arc::new(run.data));
         Self {
             calibration: Arc::new(run.calibration),
             nominal,
@@ -111,28 +122,7 @@ impl CalibrationResult {
             station_hold_out: Arc::new(run.station_hold_out),
             split: run.split.map(Arc::new),
             options: Arc::new(run.options),
-            targets_data: None,
-            extrapolation: None,
-        }
-    }
-
-    /// The result of a multi-target run of the facade (a campaign's with a
-    /// targets description), the robot `nominal`, calibrated as
-    /// `calibrated`.
-    pub(crate) fn from_target_run(
-        run: TargetCalibrationRun,
-        nominal: Arc<Model>,
-        calibrated: Robot,
-    ) -> Self {
-        Self {
-            calibration: Arc::new(run.calibration),
-            nominal,
-            calibrated,
-            selection: run.selection.map(Arc::new),
-            station_hold_out: Arc::new(run.station_hold_out),
-            split: run.split.map(Arc::new),
-            options: Arc::new(run.options),
-            targets_data: Some(Arc::new(run.data)),
+            targets_data,
             extrapolation: None,
         }
     }
@@ -514,12 +504,12 @@ impl CalibrationResult {
     }
 
     /// Errors of the calibrated robot on `other`, a set of the kind it was
-    /// identified from; the robot is frozen. One target per pose
-    /// (`MeasurementSet`, gives a `ValidationResult`): the measurement
-    /// frame is fitted again, and with `refit_target` the target position
-    /// too. Several targets (`TargetMeasurementSet`, gives a
-    /// `TargetValidationResult`): with `refit_frame` (default) the
-    /// measurement frame is fitted again (the instrument was moved).
+    /// identified from; the robot is frozen; a `ValidationResult` (overall
+    /// and per target). One target per pose (`MeasurementSet`): the
+    /// measurement frame is fitted again, and with `refit_target` the
+    /// target position too. Several targets (`TargetMeasurementSet`):
+    /// with `refit_frame` (default) the measurement frame is fitted again
+    /// (the instrument was moved).
     /// Releases the GIL; Ctrl-C interrupts the wait.
     #[pyo3(signature = (other, refit_target = false, refit_frame = true))]
     fn validate(
@@ -553,10 +543,15 @@ impl CalibrationResult {
                     ));
                 }
                 let validation = run_interruptible(py, move || {
-                    Ok(validate_targets(&model, &calibration, &set, refit_frame)?)
+                    let refit = if refit_frame {
+                        Refit::Frames
+                    } else {
+                        Refit::Nothing
+                    };
+                    Ok(calibration.validate(&model, &set, refit)?)
                 })?;
-                let result = TargetValidationResult {
-                    validation: Arc::new(validation),
+                let result = ValidationResult {
+                    report: Arc::new(validation),
                 };
                 Ok(Bound::new(py, result)?.into_any().unbind())
             }
@@ -643,12 +638,14 @@ impl CalibrationResult {
         if let Some(data) = &self.targets_data {
             let validation = validation
                 .map(|v| {
-                    v.extract::<PyRef<'_, TargetValidationResult>>()
-                        .map(|v| (*v.validation).clone())
-                        .map_err(|_| wrong("TargetValidationResult"))
+                    v.extract::<PyRef<'_, ValidationResult>>()
+                        .ok()
+                        .filter(|v| self.same_targets(&v.report))
+                        .map(|v| (*v.report).clone())
+                        .ok_or_else(|| wrong("ValidationResult"))
                 })
                 .transpose()?;
-            let run = TargetCalibrationRun {
+            let run = CalibrationRun {
                 data: (**data).clone(),
                 validation_set: None,
                 exclusions: Vec::new(),
@@ -661,14 +658,17 @@ impl CalibrationResult {
                 accuracy_map: None,
                 cross: None,
                 station_hold_out: (*self.station_hold_out).clone(),
+                residual: None,
             };
             return run.to_json_string().map_err(|e| Failure::from(e).into());
         }
         let validation = validation
             .map(|v| {
                 v.extract::<PyRef<'_, ValidationResult>>()
+                    .ok()
+                    .filter(|v| self.same_targets(&v.report))
                     .map(|v| Arc::clone(&v.report))
-                    .map_err(|_| wrong("ValidationResult"))
+                    .ok_or_else(|| wrong("ValidationResult"))
             })
             .transpose()?;
         let mut report = CalibrationReportJson::new(

@@ -1,6 +1,7 @@
 //! Several measured targets per pose (markers on the hands of a two-armed
 //! robot, reflectors on a tool): `flexcal.TargetMeasurementSet` and the
-//! validation of a calibration on it (`flexcal.TargetValidationResult`).
+//! validation of a calibration on it (`flexcal.ValidationResult`, the same
+//! class as for one target).
 //! `flexcal.calibrate` takes such a set as it takes a `MeasurementSet`.
 
 use std::path::PathBuf;
@@ -8,16 +9,13 @@ use std::sync::Arc;
 
 use crate::arrays::{AllowTypeChange, PyArrayLikeDyn};
 use flexcal::calib::{
-    FrameTreatment, MeasurementSet as Set, Target, TargetObservation, TargetPose, TargetValidation,
-    read_targets,
+    FrameTreatment, MeasurementSet as Set, Target, TargetObservation, TargetPose, read_targets,
 };
 use nalgebra::Vector3;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 
 use crate::arrays::{exact, to_numpy};
-use crate::calibration::ErrorStatistics;
 use crate::errors::{InputError, NotFiniteError, ShapeError, calib_error};
 
 /// Measured poses of several targets: actuated coordinates q (rad, m) and,
@@ -261,108 +259,6 @@ impl TargetMeasurementSet {
             self.set.source,
             self.set.len(),
             self.target_names()
-        )
-    }
-}
-
-/// `{target name: ErrorStatistics}`.
-pub(crate) fn per_target<'py>(
-    py: Python<'py>,
-    errors: &[flexcal::calib::TargetErrors],
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    for e in errors {
-        d.set_item(&e.target, ErrorStatistics::from(&e.statistics))?;
-    }
-    Ok(d)
-}
-
-/// `([(pose, target)], errors (n_observations, 3) in m)`: measured minus
-/// predicted position of every observation, in the measurement frame.
-pub(crate) fn observation_errors<'py>(
-    py: Python<'py>,
-    errors: &[flexcal::calib::ObservationError],
-) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
-    let labels = errors
-        .iter()
-        .map(|e| (e.pose.clone(), e.target.clone()))
-        .collect();
-    let values = errors
-        .iter()
-        .flat_map(|e| e.error.iter().copied())
-        .collect();
-    (labels, to_numpy(py, values, &[errors.len(), 3]))
-}
-
-/// Errors of a multi-target calibration on another set of the same targets.
-#[pyclass(frozen, module = "flexcal", name = "TargetValidationResult")]
-#[derive(Debug, Clone)]
-pub struct TargetValidationResult {
-    pub(crate) validation: Arc<TargetValidation>,
-}
-
-#[pymethods]
-impl TargetValidationResult {
-    /// Errors of every observation with the nominal robot (before).
-    #[getter]
-    fn before(&self) -> ErrorStatistics {
-        ErrorStatistics::from(&self.validation.before)
-    }
-
-    /// Errors of every observation with the calibrated robot (after).
-    #[getter]
-    fn after(&self) -> ErrorStatistics {
-        ErrorStatistics::from(&self.validation.after)
-    }
-
-    /// `{target: ErrorStatistics}` before.
-    #[getter]
-    fn per_target_before<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        per_target(py, &self.validation.per_target_before)
-    }
-
-    /// `{target: ErrorStatistics}` after.
-    #[getter]
-    fn per_target_after<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        per_target(py, &self.validation.per_target_after)
-    }
-
-    /// Whether the measurement frame was fitted again on the set.
-    #[getter]
-    fn frame_refitted(&self) -> bool {
-        self.validation.frame_refitted
-    }
-
-    /// Repeated readings and suspect observations of the set (errors above
-    /// four times the RMS after calibration), in sentences; empty when the
-    /// data pass both checks.
-    #[getter]
-    fn data_checks(&self) -> Vec<String> {
-        self.validation.data_checks.notes("validation")
-    }
-
-    /// Actuated coordinates that leave the identification poses' range on
-    /// some poses: (name, fraction of the poses outside).
-    #[getter]
-    fn extrapolated_coordinates(&self) -> Vec<(String, f64)> {
-        self.validation.extrapolated_coordinates.clone()
-    }
-
-    /// `([(pose, target)], errors (n_observations, 3) in m)` after
-    /// calibration: measured minus predicted, in the measurement frame.
-    #[getter]
-    fn observation_errors<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> (Vec<(String, String)>, Bound<'py, PyArrayDyn<f64>>) {
-        observation_errors(py, &self.validation.observation_errors)
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "TargetValidationResult(mean {:.4} mm after, {:.4} mm before)",
-            self.validation.after.position_mean * 1e3,
-            self.validation.before.position_mean * 1e3
         )
     }
 }

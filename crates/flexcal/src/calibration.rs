@@ -129,9 +129,9 @@ pub struct CalibrationConfig {
     /// per actuated coordinate).
     pub extrapolation: bool,
     /// Targets description (TOML) of measurement files with several
-    /// targets per pose (`docs/file-formats.md`): the run is then
-    /// `targets::run_target_calibration`'s, and [`run_calibration`]
-    /// refuses it.
+    /// targets per pose (`docs/file-formats.md`): [`run_calibration`] then
+    /// reads them with it (own CSV format only; no target start, target
+    /// re-fit or residual model).
     pub targets: Option<PathBuf>,
 }
 
@@ -208,40 +208,59 @@ pub struct ResidualFit {
     pub validation: Option<ValidationReport>,
 }
 
-/// Every result of a calibration run.
-#[derive(Debug, Clone)]
+/// Every result of a calibration run, of one target per pose or of
+/// several ([`CalibrationRun::several_targets`]).
+#[derive(Debug, Clone, Serialize)]
 pub struct CalibrationRun {
     /// The identification set (exclusions applied).
     pub data: MeasurementSet,
     /// The validation set (exclusions applied).
     pub validation_set: Option<MeasurementSet>,
-    /// The poses left out of each set.
+    /// What was left out of each set ([`CalibrationConfig::exclude`],
+    /// [`CalibrationConfig::exclude_validation`]): whole poses, or, with
+    /// several targets, single observations named `<target> at <pose>`
+    /// ([`MeasurementSet::excluding`]).
     pub exclusions: Vec<Exclusion>,
-    /// The identification options actually used.
+    /// The model selection, when one ran (`config.selection`; by default
+    /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
+    /// poses).
+    pub selection: Option<calib::SelectionReport>,
+    /// The identification options actually used (those of the selected
+    /// model; not in the JSON: the campaign holds the options asked for,
+    /// the selection what it chose).
+    #[serde(skip)]
     pub options: CalibrationOptions,
-    /// The identification.
+    /// The identification (of the selected model).
     pub calibration: Calibration,
+    /// The validation, with a validation set (the measurement frame fitted
+    /// again on it: the instrument may have moved).
+    pub validation: Option<ValidationReport>,
     /// The split-half check, when asked for.
     pub split: Option<SplitCheck>,
-    /// The validation, with a validation set.
-    pub validation: Option<ValidationReport>,
+    /// Predicted 95 % bounds at the validation observations and the share
+    /// of them that the measured errors respect, with a validation set.
+    pub coverage: Option<calib::AccuracyMap>,
+    /// Predicted accuracy at the configurations of
+    /// [`CalibrationConfig::accuracy_grid`] (of every target).
+    pub accuracy_map: Option<calib::AccuracyMap>,
     /// The cross-series check, when asked for.
     pub cross: Option<CrossCheck>,
     /// Each station held out in turn, when asked for.
     pub station_hold_out: Vec<calib::StationHoldOut>,
-    /// The fuzzy residual model, when asked for.
+    /// The fuzzy residual model, when asked for (one target per pose; not
+    /// in the serialised run: the JSON report has its figures).
+    #[serde(skip)]
     pub residual: Option<ResidualFit>,
-    /// The model selection, when one ran.
-    pub selection: Option<calib::SelectionReport>,
-    /// Predicted 95 % bounds at the validation poses and the share of them
-    /// that the measured errors respect, with a validation set.
-    pub coverage: Option<calib::AccuracyMap>,
-    /// Predicted accuracy at the configurations of
-    /// [`CalibrationConfig::accuracy_grid`].
-    pub accuracy_map: Option<calib::AccuracyMap>,
 }
 
 impl CalibrationRun {
+    /// Whether the run's set has several targets per pose (read with a
+    /// targets description), rather than the one target `tcp`: its text,
+    /// page and JSON then give per-target figures.
+    pub fn several_targets(&self) -> bool {
+        !self.data.is_one_target()
+    }
+
     /// The per-pose errors after calibration: of the validation set when
     /// there is one, else of the identification set; with the set's name
     /// (`validation`, `identification`) and the set.
@@ -316,6 +335,9 @@ impl CalibrationRun {
         robot: &crate::kinematics::Model,
         outputs: &CalibrationOutputs,
     ) -> Result<Vec<String>> {
+        if self.several_targets() {
+            return self.write_target_outputs(robot, outputs);
+        }
         let mut written = Vec::new();
         if let Some(path) = &outputs.residuals {
             let (name, set, errors) = self.per_pose();
@@ -480,10 +502,14 @@ pub(crate) fn exclude(
     Ok(kept)
 }
 
-/// Runs a calibration of `robot` as `config` says.
+/// Runs a calibration of `robot` as `config` says: of one target per
+/// pose, or of several when `config.targets` describes them (then the
+/// own CSV format only, and no target start, target re-fit or residual
+/// model).
 ///
 /// # Errors
-/// Unreadable measurement files (file and line), labels that name no pose,
+/// A setting of `config` a run with several targets cannot take, by name;
+/// unreadable measurement files (file and line), labels that name no pose,
 /// a non-finite `target_mm`, `cross_check` or `exclude_validation` without a
 /// validation set, and every error of the identification and its checks,
 /// named by step (`identification`, `validation`, ...): a rank-deficient
@@ -492,9 +518,18 @@ pub fn run_calibration(
     robot: &crate::kinematics::Model,
     config: &CalibrationConfig,
 ) -> Result<CalibrationRun> {
-    check_one_target_config(config)?;
+    let targets = match &config.targets {
+        Some(_) => Some(crate::targets::check_targets_config(config)?),
+        None => {
+            check_one_target_config(config)?;
+            None
+        }
+    };
     let mut exclusions = Vec::new();
-    let (data, validation_set) = read_one_target_sets(config, &mut exclusions)?;
+    let (data, validation_set) = match targets {
+        Some(path) => crate::targets::read_target_sets(config, path, &mut exclusions)?,
+        None => read_one_target_sets(config, &mut exclusions)?,
+    };
     let mut options = config.options.clone();
     if let Some(start) = target_start(config, &data)? {
         options.target_value = Some(start);
@@ -503,8 +538,18 @@ pub fn run_calibration(
         method: config
             .selection
             .unwrap_or_else(|| calib::default_method(&data)),
-        select_on: config.select_on,
-        region: region_of_use(config)?,
+        // With several targets the selection does not take the region of
+        // use yet: it chooses on the training poses' folds.
+        select_on: if targets.is_some() {
+            calib::SelectOn::default()
+        } else {
+            config.select_on
+        },
+        region: if targets.is_some() {
+            Vec::new()
+        } else {
+            region_of_use(config)?
+        },
         ..Default::default()
     };
     // The options before selection, for the stations held out (each
@@ -582,18 +627,12 @@ pub fn run_calibration(
 }
 
 /// The settings of `config` that a run of one target per pose cannot take
-/// (a targets description; validation options without a validation set).
+/// (validation options without a validation set).
 fn check_one_target_config(config: &CalibrationConfig) -> Result<()> {
     let invalid = |parameter: &str, message: &str| Error::InvalidParameter {
         parameter: parameter.to_string(),
         message: message.to_string(),
     };
-    if config.targets.is_some() {
-        return Err(invalid(
-            "targets",
-            "several targets per pose are calibrated by run_target_calibration",
-        ));
-    }
     if config.validate.is_none() {
         if !config.exclude_validation.is_empty() {
             return Err(invalid("exclude_validation", "needs a validation set"));

@@ -32,7 +32,6 @@ use crate::calibration::{
 };
 use crate::kinematics::{ImportOptions, Model};
 use crate::report::{Report, Section};
-use crate::targets::{TargetCalibrationRun, run_target_calibration};
 use crate::{Error, Result, RobotSpec};
 
 mod file;
@@ -591,8 +590,8 @@ impl Campaign {
     }
 
     /// Runs the campaign: the robot, the validated configuration, then the
-    /// calibration of one target per pose ([`run_calibration`]) or, with a
-    /// targets description, of several ([`run_target_calibration`]).
+    /// calibration ([`run_calibration`]: of one target per pose or, with a
+    /// targets description, of several).
     ///
     /// # Errors
     /// Those of [`Campaign::model`], [`Campaign::calibration_config`] and
@@ -611,11 +610,7 @@ impl Campaign {
         let robot = self.model()?;
         let mut config = self.calibration_config(&robot)?;
         config.options.cancel = cancel;
-        let result = if config.targets.is_some() {
-            CampaignResult::Targets(Box::new(run_target_calibration(&robot, &config)?))
-        } else {
-            CampaignResult::Poses(Box::new(run_calibration(&robot, &config)?))
-        };
+        let result = run_calibration(&robot, &config)?;
         Ok(CampaignRun {
             campaign: self.clone(),
             robot,
@@ -633,15 +628,6 @@ fn trimmed(items: &[String]) -> Vec<String> {
         .collect()
 }
 
-/// The calibration a campaign ran: one target per pose or several.
-#[derive(Debug, Clone)]
-pub enum CampaignResult {
-    /// One target per pose ([`run_calibration`]).
-    Poses(Box<CalibrationRun>),
-    /// Several targets per pose ([`run_target_calibration`]).
-    Targets(Box<TargetCalibrationRun>),
-}
-
 /// A campaign and what it gave.
 #[derive(Debug, Clone)]
 pub struct CampaignRun {
@@ -649,17 +635,14 @@ pub struct CampaignRun {
     pub campaign: Campaign,
     /// Its robot (nominal).
     pub robot: Model,
-    /// The calibration.
-    pub result: CampaignResult,
+    /// The calibration (of one target per pose or of several).
+    pub result: CalibrationRun,
 }
 
 impl CampaignRun {
     /// The run as text for a terminal (what `flexcal calibrate` prints).
     pub fn summary_text(&self) -> String {
-        match &self.result {
-            CampaignResult::Poses(run) => run.summary_text(&self.robot),
-            CampaignResult::Targets(run) => run.summary_text(&self.robot),
-        }
+        self.result.summary_text(&self.robot)
     }
 
     /// The JSON report (`docs/calibration-report.md`) with the campaign in
@@ -676,15 +659,17 @@ impl CampaignRun {
             config: Campaign,
         }
         let config = self.campaign.relative_to(folder);
-        let text = match &self.result {
-            CampaignResult::Poses(run) => serde_json::to_string_pretty(&WithConfig {
-                report: run.report(&self.robot),
-                config,
-            }),
-            CampaignResult::Targets(run) => serde_json::to_string_pretty(&WithConfig {
+        let run = &self.result;
+        let text = if run.several_targets() {
+            serde_json::to_string_pretty(&WithConfig {
                 report: run.json(),
                 config,
-            }),
+            })
+        } else {
+            serde_json::to_string_pretty(&WithConfig {
+                report: run.report(&self.robot),
+                config,
+            })
         };
         text.map_err(|source| Error::Json {
             context: "calibration report".into(),
@@ -695,10 +680,7 @@ impl CampaignRun {
     /// The HTML page of the run, ending with the campaign's TOML (paths
     /// relative to `folder`, the page's).
     pub fn html_report(&self, folder: &Path) -> Report {
-        let mut page = match &self.result {
-            CampaignResult::Poses(run) => run.html_report(&self.robot),
-            CampaignResult::Targets(run) => run.html_report(&self.robot),
-        };
+        let mut page = self.result.html_report(&self.robot);
         let mut section = Section::new("Configuration");
         section.paragraph(
             "The campaign file of this run (flexcal calibrate --config FILE re-runs it; paths relative to this page's folder):",
@@ -717,10 +699,7 @@ impl CampaignRun {
     /// cannot be built.
     pub fn write_outputs(&self) -> Result<Vec<String>> {
         let outputs = self.campaign.calibration_outputs();
-        let mut written = match &self.result {
-            CampaignResult::Poses(run) => run.write_outputs(&self.robot, &outputs)?,
-            CampaignResult::Targets(run) => run.write_outputs(&self.robot, &outputs)?,
-        };
+        let mut written = self.result.write_outputs(&self.robot, &outputs)?;
         if let Some(path) = &self.campaign.outputs.report {
             flexcal_io::write_atomic(path, self.report_json(file::folder_of(path))?)?;
             written.push(format!("report written to {}", path.display()));

@@ -1,18 +1,13 @@
-//! The calibration workflow with several measured targets per pose (markers
-//! on the hands of a two-armed robot, reflectors on a tool): read the
-//! targets description and the measurements, select the model and
-//! identify it ([`calib::calibrate_selected`]), check the standard
-//! errors on halves of the poses, validate on a second set with the
-//! predicted 95 % bounds of every observation, predict the accuracy of
-//! every target over a grid, in one call that returns typed, serialisable
-//! results.
+//! The per-target side of a calibration run with several measured targets
+//! per pose (markers on the hands of a two-armed robot, reflectors on a
+//! tool): reading the targets description and the measurements for
+//! [`crate::calibration::run_calibration`], and the run's text, page, JSON
+//! and files with per-target figures
+//! ([`CalibrationRun::several_targets`]).
 
 use serde::Serialize;
 
-use crate::calib::{
-    self, AccuracyMap, Calibration, CrossCheck, MeasurementSet, SelectionReport, SplitCheck,
-    TargetErrors, TargetValidation, UnknownStatus,
-};
+use crate::calib::{self, MeasurementSet, TargetErrors, UnknownStatus};
 use crate::calibration::html::{
     calibration_page, check_sections, data_checks_section, errors_chart, statistics_row,
     statistics_table, unknowns_section,
@@ -22,152 +17,18 @@ use crate::calibration::text::{
     station_hold_out_text,
 };
 use crate::calibration::{
-    CalibrationConfig, CalibrationOutputs, Exclusion, MeasurementFormat, exclude,
-    extrapolation_growth, extrapolation_note, grid_accuracy, station_files, widened,
+    CalibrationConfig, CalibrationOutputs, CalibrationRun, Exclusion, MeasurementFormat, exclude,
+    extrapolation_note, station_files,
 };
 use crate::report::svg::Series;
 use crate::report::{Report, Section};
 use crate::{Error, Result};
 
-/// Every result of a multi-target calibration run.
-#[derive(Debug, Clone, Serialize)]
-pub struct TargetCalibrationRun {
-    /// The identification set (exclusions applied).
-    pub data: MeasurementSet,
-    /// The validation set (exclusions applied).
-    pub validation_set: Option<MeasurementSet>,
-    /// What was left out of each set ([`CalibrationConfig::exclude`],
-    /// [`CalibrationConfig::exclude_validation`]): whole poses, or single
-    /// observations named `<target> at <pose>`
-    /// ([`MeasurementSet::excluding`]).
-    pub exclusions: Vec<Exclusion>,
-    /// The model selection, when one ran (`config.selection`; by default
-    /// cross-validation from [`calib::MIN_POSES_FOR_CROSS_VALIDATION`]
-    /// poses, as for one target).
-    pub selection: Option<SelectionReport>,
-    /// The options of the identified (selected) model, for the checks that
-    /// identify it again (not in the JSON: the campaign holds the options
-    /// asked for, the selection what it chose).
-    #[serde(skip)]
-    pub options: calib::CalibrationOptions,
-    /// The identification (of the selected model).
-    pub calibration: Calibration,
-    /// The validation (the measurement frame fitted again on the validation
-    /// set, as for one target: the instrument may have moved).
-    pub validation: Option<TargetValidation>,
-    /// The split-half check, when asked for ([`CalibrationConfig::split_check`];
-    /// [`SplitCheck::new`]).
-    pub split: Option<SplitCheck>,
-    /// Predicted 95 % bounds at the validation observations and the share
-    /// of them that the measured errors respect, with a validation set.
-    pub coverage: Option<AccuracyMap>,
-    /// Predicted accuracy of every target at the configurations of
-    /// [`CalibrationConfig::accuracy_grid`].
-    pub accuracy_map: Option<AccuracyMap>,
-    /// The cross-series check on the validation set, when asked for
-    /// ([`CalibrationConfig::cross_check`]; [`CrossCheck::new`]).
-    pub cross: Option<CrossCheck>,
-    /// Each station held out in turn, when asked for
-    /// ([`CalibrationConfig::hold_out_stations`];
-    /// [`calib::hold_out_stations`]).
-    pub station_hold_out: Vec<calib::StationHoldOut>,
-}
-
-/// Runs a multi-target calibration: `config.targets` names the targets
-/// description, `config.data` (and `config.validate`) the measurements in
-/// flexcal's CSV with per-target columns; `config.options` are the
-/// identification's options.
-///
-/// # Errors
-/// [`Error::InvalidParameter`] naming a setting of `config` that has no
-/// meaning with several targets or is not built for them (another file
-/// format, a target start, the residual model), labels of `exclude` that
-/// name no pose or observation, and the
-/// errors of reading, model selection, identification, each station held
-/// out, the split-half and cross-series checks, validation and the
-/// accuracy map, each naming its step.
-pub fn run_target_calibration(
-    robot: &crate::kinematics::Model,
-    config: &CalibrationConfig,
-) -> Result<TargetCalibrationRun> {
-    let targets_path = check_targets_config(config)?;
-    let mut exclusions = Vec::new();
-    let (data, validation_set) = read_target_sets(config, targets_path, &mut exclusions)?;
-    let step = |step: &'static str| move |source| Error::CalibrationStep { step, source };
-    let selection_options = calib::SelectionOptions {
-        method: config
-            .selection
-            .unwrap_or_else(|| calib::default_method_for(data.len())),
-        ..Default::default()
-    };
-    let (calibration, selection, options) =
-        calib::calibrate_selected(robot, &data, &config.options, &selection_options)
-            .map_err(step("identification"))?;
-    // Each station selects its own model on the other stations, from the
-    // options before selection.
-    let station_hold_out = if config.hold_out_stations {
-        calib::hold_out_stations(robot, &data, &config.options, &selection_options)
-            .map_err(step("each station held out"))?
-    } else {
-        Vec::new()
-    };
-    let split = config
-        .split_check
-        .then(|| SplitCheck::new(robot, &data, &options, &calibration))
-        .transpose()
-        .map_err(step("split-half check on halves of the poses"))?;
-    let validation = validation_set
-        .as_ref()
-        .map(|set| calib::validate_targets(robot, &calibration, set, true))
-        .transpose()
-        .map_err(step("validation"))?;
-    let extrapolation = extrapolation_growth(
-        config,
-        validation_set.is_some(),
-        (robot, &calibration, &data, &options),
-    )?;
-    let with_extrapolation = |map| widened(map, extrapolation.as_ref());
-    // The bounds against the errors of the validation just made.
-    let coverage = validation_set
-        .as_ref()
-        .zip(validation.as_ref())
-        .map(|(set, report)| calibration.accuracy_coverage_of(robot, set, report, split.as_ref()))
-        .transpose()
-        .map_err(step("predicted accuracy at the validation observations"))?
-        .map(with_extrapolation);
-    let accuracy_map = grid_accuracy(config, |configurations| {
-        calibration
-            .predicted_accuracy(robot, configurations, split.as_ref())
-            .map(with_extrapolation)
-    })?;
-    let cross = match (&validation_set, config.cross_check) {
-        (Some(set), true) => Some(
-            CrossCheck::new(robot, set, &options, &calibration, split.as_ref())
-                .map_err(step("cross-series check on the validation poses"))?,
-        ),
-        _ => None,
-    };
-    Ok(TargetCalibrationRun {
-        data,
-        validation_set,
-        exclusions,
-        selection,
-        options,
-        calibration,
-        validation,
-        split,
-        coverage,
-        accuracy_map,
-        cross,
-        station_hold_out,
-    })
-}
-
 /// The targets description of `config`, after checking that `config` sets
 /// nothing a run with several targets per pose cannot take (another file
 /// format, a target start, the residual model; validation options without
 /// a validation set).
-fn check_targets_config(config: &CalibrationConfig) -> Result<&std::path::Path> {
+pub(crate) fn check_targets_config(config: &CalibrationConfig) -> Result<&std::path::Path> {
     let invalid = |parameter: &str| Error::InvalidParameter {
         parameter: parameter.to_string(),
         message: "not available with several targets per pose (--targets)".into(),
@@ -205,7 +66,7 @@ fn check_targets_config(config: &CalibrationConfig) -> Result<&std::path::Path> 
 /// The identification set (one station per file, pooled) and the
 /// validation set of the targets described in `targets_path`, each
 /// without its excluded poses and observations (recorded in `exclusions`).
-fn read_target_sets(
+pub(crate) fn read_target_sets(
     config: &CalibrationConfig,
     targets_path: &std::path::Path,
     exclusions: &mut Vec<Exclusion>,
@@ -241,11 +102,11 @@ fn read_target_sets(
     Ok((data, validation_set))
 }
 
-impl TargetCalibrationRun {
+impl CalibrationRun {
     /// What `flexcal calibrate --targets` prints: a line per exclusion, a
     /// line naming the robot and the identification file, then
-    /// [`TargetCalibrationRun::lines`], each ended by a newline.
-    pub fn summary_text(&self, robot: &crate::kinematics::Model) -> String {
+    /// [`CalibrationRun::lines`], each ended by a newline.
+    pub(crate) fn target_summary_text(&self, robot: &crate::kinematics::Model) -> String {
         let mut text: String = self.exclusions.iter().map(|e| format!("{e}\n")).collect();
         text += &format!(
             "Calibrating `{}` ({} parameters) from {}\n",
@@ -262,8 +123,8 @@ impl TargetCalibrationRun {
 
     /// Writes the files `outputs` names, each atomically: the calibrated
     /// robot description (TOML), the JSON report
-    /// ([`TargetCalibrationRun::to_json_string`]), the HTML page
-    /// ([`TargetCalibrationRun::html_report`]), the error of every
+    /// ([`CalibrationRun::to_json_string`]), the HTML page
+    /// ([`CalibrationRun::html_report`]), the error of every
     /// observation ([`calib::observation_errors_csv`]: of the validation set
     /// when there is one, else of the identification set) and the accuracy
     /// map beside its grid (`<grid>.accuracy.csv`, one row per
@@ -273,7 +134,7 @@ impl TargetCalibrationRun {
     /// # Errors
     /// The file that could not be written; a calibrated description that
     /// cannot be built.
-    pub fn write_outputs(
+    pub(crate) fn write_target_outputs(
         &self,
         robot: &crate::kinematics::Model,
         outputs: &CalibrationOutputs,
@@ -432,7 +293,7 @@ impl TargetCalibrationRun {
     /// data checks, the model selection, every
     /// unknown, the validation observations against their predicted
     /// bounds, and the accuracy map with each target drawn where it is.
-    pub fn html_report(&self, robot: &crate::kinematics::Model) -> Report {
+    pub(crate) fn target_html_report(&self, robot: &crate::kinematics::Model) -> Report {
         let c = &self.calibration;
         let model = if c.elastic.is_some() {
             "elasto-geometric"
@@ -451,7 +312,7 @@ impl TargetCalibrationRun {
                 names.join(", ")
             ),
             (
-                self.errors_section(),
+                self.target_errors_section(),
                 data_checks_section(
                     &self.exclusions,
                     &c.data_checks,
@@ -472,7 +333,7 @@ impl TargetCalibrationRun {
 
     /// Per-target errors before and after, and each observation's error
     /// after calibration pose by pose, one series per target.
-    fn errors_section(&self) -> Section {
+    fn target_errors_section(&self) -> Section {
         let c = &self.calibration;
         let mut section = Section::new("Position errors");
         let mut rows = Vec::new();
@@ -546,7 +407,7 @@ impl TargetCalibrationRun {
         })
     }
 
-    /// What [`TargetCalibrationRun::to_json_string`] writes, to be
+    /// What [`CalibrationRun::to_json_string`] writes, to be
     /// serialised (or flattened into a larger document).
     pub fn json(&self) -> TargetRunJson<'_> {
         let summary = calib::TargetSummaryJson::new(
@@ -567,7 +428,7 @@ pub struct TargetRunJson<'a> {
     pub summary: calib::TargetSummaryJson,
     /// The run itself (SI units).
     #[serde(flatten)]
-    pub run: &'a TargetCalibrationRun,
+    pub run: &'a CalibrationRun,
 }
 
 #[cfg(test)]
@@ -650,7 +511,7 @@ mod tests {
     fn orientations_of_several_targets_appear_in_the_report_and_the_page() {
         let dir = tempfile::tempdir().unwrap();
         let (robot, config) = two_arm_markers(dir.path(), true);
-        let run = run_target_calibration(&robot, &config).unwrap();
+        let run = crate::calibration::run_calibration(&robot, &config).unwrap();
         for target in &run.calibration.per_target_after {
             let (_, rms, _) = target.statistics.orientation_mean_rms_max.unwrap();
             assert!(rms < 1e-9, "{}: {rms:e} rad", target.target);
@@ -701,7 +562,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (robot, config) = two_arm_markers(dir.path(), false);
         let measurements = config.data.clone();
-        let run = run_target_calibration(&robot, &config).unwrap();
+        let run = crate::calibration::run_calibration(&robot, &config).unwrap();
         let text = run.summary_text(&robot);
         assert!(
             text.starts_with(&format!(

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use flexcal::calib::SelectionMethod;
 use flexcal::calibration::{MeasurementFormat, run_calibration};
 use flexcal::campaign::{
-    Campaign, CampaignResult, ChecksSection, DataSection, ModelKind, ModelSection, OutputsSection,
-    RobotSection, SolverKind, ValidationSection, WeightsKind,
+    Campaign, ChecksSection, DataSection, ModelKind, ModelSection, OutputsSection, RobotSection,
+    SolverKind, ValidationSection, WeightsKind,
 };
 
 fn touch(dir: &Path, name: &str) -> PathBuf {
@@ -174,9 +174,8 @@ fn a_campaign_runs_the_calibration_it_stands_for() {
         ..campaign
     };
     let run = campaign.run().unwrap();
-    let CampaignResult::Poses(run) = &run.result else {
-        panic!("one target per pose");
-    };
+    let run = &run.result;
+    assert!(!run.several_targets(), "one target per pose");
     // The same calibration from the library's configuration, built by hand.
     let model = flexcal::load_robot("ur10").unwrap();
     let mut options = flexcal::calib::CalibrationOptions::for_model(&model);

@@ -44,7 +44,6 @@ from ._flexcal import (
     Structure,
     StructureError,
     TargetMeasurementSet,
-    TargetValidationResult,
     UnknownEstimate,
     UnknownParameterError,
     UnknownRobotError,
@@ -85,7 +84,6 @@ __all__ = [
     "Structure",
     "StructureError",
     "TargetMeasurementSet",
-    "TargetValidationResult",
     "UnknownEstimate",
     "UnknownParameterError",
     "UnknownRobotError",
@@ -119,6 +117,11 @@ _DEPRECATED_NAMES = {
         CalibrationResult,
         "flexcal.TargetCalibrationResult is deprecated and will be removed in the next release: "
         "flexcal.calibrate returns a CalibrationResult for either kind of set",
+    ),
+    "TargetValidationResult": (
+        ValidationResult,
+        "flexcal.TargetValidationResult is deprecated and will be removed in the next release: "
+        "CalibrationResult.validate returns a ValidationResult for either kind of set",
     ),
 }
 

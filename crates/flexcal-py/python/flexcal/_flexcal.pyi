@@ -293,7 +293,18 @@ class ValidationResult:
     def data_checks(self) -> list[str]:
         """Repeated readings and suspect poses (error above 4x the RMS after calibration), in sentences."""
     @property
-    def extrapolated_coordinates(self) -> list[tuple[str, float]]: ...
+    def extrapolated_coordinates(self) -> list[tuple[str, float]]:
+        """(coordinate, fraction of the poses outside the identification poses' range)."""
+    @property
+    def per_target_before(self) -> dict[str, ErrorStatistics]:
+        """Per target before (`tcp` for one target per pose)."""
+    @property
+    def per_target_after(self) -> dict[str, ErrorStatistics]: ...
+    @property
+    def frame_refitted(self) -> bool: ...
+    @property
+    def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
+        """([(pose, target)], (n_observations, 3) measured minus predicted, m)."""
 
 class AccuracyResult:
     """Predicted 95 % bounds of the position error (SI units)."""
@@ -525,14 +536,14 @@ class CalibrationResult:
         other: MeasurementSet | TargetMeasurementSet,
         refit_target: bool = False,
         refit_frame: bool = True,
-    ) -> ValidationResult | TargetValidationResult:
-        """A ValidationResult for a MeasurementSet, a TargetValidationResult for a TargetMeasurementSet."""
+    ) -> ValidationResult:
+        """Errors on another set of the same kind, overall and per target."""
     def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
         """95 % bounds at the configurations q ((dof,) or (n, dof), rad or m), one entry per configuration and target."""
     def accuracy_coverage(self, other: MeasurementSet | TargetMeasurementSet) -> AccuracyResult:
         """95 % bounds at the poses of `other` with their measured errors."""
     def to_json(
-        self, validation: Optional[ValidationResult | TargetValidationResult] = None
+        self, validation: Optional[ValidationResult] = None
     ) -> str:
         """The JSON report of `flexcal calibrate --report` (mm, deg), with several targets that of `--targets`."""
 
@@ -653,29 +664,6 @@ class TargetMeasurementSet:
     @property
     def source(self) -> str: ...
     def __len__(self) -> int: ...
-
-class TargetValidationResult:
-    """Errors of a multi-target calibration on another set of the same targets."""
-
-    @property
-    def before(self) -> ErrorStatistics: ...
-    @property
-    def after(self) -> ErrorStatistics: ...
-    @property
-    def per_target_before(self) -> dict[str, ErrorStatistics]: ...
-    @property
-    def per_target_after(self) -> dict[str, ErrorStatistics]: ...
-    @property
-    def frame_refitted(self) -> bool: ...
-    @property
-    def data_checks(self) -> list[str]:
-        """Repeated readings and suspect poses (error above 4x the RMS after calibration), in sentences."""
-    @property
-    def extrapolated_coordinates(self) -> list[tuple[str, float]]:
-        """(coordinate, fraction of the poses outside the identification poses' range)."""
-    @property
-    def observation_errors(self) -> tuple[list[tuple[str, str]], FloatArray]:
-        """([(pose, target)], (n_observations, 3) measured minus predicted, m)."""
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

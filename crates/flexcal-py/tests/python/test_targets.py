@@ -373,8 +373,8 @@ def test_orientations_of_several_targets_are_fitted(two_arms):
 
 
 def test_the_old_names_are_deprecated_aliases(two_arms):
-    """`calibrate_targets` and `TargetCalibrationResult` still work for one
-    release, and say so."""
+    """`calibrate_targets`, `TargetCalibrationResult` and
+    `TargetValidationResult` still work for one release, and say so."""
     truth = Truth(two_arms, seed=31)
     q = configurations(two_arms, 40, seed=32)
     data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
@@ -385,6 +385,9 @@ def test_the_old_names_are_deprecated_aliases(two_arms):
     with pytest.warns(DeprecationWarning, match="returns a CalibrationResult for either kind"):
         alias = flexcal.TargetCalibrationResult
     assert alias is flexcal.CalibrationResult
+    with pytest.warns(DeprecationWarning, match="returns a ValidationResult for either kind"):
+        validation_alias = flexcal.TargetValidationResult
+    assert validation_alias is flexcal.ValidationResult
     assert old.identified == new.identified
     with pytest.raises(AttributeError, match="no attribute 'NoSuchName'"):
         flexcal.NoSuchName
@@ -421,13 +424,18 @@ def test_one_result_for_either_kind_of_set(two_arms):
         by_one.accuracy_coverage(several)
     with pytest.raises(flexcal.InputError, match="other: expected a MeasurementSet or a TargetMeasurementSet"):
         by_one.cross_check(q)
-    assert isinstance(by_several.validate(several), flexcal.TargetValidationResult)
-    assert isinstance(by_one.validate(one), flexcal.ValidationResult)
+    # One validation class: per-target figures for several targets, `tcp`
+    # for one.
+    validated = by_several.validate(several)
+    assert type(validated) is type(by_one.validate(one)) is flexcal.ValidationResult
+    assert set(validated.per_target_after) == {"left", "right"}
+    assert set(by_one.validate(one).per_target_after) == {"tcp"}
+    assert validated.frame_refitted
     with pytest.raises(flexcal.InputError, match="refit_target: not available with several targets"):
         by_several.validate(several, refit_target=True)
     with pytest.raises(flexcal.InputError, match="refit_frame: a set of one target per pose"):
         by_one.validate(one, refit_frame=False)
-    with pytest.raises(flexcal.InputError, match="validation: expected the TargetValidationResult"):
+    with pytest.raises(flexcal.InputError, match="validation: expected the ValidationResult"):
         by_several.to_json(validation=by_one.validate(one))
     # The one-target keywords, by name.
     with pytest.raises(flexcal.InputError, match="fixed_target: not available with several targets"):

@@ -28,6 +28,9 @@ use super::{CalibrationRun, Exclusion};
 impl CalibrationRun {
     /// The run as a report page (write it with [`Report::to_html`]).
     pub fn html_report(&self, robot: &Model) -> Report {
+        if self.several_targets() {
+            return self.target_html_report(robot);
+        }
         let model = if self.options.gravity.is_some() {
             "elasto-geometric"
         } else {

@@ -33,6 +33,9 @@ impl CalibrationRun {
     /// after, predicted bounds, cross-series check, residual model,
     /// temperature): the text `flexcal calibrate` prints.
     pub fn summary_text(&self, robot: &Model) -> String {
+        if self.several_targets() {
+            return self.target_summary_text(robot);
+        }
         let mut out = String::new();
         for e in &self.exclusions {
             put!(out, "{e}");
