@@ -304,9 +304,9 @@ pub(crate) struct Rounds<'a> {
     /// The coupling groups' matrices among the unknowns (held positive
     /// semi-definite, [`crate::coupling`]).
     pub coupling_matrices: &'a [crate::coupling::MatrixIndices],
-    /// Whether the judgement of the compliances ends on a solved fit
-    /// (false for [`crate::CalibrationOptions::prediction_only`]).
-    pub final_solve: bool,
+    /// How the judgement of the compliances updates the fit
+    /// ([`crate::CalibrationOptions::prediction_only`]).
+    pub judge_update: crate::significance::JudgeUpdate,
 }
 
 /// What the rounds of [`AnalysisContext::identify_in_rounds`] found: the
@@ -444,7 +444,7 @@ impl AnalysisContext<'_> {
                 limits: self.limits,
                 z_min: r.min_compliance_z,
                 x_start: r.x_start,
-                final_solve: r.final_solve,
+                update: r.judge_update,
                 absolute: r.absolute,
             },
             (report, frozen),

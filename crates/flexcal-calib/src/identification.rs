@@ -40,7 +40,7 @@ use crate::metrics::PoseError;
 use crate::options::{
     CalibrationOptions, FrameTreatment, GEODESIC_ACCELERATION_LIMIT, Method, Weighting,
 };
-use crate::significance::{NoiseSource, barely_loaded};
+use crate::significance::{JudgeUpdate, NoiseSource, barely_loaded};
 use crate::spread::{SpreadReference, spread_ratios};
 use crate::start::frame_starts;
 use crate::unknowns::{Combination, UnknownEstimate};
@@ -478,7 +478,11 @@ pub(crate) fn identify<'a>(
             coupling_matrices: &options.gravity.as_ref().map_or_else(Vec::new, |gravity| {
                 crate::coupling::matrix_indices(model, gravity, &layout.names)
             }),
-            final_solve: !options.prediction_only,
+            judge_update: if options.prediction_only {
+                JudgeUpdate::Linearised
+            } else {
+                JudgeUpdate::Solve
+            },
         },
         &noise_at,
         &mut solve,

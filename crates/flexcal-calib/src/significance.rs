@@ -16,7 +16,7 @@
 //! the exact rank allows is in the first fit, so the noise estimated from
 //! its residual is not inflated by the sag of the ones left out), and
 //! leaves out one weak compliance at a time (all those below one standard
-//! error at once), updating the fit after each step: two compliances that
+//! error at once), fitting again after each step: two compliances that
 //! trade off against each other are not both dropped when one of them
 //! alone is determined.
 //!
@@ -40,17 +40,16 @@
 //! group's matrix is held positive semi-definite instead (the coupling
 //! module).
 //!
-//! Between the steps the fit is not solved again: each step's effect is
-//! the linearised update of the fit ([`linearised_update`]: the
-//! Gauss-Newton step of the fit's quadratic model with the settled
-//! compliances held, its covariance and variance factor updated with it),
-//! exact for residuals linear in the unknowns. Once no compliance is left
-//! to settle the fit is solved again from there, its values then a
-//! converged solve's, and the judgement goes on from that solve. A fit
-//! that serves its predictions only (model selection's fold fits,
-//! [`crate::CalibrationOptions::prediction_only`]) is solved again only if
-//! a judgement made on an update lay within [`CLOSE_SHARE`] (10 %) of its
-//! threshold.
+//! A fit that serves its predictions only (model selection's fold fits,
+//! [`crate::CalibrationOptions::prediction_only`]) is not solved again after
+//! each step: the step's effect is the linearised update of the fit
+//! ([`linearised_update`]: the Gauss-Newton step of the fit's quadratic
+//! model with the settled compliances held, the covariance and the
+//! variance factor updated with it), exact for residuals linear in the
+//! unknowns. Once no compliance is left to settle, the fit is solved
+//! again only if a judgement made on an update lay within
+//! [`CLOSE_SHARE`] (10 %) of its threshold, and the judgement then goes on
+//! from that solve.
 //!
 //! The noise: the instrument's stated figure when the user gives one
 //! ([`InstrumentNoise`], `--noise-mm`), the file's standard deviations when
@@ -239,18 +238,29 @@ pub(crate) struct Judging<'a> {
     /// Starting values (where a compliance left out goes back to; its
     /// scale is at least its start).
     pub x_start: &'a [f64],
-    /// Whether the fit is solved once more after the linearised steps,
-    /// so that its values are a converged solve's (every fit but those
-    /// that serve their predictions only).
-    pub final_solve: bool,
+    /// How the fit is updated after each step.
+    pub update: JudgeUpdate,
     /// Whether the row weights are absolute (the variance factor is then
     /// 1; else it is estimated from the cost).
     pub absolute: bool,
 }
 
+/// How [`judge_compliances`] updates the fit after it leaves compliances
+/// out or holds them at zero.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum JudgeUpdate {
+    /// Solved again after each step.
+    Solve,
+    /// The linearised update ([`linearised_update`]) after each step;
+    /// solved again only when some judgement made on a linearised update
+    /// lies within [`CLOSE_SHARE`] of its threshold, or when the update
+    /// cannot be made (an unknown without a standard error).
+    Linearised,
+}
+
 /// Share of a threshold (the z-score, the standard-error limit, the bound)
 /// within which a judgement made on a linearised update is made again on
-/// a solved fit ([`judge_compliances`]).
+/// a solved fit ([`JudgeUpdate::Linearised`]).
 pub(crate) const CLOSE_SHARE: f64 = 0.1;
 
 /// The fit `report` (a minimum of the weighted cost, its covariance from
@@ -388,11 +398,9 @@ fn judge_step(
 }
 
 /// Judges every identified compliance of the fit `report` on its own
-/// scale (module docs), updating the fit after each step by
-/// [`linearised_update`] (by `solve` when it cannot be made), solving
-/// again when a judgement on an update was close or
-/// [`Judging::final_solve`] asks; returns the final fit, the frozen
-/// unknowns and each compliance's judgement.
+/// scale (module docs), updating the fit after each step as
+/// [`Judging::update`] says (with `solve`, or linearised); returns the
+/// final fit, the frozen unknowns and each compliance's judgement.
 pub(crate) fn judge_compliances(
     judging: &Judging<'_>,
     (mut report, mut frozen): (SolveReport, Vec<bool>),
@@ -410,7 +418,7 @@ pub(crate) fn judge_compliances(
         let (settled, near_threshold) = judge_step(judging, &report, &frozen, &mut judgements);
         close |= linear && near_threshold;
         if settled.is_empty() {
-            if linear && (close || judging.final_solve) {
+            if linear && close {
                 report = solve(&report.x, &frozen)?;
                 (linear, close) = (false, false);
                 continue;
@@ -434,7 +442,10 @@ pub(crate) fn judge_compliances(
         if frozen.iter().all(|f| *f) {
             return Err(CalibError::NothingToIdentify);
         }
-        let update = linearised_update(&report, &held, judging.absolute);
+        let update = match judging.update {
+            JudgeUpdate::Linearised => linearised_update(&report, &held, judging.absolute),
+            JudgeUpdate::Solve => None,
+        };
         linear = update.is_some();
         report = match update {
             Some(update) => update,
