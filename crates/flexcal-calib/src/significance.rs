@@ -43,12 +43,12 @@
 //! A fit that serves its predictions only (model selection's fold fits,
 //! [`crate::CalibrationOptions::prediction_only`]) is not solved again after
 //! each step: the step's effect is the linearised update of the fit
-//! ([`linearised_update`]: the Gauss-Newton step of the fit's quadratic
+//! (`linearised_update`: the Gauss-Newton step of the fit's quadratic
 //! model with the settled compliances held, the covariance and the
 //! variance factor updated with it), exact for residuals linear in the
 //! unknowns. Once no compliance is left to settle, the fit is solved
 //! again only if a judgement made on an update lay within
-//! [`CLOSE_SHARE`] (10 %) of its threshold, and the judgement then goes on
+//! `CLOSE_SHARE` (10 %) of its threshold, and the judgement then goes on
 //! from that solve.
 //!
 //! The noise: the instrument's stated figure when the user gives one
