@@ -51,6 +51,10 @@ pub(crate) struct AnalysisContext<'a> {
     pub priorities: &'a [i32],
     pub limits: &'a [f64],
     pub rank_tolerance: f64,
+    /// Whether the numerical analysis (no noise level) computes its
+    /// singular values (the reported ones;
+    /// [`crate::CalibrationOptions::prediction_only`] skips them).
+    pub singular_values: bool,
 }
 
 impl AnalysisContext<'_> {
@@ -166,7 +170,7 @@ impl AnalysisContext<'_> {
             priorities: kept.iter().map(|&j| self.priorities[j]).collect(),
             // The analyses at a noise level give the base set alone; only
             // the numerical one is reported (two SVDs saved per round).
-            singular_values: noise.is_none(),
+            singular_values: noise.is_none() && self.singular_values,
             ..IdentifiabilityOptions::default()
         };
         if let Some(sigma) = noise {
@@ -300,6 +304,9 @@ pub(crate) struct Rounds<'a> {
     /// The coupling groups' matrices among the unknowns (held positive
     /// semi-definite, [`crate::coupling`]).
     pub coupling_matrices: &'a [crate::coupling::MatrixIndices],
+    /// How the judgement of the compliances updates the fit
+    /// ([`crate::CalibrationOptions::prediction_only`]).
+    pub judge_update: crate::significance::JudgeUpdate,
 }
 
 /// What the rounds of [`AnalysisContext::identify_in_rounds`] found: the
@@ -437,6 +444,8 @@ impl AnalysisContext<'_> {
                 limits: self.limits,
                 z_min: r.min_compliance_z,
                 x_start: r.x_start,
+                update: r.judge_update,
+                absolute: r.absolute,
             },
             (report, frozen),
             solve,

@@ -40,7 +40,7 @@ use crate::metrics::PoseError;
 use crate::options::{
     CalibrationOptions, FrameTreatment, GEODESIC_ACCELERATION_LIMIT, Method, Weighting,
 };
-use crate::significance::{NoiseSource, barely_loaded};
+use crate::significance::{JudgeUpdate, NoiseSource, barely_loaded};
 use crate::spread::{SpreadReference, spread_ratios};
 use crate::start::frame_starts;
 use crate::unknowns::{Combination, UnknownEstimate};
@@ -300,6 +300,7 @@ impl Solver<'_, '_> {
                 solver.options.max_evaluations = 20 * options.max_iterations;
                 solver.options.cost_tolerance = options.cost_tolerance;
                 solver.options.cancel = options.cancel.clone();
+                solver.options.singular_values = !options.prediction_only;
                 // The law's hardening trades off against the compliance
                 // along a long curved valley of the cost, which the plain
                 // iteration walks down by many small steps (54 iterations
@@ -316,6 +317,7 @@ impl Solver<'_, '_> {
                 solver.options.max_evaluations = 20 * options.max_iterations;
                 solver.options.cost_tolerance = options.cost_tolerance;
                 solver.options.cancel = options.cancel.clone();
+                solver.options.singular_values = !options.prediction_only;
                 solver.solve(problem, x0, &setup, &mut observer)
             }
         };
@@ -433,6 +435,7 @@ pub(crate) fn identify<'a>(
         priorities: &layout.priorities,
         limits: &limits,
         rank_tolerance: options.rank_tolerance,
+        singular_values: !options.prediction_only,
     };
     let solver = Solver {
         problem: &problem,
@@ -475,6 +478,11 @@ pub(crate) fn identify<'a>(
             coupling_matrices: &options.gravity.as_ref().map_or_else(Vec::new, |gravity| {
                 crate::coupling::matrix_indices(model, gravity, &layout.names)
             }),
+            judge_update: if options.prediction_only {
+                JudgeUpdate::Linearised
+            } else {
+                JudgeUpdate::Solve
+            },
         },
         &noise_at,
         &mut solve,

@@ -127,6 +127,20 @@ pub struct CalibrationOptions {
     /// are `None` and the identification is faster (model selection's
     /// fold fits need no ratios).
     pub spread_reference: bool,
+    /// The fit serves its predictions only (default false): model
+    /// selection's fold fits set it, scored by their predictions of
+    /// held-out poses and most of the selection's solves. Two things
+    /// change. The compliances are judged ([`crate::significance`]) on
+    /// linearised updates of the fit: after a compliance is left out (or
+    /// held at zero) the others move by the Gauss-Newton step of the fit's
+    /// quadratic model and their standard errors follow its covariance,
+    /// instead of a solve; solved again only when a judgement made so lies
+    /// within 10 % of its threshold. The fit's values are then that step's,
+    /// not a converged solve's: its predictions differ far below the
+    /// noise. And the singular values and condition numbers of the
+    /// reports (the solver's, the numerical identifiability analysis') are
+    /// not computed: empty and NaN.
+    pub prediction_only: bool,
     /// Joint error terms beyond linear springs: the non-linear stiffness
     /// law (needs `gravity`) and cyclic joint errors (default none; see
     /// [`crate::joint_law`]).
@@ -179,6 +193,7 @@ impl Default for CalibrationOptions {
             max_standard_error_hardening: 1000.0,
             joint_terms: JointTerms::default(),
             spread_reference: true,
+            prediction_only: false,
             gravity: None,
             require_full_rank: false,
             max_iterations: 100,

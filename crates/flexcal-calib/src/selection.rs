@@ -1022,8 +1022,11 @@ impl Scorer<'_> {
             .iter()
             .map(|key| {
                 let mut options = candidate_options(self.model, self.base, key);
-                // Scores need no spread ratios.
+                // Scores need no spread ratios; fold fits serve their
+                // predictions only (BIC's fits keep their solves: BIC
+                // scores the cost itself).
                 options.spread_reference = false;
+                options.prediction_only = self.ordinary.is_some();
                 options
             })
             .collect();

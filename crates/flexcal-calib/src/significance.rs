@@ -40,6 +40,17 @@
 //! group's matrix is held positive semi-definite instead (the coupling
 //! module).
 //!
+//! A fit that serves its predictions only (model selection's fold fits,
+//! [`crate::CalibrationOptions::prediction_only`]) is not solved again after
+//! each step: the step's effect is the linearised update of the fit
+//! (`linearised_update`: the Gauss-Newton step of the fit's quadratic
+//! model with the settled compliances held, the covariance and the
+//! variance factor updated with it), exact for residuals linear in the
+//! unknowns. Once no compliance is left to settle, the fit is solved
+//! again only if a judgement made on an update lay within
+//! `CLOSE_SHARE` (10 %) of its threshold, and the judgement then goes on
+//! from that solve.
+//!
 //! The noise: the instrument's stated figure when the user gives one
 //! ([`InstrumentNoise`], `--noise-mm`), the file's standard deviations when
 //! every observation has them, else estimated from the weighted residual of
@@ -50,6 +61,8 @@
 //! others change); the standard errors are the linearised ones of the fit.
 
 use serde::Serialize;
+
+use nalgebra::{DMatrix, DVector};
 
 use crate::error::CalibError;
 use flexcal_optim::SolveReport;
@@ -225,12 +238,169 @@ pub(crate) struct Judging<'a> {
     /// Starting values (where a compliance left out goes back to; its
     /// scale is at least its start).
     pub x_start: &'a [f64],
+    /// How the fit is updated after each step.
+    pub update: JudgeUpdate,
+    /// Whether the row weights are absolute (the variance factor is then
+    /// 1; else it is estimated from the cost).
+    pub absolute: bool,
+}
+
+/// How [`judge_compliances`] updates the fit after it leaves compliances
+/// out or holds them at zero.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum JudgeUpdate {
+    /// Solved again after each step.
+    Solve,
+    /// The linearised update ([`linearised_update`]) after each step;
+    /// solved again only when some judgement made on a linearised update
+    /// lies within [`CLOSE_SHARE`] of its threshold, or when the update
+    /// cannot be made (an unknown without a standard error).
+    Linearised,
+}
+
+/// Share of a threshold (the z-score, the standard-error limit, the bound)
+/// within which a judgement made on a linearised update is made again on
+/// a solved fit ([`JudgeUpdate::Linearised`]).
+pub(crate) const CLOSE_SHARE: f64 = 0.1;
+
+/// The fit `report` (a minimum of the weighted cost, its covariance from
+/// the Jacobian there) with the unknowns of `held` put at the given values
+/// and the others moved by the Gauss-Newton step of that quadratic model:
+/// `dx = C[:, S] C[S, S]^-1 (v - x_S)`, the covariance of the rest the
+/// Schur complement `C - C[:, S] C[S, S]^-1 C[S, :]`, the cost raised by
+/// `sigma2 / 2 (v - x_S)^T C[S, S]^-1 (v - x_S)` and, with relative weights
+/// (`absolute` false), the variance factor re-estimated with `|S|` more
+/// degrees of freedom. Exact when the residuals are linear in the
+/// unknowns. `None` when the fit has no covariance or `C[S, S]` is not
+/// positive definite (an unknown of `held` without a standard error).
+pub(crate) fn linearised_update(
+    report: &SolveReport,
+    held: &[(usize, f64)],
+    absolute: bool,
+) -> Option<SolveReport> {
+    let covariance = report.covariance.as_ref()?;
+    let sigma2 = report.sigma2;
+    if held.is_empty() || !(sigma2.is_finite() && sigma2 > 0.0) {
+        return None;
+    }
+    let n = report.x.len();
+    let s = held.len();
+    let index: Vec<usize> = held.iter().map(|&(j, _)| j).collect();
+    let c_ss = DMatrix::from_fn(s, s, |a, b| covariance[(index[a], index[b])]);
+    let cholesky = c_ss.cholesky()?;
+    let c_xs = DMatrix::from_fn(n, s, |i, a| covariance[(i, index[a])]);
+    let d = DVector::from_iterator(s, held.iter().map(|&(j, v)| v - report.x[j]));
+    let w = cholesky.solve(&d);
+    let step = &c_xs * &w;
+    let mut x: Vec<f64> = report
+        .x
+        .iter()
+        .zip(step.iter())
+        .map(|(x, dx)| x + dx)
+        .collect();
+    for &(j, v) in held {
+        x[j] = v;
+    }
+    let cost = report.cost + 0.5 * sigma2 * d.dot(&w);
+    let new_sigma2 = if absolute {
+        1.0
+    } else {
+        // m - rank = 2 cost / sigma2 before; |S| unknowns fewer after.
+        2.0 * cost / (2.0 * report.cost / sigma2 + s as f64)
+    };
+    let mut c = covariance - &c_xs * cholesky.solve(&c_xs.transpose());
+    c *= new_sigma2 / sigma2;
+    for &j in &index {
+        c.row_mut(j).fill(0.0);
+        c.column_mut(j).fill(0.0);
+    }
+    let standard_errors = (0..n)
+        .map(|j| {
+            report.standard_errors[j]
+                .filter(|_| !index.contains(&j))
+                .map(|_| c[(j, j)].max(0.0).sqrt())
+        })
+        .collect();
+    Some(SolveReport {
+        x,
+        cost,
+        sigma2: new_sigma2,
+        covariance: Some(c),
+        standard_errors,
+        n_free: report.n_free.saturating_sub(s),
+        rank: report.rank.saturating_sub(s),
+        iterations: 0,
+        cost_history: Vec::new(),
+        start_weighted_residuals: Vec::new(),
+        ..report.clone()
+    })
+}
+
+/// Whether `value` lies within [`CLOSE_SHARE`] of `threshold`.
+fn near(value: f64, threshold: f64) -> bool {
+    (value - threshold).abs() <= CLOSE_SHARE * threshold.abs()
+}
+
+/// One step of [`judge_compliances`] on the fit `report`: records each
+/// free compliance's judgement in `judgements` and returns those to settle
+/// now (the hopeless ones together, otherwise the weakest alone, with the
+/// ones beyond their limit or below zero), and whether some judgement lies
+/// within [`CLOSE_SHARE`] of its threshold.
+fn judge_step(
+    judging: &Judging<'_>,
+    report: &SolveReport,
+    frozen: &[bool],
+    judgements: &mut [Option<ScaleJudgement>],
+) -> (Vec<(usize, ScaleOutcome)>, bool) {
+    let mut weak: Vec<(usize, f64)> = Vec::new();
+    let mut settled: Vec<(usize, ScaleOutcome)> = Vec::new();
+    let mut close = false;
+    for j in (0..frozen.len()).filter(|&j| judging.compliance[j] && !frozen[j]) {
+        let value = report.x[j];
+        let se = report.standard_errors[j]
+            .filter(|s| s.is_finite())
+            .unwrap_or(f64::INFINITY);
+        // Its own scale: the larger of its fitted value and its start
+        // (a compliance the data put at zero with a small error is
+        // determined: the joint is stiff).
+        let z = value.abs().max(judging.x_start[j].abs()) / se;
+        judgements[j] = Some(ScaleJudgement {
+            value,
+            standard_error: se,
+            outcome: ScaleOutcome::Kept,
+        });
+        close |= near(se, judging.limits[j]) || near(z, judging.z_min);
+        if se > judging.limits[j] {
+            settled.push((j, ScaleOutcome::LeftOut));
+        } else if z < judging.z_min {
+            weak.push((j, z));
+        } else if judging.nonnegative[j] {
+            close |= near(value, -se);
+            if value < -se {
+                settled.push((j, ScaleOutcome::AtBound));
+            }
+        }
+    }
+    // Hopeless ones together, otherwise the weakest alone.
+    weak.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let hopeless = weak.iter().take_while(|(_, z)| *z < 1.0).count();
+    let take = if hopeless > 0 {
+        hopeless
+    } else {
+        weak.len().min(1)
+    };
+    settled.extend(
+        weak[..take]
+            .iter()
+            .map(|&(j, _)| (j, ScaleOutcome::LeftOut)),
+    );
+    (settled, close)
 }
 
 /// Judges every identified compliance of the fit `report` on its own
-/// scale (module docs), fitting again after each step with `solve`;
-/// returns the final fit, the frozen unknowns and each compliance's
-/// judgement.
+/// scale (module docs), updating the fit after each step as
+/// [`Judging::update`] says (with `solve`, or linearised); returns the
+/// final fit, the frozen unknowns and each compliance's judgement.
 pub(crate) fn judge_compliances(
     judging: &Judging<'_>,
     (mut report, mut frozen): (SolveReport, Vec<bool>),
@@ -239,54 +409,32 @@ pub(crate) fn judge_compliances(
     let n = frozen.len();
     let mut judgements: Vec<Option<ScaleJudgement>> = vec![None; n];
     let candidates = (0..n).filter(|&j| judging.compliance[j]).count();
-    for _ in 0..=candidates {
-        let mut weak: Vec<(usize, f64)> = Vec::new();
-        let mut settled: Vec<(usize, ScaleOutcome)> = Vec::new();
-        for j in (0..n).filter(|&j| judging.compliance[j] && !frozen[j]) {
-            let value = report.x[j];
-            let se = report.standard_errors[j]
-                .filter(|s| s.is_finite())
-                .unwrap_or(f64::INFINITY);
-            // Its own scale: the larger of its fitted value and its start
-            // (a compliance the data put at zero with a small error is
-            // determined: the joint is stiff).
-            let z = value.abs().max(judging.x_start[j].abs()) / se;
-            judgements[j] = Some(ScaleJudgement {
-                value,
-                standard_error: se,
-                outcome: ScaleOutcome::Kept,
-            });
-            if se > judging.limits[j] {
-                settled.push((j, ScaleOutcome::LeftOut));
-            } else if z < judging.z_min {
-                weak.push((j, z));
-            } else if judging.nonnegative[j] && value < -se {
-                settled.push((j, ScaleOutcome::AtBound));
-            }
-        }
-        // Hopeless ones together, otherwise the weakest alone.
-        weak.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let hopeless = weak.iter().take_while(|(_, z)| *z < 1.0).count();
-        let take = if hopeless > 0 {
-            hopeless
-        } else {
-            weak.len().min(1)
-        };
-        settled.extend(
-            weak[..take]
-                .iter()
-                .map(|&(j, _)| (j, ScaleOutcome::LeftOut)),
-        );
+    // Whether `report` is a linearised update, and whether a judgement
+    // made on one was close to its threshold.
+    let (mut linear, mut close) = (false, false);
+    // Each step settles a compliance at least; a solve after linearised
+    // steps may start a second run of steps.
+    for _ in 0..=2 * candidates + 1 {
+        let (settled, near_threshold) = judge_step(judging, &report, &frozen, &mut judgements);
+        close |= linear && near_threshold;
         if settled.is_empty() {
+            if linear && close {
+                report = solve(&report.x, &frozen)?;
+                (linear, close) = (false, false);
+                continue;
+            }
             break;
         }
-        let mut x0 = report.x.clone();
+        let mut held = Vec::with_capacity(settled.len());
         for &(j, outcome) in &settled {
             frozen[j] = true;
-            x0[j] = match outcome {
-                ScaleOutcome::AtBound => 0.0,
-                _ => judging.x_start[j],
-            };
+            held.push((
+                j,
+                match outcome {
+                    ScaleOutcome::AtBound => 0.0,
+                    _ => judging.x_start[j],
+                },
+            ));
             if let Some(judgement) = &mut judgements[j] {
                 judgement.outcome = outcome;
             }
@@ -294,7 +442,21 @@ pub(crate) fn judge_compliances(
         if frozen.iter().all(|f| *f) {
             return Err(CalibError::NothingToIdentify);
         }
-        report = solve(&x0, &frozen)?;
+        let update = match judging.update {
+            JudgeUpdate::Linearised => linearised_update(&report, &held, judging.absolute),
+            JudgeUpdate::Solve => None,
+        };
+        linear = update.is_some();
+        report = match update {
+            Some(update) => update,
+            None => {
+                let mut x0 = report.x.clone();
+                for &(j, v) in &held {
+                    x0[j] = v;
+                }
+                solve(&x0, &frozen)?
+            }
+        };
     }
     // The kept ones carry their final values.
     for j in (0..n).filter(|&j| judging.compliance[j] && !frozen[j]) {
@@ -415,6 +577,78 @@ pub(crate) fn report(x: Vec<f64>) -> SolveReport {
 mod tests {
     use super::*;
     use crate::coverage::CoordinateCoverage;
+    use rand::{Rng, SeedableRng};
+
+    /// The linearised update of a linear least-squares fit is the fit of
+    /// the reduced problem: values, cost, variance factor and covariance
+    /// against the normal equations of the unknowns left free, solved
+    /// here apart; seeded random problems, relative and absolute weights.
+    #[test]
+    fn the_linearised_update_of_a_linear_fit_is_the_reduced_fit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for (m, n, absolute) in [(40, 6, false), (25, 5, true), (60, 9, false)] {
+            let a = DMatrix::<f64>::from_fn(m, n, |_, _| rng.random_range(-1.0..1.0));
+            let b = DVector::<f64>::from_fn(m, |_, _| rng.random_range(-1.0..1.0));
+            // The full fit, by the normal equations.
+            let fit = |cols: &[usize], rhs: &DVector<f64>| {
+                let sub = a.select_columns(cols);
+                let normal = (sub.transpose() * &sub).try_inverse().unwrap();
+                let x = &normal * sub.transpose() * rhs;
+                let r = &sub * &x - rhs;
+                (x, normal, 0.5 * r.norm_squared())
+            };
+            let all: Vec<usize> = (0..n).collect();
+            let (x_hat, normal, cost) = fit(&all, &b);
+            let sigma2 = if absolute {
+                1.0
+            } else {
+                2.0 * cost / (m - n) as f64
+            };
+            let mut fitted = report(x_hat.iter().copied().collect());
+            fitted.cost = cost;
+            fitted.sigma2 = sigma2;
+            fitted.covariance = Some(&normal * sigma2);
+            fitted.standard_errors = (0..n)
+                .map(|j| Some((sigma2 * normal[(j, j)]).sqrt()))
+                .collect();
+            let held = [(1, 0.3), (n - 2, -0.2)];
+            let update = linearised_update(&fitted, &held, absolute).unwrap();
+            // The reduced problem, fitted apart.
+            let free: Vec<usize> = all
+                .iter()
+                .copied()
+                .filter(|j| *j != 1 && *j != n - 2)
+                .collect();
+            let rhs = &b - a.column(1) * 0.3 - a.column(n - 2) * -0.2;
+            let (x_free, normal_free, cost_free) = fit(&free, &rhs);
+            let sigma2_free = if absolute {
+                1.0
+            } else {
+                2.0 * cost_free / (m - free.len()) as f64
+            };
+            let close = |u: f64, v: f64| (u - v).abs() <= 1e-10 * (1.0 + v.abs());
+            assert!(close(update.cost, cost_free), "{} {cost_free}", update.cost);
+            assert!(close(update.sigma2, sigma2_free));
+            assert_eq!((update.x[1], update.x[n - 2]), (0.3, -0.2));
+            let c = update.covariance.as_ref().unwrap();
+            for (a_, &i) in free.iter().enumerate() {
+                assert!(close(update.x[i], x_free[a_]), "x[{i}]");
+                let se = update.standard_errors[i].unwrap();
+                assert!(close(se * se, sigma2_free * normal_free[(a_, a_)]));
+                for (b_, &k) in free.iter().enumerate() {
+                    assert!(close(c[(i, k)], sigma2_free * normal_free[(a_, b_)]));
+                }
+            }
+            for j in [1, n - 2] {
+                assert!(update.standard_errors[j].is_none());
+                assert!((0..n).all(|k| c[(j, k)] == 0.0 && c[(k, j)] == 0.0));
+            }
+        }
+        // Without a covariance there is no update (the judgement solves).
+        let mut bare = report(vec![1.0, 2.0]);
+        bare.covariance = None;
+        assert!(linearised_update(&bare, &[(0, 0.0)], false).is_none());
+    }
 
     /// A softening the fit pushes past the yield is held at the floor of
     /// the compliance it is fitted with, the rest solved again; one within

@@ -43,6 +43,11 @@ pub struct SolverOptions {
     /// iteration after this token is cancelled (default `None`: never).
     #[serde(skip)]
     pub cancel: Option<CancelToken>,
+    /// Compute [`SolveReport::singular_values`] and
+    /// [`SolveReport::condition_number`] at the solution (one SVD of `R`;
+    /// default `true`). `false` leaves them empty and NaN; the rank, the
+    /// covariance and the standard errors do not depend on them.
+    pub singular_values: bool,
 }
 
 impl Default for SolverOptions {
@@ -56,6 +61,7 @@ impl Default for SolverOptions {
             rank_tolerance: DEFAULT_RANK_TOLERANCE,
             fail_on_rank_deficiency: false,
             cancel: None,
+            singular_values: true,
         }
     }
 }
@@ -965,18 +971,23 @@ impl<'a, P: Jacobian + ?Sized> Solver<'a, P> {
         if nf > 0 {
             let size = self.qr.size();
             let r = self.qr.r();
-            let upper = Mat::<f64>::from_fn(size, nf, |i, j| if i <= j { r[(i, j)] } else { 0.0 });
-            singular_values = upper.singular_values().map_err(|_| OptimError::Numerical {
-                what: "singular values of R did not converge",
-            })?;
-            singular_values.resize(nf, 0.0);
-            let smax = singular_values.first().copied().unwrap_or(0.0);
-            let smin = singular_values.last().copied().unwrap_or(0.0);
-            condition_number = if smin > 0.0 {
-                smax / smin
+            if self.options.singular_values {
+                let upper =
+                    Mat::<f64>::from_fn(size, nf, |i, j| if i <= j { r[(i, j)] } else { 0.0 });
+                singular_values = upper.singular_values().map_err(|_| OptimError::Numerical {
+                    what: "singular values of R did not converge",
+                })?;
+                singular_values.resize(nf, 0.0);
+                let smax = singular_values.first().copied().unwrap_or(0.0);
+                let smin = singular_values.last().copied().unwrap_or(0.0);
+                condition_number = if smin > 0.0 {
+                    smax / smin
+                } else {
+                    f64::INFINITY
+                };
             } else {
-                f64::INFINITY
-            };
+                condition_number = f64::NAN;
+            }
             for k in rank..nf {
                 let c = self.qr.perm()[k];
                 self.frozen[c] = true;
