@@ -282,6 +282,7 @@ pub fn twin_plan_check(
         &data.model,
         &options,
         &data.instrument(true),
+        None,
         &o1_q,
         &region_q,
     )?;
