@@ -1187,4 +1187,6 @@ impl CampaignPlan {
 }
 
 #[cfg(test)]
+mod target_tests;
+#[cfg(test)]
 mod tests;

@@ -114,7 +114,9 @@ fn prediction_matches_the_designs_variances(orientation_noise_deg: Option<[f64; 
         .iter()
         .map(|p| p.q.clone())
         .collect();
-    let (design, _) = pool_design(&model, &options, &config.instrument, &pool, &region).unwrap();
+    let targets = planned_targets(&options, None);
+    let (design, _) =
+        pool_design(&model, &options, &config.instrument, &targets, &pool, &region).unwrap();
     let variances = design.region_variances(&plan.selected).unwrap();
     let s2 = config.instrument.scatter_variance();
     for (v, p) in variances.iter().zip(&plan.prediction.map.poses) {
@@ -144,7 +146,13 @@ fn the_design_rows_are_derivatives_of_the_pose() {
         .into_iter()
         .map(|c| c.value)
         .collect();
-    let set = synthetic_set(&model, &pool, &config.instrument, &Isometry3::identity()).unwrap();
+    let set = synthetic_set(
+        &model,
+        &pool,
+        &config.instrument,
+        &planned_targets(&options, None),
+    )
+    .unwrap();
     let calibration = calib::calibrate(&model, &set, &options).unwrap();
     let j = model.param_index("d3").unwrap();
     let rows = jacobian_rows(&model, &calibration, &set, &[j], &[1.0; 6]).unwrap();
@@ -287,6 +295,7 @@ fn the_plan_chooses_only_among_the_poses_the_instrument_sees() {
         plan.candidates + plan.outside_reach_box + plan.facing_away,
         offered.len()
     );
+    assert_eq!(plan.left_out, plan.outside_reach_box + plan.facing_away);
     assert!(
         plan.outside_reach_box > 0 && plan.facing_away > 0,
         "{plan:?}"
