@@ -692,7 +692,12 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         parameter: "candidates".into(),
         message: "the greedy selection's information is not positive definite".into(),
     })?;
-    let curve = curve_of(&design, &order, config.instrument.scatter_variance(), &targets);
+    let curve = curve_of(
+        &design,
+        &order,
+        config.instrument.scatter_variance(),
+        &targets,
+    );
     let knee = knee_of(&curve, config.knee_tolerance);
     let count = config.count.or(knee).ok_or_else(|| Error::InvalidParameter {
         parameter: "candidates".into(),
@@ -876,12 +881,16 @@ pub fn synthetic_set(
             observations: xs
                 .iter()
                 .map(|x| {
-                    instrument.sight.sees(x).is_none().then(|| TargetObservation {
-                        position: x.translation.vector,
-                        orientation: orientation_std.map(|_| x.rotation.scaled_axis()),
-                        position_std: Some(std),
-                        orientation_std,
-                    })
+                    instrument
+                        .sight
+                        .sees(x)
+                        .is_none()
+                        .then(|| TargetObservation {
+                            position: x.translation.vector,
+                            orientation: orientation_std.map(|_| x.rotation.scaled_axis()),
+                            position_std: Some(std),
+                            orientation_std,
+                        })
                 })
                 .collect(),
             wrench: None,

@@ -190,7 +190,10 @@ fn the_sight_is_tested_per_target_and_unknown_frames_are_named() {
         .collect();
     let hidden = seen.iter().flatten().filter(|s| !**s).count();
     let none_seen = seen.iter().filter(|row| !row.contains(&true)).count();
-    assert!(none_seen > 0 && none_seen < 30, "the test's box must cut: {none_seen}");
+    assert!(
+        none_seen > 0 && none_seen < 30,
+        "the test's box must cut: {none_seen}"
+    );
     let plan = plan_campaign(&model, &c).unwrap();
     assert_eq!(plan.outside_reach_box, hidden);
     assert_eq!(plan.left_out, none_seen);

@@ -115,8 +115,15 @@ fn prediction_matches_the_designs_variances(orientation_noise_deg: Option<[f64; 
         .map(|p| p.q.clone())
         .collect();
     let targets = planned_targets(&options, None);
-    let (design, _) =
-        pool_design(&model, &options, &config.instrument, &targets, &pool, &region).unwrap();
+    let (design, _) = pool_design(
+        &model,
+        &options,
+        &config.instrument,
+        &targets,
+        &pool,
+        &region,
+    )
+    .unwrap();
     let variances = design.region_variances(&plan.selected).unwrap();
     let s2 = config.instrument.scatter_variance();
     for (v, p) in variances.iter().zip(&plan.prediction.map.poses) {
