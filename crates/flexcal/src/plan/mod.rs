@@ -9,8 +9,10 @@
 //! configurations (a file, or a joint box sampled with a seed) and the
 //! region where accuracy matters (a path or configuration file, or a joint
 //! box sampled with a seed), [`plan_campaign`]:
-//! 0. leaves out the candidates the instrument cannot see (a reach box, a
-//!    line of sight: [`sight`]);
+//! 0. tests which targets (one at the TCP or a given offset, or several
+//!    of a targets description: [`PlanConfig::targets`]) the instrument
+//!    sees at each candidate (a reach box, a line of sight: [`sight`]) and
+//!    leaves out the candidates where it sees none;
 //! 1. identifies the pool: `calibrate` on the positions (and orientations,
 //!    when the instrument measures them) the nominal robot would give at
 //!    every candidate, weighted by the instrument's noise
@@ -19,13 +21,16 @@
 //! 2. chooses poses greedily on the I-optimal criterion, the mean over the
 //!    region of the predicted position variance `tr(J_r Sigma J_r^T)` of
 //!    the identification with the stated noise (`docs/planning.md` gives the
-//!    equations), up to the largest count asked;
+//!    equations), up to the largest count asked.
+//!    With several targets a candidate's rows are those of the targets
+//!    seen at it and the region's those of every target at every point:
+//!    the criterion is summed over the targets.
 //! 3. predicts the accuracy over the region for every prefix of the greedy
 //!    order: mean, 95th percentile and maximum of the 95 % bound
 //!    `sqrt(chi2_3(0.95) (tr Sigma_pred / 3 + s^2))` of
 //!    [`calib::accuracy`], with `s` the instrument's noise
-//!    ([`CurvePoint`]), and finds the knee where more poses stop paying
-//!    ([`PlanConfig::knee_tolerance`]);
+//!    ([`CurvePoint`], over all targets and per target), and finds the
+//!    knee where more poses stop paying ([`PlanConfig::knee_tolerance`]);
 //! 4. refines the campaign of the chosen count by exchange passes and
 //!    predicts its accuracy with `calibrate`'s own machinery: a
 //!    calibration of the planned poses on the same noise-free positions,
@@ -34,9 +39,8 @@
 //!    the region ([`predict_campaign`]).
 //!
 //! ## Limitations
-//! - One target: the instrument measures a point on the flange or tool,
-//!   or its full pose; several targets are not planned. The region's
-//!   accuracy is that of positions.
+//! - The region's accuracy is that of the targets' positions, also when
+//!   the instrument measures full poses.
 //! - The sight is tested on the nominal robot, the target alone: the
 //!   robot's own links hiding the target are not modelled.
 //! - The prediction is that of a model that holds: what the identified
