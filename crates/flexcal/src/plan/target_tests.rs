@@ -88,41 +88,7 @@ fn each_target_is_predicted_and_the_design_agrees_with_calibrate() {
     }
     let curve_point = plan.curve.last().unwrap();
     assert_eq!(curve_point.per_target.len(), 2);
-    // The design's variances at the planned poses, point-major over the
-    // targets, against the map of the calibration of the planned poses.
-    let options = plan_options(&config.options, &config.instrument);
-    let pool: Vec<Vec<f64>> = config
-        .candidates
-        .configurations(&model, "c")
-        .unwrap()
-        .into_iter()
-        .map(|c| c.value)
-        .collect();
-    let region: Vec<Vec<f64>> = map.iter().step_by(2).map(|p| p.q.clone()).collect();
-    let (design, _) = pool_design(
-        &model,
-        &options,
-        &config.instrument,
-        &plan.targets,
-        &pool,
-        &region,
-    )
-    .unwrap();
-    let variances = design.region_variances(&plan.selected).unwrap();
-    let s2 = config.instrument.scatter_variance();
-    for (i, v) in variances.iter().enumerate() {
-        let (r, t) = (i / 2, names[i % 2]);
-        let p = map
-            .iter()
-            .find(|p| p.q == region[r] && p.target.as_deref() == Some(t))
-            .unwrap();
-        let bound = calib::bound_95(*v, s2) * 1e3;
-        assert!(
-            (bound - p.bound_95_mm).abs() < 1e-6 * bound,
-            "point {r} target {t}: {bound} vs {}",
-            p.bound_95_mm
-        );
-    }
+    super::tests::design_agrees_with_the_map(&model, &config, &plan);
 }
 
 /// Poses chosen for both hands predict the right hand better than poses
