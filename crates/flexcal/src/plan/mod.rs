@@ -616,6 +616,7 @@ pub struct CampaignPlan {
     pub instrument: Instrument,
     /// The targets measured at every pose (one, `tcp`, without a targets
     /// description).
+    #[serde(default)]
     pub targets: Vec<calib::Target>,
     /// Number of candidate configurations the instrument sees (a target
     /// at least; those the plan chooses among).
