@@ -66,6 +66,33 @@ pub(crate) fn target_frames(
         .collect()
 }
 
+/// The pose `x_base_target` of every target of `set` (its frame's pose
+/// times its nominal offset and orientation) at every pose of `set`, the
+/// robot rigid at `xi`: one entry per pose, one per target, whether or not
+/// the target was seen there. What an instrument would see of a nominal
+/// robot: a plan's synthetic measurements and its line-of-sight tests.
+///
+/// # Errors
+/// [`CalibError::BadMeasurement`] naming a target on a frame the robot
+/// does not have (and the robot's frames); [`CalibError::Kinematics`]
+/// naming the pose where the model fails.
+pub fn target_poses(
+    model: &Model,
+    set: &MeasurementSet,
+    xi: &[f64],
+) -> Result<Vec<Vec<Isometry3<f64>>>, CalibError> {
+    let frames = target_frames(model, set, xi)?;
+    Ok(frames
+        .into_iter()
+        .map(|row| {
+            row.into_iter()
+                .zip(set.targets())
+                .map(|(x_base_f, target)| x_base_f * target.pose())
+                .collect()
+        })
+        .collect())
+}
+
 /// The starting frames of an identification of `set` (see the module
 /// docs): the measurement frame of each station (the first's given or
 /// fixed by `options`, a fixed one the identity), each target's start (its

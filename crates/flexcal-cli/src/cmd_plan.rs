@@ -43,6 +43,11 @@ pub struct PlanArgs {
     /// The target offset will be kept at its nominal value (the TCP).
     #[arg(long)]
     pub fixed_target: bool,
+    /// Several targets per pose: their description (TOML: name, frame,
+    /// offset_mm, identify), as for `calibrate --targets`
+    /// (docs/file-formats.md); default one target at the TCP.
+    #[arg(long)]
+    pub targets: Option<PathBuf>,
     /// Instrument noise per position axis (mm): one value for all axes or
     /// `x,y,z`.
     #[arg(long, value_delimiter = ',', required = true)]
@@ -203,6 +208,14 @@ fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
     config.instrument.orientation_noise_deg = orientation_noise_deg;
     config.instrument.sight = sight(args)?;
+    if let Some(path) = &args.targets {
+        if args.fixed_target {
+            crate::usage_bail!(
+                "--fixed-target is for one target: with --targets each target's `identify` decides"
+            );
+        }
+        config.targets = Some(flexcal::calib::read_targets(path)?);
+    }
     config.count = args.poses;
     config.max_poses = args.max_poses;
     config.knee_tolerance = args.knee_tolerance;

@@ -324,3 +324,164 @@ fn bad_plans_are_refused_by_name_and_write_nothing() {
         assert!(!out_file.exists(), "{all:?} wrote the pose file");
     }
 }
+
+/// A file of `flexcal-calib`'s test data (the two-armed robot).
+fn calib_data(name: &str) -> String {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../flexcal-calib/tests/data")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+/// Rotates `v` by the unit quaternion `(w, x, y, z)`:
+/// `v + 2 w (u x v) + 2 u x (u x v)` with `u = (x, y, z)`.
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let u = [q[1], q[2], q[3]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let t = cross(u, v);
+    let tt = cross(u, t);
+    [0, 1, 2].map(|i| v[i] + 2.0 * q[0] * t[i] + 2.0 * tt[i])
+}
+
+/// The two-armed robot with a marker on each hand (`--targets`, the file
+/// `calibrate` reads): the plan prints and writes each target's
+/// prediction, and its words on what the campaign cannot determine are
+/// those `calibrate --targets` prints for the same poses measured (the
+/// nominal markers' positions from `flexcal fk`, the plan's noise as the
+/// file's standard deviations). A targets file naming a frame the robot
+/// lacks is refused by name.
+#[test]
+fn plan_with_a_target_on_each_hand() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    let robot = calib_data("two_arms.toml");
+    let targets = calib_data("two_arms_targets.toml");
+    let plan_args = |targets: &str, out: &str| -> Vec<String> {
+        [
+            "plan",
+            "--robot",
+            &robot,
+            "--targets",
+            targets,
+            "--noise-mm",
+            "0.02",
+            "--candidate-count",
+            "60",
+            "--region-count",
+            "20",
+            "--poses",
+            "20",
+            "--max-poses",
+            "25",
+            "--out",
+            out,
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let mut args = plan_args(&targets, &p("poses.csv"));
+    args.extend(["--report", &p("plan.json"), "--html", &p("plan.html")].map(String::from));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = flexcal(&args);
+    assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
+    let text = stdout(&out);
+    assert!(text.contains("targets: left, right"), "{text}");
+    assert!(
+        text.contains("target left: predicted 95 % bound mean"),
+        "{text}"
+    );
+    assert!(
+        text.contains("target right: predicted 95 % bound mean"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("plan.json")).unwrap()).unwrap();
+    let per_target = json["prediction"]["per_target"].as_array().unwrap();
+    assert_eq!(per_target.len(), 2);
+    assert_eq!(per_target[1]["target"], "right");
+    let html = std::fs::read_to_string(p("plan.html")).unwrap();
+    assert!(html.contains("mean, target right"));
+    // The planned poses measured: the nominal markers, 30 mm along x and
+    // 40 mm along z of each hand's frame.
+    let fk = flexcal(&[
+        "fk",
+        "--robot",
+        &robot,
+        "--input",
+        &p("poses.csv"),
+        "--frame",
+        "LH",
+        "--frame",
+        "RH",
+    ]);
+    assert!(fk.status.success(), "{}", stderr(&fk));
+    let poses = std::fs::read_to_string(p("poses.csv")).unwrap();
+    let mut csv = String::from(poses.lines().next().unwrap());
+    for hand in ["left", "right"] {
+        for axis in ["x", "y", "z"] {
+            csv += &format!(",{hand}_{axis}_mm,{hand}_s{axis}_mm");
+        }
+    }
+    csv.push('\n');
+    for (q, frames) in poses.lines().skip(1).zip(stdout(&fk).lines().skip(1)) {
+        let v: Vec<f64> = frames.split(',').map(|c| c.parse().unwrap()).collect();
+        csv += q;
+        for hand in v.chunks(7) {
+            let offset = rotate([hand[3], hand[4], hand[5], hand[6]], [0.030, 0.0, 0.040]);
+            for i in 0..3 {
+                csv += &format!(",{},0.02", (hand[i] + offset[i]) * 1e3);
+            }
+        }
+        csv.push('\n');
+    }
+    std::fs::write(p("measured.csv"), csv).unwrap();
+    let calibrated = flexcal(&[
+        "calibrate",
+        "--robot",
+        &robot,
+        "--targets",
+        &targets,
+        "--data",
+        &p("measured.csv"),
+    ]);
+    let said = stdout(&calibrated);
+    assert!(
+        calibrated.status.success(),
+        "{said}\n{}",
+        stderr(&calibrated)
+    );
+    let notes = json["prediction"]["identifiability_notes"]
+        .as_array()
+        .unwrap();
+    assert!(!notes.is_empty());
+    for note in notes {
+        let note = note.as_str().unwrap();
+        assert!(said.contains(note), "plan: {note}\ncalibrate:\n{said}");
+    }
+    // A target on a frame the robot does not have.
+    let wrong = p("wrong.toml");
+    std::fs::write(
+        &wrong,
+        std::fs::read_to_string(&targets)
+            .unwrap()
+            .replace("\"RH\"", "\"RX\""),
+    )
+    .unwrap();
+    let args = plan_args(&wrong, &p("wrong.csv"));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = flexcal(&args);
+    assert!(!out.status.success());
+    let message = stderr(&out);
+    assert!(
+        message.contains("target `right`") && message.contains("no frame `RX`"),
+        "{message}"
+    );
+    assert!(!std::path::Path::new(&p("wrong.csv")).exists());
+}

@@ -78,7 +78,12 @@ fn sight(
 /// instrument's position in the base frame, mm) with `max_incidence_deg`
 /// (the largest angle between the target's z axis and the line to the
 /// instrument, deg): candidates the instrument cannot see are left out
-/// (`outside_reach_box`, `facing_away` count them).
+/// (`outside_reach_box`, `facing_away` count them). `targets`: several
+/// targets per pose, the TOML description `calibrate` reads
+/// (`TargetMeasurementSet.read_csv`'s `targets`, docs/file-formats.md):
+/// the sight is tested per target, a pose where none is seen is left out,
+/// and the curve and prediction carry `per_target` (each target's
+/// `accuracy`).
 ///
 /// Returns the plan as a dict: `configurations` (the planned poses),
 /// `selected` (candidate rows), `curve` (per count: `poses` and
@@ -86,7 +91,7 @@ fn sight(
 /// `max_bound_95_mm`), `knee`, `prediction` (`accuracy`, `map`,
 /// `identifiability_notes`, ...). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None))]
+#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None, targets = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan<'py>(
     py: Python<'py>,
@@ -110,6 +115,7 @@ pub fn plan<'py>(
     reach_box_mm: Option<[[f64; 2]; 3]>,
     sight_from_mm: Option<[f64; 3]>,
     max_incidence_deg: Option<f64>,
+    targets: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let robot_model = Arc::clone(&robot.model);
     let dof = robot_model.n_actuated();
@@ -167,6 +173,15 @@ pub fn plan<'py>(
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
     config.instrument.orientation_noise_deg = orientation_noise_deg;
     config.instrument.sight = sight(reach_box_mm, sight_from_mm, max_incidence_deg)?;
+    if let Some(path) = targets {
+        if fixed_target {
+            return Err(InputError::new_err(
+                "fixed_target is for one target: with targets each target's `identify` decides",
+            ));
+        }
+        config.targets =
+            Some(flexcal::calib::read_targets(&path).map_err(|e| crate::errors::calib_error(&e))?);
+    }
     config.count = poses;
     config.max_poses = max_poses;
     config.knee_tolerance = knee_tolerance;

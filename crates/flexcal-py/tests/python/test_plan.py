@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from conftest import REPOSITORY
+
 import flexcal
 
 BOX = np.radians(
@@ -102,3 +104,37 @@ def test_the_plan_leaves_out_what_the_instrument_cannot_see():
             robot, [0.02], candidates=candidates, region=region,
             reach_box_mm=[[5000, 6000], [0, 1], [0, 1]],
         )
+
+
+def test_plan_with_a_target_on_each_hand(tmp_path):
+    """`targets`, the description `calibrate` reads: each hand of the
+    two-armed robot is predicted over the region, its statistics those of
+    its own bounds; a target on a frame the robot lacks is named."""
+    data = REPOSITORY / "crates" / "flexcal-calib" / "tests" / "data"
+    robot = flexcal.Robot.from_toml(data / "two_arms.toml")
+    targets = data / "two_arms_targets.toml"
+    plan = flexcal.plan(
+        robot,
+        [0.02],
+        targets=targets,
+        candidate_count=60,
+        region_count=20,
+        poses=20,
+        max_poses=25,
+    )
+    assert [t["name"] for t in plan["targets"]] == ["left", "right"]
+    per_target = plan["prediction"]["per_target"]
+    assert [t["target"] for t in per_target] == ["left", "right"]
+    for own in per_target:
+        bounds = [
+            p["bound_95_mm"]
+            for p in plan["prediction"]["map"]["poses"]
+            if p["target"] == own["target"]
+        ]
+        assert len(bounds) == 20
+        assert own["accuracy"]["mean_bound_95_mm"] == pytest.approx(np.mean(bounds), rel=1e-12)
+        assert own["accuracy"]["max_bound_95_mm"] == pytest.approx(max(bounds), rel=1e-12)
+    wrong = tmp_path / "wrong.toml"
+    wrong.write_text(targets.read_text().replace('"RH"', '"RX"'))
+    with pytest.raises(flexcal.FlexcalError, match="no frame `RX`"):
+        flexcal.plan(robot, [0.02], targets=wrong, candidate_count=30, region_count=5)

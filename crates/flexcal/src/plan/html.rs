@@ -51,6 +51,19 @@ impl CampaignPlan {
             series("95th percentile", |a| a.p95_bound_95_mm),
             series("max", |a| a.max_bound_95_mm).dashed(),
         ];
+        if self.targets.len() > 1 {
+            for (t, target) in self.targets.iter().enumerate() {
+                let points = self
+                    .curve
+                    .iter()
+                    .filter_map(|p| {
+                        let a = p.per_target.get(t)?;
+                        Some((p.poses as f64, a.accuracy.mean_bound_95_mm))
+                    })
+                    .collect();
+                all.push(Series::new(format!("mean, target {}", target.name), points));
+            }
+        }
         if let Some(knee) = self
             .knee
             .and_then(|k| self.curve.iter().find(|p| p.poses == k))
@@ -75,8 +88,32 @@ impl CampaignPlan {
                 &all,
                 YScale::Log,
             ),
-            "Mean, 95th percentile and maximum over the region points of the predicted 95 % bound on the position error.",
+            "Mean, 95th percentile and maximum over the region points (and every target) of the predicted 95 % bound on the position error; with several targets, each target's mean too.",
         );
+        if self.targets.len() > 1 {
+            let rows = self
+                .prediction
+                .per_target
+                .iter()
+                .map(|t| {
+                    let a = t.accuracy;
+                    vec![
+                        t.target.clone(),
+                        format!("{:.4}", a.mean_bound_95_mm),
+                        format!("{:.4}", a.p95_bound_95_mm),
+                        format!("{:.4}", a.max_bound_95_mm),
+                    ]
+                })
+                .collect();
+            section.table(
+                format!(
+                    "Predicted 95 % bound over the region of each target, {} planned poses (mm)",
+                    self.count
+                ),
+                &["target", "mean", "p95", "max"],
+                rows,
+            );
+        }
         section
     }
 

@@ -91,7 +91,14 @@ pub fn ipa_plan_check(
         set.poses().iter().map(|p| p.q.clone()).collect()
     };
     let instrument = Instrument::positions([noise_mm; 3]);
-    let mut predicted = predict_campaign(model, &options, &instrument, &q(&train), &q(&validate))?;
+    let mut predicted = predict_campaign(
+        model,
+        &options,
+        &instrument,
+        None,
+        &q(&train),
+        &q(&validate),
+    )?;
     options.weighting = Weighting::Uniform;
     let calibration = calib::calibrate(model, &train, &options)?;
     let report = calibration.validate(model, &validate, false)?;

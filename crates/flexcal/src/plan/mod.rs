@@ -9,8 +9,10 @@
 //! configurations (a file, or a joint box sampled with a seed) and the
 //! region where accuracy matters (a path or configuration file, or a joint
 //! box sampled with a seed), [`plan_campaign`]:
-//! 0. leaves out the candidates the instrument cannot see (a reach box, a
-//!    line of sight: [`sight`]);
+//! 0. tests which targets (one at the TCP or a given offset, or several
+//!    of a targets description: [`PlanConfig::targets`]) the instrument
+//!    sees at each candidate (a reach box, a line of sight: [`sight`]) and
+//!    leaves out the candidates where it sees none;
 //! 1. identifies the pool: `calibrate` on the positions (and orientations,
 //!    when the instrument measures them) the nominal robot would give at
 //!    every candidate, weighted by the instrument's noise
@@ -19,13 +21,16 @@
 //! 2. chooses poses greedily on the I-optimal criterion, the mean over the
 //!    region of the predicted position variance `tr(J_r Sigma J_r^T)` of
 //!    the identification with the stated noise (`docs/planning.md` gives the
-//!    equations), up to the largest count asked;
+//!    equations), up to the largest count asked.
+//!    With several targets a candidate's rows are those of the targets
+//!    seen at it and the region's those of every target at every point:
+//!    the criterion is summed over the targets.
 //! 3. predicts the accuracy over the region for every prefix of the greedy
 //!    order: mean, 95th percentile and maximum of the 95 % bound
 //!    `sqrt(chi2_3(0.95) (tr Sigma_pred / 3 + s^2))` of
 //!    [`calib::accuracy`], with `s` the instrument's noise
-//!    ([`CurvePoint`]), and finds the knee where more poses stop paying
-//!    ([`PlanConfig::knee_tolerance`]);
+//!    ([`CurvePoint`], over all targets and per target), and finds the
+//!    knee where more poses stop paying ([`PlanConfig::knee_tolerance`]);
 //! 4. refines the campaign of the chosen count by exchange passes and
 //!    predicts its accuracy with `calibrate`'s own machinery: a
 //!    calibration of the planned poses on the same noise-free positions,
@@ -34,9 +39,8 @@
 //!    the region ([`predict_campaign`]).
 //!
 //! ## Limitations
-//! - One target: the instrument measures a point on the flange or tool,
-//!   or its full pose; several targets are not planned. The region's
-//!   accuracy is that of positions.
+//! - The region's accuracy is that of the targets' positions, also when
+//!   the instrument measures full poses.
 //! - The sight is tested on the nominal robot, the target alone: the
 //!   robot's own links hiding the target are not modelled.
 //! - The prediction is that of a model that holds: what the identified
@@ -56,7 +60,8 @@ use nalgebra::{DMatrix, Isometry3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::calib::{
-    self, AccuracyMap, Calibration, CalibrationOptions, Measurement, MeasurementSet,
+    self, AccuracyMap, Calibration, CalibrationOptions, MeasurementSet, TargetObservation,
+    TargetPose,
 };
 use crate::kinematics::{Data, Model, forward_pose};
 use crate::pose_file::Located;
@@ -404,6 +409,12 @@ pub struct PlanConfig {
     pub candidates: PoseSource,
     /// The region where accuracy matters.
     pub region: PoseSource,
+    /// Several targets per pose (reflectors on a tool, markers on the
+    /// hands of a two-armed robot), as a targets description gives them
+    /// ([`calib::read_targets`]); `None`: one target, at the TCP or at
+    /// [`CalibrationOptions::target_value`]. Each target's offset is
+    /// identified or kept as its description says.
+    pub targets: Option<Vec<calib::Target>>,
     /// Number of poses to plan (`None`: the knee of the curve).
     pub count: Option<usize>,
     /// Largest number of poses on the curve (`None`: the larger of the
@@ -434,6 +445,7 @@ impl PlanConfig {
             instrument: Instrument::positions(noise_mm),
             candidates,
             region,
+            targets: None,
             count: None,
             max_poses: None,
             knee_tolerance: 0.05,
@@ -515,25 +527,68 @@ impl RegionAccuracy {
     }
 }
 
+/// The predicted accuracy over the region of one target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetAccuracy {
+    /// The target's name (`tcp` for the one target of a plan without a
+    /// targets description).
+    pub target: String,
+    /// Its predicted accuracy over the region points.
+    pub accuracy: RegionAccuracy,
+}
+
+/// The accuracy over the region of every target and over all, from the
+/// bounds (mm) of the region points, each with the index of its target in
+/// `targets`.
+fn accuracy_per_target(
+    targets: &[calib::Target],
+    bounds_mm: &[(usize, f64)],
+) -> (RegionAccuracy, Vec<TargetAccuracy>) {
+    let per_target = targets
+        .iter()
+        .enumerate()
+        .map(|(t, target)| {
+            let own: Vec<f64> = bounds_mm
+                .iter()
+                .filter(|(i, _)| *i == t)
+                .map(|(_, b)| *b)
+                .collect();
+            TargetAccuracy {
+                target: target.name.clone(),
+                accuracy: RegionAccuracy::of(&own),
+            }
+        })
+        .collect();
+    let all: Vec<f64> = bounds_mm.iter().map(|(_, b)| *b).collect();
+    (RegionAccuracy::of(&all), per_target)
+}
+
 /// One point of the accuracy-versus-poses curve: the greedy campaign of
 /// `poses` poses.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CurvePoint {
     /// Number of poses.
     pub poses: usize,
-    /// Predicted accuracy over the region.
+    /// Predicted accuracy over the region, every target's bounds together.
     pub accuracy: RegionAccuracy,
+    /// Predicted accuracy over the region of each target.
+    #[serde(default)]
+    pub per_target: Vec<TargetAccuracy>,
 }
 
 /// What a campaign of given poses is predicted to give, by `calibrate`'s
 /// own machinery ([`predict_campaign`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CampaignPrediction {
-    /// Predicted accuracy over the region.
+    /// Predicted accuracy over the region, every target's bounds together.
     pub accuracy: RegionAccuracy,
-    /// The 95 % bound at every region point ([`calib::AccuracyMap`], its
-    /// scatter the instrument's noise; region points outside the planned
-    /// poses' joint ranges are flagged).
+    /// Predicted accuracy over the region of each target.
+    #[serde(default)]
+    pub per_target: Vec<TargetAccuracy>,
+    /// The 95 % bound at every region point and target
+    /// ([`calib::AccuracyMap`], point-major, its scatter the instrument's
+    /// noise; region points outside the planned poses' joint ranges are
+    /// flagged).
     pub map: AccuracyMap,
     /// What the campaign cannot determine, in `calibrate`'s words
     /// ([`Calibration::identifiability_notes`]).
@@ -559,17 +614,26 @@ pub struct CampaignPlan {
     pub criterion: String,
     /// The instrument.
     pub instrument: Instrument,
-    /// Number of candidate configurations the instrument sees (those the
-    /// plan chooses among).
+    /// The targets measured at every pose (one, `tcp`, without a targets
+    /// description).
+    #[serde(default)]
+    pub targets: Vec<calib::Target>,
+    /// Number of candidate configurations the instrument sees (a target
+    /// at least; those the plan chooses among).
     pub candidates: usize,
-    /// Candidates left out because the target lies outside the
-    /// instrument's reach box ([`Sight::reach_box_mm`]).
+    /// Observations of a target at a candidate out of sight because the
+    /// target lies outside the instrument's reach box
+    /// ([`Sight::reach_box_mm`]; with one target, candidates left out).
     #[serde(default)]
     pub outside_reach_box: usize,
-    /// Candidates left out because the target faces away from the
-    /// instrument ([`Sight::line_of_sight`]).
+    /// Observations of a target at a candidate out of sight because the
+    /// target faces away from the instrument ([`Sight::line_of_sight`]).
     #[serde(default)]
     pub facing_away: usize,
+    /// Candidates left out because the instrument sees none of their
+    /// targets.
+    #[serde(default)]
+    pub left_out: usize,
     /// Number of region points.
     pub region_points: usize,
     /// The unknowns the whole pool identifies (the design's columns, the
@@ -611,34 +675,34 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
     let offered = config.candidates.configurations(model, "candidates")?;
     let region = config.region.configurations(model, "region")?;
     let options = plan_options(&config.options, &config.instrument);
+    let targets = planned_targets(&options, config.targets.as_deref());
+    let offered_q: Vec<Vec<f64>> = offered.iter().map(|c| c.value.clone()).collect();
     let sight = config
         .instrument
         .sight
-        .filter(model, &offered, &planned_target(&options))?;
+        .filter(&nominal_target_poses(model, &targets, &offered_q)?)?;
     let candidates: Vec<&Located<Vec<f64>>> = sight.kept.iter().map(|&k| &offered[k]).collect();
     let end = config.curve_end(candidates.len(), &sight)?;
     let pool_q: Vec<Vec<f64>> = candidates.iter().map(|c| c.value.clone()).collect();
     let region_q: Vec<Vec<f64>> = region.iter().map(|c| c.value.clone()).collect();
-    let (design, design_unknowns) =
-        pool_design(model, &options, &config.instrument, &pool_q, &region_q)?;
+    let (design, design_unknowns) = pool_design(
+        model,
+        &options,
+        &config.instrument,
+        &targets,
+        &pool_q,
+        &region_q,
+    )?;
     let order = design.greedy(end).ok_or_else(|| Error::InvalidParameter {
         parameter: "candidates".into(),
         message: "the greedy selection's information is not positive definite".into(),
     })?;
-    let s2 = config.instrument.scatter_variance();
-    let curve: Vec<CurvePoint> = (1..=end)
-        .filter_map(|n| {
-            let variances = design.region_variances(&order[..n])?;
-            let bounds: Vec<f64> = variances
-                .iter()
-                .map(|v| calib::bound_95(*v, s2) * 1e3)
-                .collect();
-            Some(CurvePoint {
-                poses: n,
-                accuracy: RegionAccuracy::of(&bounds),
-            })
-        })
-        .collect();
+    let curve = curve_of(
+        &design,
+        &order,
+        config.instrument.scatter_variance(),
+        &targets,
+    );
     let knee = knee_of(&curve, config.knee_tolerance);
     let count = config.count.or(knee).ok_or_else(|| Error::InvalidParameter {
         parameter: "candidates".into(),
@@ -655,17 +719,20 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         model,
         &options,
         &config.instrument,
+        config.targets.as_deref(),
         &configurations,
         &region_q,
     )?;
     Ok(CampaignPlan {
         robot: model.name().to_string(),
         model: model_name(&options).into(),
-        criterion: "I-optimal: greedy then exchange on the mean predicted position variance over the region".into(),
+        criterion: "I-optimal: greedy then exchange on the mean predicted position variance over the region, summed over the targets".into(),
         instrument: config.instrument.clone(),
+        targets,
         candidates: candidates.len(),
         outside_reach_box: sight.outside_box,
         facing_away: sight.facing_away,
+        left_out: sight.left_out(),
         region_points: region.len(),
         design_unknowns,
         curve,
@@ -677,6 +744,33 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         exchanges,
         prediction,
     })
+}
+
+/// The predicted accuracy over the region of every prefix of the greedy
+/// `order` whose information is non-singular, `s2` the scatter's variance
+/// per axis (m^2); the design's region rows point-major over `targets`.
+fn curve_of(
+    design: &Design,
+    order: &[usize],
+    s2: f64,
+    targets: &[calib::Target],
+) -> Vec<CurvePoint> {
+    (1..=order.len())
+        .filter_map(|n| {
+            let variances = design.region_variances(&order[..n])?;
+            let bounds: Vec<(usize, f64)> = variances
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (i % targets.len(), calib::bound_95(*v, s2) * 1e3))
+                .collect();
+            let (accuracy, per_target) = accuracy_per_target(targets, &bounds);
+            Some(CurvePoint {
+                poses: n,
+                accuracy,
+                per_target,
+            })
+        })
+        .collect()
 }
 
 /// `geometric` or `elasto-geometric`.
@@ -710,50 +804,109 @@ fn knee_of(curve: &[CurvePoint], tolerance: f64) -> Option<usize> {
         .map(|p| p.poses)
 }
 
-/// The measurements the nominal robot would give at `configurations`: the
-/// positions of the target `x_tcp_target` (the TCP for the identity) in
-/// its base frame, and its orientations when the instrument measures
-/// them, with the instrument's noise as their standard deviations (no
-/// noise added), labelled `plan-k`; the target is the set's nominal one.
+/// The targets of a plan: those of a targets description, else one
+/// target at the options' starting or fixed target
+/// ([`CalibrationOptions::target_value`], e.g. a probe offset), else at the
+/// TCP.
+fn planned_targets(
+    options: &CalibrationOptions,
+    targets: Option<&[calib::Target]>,
+) -> Vec<calib::Target> {
+    if let Some(targets) = targets {
+        return targets.to_vec();
+    }
+    let x_tcp_target = options.target_value.unwrap_or_else(Isometry3::identity);
+    let mut target = calib::Target::new(
+        calib::TCP_TARGET,
+        calib::TCP_FRAME,
+        x_tcp_target.translation.vector,
+    );
+    target.rotation = x_tcp_target.rotation;
+    vec![target]
+}
+
+/// The pose `x_base_target` of every target at every configuration, the
+/// nominal robot rigid: one entry per configuration, one per target.
 ///
 /// # Errors
-/// A configuration where the model fails.
+/// A target on a frame the robot does not have (named, with the robot's
+/// frames); a configuration where the model fails.
+fn nominal_target_poses(
+    model: &Model,
+    targets: &[calib::Target],
+    configurations: &[Vec<f64>],
+) -> Result<Vec<Vec<Isometry3<f64>>>> {
+    let poses = configurations
+        .iter()
+        .map(|q| TargetPose {
+            pose_id: None,
+            q: q.clone(),
+            observations: vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
+            wrench: None,
+            temperature_c: None,
+        })
+        .collect();
+    let set = MeasurementSet::from_poses("targets", targets.to_vec(), poses)?;
+    Ok(calib::start::target_poses(
+        model,
+        &set,
+        model.nominal_params(),
+    )?)
+}
+
+/// The measurements the nominal robot would give at `configurations`: the
+/// position of every target the instrument sees ([`Sight::sees`]) in the
+/// robot's base frame, and its orientation when the instrument measures
+/// them, with the instrument's noise as their standard deviations (no
+/// noise added), labelled `plan-k`; the targets' nominal offsets are the
+/// set's.
+///
+/// # Errors
+/// A target on a frame the robot does not have; a configuration where
+/// the model fails; a configuration where the instrument sees no target,
+/// a target it sees at none (the set's checks).
 pub fn synthetic_set(
     model: &Model,
     configurations: &[Vec<f64>],
     instrument: &Instrument,
-    x_tcp_target: &Isometry3<f64>,
+    targets: &[calib::Target],
 ) -> Result<MeasurementSet> {
-    let mut data = Data::new(model);
     let std = Vector3::from(instrument.noise_mm) * 1e-3;
     let orientation_std = instrument
         .orientation_noise_deg
         .map(|deg| Vector3::from(deg).map(f64::to_radians));
-    let measurements = configurations
+    let x_base_targets = nominal_target_poses(model, targets, configurations)?;
+    let poses = configurations
         .iter()
+        .zip(x_base_targets)
         .enumerate()
-        .map(|(k, q)| {
-            let x = forward_pose(model, &mut data, q, model.nominal_params())? * x_tcp_target;
-            let mut m = Measurement::new(q.clone(), x.translation.vector);
-            m.pose_id = Some(format!("plan-{}", k + 1));
-            m.position_std = Some(std);
-            if orientation_std.is_some() {
-                m.orientation = Some(x.rotation.scaled_axis());
-                m.orientation_std = orientation_std;
-            }
-            Ok(m)
+        .map(|(k, (q, xs))| TargetPose {
+            pose_id: Some(format!("plan-{}", k + 1)),
+            q: q.clone(),
+            observations: xs
+                .iter()
+                .map(|x| {
+                    instrument
+                        .sight
+                        .sees(x)
+                        .is_none()
+                        .then(|| TargetObservation {
+                            position: x.translation.vector,
+                            orientation: orientation_std.map(|_| x.rotation.scaled_axis()),
+                            position_std: Some(std),
+                            orientation_std,
+                        })
+                })
+                .collect(),
+            wrench: None,
+            temperature_c: None,
         })
-        .collect::<Result<Vec<_>>>()?;
-    let mut set = MeasurementSet::new("planned poses", measurements)?;
-    set.set_nominal_target(*x_tcp_target);
-    Ok(set)
-}
-
-/// The target of a plan: the options' starting or fixed target
-/// ([`CalibrationOptions::target_value`], e.g. a probe offset), else the
-/// TCP.
-fn planned_target(options: &CalibrationOptions) -> Isometry3<f64> {
-    options.target_value.unwrap_or_else(Isometry3::identity)
+        .collect();
+    Ok(MeasurementSet::from_poses(
+        "planned poses",
+        targets.to_vec(),
+        poses,
+    )?)
 }
 
 /// The calibration of `configurations` on their [`synthetic_set`].
@@ -761,9 +914,10 @@ fn synthetic_calibration(
     model: &Model,
     options: &CalibrationOptions,
     instrument: &Instrument,
+    targets: &[calib::Target],
     configurations: &[Vec<f64>],
 ) -> Result<(MeasurementSet, Calibration)> {
-    let set = synthetic_set(model, configurations, instrument, &planned_target(options))?;
+    let set = synthetic_set(model, configurations, instrument, targets)?;
     let calibration =
         calib::calibrate(model, &set, options).map_err(|source| Error::CalibrationStep {
             step: "planning: identification of the planned poses",
@@ -774,11 +928,14 @@ fn synthetic_calibration(
 
 /// The design of the pool: the unknowns a calibration of every candidate
 /// identifies (the measurement frame's apart) and the candidates' weighted
-/// and the region's position rows over them.
+/// rows (every target the instrument sees at a candidate, stacked) and the
+/// region's position rows (one block per point and target, point-major)
+/// over them.
 fn pool_design(
     model: &Model,
     options: &CalibrationOptions,
     instrument: &Instrument,
+    targets: &[calib::Target],
     pool: &[Vec<f64>],
     region: &[Vec<f64>],
 ) -> Result<(Design, Vec<String>)> {
@@ -786,7 +943,8 @@ fn pool_design(
         spread_reference: false,
         ..options.clone()
     };
-    let (pool_set, calibration) = synthetic_calibration(model, &pool_options, instrument, pool)?;
+    let (pool_set, calibration) =
+        synthetic_calibration(model, &pool_options, instrument, targets, pool)?;
     let columns: Vec<usize> = calibration
         .unknowns
         .iter()
@@ -796,15 +954,16 @@ fn pool_design(
         })
         .map(|(j, _)| j)
         .collect();
-    let candidates = jacobian_rows(
+    let blocks = jacobian_rows(
         model,
         &calibration,
         &pool_set,
         &columns,
         &instrument.row_weights(),
     )?;
+    let candidates = stacked_by_pose(&pool_set, blocks);
     let positions = Instrument::positions(instrument.noise_mm);
-    let region_set = synthetic_set(model, region, &positions, &planned_target(options))?;
+    let region_set = synthetic_set(model, region, &positions, targets)?;
     let region_rows = jacobian_rows(model, &calibration, &region_set, &columns, &[1.0; 3])?;
     let names = columns
         .iter()
@@ -813,10 +972,34 @@ fn pool_design(
     Ok((Design::new(candidates, region_rows), names))
 }
 
-/// The rows of the identification's Jacobian at the poses of `set` over
-/// the unknowns `columns`, one block per pose, row i times `weights[i]`:
-/// 3 position rows, and 3 orientation rows when `weights` has 6 (the set
-/// then carries orientations).
+/// The observation blocks of `set` (in its order: pose-major, the targets
+/// seen at each pose) stacked into one block per pose.
+fn stacked_by_pose(set: &MeasurementSet, blocks: Vec<DMatrix<f64>>) -> Vec<DMatrix<f64>> {
+    let mut blocks = blocks.into_iter();
+    set.poses()
+        .iter()
+        .map(|pose| {
+            let own: Vec<DMatrix<f64>> = blocks
+                .by_ref()
+                .take(pose.observations.iter().flatten().count())
+                .collect();
+            let rows = own.iter().map(DMatrix::nrows).sum();
+            let cols = own.first().map_or(0, DMatrix::ncols);
+            let mut stacked = DMatrix::<f64>::zeros(rows, cols);
+            let mut r = 0;
+            for block in own {
+                stacked.rows_mut(r, block.nrows()).copy_from(&block);
+                r += block.nrows();
+            }
+            stacked
+        })
+        .collect()
+}
+
+/// The rows of the identification's Jacobian at the observations of `set`
+/// over the unknowns `columns`, one block per observation (pose-major),
+/// row i times `weights[i]`: 3 position rows, and 3 orientation rows when
+/// `weights` has 6 (the set then carries orientations).
 fn jacobian_rows(
     model: &Model,
     calibration: &Calibration,
@@ -833,9 +1016,9 @@ fn jacobian_rows(
             origin: set.source.clone(),
             message: e.to_string(),
         })?;
-    Ok((0..set.len())
-        .map(|k| {
-            let rows = problem.block_rows(k);
+    Ok((0..set.n_observations())
+        .map(|b| {
+            let rows = problem.block_rows(b);
             DMatrix::from_fn(rows.len(), columns.len(), |i, c| {
                 jac[(rows.start + i, columns[c])] * weights[i]
             })
@@ -843,26 +1026,32 @@ fn jacobian_rows(
         .collect())
 }
 
-/// What a campaign measuring `configurations` with `instrument` is
+/// What a campaign measuring `targets` (`None`: one target, as
+/// [`PlanConfig::targets`]) at `configurations` with `instrument` is
 /// predicted to give over `region` (rad or m) when `options`' model is
-/// identified: `calibrate` on the positions the nominal robot would give
-/// ([`synthetic_set`]), its identifiability notes and combinations, and
-/// its accuracy map over the region with the instrument's noise as the
-/// scatter (the map's bounds recomputed with it; the synthetic residuals
-/// are zero).
+/// identified: `calibrate` on the measurements the nominal robot would
+/// give ([`synthetic_set`]: the targets the instrument sees), its
+/// identifiability notes and combinations, and its accuracy map over the
+/// region, every target at every point, with the instrument's noise as
+/// the scatter (the map's bounds recomputed with it; the synthetic
+/// residuals are zero).
 ///
 /// # Errors
 /// The identification's errors (too few poses for the unknowns, a model
-/// failure at a pose).
+/// failure at a pose); a target on a frame the robot does not have; a
+/// configuration where the instrument sees no target.
 pub fn predict_campaign(
     model: &Model,
     options: &CalibrationOptions,
     instrument: &Instrument,
+    targets: Option<&[calib::Target]>,
     configurations: &[Vec<f64>],
     region: &[Vec<f64>],
 ) -> Result<CampaignPrediction> {
     let options = plan_options(options, instrument);
-    let (_, calibration) = synthetic_calibration(model, &options, instrument, configurations)?;
+    let targets = planned_targets(&options, targets);
+    let (_, calibration) =
+        synthetic_calibration(model, &options, instrument, &targets, configurations)?;
     let mut map = calibration
         .predicted_accuracy(model, region, None)
         .map_err(|source| Error::CalibrationStep {
@@ -875,12 +1064,24 @@ pub fn predict_campaign(
         p.bound_95_mm = calib::bound_95(trace, s2) * 1e3;
     }
     map.residual_scatter_mm = s2.sqrt() * 1e3;
-    let bounds: Vec<f64> = map.poses.iter().map(|p| p.bound_95_mm).collect();
-    let accuracy = RegionAccuracy::of(&bounds);
+    let bounds: Vec<(usize, f64)> = map
+        .poses
+        .iter()
+        .map(|p| {
+            let t = p
+                .target
+                .as_ref()
+                .and_then(|name| targets.iter().position(|t| &t.name == name))
+                .unwrap_or(0);
+            (t, p.bound_95_mm)
+        })
+        .collect();
+    let (accuracy, per_target) = accuracy_per_target(&targets, &bounds);
     map.mean_bound_95_mm = accuracy.mean_bound_95_mm;
     let strings = |v: Vec<&str>| v.into_iter().map(String::from).collect();
     Ok(CampaignPrediction {
         accuracy,
+        per_target,
         identifiability_notes: calibration.identifiability_notes(),
         non_identifiable: strings(calibration.non_identifiable()),
         poorly_identifiable: strings(calibration.poorly_identifiable()),
@@ -908,13 +1109,22 @@ impl CampaignPlan {
             self.instrument.describe(),
             self.design_unknowns.len()
         );
-        if self.outside_reach_box + self.facing_away > 0 {
+        if self.targets.len() > 1 {
+            let names: Vec<&str> = self.targets.iter().map(|t| t.name.as_str()).collect();
+            let _ = writeln!(out, "targets: {}", names.join(", "));
+        }
+        let out_of_sight = self.outside_reach_box + self.facing_away;
+        if self.targets.len() == 1 && out_of_sight > 0 {
             let _ = writeln!(
                 out,
-                "left out {} candidates the instrument cannot see: {} outside the reach box, {} facing away from it",
-                self.outside_reach_box + self.facing_away,
-                self.outside_reach_box,
-                self.facing_away
+                "left out {out_of_sight} candidates the instrument cannot see: {} outside the reach box, {} facing away from it",
+                self.outside_reach_box, self.facing_away
+            );
+        } else if out_of_sight > 0 {
+            let _ = writeln!(
+                out,
+                "the instrument cannot see {out_of_sight} targets at candidates: {} outside the reach box, {} facing away from it; left out {} candidates where it sees no target",
+                self.outside_reach_box, self.facing_away, self.left_out
             );
         }
         let _ = writeln!(
@@ -973,6 +1183,16 @@ impl CampaignPlan {
             a.max_bound_95_mm,
             self.prediction.map.extrapolated_poses
         );
+        if self.targets.len() > 1 {
+            for t in &self.prediction.per_target {
+                let a = t.accuracy;
+                let _ = writeln!(
+                    out,
+                    "target {}: predicted 95 % bound mean {:.4} mm, p95 {:.4} mm, max {:.4} mm",
+                    t.target, a.mean_bound_95_mm, a.p95_bound_95_mm, a.max_bound_95_mm
+                );
+            }
+        }
         for note in &self.prediction.identifiability_notes {
             let _ = writeln!(out, "note: {note}");
         }
@@ -980,5 +1200,7 @@ impl CampaignPlan {
     }
 }
 
+#[cfg(test)]
+mod target_tests;
 #[cfg(test)]
 mod tests;

@@ -5,19 +5,19 @@
 //! (within the reflector's acceptance half-angle) and stands within the
 //! tracker's range; a camera sees its targets only inside its measuring
 //! volume and within the LEDs' viewing angle. A pose the instrument cannot
-//! see is a pose the campaign cannot measure, so the plan leaves it out and
-//! says how many it left out and why ([`SightFilter`]).
+//! see is a pose the campaign cannot measure: with several targets a
+//! candidate keeps the targets the instrument sees, and the plan leaves out
+//! a candidate where it sees none, saying how many and why
+//! ([`SightFilter`]).
 //!
-//! Both tests are taken on the nominal robot at each candidate, for the
-//! plan's target (`x_tcp_target`, the TCP when none is given), in the
-//! robot's base frame: the instrument's placement is what the user plans,
+//! Both tests are taken on the nominal robot at each candidate, for each
+//! of the plan's targets (one at the TCP or a given offset, or those of a
+//! targets description), in the robot's base frame: the instrument's placement is what the user plans,
 //! before the measurement frame exists.
 
 use nalgebra::{Isometry3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::kinematics::{Data, Model, forward_pose};
-use crate::pose_file::Located;
 use crate::{Error, Result};
 
 /// A line of sight from the instrument to the target.
@@ -64,22 +64,31 @@ pub enum OutOfSight {
     },
 }
 
-/// The candidates the instrument sees.
+/// The candidates the instrument sees, and which of their targets.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SightFilter {
-    /// The rows of the candidates kept (0-based, increasing).
+    /// The rows of the candidates kept, those where the instrument sees
+    /// at least one target (0-based, increasing).
     pub kept: Vec<usize>,
-    /// Number left out because the target lies outside the reach box.
+    /// For each kept candidate, whether the instrument sees each target
+    /// (in the order of the targets).
+    pub seen: Vec<Vec<bool>>,
+    /// Number of candidates offered.
+    pub offered: usize,
+    /// Number of (candidate, target) observations out of sight because the
+    /// target lies outside the reach box (with one target: candidates).
     pub outside_box: usize,
-    /// Number left out because the target faces away from the instrument
-    /// (inside the box, or without one).
+    /// Number of (candidate, target) observations out of sight because the
+    /// target faces away from the instrument (inside the box, or without
+    /// one).
     pub facing_away: usize,
 }
 
 impl SightFilter {
-    /// Number of candidates left out.
+    /// Number of candidates left out: those where the instrument sees no
+    /// target.
     pub fn left_out(&self) -> usize {
-        self.outside_box + self.facing_away
+        self.offered - self.kept.len()
     }
 }
 
@@ -149,37 +158,44 @@ impl Sight {
             .then_some(OutOfSight::FacingAway { angle_deg })
     }
 
-    /// The candidates whose target (`x_tcp_target` on the nominal robot)
-    /// the instrument sees.
+    /// Which targets the instrument sees at each candidate, from
+    /// `x_base_targets`: the pose of every target (its z axis the
+    /// direction it faces) in the base frame of the nominal robot, one
+    /// entry per candidate, one per target
+    /// ([`crate::calib::start::target_poses`]). A candidate where it sees
+    /// no target is left out.
     ///
     /// # Errors
-    /// [`Sight::check`]'s; the kinematics' at a candidate (by its origin);
-    /// [`Error::InvalidParameter`] (`candidates`) when the instrument sees
-    /// none of them, saying how many failed which test.
-    pub fn filter(
-        &self,
-        model: &Model,
-        candidates: &[Located<Vec<f64>>],
-        x_tcp_target: &Isometry3<f64>,
-    ) -> Result<SightFilter> {
+    /// [`Sight::check`]'s; [`Error::InvalidParameter`] (`candidates`) when
+    /// the instrument sees none of them, saying how many observations
+    /// failed which test.
+    pub fn filter(&self, x_base_targets: &[Vec<Isometry3<f64>>]) -> Result<SightFilter> {
         self.check()?;
-        let mut data = Data::new(model);
         let mut filter = SightFilter {
             kept: Vec::new(),
+            seen: Vec::new(),
+            offered: x_base_targets.len(),
             outside_box: 0,
             facing_away: 0,
         };
-        for (k, c) in candidates.iter().enumerate() {
-            let x = forward_pose(model, &mut data, &c.value, model.nominal_params()).map_err(
-                |source| Error::KinematicsAt {
-                    origin: c.origin.clone(),
-                    source,
-                },
-            )? * x_tcp_target;
-            match self.sees(&x) {
-                None => filter.kept.push(k),
-                Some(OutOfSight::OutsideBox { .. }) => filter.outside_box += 1,
-                Some(OutOfSight::FacingAway { .. }) => filter.facing_away += 1,
+        for (k, targets) in x_base_targets.iter().enumerate() {
+            let seen: Vec<bool> = targets
+                .iter()
+                .map(|x| match self.sees(x) {
+                    None => true,
+                    Some(OutOfSight::OutsideBox { .. }) => {
+                        filter.outside_box += 1;
+                        false
+                    }
+                    Some(OutOfSight::FacingAway { .. }) => {
+                        filter.facing_away += 1;
+                        false
+                    }
+                })
+                .collect();
+            if seen.contains(&true) {
+                filter.kept.push(k);
+                filter.seen.push(seen);
             }
         }
         if filter.kept.is_empty() {
@@ -187,7 +203,7 @@ impl Sight {
                 parameter: "candidates".into(),
                 message: format!(
                     "the instrument sees none of the {} candidates: {}",
-                    candidates.len(),
+                    filter.offered,
                     filter.describe()
                 ),
             });
@@ -197,7 +213,8 @@ impl Sight {
 }
 
 impl SightFilter {
-    /// `k outside the reach box, j facing away from the instrument`.
+    /// `k outside the reach box, j facing away from the instrument`
+    /// (observations of a target at a candidate).
     pub fn describe(&self) -> String {
         format!(
             "{} outside the reach box, {} facing away from the instrument",

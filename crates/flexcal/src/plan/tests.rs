@@ -99,29 +99,46 @@ fn prediction_matches_the_designs_variances(orientation_noise_deg: Option<[f64; 
     let plan = plan_campaign(&model, &config).unwrap();
     // The same unknowns: the design's and the six of the measurement frame.
     assert_eq!(plan.prediction.rank, plan.design_unknowns.len() + 6);
+    design_agrees_with_the_map(&model, &config, &plan);
+}
+
+/// The design's variances at the planned poses (the greedy's rows,
+/// stacked over the targets a pose shows, the region's point-major over
+/// the targets) against `calibrate`'s accuracy map of the planned poses in
+/// `plan`, point by point and target by target.
+pub(super) fn design_agrees_with_the_map(model: &Model, config: &PlanConfig, plan: &CampaignPlan) {
     let options = plan_options(&config.options, &config.instrument);
     let pool: Vec<Vec<f64>> = config
         .candidates
-        .configurations(&model, "c")
+        .configurations(model, "c")
         .unwrap()
         .into_iter()
         .map(|c| c.value)
         .collect();
-    let region: Vec<Vec<f64>> = plan
-        .prediction
-        .map
-        .poses
-        .iter()
-        .map(|p| p.q.clone())
-        .collect();
-    let (design, _) = pool_design(&model, &options, &config.instrument, &pool, &region).unwrap();
+    let map = &plan.prediction.map.poses;
+    let n_targets = plan.targets.len();
+    let region: Vec<Vec<f64>> = map.iter().step_by(n_targets).map(|p| p.q.clone()).collect();
+    let (design, _) = pool_design(
+        model,
+        &options,
+        &config.instrument,
+        &plan.targets,
+        &pool,
+        &region,
+    )
+    .unwrap();
     let variances = design.region_variances(&plan.selected).unwrap();
     let s2 = config.instrument.scatter_variance();
-    for (v, p) in variances.iter().zip(&plan.prediction.map.poses) {
+    for (i, v) in variances.iter().enumerate() {
+        let (r, t) = (i / n_targets, &plan.targets[i % n_targets].name);
+        let p = map
+            .iter()
+            .find(|p| p.q == region[r] && p.target.as_ref().is_none_or(|name| name == t))
+            .unwrap();
         let bound = calib::bound_95(*v, s2) * 1e3;
         assert!(
             (bound - p.bound_95_mm).abs() < 1e-6 * bound,
-            "{bound} vs {}",
+            "point {r} target {t}: {bound} vs {}",
             p.bound_95_mm
         );
     }
@@ -144,7 +161,13 @@ fn the_design_rows_are_derivatives_of_the_pose() {
         .into_iter()
         .map(|c| c.value)
         .collect();
-    let set = synthetic_set(&model, &pool, &config.instrument, &Isometry3::identity()).unwrap();
+    let set = synthetic_set(
+        &model,
+        &pool,
+        &config.instrument,
+        &planned_targets(&options, None),
+    )
+    .unwrap();
     let calibration = calib::calibrate(&model, &set, &options).unwrap();
     let j = model.param_index("d3").unwrap();
     let rows = jacobian_rows(&model, &calibration, &set, &[j], &[1.0; 6]).unwrap();
@@ -287,6 +310,7 @@ fn the_plan_chooses_only_among_the_poses_the_instrument_sees() {
         plan.candidates + plan.outside_reach_box + plan.facing_away,
         offered.len()
     );
+    assert_eq!(plan.left_out, plan.outside_reach_box + plan.facing_away);
     assert!(
         plan.outside_reach_box > 0 && plan.facing_away > 0,
         "{plan:?}"

@@ -21,6 +21,7 @@ use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet, Mis
 use crate::kinematics::Model;
 use crate::pose_file::Located;
 use crate::twin::geometric::{GeometricCampaignOptions, geometric_campaign};
+use crate::twin::truth::TruthSwitches;
 use crate::{Error, Result};
 
 /// Number of candidate poses the twin measures.
@@ -98,10 +99,11 @@ struct TwinData {
     orientation_noise_deg: [f64; 3],
 }
 
-fn twin_data(seed: u64) -> Result<TwinData> {
+fn twin_data(seed: u64, switches: TruthSwitches) -> Result<TwinData> {
     let options = GeometricCampaignOptions {
         seed,
         n_validation: TWIN_CANDIDATES + TWIN_REGION,
+        switches,
         ..Default::default()
     };
     let campaign = geometric_campaign(&options)?;
@@ -234,7 +236,7 @@ pub fn twin_plan_check(
     compared: usize,
     random_draws: usize,
 ) -> Result<TwinPlanCheck> {
-    let data = twin_data(seed)?;
+    let data = twin_data(seed, TruthSwitches::default())?;
     let mut options = CalibrationOptions::for_model(&data.model);
     options.target = FrameTreatment::Fixed;
     let mut planned = Vec::with_capacity(2 * counts.len());
@@ -282,6 +284,7 @@ pub fn twin_plan_check(
         &data.model,
         &options,
         &data.instrument(true),
+        None,
         &o1_q,
         &region_q,
     )?;
@@ -350,4 +353,63 @@ impl TwinPlanCheck {
         ));
         out
     }
+}
+
+/// The twin's terms a term check turns off one at a time (the geometric
+/// errors and the camera's noise stay on: they are what the model and the
+/// bound hold), by name.
+pub const TWIN_TERMS: [&str; 4] = [
+    "gravity",
+    "drive_nonlinearity",
+    "transmission_errors",
+    "measurement_frame",
+];
+
+/// The twin's default switches with the term `term` of [`TWIN_TERMS`]
+/// off; `all` turns every one of them off (the geometric errors and the
+/// noise alone: what is left is the estimation's own); `none` turns none
+/// off.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] naming an unknown term.
+pub fn switches_without(term: &str) -> Result<TruthSwitches> {
+    let mut s = TruthSwitches::default();
+    let all = term == "all";
+    for name in TWIN_TERMS {
+        if all || name == term {
+            match name {
+                "gravity" => s.gravity = false,
+                "drive_nonlinearity" => s.drive_nonlinearity = false,
+                "transmission_errors" => s.transmission_errors = false,
+                _ => s.measurement_frame = false,
+            }
+        }
+    }
+    if !(all || term == "none" || TWIN_TERMS.contains(&term)) {
+        return Err(Error::InvalidParameter {
+            parameter: "term".into(),
+            message: format!("'{term}' is none of {TWIN_TERMS:?}, all or none"),
+        });
+    }
+    Ok(s)
+}
+
+/// One planned campaign of [`twin_plan_check`] (`n` poses, full poses or
+/// positions) on the twin of `seed` measuring with `switches`: where the
+/// published check's misses come from, one term turned off at a time
+/// ([`switches_without`]). The plan's prediction does not depend on the
+/// twin's terms; the achieved errors do.
+///
+/// # Errors
+/// The twin's and calibration's errors.
+pub fn twin_term_check(
+    seed: u64,
+    n: usize,
+    full_poses: bool,
+    switches: TruthSwitches,
+) -> Result<PlannedCampaignCheck> {
+    let data = twin_data(seed, switches)?;
+    let mut options = CalibrationOptions::for_model(&data.model);
+    options.target = FrameTreatment::Fixed;
+    Ok(data.check(&options, n, full_poses)?.0)
 }
