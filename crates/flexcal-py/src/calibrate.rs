@@ -24,10 +24,10 @@ use crate::robot::Robot;
 /// Identifies the robot's parameters, the measurement frame and the target
 /// offsets (those not fixed) from a measurement set of either kind:
 /// equations (7)-(12) and (49)-(53) of Marie, Courteille, Maurine 2013.
-/// `data` is a `MeasurementSet` (one target per pose, on the TCP) or a
-/// `TargetMeasurementSet` (several targets per pose, each on a named
-/// frame; positions and, where given, orientations); the result is a
-/// `CalibrationResult` either way.
+/// `data` is a `MeasurementSet`: one target per pose, on the TCP, or
+/// several targets per pose, each on a named frame (read or built with a
+/// targets description; positions and, where given, orientations); the
+/// result is a `CalibrationResult` either way.
 ///
 /// Options (SI units): `model` `"geometric"` or `"elasto-geometric"` (joint
 /// compliances under gravity of every branch and the payloads; mass table
@@ -46,7 +46,7 @@ use crate::robot::Robot;
 /// identifiability analysis alone deciding); by default, as on the command
 /// line, `"cv"` from 100 poses and `"none"` below; its report in
 /// `result.selection`. `hold_out_stations` (a set of several stations,
-/// `MeasurementSet.pooled` or `TargetMeasurementSet.pooled`): also each
+/// `MeasurementSet.pooled`): also each
 /// station held out in turn, identified on the others and validated on it
 /// (`result.station_hold_out`). `select_on`: which cross-validated score
 /// the selection chooses on, `"interpolation"`, `"extrapolation"` or
@@ -123,7 +123,7 @@ pub fn calibrate<'py>(
         AnySet::Targets(_) => Origin::Own,
     };
     options.weighting = match weights.unwrap_or(match origin {
-        Origin::Own => "file",
+        Origin::Own | Origin::Targets => "file",
         Origin::Ipa => "uniform",
     }) {
         "file" => Weighting::FromFile,
@@ -137,7 +137,7 @@ pub fn calibrate<'py>(
     options.use_orientation = match (use_orientation, origin) {
         (Some(u), _) => Some(u),
         (None, Origin::Ipa) => Some(false),
-        (None, Origin::Own) => None,
+        (None, Origin::Own | Origin::Targets) => None,
     };
     options.fixed = fix;
     if let Some(defer) = defer {
@@ -298,7 +298,7 @@ fn target_keywords(
             };
             if fixed_target || target.is_some() {
                 return Err(InputError::new_err(format!(
-                    "{name}: not available with several targets per pose (each target is fixed or identified by the `fixed` list of the TargetMeasurementSet)"
+                    "{name}: not available with several targets per pose (each target is fixed or identified by the `fixed` list of the set's targets)"
                 )));
             }
             return Ok(());

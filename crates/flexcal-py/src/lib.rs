@@ -62,7 +62,6 @@ fn _flexcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fem::Structure>()?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
     m.add_class::<campaign::Campaign>()?;
-    m.add_class::<targets::TargetMeasurementSet>()?;
     m.add_class::<compensation::CommandedPath>()?;
     m.add_function(wrap_pyfunction!(compensation::compensate_path, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;

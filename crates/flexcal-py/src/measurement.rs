@@ -21,11 +21,16 @@ pub enum Origin {
     Own,
     /// The IPA laser-tracker export.
     Ipa,
+    /// Arrays or flexcal's CSV with a targets description: several
+    /// targets per pose (or one, named), each on a frame of the robot.
+    Targets,
 }
 
 /// A validated set of measured poses: actuated coordinates q (rad, m) and
 /// the target position (m) seen in the measurement frame, optionally its
-/// orientation (rotation vector, rad) and standard deviations.
+/// orientation (rotation vector, rad) and standard deviations; or, with a
+/// targets description, the position (and orientation) of each of several
+/// targets, NaN where one was not seen.
 #[pyclass(frozen, module = "flexcal", name = "MeasurementSet")]
 #[derive(Debug, Clone)]
 pub struct MeasurementSet {
@@ -43,8 +48,17 @@ impl MeasurementSet {
     /// `orientations` (n, 3) rotation vectors in rad, `std` (n, 3) position
     /// standard deviations in m, `orientation_std` (n, 3) in rad,
     /// `pose_ids` n labels. `source` names the set in messages.
+    ///
+    /// Several targets: `targets` a list of `(name, frame, offset)` (the
+    /// frame a frame of the robot or `"tcp"`, the nominal offset (3,) in
+    /// it, m), `positions` and `orientations` (n, n_targets, 3) with NaN
+    /// for a target not seen on a pose (a target whose orientations are
+    /// all NaN has none: its positions only are fitted), `fixed` the names
+    /// of targets whose offset is known (not identified); `std` and
+    /// `orientation_std` are then refused (the observations weigh alike).
     #[staticmethod]
-    #[pyo3(signature = (q, positions, orientations = None, std = None, orientation_std = None, pose_ids = None, source = "arrays"))]
+    #[pyo3(signature = (q, positions, orientations = None, std = None, orientation_std = None, pose_ids = None, source = "arrays", targets = None, fixed = Vec::new()))]
+    #[allow(clippy::too_many_arguments)]
     fn from_arrays<'py>(
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         positions: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
@@ -53,7 +67,40 @@ impl MeasurementSet {
         orientation_std: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
         pose_ids: Option<Vec<String>>,
         source: &str,
+        targets: Option<crate::targets::TargetArrays<'py>>,
+        fixed: Vec<String>,
     ) -> PyResult<Self> {
+        if let Some(targets) = targets {
+            if let Some(name) = [
+                ("std", std.is_some()),
+                ("orientation_std", orientation_std.is_some()),
+            ]
+            .iter()
+            .find_map(|(name, given)| given.then_some(*name))
+            {
+                return Err(InputError::new_err(format!(
+                    "{name}: not available with targets (the observations of several targets weigh alike)"
+                )));
+            }
+            let set = crate::targets::set_from_arrays(
+                targets,
+                q,
+                positions,
+                fixed,
+                pose_ids,
+                source,
+                orientations,
+            )?;
+            return Ok(Self {
+                set: Arc::new(set),
+                origin: Origin::Targets,
+            });
+        }
+        if let Some(name) = fixed.first() {
+            return Err(InputError::new_err(format!(
+                "fixed: `{name}` given without targets (fixed names targets of the targets list)"
+            )));
+        }
         let (q, q_shape) = exact("q", &q, &[None, None])?;
         let (n, dof) = (q_shape[0], q_shape[1]);
         if n == 0 || dof == 0 {
@@ -101,10 +148,23 @@ impl MeasurementSet {
 
     /// Reads a measurement file: `format="own"` (flexcal's CSV: q1..qn,
     /// x_mm, y_mm, z_mm, ...) or `"ipa"` (the IPA UR10 laser-tracker export;
-    /// its probe offset becomes the starting target).
+    /// its probe offset becomes the starting target). With `targets` (the
+    /// TOML targets description, docs/file-formats.md): flexcal's CSV with
+    /// per-target columns (mm).
     #[staticmethod]
-    #[pyo3(signature = (path, format = "own"))]
-    fn read_csv(path: PathBuf, format: &str) -> PyResult<Self> {
+    #[pyo3(signature = (path, format = "own", targets = None))]
+    fn read_csv(path: PathBuf, format: &str, targets: Option<PathBuf>) -> PyResult<Self> {
+        if let Some(targets) = targets {
+            if format != "own" {
+                return Err(InputError::new_err(format!(
+                    "format: {format:?} has no per-target columns; with targets the format is \"own\""
+                )));
+            }
+            return Ok(Self {
+                set: Arc::new(crate::targets::read_csv(&path, &targets)?),
+                origin: Origin::Targets,
+            });
+        }
         let (set, origin) = match format {
             "own" => (Set::read_csv(&path), Origin::Own),
             "ipa" => (Set::read_ipa(&path), Origin::Ipa),
@@ -134,7 +194,7 @@ impl MeasurementSet {
         let origin = sets.first().map_or(Origin::Own, |s| s.origin);
         if sets.iter().any(|s| s.origin != origin) {
             return Err(InputError::new_err(
-                "sets: pooled sets must come from the same format (own or ipa)",
+                "sets: pooled sets must come from the same format (own, ipa, or with targets)",
             ));
         }
         let owned: Vec<Set> = sets.iter().map(|s| (*s.set).clone()).collect();
@@ -181,13 +241,34 @@ impl MeasurementSet {
         self.set.source.clone()
     }
 
-    /// `"own"` or `"ipa"`: the format the set was read from (arrays: own).
+    /// `"own"`, `"ipa"` or `"targets"`: the format the set was read from
+    /// (arrays: own; with a targets description: targets).
     #[getter]
     fn format(&self) -> &'static str {
         match self.origin {
             Origin::Own => "own",
             Origin::Ipa => "ipa",
+            Origin::Targets => "targets",
         }
+    }
+
+    /// Names of the targets, in the order of `positions` with several
+    /// targets (`["tcp"]` for a one-target file).
+    #[getter]
+    fn target_names(&self) -> Vec<String> {
+        self.set.targets().iter().map(|t| t.name.clone()).collect()
+    }
+
+    /// The frame each target is fixed to, in the order of `target_names`.
+    #[getter]
+    fn target_frames(&self) -> Vec<String> {
+        self.set.targets().iter().map(|t| t.frame.clone()).collect()
+    }
+
+    /// Number of (pose, target) observations.
+    #[getter]
+    fn n_observations(&self) -> usize {
+        self.set.n_observations()
     }
 
     /// Actuated coordinates, shape (n, dof), rad or m.
@@ -195,16 +276,21 @@ impl MeasurementSet {
     fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
         let data = self
             .set
-            .measurements()
+            .poses()
             .iter()
-            .flat_map(|m| m.q.iter().copied())
+            .flat_map(|p| p.q.iter().copied())
             .collect();
         to_numpy(py, data, &[self.set.len(), self.set.n_actuated()])
     }
 
-    /// Measured target positions in the measurement frame, shape (n, 3), m.
+    /// Measured target positions in the measurement frame, shape (n, 3), m;
+    /// with a targets description (n, n_targets, 3), NaN where a target was
+    /// not seen.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        if self.origin == Origin::Targets {
+            return crate::targets::positions(py, &self.set);
+        }
         let data = self
             .set
             .measurements()
@@ -214,9 +300,14 @@ impl MeasurementSet {
         to_numpy(py, data, &[self.set.len(), 3])
     }
 
-    /// Measured orientations (rotation vectors, rad), shape (n, 3), or None.
+    /// Measured orientations (rotation vectors, rad), shape (n, 3), or None;
+    /// with a targets description (n, n_targets, 3), NaN where a target was
+    /// not seen or carries none.
     #[getter]
     fn orientations<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArrayDyn<f64>>> {
+        if self.origin == Origin::Targets {
+            return crate::targets::orientations(py, &self.set);
+        }
         let data: Option<Vec<f64>> = self
             .set
             .measurements()
@@ -260,6 +351,15 @@ impl MeasurementSet {
     }
 
     fn __repr__(&self) -> String {
+        if self.origin == Origin::Targets {
+            return format!(
+                "MeasurementSet(source={:?}, poses={}, dof={}, targets={:?})",
+                self.set.source,
+                self.set.len(),
+                self.set.n_actuated(),
+                self.target_names()
+            );
+        }
         format!(
             "MeasurementSet(source={:?}, poses={}, dof={}, orientation={})",
             self.set.source,

@@ -80,7 +80,7 @@ fn sight(
 /// instrument, deg): candidates the instrument cannot see are left out
 /// (`outside_reach_box`, `facing_away` count them). `targets`: several
 /// targets per pose, the TOML description `calibrate` reads
-/// (`TargetMeasurementSet.read_csv`'s `targets`, docs/file-formats.md):
+/// (`MeasurementSet.read_csv`'s `targets`, docs/file-formats.md):
 /// the sight is tested per target, a pose where none is seen is left out,
 /// and the curve and prediction carry `per_target` (each target's
 /// `accuracy`).

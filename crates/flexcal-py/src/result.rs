@@ -1,6 +1,5 @@
 //! `flexcal.CalibrationResult`: the one result of `flexcal.calibrate`, for
-//! a set of one target per pose (`MeasurementSet`) and for a set of several
-//! (`TargetMeasurementSet`) alike. The library's `Calibration` is one type
+//! a `MeasurementSet` of one target per pose and of several alike. The library's `Calibration` is one type
 //! for both; so is this class. Its checks (`validate`, `cross_check`,
 //! `accuracy_coverage`) take another set of the same kind as the one it
 //! was identified from.
@@ -28,7 +27,6 @@ use crate::errors::{Failure, InputError, calib_error};
 use crate::interrupt::{run_cancellable, run_interruptible};
 use crate::measurement::MeasurementSet;
 use crate::robot::Robot;
-use crate::targets::TargetMeasurementSet;
 
 /// A measurement set of either kind, as `calibrate` and the result's
 /// checks take it.
@@ -49,13 +47,13 @@ impl AnySet {
     /// `InputError` naming `name` when `object` is neither kind of set.
     pub(crate) fn extract(name: &str, object: &Bound<'_, PyAny>) -> PyResult<Self> {
         if let Ok(set) = object.extract::<PyRef<'_, MeasurementSet>>() {
-            return Ok(Self::One(Arc::clone(&set.set), set.origin));
-        }
-        if let Ok(set) = object.extract::<PyRef<'_, TargetMeasurementSet>>() {
-            return Ok(Self::Targets(Arc::clone(&set.set)));
+            return Ok(match set.origin {
+                crate::measurement::Origin::Targets => Self::Targets(Arc::clone(&set.set)),
+                origin => Self::One(Arc::clone(&set.set), origin),
+            });
         }
         Err(InputError::new_err(format!(
-            "{name}: expected a MeasurementSet or a TargetMeasurementSet, got {}",
+            "{name}: expected a MeasurementSet, got {}",
             object.get_type().name()?
         )))
     }
@@ -142,10 +140,10 @@ impl CalibrationResult {
         match (&set, self.targets_data.is_some()) {
             (AnySet::One(..), false) | (AnySet::Targets(_), true) => Ok(set),
             (AnySet::One(..), true) => Err(InputError::new_err(
-                "other: a MeasurementSet, but this calibration was identified from several targets per pose: give a TargetMeasurementSet of the same targets",
+                "other: a set of one target, but this calibration was identified from several targets per pose: give a MeasurementSet of the same targets (read or built with targets)",
             )),
             (AnySet::Targets(_), false) => Err(InputError::new_err(
-                "other: a TargetMeasurementSet, but this calibration was identified from one target per pose: give a MeasurementSet",
+                "other: a set with targets, but this calibration was identified from one target per pose: give a MeasurementSet of one target (read or built without targets)",
             )),
         }
     }
@@ -505,9 +503,9 @@ impl CalibrationResult {
 
     /// Errors of the calibrated robot on `other`, a set of the kind it was
     /// identified from; the robot is frozen; a `ValidationResult` (overall
-    /// and per target). One target per pose (`MeasurementSet`): the
+    /// and per target). One target per pose: the
     /// measurement frame is fitted again, and with `refit_target` the
-    /// target position too. Several targets (`TargetMeasurementSet`):
+    /// target position too. Several targets (a set with targets):
     /// with `refit_frame` (default) the measurement frame is fitted again
     /// (the instrument was moved).
     /// Releases the GIL; Ctrl-C interrupts the wait.

@@ -43,7 +43,6 @@ from ._flexcal import (
     SplitCheckResult,
     Structure,
     StructureError,
-    TargetMeasurementSet,
     UnknownEstimate,
     UnknownParameterError,
     UnknownRobotError,
@@ -83,7 +82,6 @@ __all__ = [
     "SplitCheckResult",
     "Structure",
     "StructureError",
-    "TargetMeasurementSet",
     "UnknownEstimate",
     "UnknownParameterError",
     "UnknownRobotError",
@@ -99,20 +97,55 @@ __all__ = [
 
 def calibrate_targets(robot, data, *args, **kwargs):
     """Deprecated alias of ``calibrate``, kept for one release:
-    ``flexcal.calibrate`` takes a ``TargetMeasurementSet`` as it takes a
-    ``MeasurementSet``."""
+    ``flexcal.calibrate`` takes a ``MeasurementSet`` of several targets as
+    it takes one of one target."""
     import warnings
 
     warnings.warn(
         "flexcal.calibrate_targets is deprecated and will be removed in the next release: "
-        "flexcal.calibrate takes a TargetMeasurementSet too",
+        "flexcal.calibrate takes a MeasurementSet of several targets too",
         DeprecationWarning,
         stacklevel=2,
     )
     return calibrate(robot, data, *args, **kwargs)
 
 
+class _TargetMeasurementSet:
+    """Deprecated: the constructors of a ``MeasurementSet`` of several
+    targets under their old names, kept for one release.
+    ``isinstance(x, flexcal.TargetMeasurementSet)`` is not supported: test
+    ``x.format == "targets"``."""
+
+    @staticmethod
+    def from_arrays(targets, q, positions, fixed=(), pose_ids=None, source="arrays", orientations=None):
+        """``MeasurementSet.from_arrays(q, positions, ..., targets=targets)``."""
+        return MeasurementSet.from_arrays(
+            q,
+            positions,
+            orientations=orientations,
+            pose_ids=pose_ids,
+            source=source,
+            targets=targets,
+            fixed=list(fixed),
+        )
+
+    @staticmethod
+    def read_csv(path, targets):
+        """``MeasurementSet.read_csv(path, targets=targets)``."""
+        return MeasurementSet.read_csv(path, targets=targets)
+
+    @staticmethod
+    def pooled(sets):
+        """``MeasurementSet.pooled(sets)``."""
+        return MeasurementSet.pooled(sets)
+
+
 _DEPRECATED_NAMES = {
+    "TargetMeasurementSet": (
+        _TargetMeasurementSet,
+        "flexcal.TargetMeasurementSet is deprecated and will be removed in the next release: "
+        "MeasurementSet.from_arrays and MeasurementSet.read_csv take targets=",
+    ),
     "TargetCalibrationResult": (
         CalibrationResult,
         "flexcal.TargetCalibrationResult is deprecated and will be removed in the next release: "

@@ -187,7 +187,8 @@ class Robot:
 
 class MeasurementSet:
     """Measured poses: q (rad, m), target positions (m) in the measurement frame,
-    optionally orientations (rotation vectors, rad) and standard deviations."""
+    optionally orientations (rotation vectors, rad) and standard deviations; with a
+    targets description, each of several targets' position (NaN where not seen)."""
 
     @staticmethod
     def from_arrays(
@@ -198,11 +199,19 @@ class MeasurementSet:
         orientation_std: Optional[ArrayLike] = None,
         pose_ids: Optional[Sequence[str]] = None,
         source: str = "arrays",
+        targets: Optional[Sequence[tuple[str, str, ArrayLike]]] = None,
+        fixed: Sequence[str] = (),
     ) -> MeasurementSet:
-        """q (n, dof) rad/m, positions (n, 3) m, orientations (n, 3) rad, std (n, 3) m, orientation_std (n, 3) rad."""
+        """q (n, dof) rad/m, positions (n, 3) m, orientations (n, 3) rad, std (n, 3) m, orientation_std (n, 3) rad.
+        With targets (name, frame, nominal offset (3,) m in that frame): positions and orientations
+        (n, n_targets, 3), NaN for a target not seen (orientations all NaN for a target: positions only);
+        fixed: targets whose offset is known; std and orientation_std refused."""
     @staticmethod
-    def read_csv(path: StrPath, format: Literal["own", "ipa"] = "own") -> MeasurementSet:
-        """flexcal's CSV (mm, deg columns) or the IPA laser-tracker export."""
+    def read_csv(
+        path: StrPath, format: Literal["own", "ipa"] = "own", targets: Optional[StrPath] = None
+    ) -> MeasurementSet:
+        """flexcal's CSV (mm, deg columns) or the IPA laser-tracker export; with targets (a TOML
+        description), flexcal's CSV with per-target columns."""
     def write_csv(self, path: StrPath) -> None:
         """Writes flexcal's CSV (mm, deg)."""
     @staticmethod
@@ -219,16 +228,24 @@ class MeasurementSet:
     @property
     def source(self) -> str: ...
     @property
-    def format(self) -> Literal["own", "ipa"]: ...
+    def format(self) -> Literal["own", "ipa", "targets"]: ...
+    @property
+    def target_names(self) -> list[str]:
+        """The targets, in the order of positions with several (["tcp"] for one)."""
+    @property
+    def target_frames(self) -> list[str]: ...
+    @property
+    def n_observations(self) -> int:
+        """(pose, target) observations."""
     @property
     def q(self) -> FloatArray:
         """(n, dof), rad or m."""
     @property
     def positions(self) -> FloatArray:
-        """(n, 3), m."""
+        """(n, 3), m; with targets (n, n_targets, 3), NaN where a target was not seen."""
     @property
     def orientations(self) -> Optional[FloatArray]:
-        """(n, 3) rotation vectors, rad, or None."""
+        """(n, 3) rotation vectors, rad, or None; with targets (n, n_targets, 3), NaN where none."""
     @property
     def labels(self) -> list[str]: ...
     @property
@@ -424,7 +441,7 @@ class CalibrationResult:
     """The result of `calibrate` for either kind of set: the JSON report's fields in SI units.
     Its checks take another set of the kind it was identified from."""
 
-    def cross_check(self, other: MeasurementSet | TargetMeasurementSet) -> CrossCheckResult:
+    def cross_check(self, other: MeasurementSet) -> CrossCheckResult:
         """Identify the same unknowns again on `other` and compare (z, z_split with the split check)."""
 
     @property
@@ -533,14 +550,14 @@ class CalibrationResult:
         """(4, 4) identified x_tcp_target, m."""
     def validate(
         self,
-        other: MeasurementSet | TargetMeasurementSet,
+        other: MeasurementSet,
         refit_target: bool = False,
         refit_frame: bool = True,
     ) -> ValidationResult:
         """Errors on another set of the same kind, overall and per target."""
     def predicted_accuracy(self, q: ArrayLike) -> AccuracyResult:
         """95 % bounds at the configurations q ((dof,) or (n, dof), rad or m), one entry per configuration and target."""
-    def accuracy_coverage(self, other: MeasurementSet | TargetMeasurementSet) -> AccuracyResult:
+    def accuracy_coverage(self, other: MeasurementSet) -> AccuracyResult:
         """95 % bounds at the poses of `other` with their measured errors."""
     def to_json(
         self, validation: Optional[ValidationResult] = None
@@ -549,7 +566,7 @@ class CalibrationResult:
 
 def calibrate(
     robot: Robot,
-    data: MeasurementSet | TargetMeasurementSet,
+    data: MeasurementSet,
     model: Literal["geometric", "elasto-geometric"] = "geometric",
     fix: Sequence[str] = (),
     defer: Optional[Sequence[str]] = None,
@@ -612,58 +629,6 @@ class Campaign:
         """Runs the campaign as `flexcal calibrate --config` does and returns what
         `calibrate` returns; with `write_outputs` the files of its [outputs]
         table are written too (one target per pose or, with [data] targets, several)."""
-
-class TargetMeasurementSet:
-    """Measured poses of several targets: q (rad, m) and, per target, its position (m)
-    in the measurement frame, NaN where it was not seen."""
-
-    @staticmethod
-    def from_arrays(
-        targets: Sequence[tuple[str, str, ArrayLike]],
-        q: ArrayLike,
-        positions: ArrayLike,
-        fixed: Sequence[str] = (),
-        pose_ids: Optional[Sequence[str]] = None,
-        source: str = "arrays",
-        orientations: Optional[ArrayLike] = None,
-    ) -> TargetMeasurementSet:
-        """targets (name, frame, nominal offset (3,) m in that frame), q (n, dof) rad/m,
-        positions (n, n_targets, 3) m with NaN for a target not seen; fixed: targets whose offset is known;
-        orientations (n, n_targets, 3) rotation vectors (rad) of each target's measured orientation,
-        NaN where not seen (all NaN for a target: positions only); fitted where given."""
-    @staticmethod
-    def read_csv(path: StrPath, targets: StrPath) -> TargetMeasurementSet:
-        """flexcal's CSV with per-target columns (mm), the targets described by a TOML file."""
-    def write_csv(self, path: StrPath) -> None:
-        """Writes flexcal's CSV with per-target columns (mm)."""
-    @staticmethod
-    def pooled(sets: Sequence[TargetMeasurementSet]) -> TargetMeasurementSet:
-        """Sets of the same targets as the stations of one calibration (a frame each)."""
-    @property
-    def station_names(self) -> list[str]: ...
-    @property
-    def station_of(self) -> list[int]:
-        """The station (index into station_names) of each pose."""
-    @property
-    def labels(self) -> list[str]:
-        """Each pose's label: its pose_id or `#k`; `s2:` before a second station's."""
-    def excluding(self, labels: Sequence[str]) -> TargetMeasurementSet:
-        """Without the poses of these labels (every target of a pose); the kept keep theirs."""
-    @property
-    def target_names(self) -> list[str]: ...
-    @property
-    def target_frames(self) -> list[str]: ...
-    @property
-    def q(self) -> FloatArray:
-        """(n, dof), rad or m."""
-    @property
-    def positions(self) -> FloatArray:
-        """(n, n_targets, 3), m; NaN where a target was not seen."""
-    @property
-    def n_observations(self) -> int: ...
-    @property
-    def source(self) -> str: ...
-    def __len__(self) -> int: ...
 
 class FuzzyModel:
     """A zero-order Takagi-Sugeno model (eqs. (33)-(37))."""

@@ -24,6 +24,11 @@ OFFSET = np.array([0.030, 0.0, 0.040])
 TARGETS = [("left", "LH", OFFSET), ("right", "RH", OFFSET)]
 
 
+def target_set(targets, q, positions, **kwargs):
+    """A MeasurementSet of several targets from arrays."""
+    return flexcal.MeasurementSet.from_arrays(q, positions, targets=targets, **kwargs)
+
+
 @pytest.fixture(scope="module")
 def two_arms():
     return flexcal.Robot.from_toml(DATA / "two_arms.toml")
@@ -77,7 +82,7 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     truth = Truth(two_arms, seed=11)
     q = configurations(two_arms, 120, seed=12)
     positions = truth.measure(two_arms, q)
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, source="two arms")
+    data = target_set(TARGETS, q, positions, source="two arms")
     assert len(data) == 120 and data.target_names == ["left", "right"]
     assert data.n_observations == int(np.sum(~np.isnan(positions[:, :, 0])))
     result = flexcal.calibrate(two_arms, data, select="none", split_check=True)
@@ -117,7 +122,7 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
 
     # Validation on other poses, the tracker's frame fitted again.
     q_other = configurations(two_arms, 40, seed=13)
-    other = flexcal.TargetMeasurementSet.from_arrays(
+    other = target_set(
         TARGETS, q_other, truth.measure(two_arms, q_other)
     )
     validation = result.validate(other)
@@ -167,7 +172,7 @@ def test_markers_on_both_hands_recover_the_truth(two_arms, tmp_path):
     )
     path = tmp_path / "markers.csv"
     data.write_csv(path)
-    back = flexcal.TargetMeasurementSet.read_csv(path, description)
+    back = flexcal.MeasurementSet.read_csv(path, targets=description)
     np.testing.assert_allclose(back.q, data.q, atol=1e-9)
     np.testing.assert_array_equal(np.isnan(back.positions), np.isnan(data.positions))
     np.testing.assert_allclose(back.positions, data.positions, atol=1e-9, equal_nan=True)
@@ -179,13 +184,13 @@ def test_two_stations_of_markers_each_with_its_frame(two_arms):
     relative to the first recovered."""
     truth = Truth(two_arms, seed=31)
     q = configurations(two_arms, 60, seed=32)
-    first = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q), source="a")
+    first = target_set(TARGETS, q, truth.measure(two_arms, q), source="a")
     placed = (truth.frame_rotation, truth.frame_translation)
     truth.frame_rotation = rotation([0.0, 0.1, 1.0], -1.2) @ truth.frame_rotation
     truth.frame_translation = np.array([-1.8, 2.2, -0.7])
     q2 = configurations(two_arms, 60, seed=33)
-    second = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q2, truth.measure(two_arms, q2), source="b")
-    data = flexcal.TargetMeasurementSet.pooled([first, second])
+    second = target_set(TARGETS, q2, truth.measure(two_arms, q2), source="b")
+    data = flexcal.MeasurementSet.pooled([first, second])
     assert data.station_names == ["a", "b"] and data.station_of == [0] * 60 + [1] * 60
     result = flexcal.calibrate(two_arms, data, select="none", hold_out_stations=True)
     assert result.after.position_mean < 1.3 * 1.6 * NOISE, result.after
@@ -216,7 +221,7 @@ def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
     q = configurations(two_arms, 80, seed=42)
     positions = truth.measure(two_arms, q, occlude=0.0)
     positions[17, 1, 2] += 2e-3
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions)
+    data = target_set(TARGETS, q, positions)
     assert data.labels[:2] == ["#0", "#1"]
     result = flexcal.calibrate(two_arms, data, select="none")
     checks = result.data_checks
@@ -238,7 +243,7 @@ def test_a_marker_recording_fault_is_named_and_left_out(two_arms):
     q_other = configurations(two_arms, 40, seed=43)
     other_positions = truth.measure(two_arms, q_other, occlude=0.0)
     other_positions[5, 0, 0] -= 2e-3
-    other = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q_other, other_positions)
+    other = target_set(TARGETS, q_other, other_positions)
     validation = clean.validate(other)
     checks = validation.data_checks
     assert len(checks) == 1 and "left at #5" in checks[0], checks
@@ -263,7 +268,7 @@ def test_the_elasto_geometric_model_with_two_markers(two_arms, tmp_path):
     # at zero within 4 standard errors.
     truth = Truth(two_arms, seed=21)
     q = configurations(two_arms, 150, seed=22)
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    data = target_set(TARGETS, q, truth.measure(two_arms, q))
     # Compliances the poses do not determine stay at their start: start
     # them at this rigid truth's zero (a start of 10 urad/N.m would put a
     # sag the robot does not have into every prediction, which the
@@ -312,22 +317,29 @@ def test_bad_multi_target_input_is_a_named_error(two_arms):
     q = configurations(two_arms, 4, seed=31)
     good = np.zeros((4, 2, 3))
     with pytest.raises(flexcal.ShapeError, match=r"positions: expected shape \(4, 2, 3\)"):
-        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, np.zeros((4, 3)))
+        target_set(TARGETS, q, np.zeros((4, 3)))
     partly = good.copy()
     partly[1, 0, 2] = np.nan
     with pytest.raises(flexcal.NotFiniteError, match=r"positions\[1, 0\] \(target `left`\)"):
-        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, partly)
+        target_set(TARGETS, q, partly)
     with pytest.raises(flexcal.InputError, match="no target named `middle`"):
-        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, good, fixed=["middle"])
+        target_set(TARGETS, q, good, fixed=["middle"])
     never = good.copy()
     never[:, 1] = np.nan
     with pytest.raises(flexcal.MeasurementError, match="target `right` is observed on no pose"):
-        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, never)
-    data = flexcal.TargetMeasurementSet.from_arrays(
+        target_set(TARGETS, q, never)
+    data = target_set(
         [("left", "LH", OFFSET), ("right", "XX", OFFSET)], q, good
     )
     with pytest.raises(flexcal.MeasurementError, match="no frame `XX`"):
         flexcal.calibrate(two_arms, data, select="none")
+    # The one-target and several-target keywords of the one constructor.
+    with pytest.raises(flexcal.InputError, match="std: not available with targets"):
+        target_set(TARGETS, q, good, std=np.full((4, 3), 1e-5))
+    with pytest.raises(flexcal.InputError, match="fixed: `left` given without targets"):
+        flexcal.MeasurementSet.from_arrays(q, good[:, 0], fixed=["left"])
+    with pytest.raises(flexcal.InputError, match="format: \"ipa\" has no per-target columns"):
+        flexcal.MeasurementSet.read_csv("markers.csv", format="ipa", targets="targets.toml")
     with pytest.raises(flexcal.InputError, match="select"):
         flexcal.calibrate(two_arms, data, select="maybe")
 
@@ -355,7 +367,7 @@ def test_orientations_of_several_targets_are_fitted(two_arms):
     for t, (_, frame, _) in enumerate(TARGETS):
         hand = truth.frame_rotation @ two_arms.fk(q, xi=truth.xi, frame=frame)[:, :3, :3]
         turns[:, t] = rotation_vector(hand) + truth.rng.normal(0.0, sigma, (len(q), 3))
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, orientations=turns)
+    data = target_set(TARGETS, q, positions, orientations=turns)
     result = flexcal.calibrate(two_arms, data, select="none")
     status = {u.name: u.status for u in result.parameters}
     for name, _, _ in TARGETS:
@@ -365,11 +377,11 @@ def test_orientations_of_several_targets_are_fitted(two_arms):
         assert errors.orientation_rms is not None and errors.orientation_rms < 3 * sigma, name
     # Positions alone: the markers' rotations are not unknowns at all.
     positions_only = flexcal.calibrate(
-        two_arms, flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions), select="none"
+        two_arms, target_set(TARGETS, q, positions), select="none"
     )
     assert not any(u.name.startswith("target.left.r") for u in positions_only.parameters)
     with pytest.raises(flexcal.ShapeError, match="orientations"):
-        flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions, orientations=turns[:, :1])
+        target_set(TARGETS, q, positions, orientations=turns[:, :1])
 
 
 def test_the_old_names_are_deprecated_aliases(two_arms):
@@ -377,8 +389,8 @@ def test_the_old_names_are_deprecated_aliases(two_arms):
     `TargetValidationResult` still work for one release, and say so."""
     truth = Truth(two_arms, seed=31)
     q = configurations(two_arms, 40, seed=32)
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
-    with pytest.warns(DeprecationWarning, match="flexcal.calibrate takes a TargetMeasurementSet"):
+    data = target_set(TARGETS, q, truth.measure(two_arms, q))
+    with pytest.warns(DeprecationWarning, match="flexcal.calibrate takes a MeasurementSet of several targets"):
         old = flexcal.calibrate_targets(two_arms, data, select="none")
     new = flexcal.calibrate(two_arms, data, select="none")
     assert type(new) is flexcal.CalibrationResult
@@ -388,6 +400,12 @@ def test_the_old_names_are_deprecated_aliases(two_arms):
     with pytest.warns(DeprecationWarning, match="returns a ValidationResult for either kind"):
         validation_alias = flexcal.TargetValidationResult
     assert validation_alias is flexcal.ValidationResult
+    with pytest.warns(DeprecationWarning, match="MeasurementSet.from_arrays and MeasurementSet.read_csv take targets="):
+        set_alias = flexcal.TargetMeasurementSet
+    old_set = set_alias.from_arrays(TARGETS, q, truth.measure(two_arms, q), fixed=["left"])
+    assert type(old_set) is flexcal.MeasurementSet and old_set.format == "targets"
+    assert old_set.target_names == ["left", "right"]
+    assert type(set_alias.pooled([old_set, old_set])) is flexcal.MeasurementSet
     assert old.identified == new.identified
     with pytest.raises(AttributeError, match="no attribute 'NoSuchName'"):
         flexcal.NoSuchName
@@ -401,7 +419,7 @@ def test_one_result_for_either_kind_of_set(two_arms):
     truth = Truth(two_arms, seed=41)
     q = configurations(two_arms, 60, seed=42)
     positions = truth.measure(two_arms, q, occlude=0.0)
-    several = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, positions)
+    several = target_set(TARGETS, q, positions)
     # The left marker alone, as a one-target set: its "TCP" is the hand
     # frame only when the robot's end frame is LH, so compare the kinds of
     # result, not the figures.
@@ -418,11 +436,11 @@ def test_one_result_for_either_kind_of_set(two_arms):
     assert by_several.position_errors.shape == (120,)
     assert "2 targets" in repr(by_several) and "targets" not in repr(by_one)
     # Checks take a set of the kind the result was identified from.
-    with pytest.raises(flexcal.InputError, match="other: a MeasurementSet, but .* several targets"):
+    with pytest.raises(flexcal.InputError, match="other: a set of one target, but .* several targets"):
         by_several.validate(one)
-    with pytest.raises(flexcal.InputError, match="other: a TargetMeasurementSet, but .* one target"):
+    with pytest.raises(flexcal.InputError, match="other: a set with targets, but .* one target"):
         by_one.accuracy_coverage(several)
-    with pytest.raises(flexcal.InputError, match="other: expected a MeasurementSet or a TargetMeasurementSet"):
+    with pytest.raises(flexcal.InputError, match="other: expected a MeasurementSet, got"):
         by_one.cross_check(q)
     # One validation class: per-target figures for several targets, `tcp`
     # for one.
@@ -442,7 +460,7 @@ def test_one_result_for_either_kind_of_set(two_arms):
         flexcal.calibrate(two_arms, several, fixed_target=True)
     with pytest.raises(flexcal.InputError, match="target: not available with several targets"):
         flexcal.calibrate(two_arms, several, target=[0.0, 0.0, 0.1])
-    with pytest.raises(flexcal.InputError, match="data: expected a MeasurementSet or a TargetMeasurementSet, got list"):
+    with pytest.raises(flexcal.InputError, match="data: expected a MeasurementSet, got list"):
         flexcal.calibrate(two_arms, [1, 2, 3])
 
 
@@ -452,7 +470,7 @@ def test_extrapolation_widens_bounds_outside_the_training_range_only(two_arms):
     without it, outside they are at least as wide."""
     truth = Truth(two_arms, seed=51)
     q = configurations(two_arms, 80, seed=52)
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    data = target_set(TARGETS, q, truth.measure(two_arms, q))
     plain = flexcal.calibrate(two_arms, data, select="none")
     grown = flexcal.calibrate(two_arms, data, select="none", extrapolation=True)
     assert plain.extrapolation_growth is None and plain.extrapolation_notes == []
@@ -479,7 +497,7 @@ def test_a_campaign_with_several_targets_runs_as_calibrate_does(two_arms, tmp_pa
     what `flexcal.calibrate` gives on the same file."""
     truth = Truth(two_arms, seed=61)
     q = configurations(two_arms, 50, seed=62)
-    data = flexcal.TargetMeasurementSet.from_arrays(TARGETS, q, truth.measure(two_arms, q))
+    data = target_set(TARGETS, q, truth.measure(two_arms, q))
     data.write_csv(tmp_path / "markers.csv")
     (tmp_path / "c.toml").write_text(
         f"""
@@ -495,9 +513,7 @@ select = "none"
 """
     )
     result = flexcal.Campaign.read(tmp_path / "c.toml").run(write_outputs=False)
-    read = flexcal.TargetMeasurementSet.read_csv(
-        tmp_path / "markers.csv", DATA / "two_arms_targets.toml"
-    )
+    read = flexcal.MeasurementSet.read_csv(tmp_path / "markers.csv", targets=DATA / "two_arms_targets.toml")
     direct = flexcal.calibrate(two_arms, read, select="none")
     assert set(result.target_offsets) == {"left", "right"}
     assert result.identified == direct.identified
