@@ -49,13 +49,7 @@ pub(crate) fn set_from_arrays<'py>(
             "fixed: no target named `{unknown}`"
         )));
     }
-    let (q, q_shape) = exact("q", &q, &[None, None])?;
-    let (n, dof) = (q_shape[0], q_shape[1]);
-    if n == 0 || dof == 0 {
-        return Err(ShapeError::new_err(format!(
-            "q: expected shape (n, dof) with n, dof > 0, got ({n}, {dof})"
-        )));
-    }
+    let (q, n, dof) = crate::measurement::configurations(&q)?;
     let view = positions.as_array();
     let t = described.len();
     if view.shape() != [n, t, 3] {
