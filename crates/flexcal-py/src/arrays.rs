@@ -212,3 +212,17 @@ pub fn to_numpy<'py>(
         ArrayD::from_shape_vec(IxDyn(shape), data).unwrap_or_else(|_| ArrayD::zeros(IxDyn(&[0])));
     array.into_pyarray(py)
 }
+
+/// The configurations `q` (n, dof) with n, dof > 0, row-major, and n, dof.
+pub(crate) fn configurations(
+    q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+) -> PyResult<(Vec<f64>, usize, usize)> {
+    let (q, q_shape) = exact("q", q, &[None, None])?;
+    let (n, dof) = (q_shape[0], q_shape[1]);
+    if n == 0 || dof == 0 {
+        return Err(ShapeError::new_err(format!(
+            "q: expected shape (n, dof) with n, dof > 0, got ({n}, {dof})"
+        )));
+    }
+    Ok((q, n, dof))
+}

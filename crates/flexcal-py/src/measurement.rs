@@ -38,20 +38,6 @@ pub struct MeasurementSet {
     pub(crate) origin: Origin,
 }
 
-/// The configurations `q` (n, dof) with n, dof > 0, row-major, and n, dof.
-pub(crate) fn configurations(
-    q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
-) -> PyResult<(Vec<f64>, usize, usize)> {
-    let (q, q_shape) = exact("q", q, &[None, None])?;
-    let (n, dof) = (q_shape[0], q_shape[1]);
-    if n == 0 || dof == 0 {
-        return Err(ShapeError::new_err(format!(
-            "q: expected shape (n, dof) with n, dof > 0, got ({n}, {dof})"
-        )));
-    }
-    Ok((q, n, dof))
-}
-
 fn column3(values: &[f64], k: usize) -> Vector3<f64> {
     Vector3::new(values[3 * k], values[3 * k + 1], values[3 * k + 2])
 }
@@ -115,7 +101,7 @@ impl MeasurementSet {
                 "fixed: `{name}` given without targets (fixed names targets of the targets list)"
             )));
         }
-        let (q, n, dof) = configurations(&q)?;
+        let (q, n, dof) = crate::arrays::configurations(&q)?;
         let (p, _) = exact("positions", &positions, &[Some(n), Some(3)])?;
         let optional = |name: &str, a: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>| {
             a.map(|a| exact(name, &a, &[Some(n), Some(3)]).map(|r| r.0))

@@ -49,7 +49,7 @@ pub(crate) fn set_from_arrays<'py>(
             "fixed: no target named `{unknown}`"
         )));
     }
-    let (q, n, dof) = crate::measurement::configurations(&q)?;
+    let (q, n, dof) = crate::arrays::configurations(&q)?;
     let view = positions.as_array();
     let t = described.len();
     if view.shape() != [n, t, 3] {

@@ -29,6 +29,7 @@ use crate::calib::{
 use crate::{Error, Result};
 
 pub mod html;
+pub mod targets;
 pub mod text;
 
 /// Format of a measurement file.
@@ -519,7 +520,7 @@ pub fn run_calibration(
     config: &CalibrationConfig,
 ) -> Result<CalibrationRun> {
     let targets = match &config.targets {
-        Some(_) => Some(crate::targets::check_targets_config(config)?),
+        Some(_) => Some(targets::check_targets_config(config)?),
         None => {
             check_one_target_config(config)?;
             None
@@ -527,7 +528,7 @@ pub fn run_calibration(
     };
     let mut exclusions = Vec::new();
     let (data, validation_set) = match targets {
-        Some(path) => crate::targets::read_target_sets(config, path, &mut exclusions)?,
+        Some(path) => targets::read_target_sets(config, path, &mut exclusions)?,
         None => read_one_target_sets(config, &mut exclusions)?,
     };
     let mut options = config.options.clone();

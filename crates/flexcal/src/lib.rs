@@ -65,7 +65,6 @@ pub mod pose_selection;
 pub mod report;
 pub mod robot;
 pub mod study;
-pub mod targets;
 
 pub use error::{Error, Result, cause_chain_line};
 pub use robot::{RobotFileFormat, RobotSpec, load_description, load_robot, load_robot_with};
