@@ -14,6 +14,44 @@ fn stderr(out: &std::process::Output) -> String {
 
 const BOX: &str = "-90:90,-125:-35,30:125,-140:30,30:150,-170:170";
 
+/// `flexcal plan` for the UR10 in `BOX` (noise 0.02 mm, 20 region points,
+/// at most 20 poses) with `[candidate count, poses]` and `extra` flags,
+/// writing `poses.csv` and `plan.json` into `dir`; the output and the
+/// report's path.
+fn ur10_plan(
+    dir: &std::path::Path,
+    [candidates, poses]: [&str; 2],
+    extra: &[&str],
+) -> (std::process::Output, std::path::PathBuf) {
+    let report = dir.join("plan.json");
+    let out_file = dir.join("poses.csv");
+    let mut args = vec![
+        "plan",
+        "--robot",
+        "ur10",
+        "--noise-mm",
+        "0.02",
+        "--box-deg",
+        BOX,
+        "--candidate-count",
+        candidates,
+        "--region-count",
+        "20",
+        "--poses",
+        poses,
+        "--max-poses",
+        "20",
+    ];
+    args.extend_from_slice(extra);
+    args.extend([
+        "--out",
+        out_file.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    (flexcal(&args), report)
+}
+
 #[test]
 fn plan_writes_the_poses_programs_and_pages() {
     let dir = tempfile::tempdir().unwrap();
@@ -100,30 +138,11 @@ fn plan_writes_the_poses_programs_and_pages() {
 #[test]
 fn plan_with_full_poses() {
     let dir = tempfile::tempdir().unwrap();
-    let report = dir.path().join("plan.json");
-    let out = flexcal(&[
-        "plan",
-        "--robot",
-        "ur10",
-        "--noise-mm",
-        "0.02",
-        "--orientation-noise-deg",
-        "0.01,0.01,0.02",
-        "--box-deg",
-        BOX,
-        "--candidate-count",
-        "40",
-        "--region-count",
-        "20",
-        "--poses",
-        "12",
-        "--max-poses",
-        "20",
-        "--out",
-        dir.path().join("poses.csv").to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-    ]);
+    let (out, report) = ur10_plan(
+        dir.path(),
+        ["40", "12"],
+        &["--orientation-noise-deg", "0.01,0.01,0.02"],
+    );
     assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
     let text = stdout(&out);
     assert!(
@@ -144,34 +163,18 @@ fn plan_with_full_poses() {
 #[test]
 fn plan_within_the_instruments_sight() {
     let dir = tempfile::tempdir().unwrap();
-    let report = dir.path().join("plan.json");
-    let out = flexcal(&[
-        "plan",
-        "--robot",
-        "ur10",
-        "--noise-mm",
-        "0.02",
-        "--box-deg",
-        BOX,
-        "--candidate-count",
-        "100",
-        "--region-count",
-        "20",
-        "--poses",
-        "15",
-        "--max-poses",
-        "20",
-        "--reach-box-mm",
-        "-2000:2000,-2000:2000,-200:2000",
-        "--sight-from-mm",
-        "2500,0,500",
-        "--max-incidence-deg",
-        "110",
-        "--out",
-        dir.path().join("poses.csv").to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-    ]);
+    let (out, report) = ur10_plan(
+        dir.path(),
+        ["100", "15"],
+        &[
+            "--reach-box-mm",
+            "-2000:2000,-2000:2000,-200:2000",
+            "--sight-from-mm",
+            "2500,0,500",
+            "--max-incidence-deg",
+            "110",
+        ],
+    );
     assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
