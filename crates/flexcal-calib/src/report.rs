@@ -303,6 +303,15 @@ pub struct IdentificationJson {
     pub converged: bool,
     /// Iterations of the final solve.
     pub iterations: usize,
+    /// Trial points of the final solve the model could not evaluate (a
+    /// loop that cannot close, an equilibrium that does not converge),
+    /// each refused as a step that raised the cost; zero in a smooth fit.
+    #[serde(default)]
+    pub refused_trials: usize,
+    /// The model's error at the last refused trial point, with its cause;
+    /// absent when none was refused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last_refusal: Option<String>,
     /// Cost `1/2 ||W r||^2` at the start and after each iteration, every solve in order (Figure 7 data).
     pub cost_history: Vec<f64>,
     /// RMS position error (mm) at the same iterates.
@@ -632,6 +641,8 @@ impl CalibrationReportJson {
             termination: format!("{:?}", calibration.solve.termination),
             converged: calibration.solve.termination.is_converged(),
             iterations: calibration.solve.iterations,
+            refused_trials: calibration.solve.refused_trials,
+            last_refusal: calibration.solve.last_refusal.clone(),
             cost_history: calibration.cost_history.clone(),
             position_rms_history_mm: calibration
                 .residual_history

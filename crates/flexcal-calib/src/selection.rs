@@ -49,7 +49,7 @@
 //! inside the training poses' ranges, where every reasonable candidate
 //! predicts alike and the simplest wins. A calibrated robot is used beyond
 //! them: in joint angles, and in the gravity load, which a campaign may
-//! apply from one side only. Every candidate is therefore also scored on
+//! apply from one side only. Candidates are therefore also scored on
 //! **extrapolating folds** ([`crate::folds`]): one per joint, holding out
 //! the ends of its angle range and of its gravity-torque range. The report
 //! gives both scores side by side, and [`SelectOn`] says which the search
@@ -57,6 +57,12 @@
 //! the region the robot is to be used in ([`SelectionOptions::region`]: the
 //! validation poses, the accuracy map's grid) leaves the training poses'
 //! range by the report's extrapolation check, else the ordinary ones.
+//! When the extrapolating scores choose, every candidate gets them; when
+//! the ordinary ones choose, only the models the search moved through (the
+//! model with every group, each model a step took, the chosen one) get
+//! them, after the search: they then inform and do not choose, and on a
+//! robot with many joints the extrapolating folds (one per joint) would
+//! otherwise cost several times the ordinary ones.
 //!
 //! Measurements of several targets per pose are selected the same way
 //! ([`select_model`], [`calibrate_selected`] with either kind of set): the folds
@@ -442,6 +448,12 @@ impl SelectionReport {
                     .collect::<Vec<_>>()
                     .join(", ")
             ));
+            if self.chosen_on != SelectOn::Extrapolation {
+                lines.push(
+                    "  (the ordinary scores choose: the extrapolating ones are given for the models the search moved through)"
+                        .into(),
+                );
+            }
         }
         for c in &self.candidates {
             let mut score = match (&c.failure, c.cv_mean_error_mm, c.bic) {
@@ -937,26 +949,34 @@ fn score_candidate(
             None
         }
     };
-    let extrapolation = if extrapolating.is_empty() {
-        None
-    } else {
-        match fold_summary(extrapolating) {
-            Ok((mean, fold_means, rank, se)) => {
-                candidate.extrapolation_mean_error_mm = Some(mean * 1e3);
-                candidate.extrapolation_standard_error_mm = Some(se * 1e3);
-                candidate.extrapolation_fold_errors_mm =
-                    fold_means.iter().map(|v| v * 1e3).collect();
-                Some((mean, fold_means, rank))
-            }
-            Err(e) => {
-                candidate.extrapolation_failure = Some(e.to_string());
-                None
-            }
-        }
-    };
+    let extrapolation = extrapolation_score(candidate, extrapolating);
     match on {
         SelectOn::Extrapolation => extrapolation,
         _ => interpolation,
+    }
+}
+
+/// Fills the extrapolating scores of `candidate` from its fits on the
+/// extrapolating folds and returns them (`None` without fits or when they
+/// failed, the reason in the candidate).
+fn extrapolation_score(
+    candidate: &mut CandidateScore,
+    extrapolating: Vec<Result<FitOutcome, CalibError>>,
+) -> Option<Score> {
+    if extrapolating.is_empty() {
+        return None;
+    }
+    match fold_summary(extrapolating) {
+        Ok((mean, fold_means, rank, se)) => {
+            candidate.extrapolation_mean_error_mm = Some(mean * 1e3);
+            candidate.extrapolation_standard_error_mm = Some(se * 1e3);
+            candidate.extrapolation_fold_errors_mm = fold_means.iter().map(|v| v * 1e3).collect();
+            Some((mean, fold_means, rank))
+        }
+        Err(e) => {
+            candidate.extrapolation_failure = Some(e.to_string());
+            None
+        }
     }
 }
 
@@ -1018,19 +1038,9 @@ impl Scorer<'_> {
                 new.push(key.clone());
             }
         }
-        let options: Vec<CalibrationOptions> = new
-            .iter()
-            .map(|key| {
-                let mut options = candidate_options(self.model, self.base, key);
-                // Scores need no spread ratios; fold fits serve their
-                // predictions only (BIC's fits keep their solves: BIC
-                // scores the cost itself).
-                options.spread_reference = false;
-                options.prediction_only = self.ordinary.is_some();
-                options
-            })
-            .collect();
-        let fits = run_fits(self.model, self.set, &self.folds, &options);
+        let options: Vec<CalibrationOptions> =
+            new.iter().map(|key| self.fold_options(key)).collect();
+        let fits = run_fits(self.model, self.set, self.choosing_folds(), &options);
         for (key, fits) in new.into_iter().zip(fits) {
             let mut candidate = CandidateScore::unscored(key.clone());
             let out = score_candidate(&mut candidate, fits, self.ordinary, self.on);
@@ -1045,6 +1055,60 @@ impl Scorer<'_> {
                     .and_then(|(_, s)| s.clone())
             })
             .collect()
+    }
+}
+
+impl Scorer<'_> {
+    /// The folds whose scores the search chooses on: every fold when the
+    /// extrapolating scores choose, the ordinary ones otherwise (BIC: none).
+    fn choosing_folds(&self) -> &[(MeasurementSet, MeasurementSet)] {
+        match (self.ordinary, self.on) {
+            (Some(ordinary), SelectOn::Interpolation | SelectOn::Auto) => &self.folds[..ordinary],
+            _ => &self.folds,
+        }
+    }
+
+    /// The extrapolating scores of the models in `path`, when the search
+    /// chose on the ordinary ones and left them out: filled into their
+    /// candidates in `report` (module docs).
+    fn score_extrapolation(&self, path: &[Vec<TermGroup>], report: &mut SelectionReport) {
+        let Some(ordinary) = self.ordinary else {
+            return;
+        };
+        if self.choosing_folds().len() == self.folds.len() {
+            return;
+        }
+        let mut keys: Vec<Vec<TermGroup>> = Vec::new();
+        for groups in path {
+            let mut key = groups.clone();
+            key.sort();
+            let scored = report
+                .candidates
+                .iter()
+                .any(|c| c.groups == key && c.failure.is_none());
+            if scored && !keys.contains(&key) {
+                keys.push(key);
+            }
+        }
+        let options: Vec<CalibrationOptions> =
+            keys.iter().map(|key| self.fold_options(key)).collect();
+        let fits = run_fits(self.model, self.set, &self.folds[ordinary..], &options);
+        for (key, fits) in keys.iter().zip(fits) {
+            if let Some(candidate) = report.candidates.iter_mut().find(|c| &c.groups == key) {
+                extrapolation_score(candidate, fits);
+            }
+        }
+    }
+
+    /// The options of the candidate `key` for its fold fits.
+    fn fold_options(&self, key: &[TermGroup]) -> CalibrationOptions {
+        let mut options = candidate_options(self.model, self.base, key);
+        // Scores need no spread ratios; fold fits serve their
+        // predictions only (BIC's fits keep their solves: BIC
+        // scores the cost itself).
+        options.spread_reference = false;
+        options.prediction_only = self.ordinary.is_some();
+        options
     }
 }
 
@@ -1134,14 +1198,16 @@ fn judge_removal(g: TermGroup, s: &Score, current: &Score, cv: bool) -> (bool, S
 
 /// The backward search from `chosen` (score `current`): at each step the
 /// removal that leaves the best score, taken while [`judge_removal`]
-/// allows. Returns the groups kept.
+/// allows. Returns the models it moved through, from `chosen` to the
+/// groups kept (the last).
 fn backward_search(
     scorer: &mut Scorer<'_>,
     mut chosen: Vec<TermGroup>,
     mut current: Score,
     report: &mut SelectionReport,
-) -> Vec<TermGroup> {
+) -> Vec<Vec<TermGroup>> {
     let cv = scorer.ordinary.is_some();
+    let mut path = vec![chosen.clone()];
     loop {
         let (removed, trials): (Vec<TermGroup>, Vec<Vec<TermGroup>>) =
             removal_trials(&chosen).into_iter().unzip();
@@ -1156,14 +1222,15 @@ fn backward_search(
         }
         let Some((g, trial, s)) = best else {
             report.reasons.push("no group left to remove".into());
-            return chosen;
+            return path;
         };
         let (take, why) = judge_removal(g, &s, &current, cv);
         report.reasons.push(why);
         if !take {
-            return chosen;
+            return path;
         }
         chosen = trial;
+        path.push(chosen.clone());
         current = s;
     }
 }
@@ -1236,7 +1303,9 @@ pub fn select_model(
             reason: format!("the model with every group could not be scored: {failure}"),
         });
     };
-    let mut chosen = backward_search(&mut scorer, groups, current, &mut report);
+    let path = backward_search(&mut scorer, groups, current, &mut report);
+    scorer.score_extrapolation(&path, &mut report);
+    let mut chosen = path.last().cloned().unwrap_or_default();
     chosen.sort();
     report.chosen = chosen.clone();
     Ok((report, candidate_options(model, base, &chosen)))

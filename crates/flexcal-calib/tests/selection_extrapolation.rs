@@ -150,11 +150,52 @@ fn auto_chooses_on_extrapolating_folds_when_the_region_leaves_the_training_range
         region: configurations(&train),
         ..selection
     };
+    let every_candidate = report;
     let (report, _) = select_model(&model, &train, &richest, &inside).unwrap();
     assert_eq!(report.chosen_on, SelectOn::Interpolation);
     assert!(
         report.chosen_on_reason.contains("within"),
         "{}",
         report.chosen_on_reason
+    );
+    // The ordinary scores chose: the extrapolating ones are computed after
+    // the search, for the models it moved through only: the model with
+    // every group (scored first), each model a removal took, the chosen
+    // one. They are the same fits as when every candidate gets them.
+    let path_steps = report
+        .reasons
+        .iter()
+        .filter(|r| r.contains("removed"))
+        .count();
+    let with_scores: Vec<_> = report
+        .candidates
+        .iter()
+        .filter(|c| c.extrapolation_mean_error_mm.is_some())
+        .collect();
+    assert_eq!(
+        with_scores.len(),
+        path_steps + 1,
+        "{:#?}",
+        report.candidates
+    );
+    assert_eq!(report.candidates[0], every_candidate.candidates[0]);
+    let chosen = report
+        .candidates
+        .iter()
+        .find(|c| c.groups == report.chosen)
+        .expect("the chosen model was scored");
+    assert_eq!(chosen.extrapolation_fold_errors_mm.len(), 6, "{chosen:?}");
+    assert!(
+        report.candidates.len() > with_scores.len(),
+        "some candidate off the path: {:#?}",
+        report.candidates
+    );
+    assert!(
+        report
+            .lines()
+            .iter()
+            .any(|l| l.contains("given for the models the search moved through")),
+        "{:?}",
+        report.lines()
     );
 }

@@ -144,6 +144,9 @@ fn twin_files_calibrate_end_to_end() {
         assert!(id[key].as_f64().is_some(), "identification.{key}");
     }
     assert!(v["position_mean_mm"].as_f64().unwrap() < 0.1);
+    // A smooth fit refuses no trial point, and says so.
+    assert_eq!(id["refused_trials"], 0, "{id}");
+    assert!(id.get("last_refusal").is_none(), "{id}");
     // The nominal robot registered on the camera: tenths of a millimetre.
     assert!(v["before"]["position_mean_mm"].as_f64().unwrap() > 0.3);
     // Identified unknowns carry their spread ratio, the others none.

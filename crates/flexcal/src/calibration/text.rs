@@ -222,6 +222,14 @@ pub fn identification_text(c: &Calibration) -> String {
         c.solve.termination,
         c.solve.iterations
     );
+    if c.solve.refused_trials > 0 {
+        put!(
+            out,
+            "{} trial point(s) the model could not evaluate, refused as steps (last: {})",
+            c.solve.refused_trials,
+            c.solve.last_refusal.as_deref().unwrap_or("no reason given")
+        );
+    }
     out
 }
 
