@@ -62,7 +62,9 @@
 //! model with every group, each model a step took, the chosen one) get
 //! them, after the search: they then inform and do not choose, and on a
 //! robot with many joints the extrapolating folds (one per joint) would
-//! otherwise cost several times the ordinary ones.
+//! otherwise cost several times the ordinary ones
+//! ([`SelectionOptions::every_extrapolation_score`] asks for every
+//! candidate's).
 //!
 //! Measurements of several targets per pose are selected the same way
 //! ([`select_model`], [`calibrate_selected`] with either kind of set): the folds
@@ -278,6 +280,12 @@ pub struct SelectionOptions {
     /// the accuracy map's grid. Empty when unknown; [`SelectOn::Auto`] then
     /// chooses on the ordinary folds.
     pub region: Vec<Vec<f64>>,
+    /// Whether every candidate is scored on the extrapolating folds when
+    /// the ordinary scores choose (default `false`: only the models the
+    /// search moved through, which costs a fit per extrapolating fold for
+    /// a few models instead of every candidate; module docs). When the
+    /// extrapolating scores choose, every candidate has them anyway.
+    pub every_extrapolation_score: bool,
 }
 
 impl Default for SelectionOptions {
@@ -290,6 +298,7 @@ impl Default for SelectionOptions {
             groups: None,
             select_on: SelectOn::Auto,
             region: Vec::new(),
+            every_extrapolation_score: false,
         }
     }
 }
@@ -448,7 +457,12 @@ impl SelectionReport {
                     .collect::<Vec<_>>()
                     .join(", ")
             ));
-            if self.chosen_on != SelectOn::Extrapolation {
+            let every = self.candidates.iter().all(|c| {
+                c.failure.is_some()
+                    || c.extrapolation_mean_error_mm.is_some()
+                    || c.extrapolation_failure.is_some()
+            });
+            if !every {
                 lines.push(
                     "  (the ordinary scores choose: the extrapolating ones are given for the models the search moved through)"
                         .into(),
@@ -1012,6 +1026,8 @@ struct Scorer<'s> {
     ordinary: Option<usize>,
     /// The score the search chooses on.
     on: SelectOn,
+    /// [`SelectionOptions::every_extrapolation_score`].
+    every_extrapolation_score: bool,
     /// Every set of groups scored so far (sorted), with its score.
     scored: Vec<(Vec<TermGroup>, Option<Score>)>,
 }
@@ -1059,11 +1075,16 @@ impl Scorer<'_> {
 }
 
 impl Scorer<'_> {
-    /// The folds whose scores the search chooses on: every fold when the
-    /// extrapolating scores choose, the ordinary ones otherwise (BIC: none).
+    /// The folds every candidate is fitted on: every fold when the
+    /// extrapolating scores choose or every candidate is to have them,
+    /// the ordinary ones otherwise (BIC: none).
     fn choosing_folds(&self) -> &[(MeasurementSet, MeasurementSet)] {
         match (self.ordinary, self.on) {
-            (Some(ordinary), SelectOn::Interpolation | SelectOn::Auto) => &self.folds[..ordinary],
+            (Some(ordinary), SelectOn::Interpolation | SelectOn::Auto)
+                if !self.every_extrapolation_score =>
+            {
+                &self.folds[..ordinary]
+            }
             _ => &self.folds,
         }
     }
@@ -1285,6 +1306,7 @@ pub fn select_model(
         folds,
         ordinary: cv.then_some(ordinary),
         on: chosen_on,
+        every_extrapolation_score: selection.every_extrapolation_score,
         scored: Vec::new(),
     };
     let Some(current) = scorer

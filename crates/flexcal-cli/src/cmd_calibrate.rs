@@ -201,9 +201,15 @@ pub struct CalibrateArgs {
     /// (folds holding out the ends of each joint's angle and gravity-torque
     /// ranges) or auto (default: extrapolation when the --accuracy-map grid
     /// leaves the training range; the --validate poses never choose). The
-    /// report gives both scores.
+    /// report gives both scores: for every candidate when the
+    /// extrapolating ones choose, else for the models the search moved
+    /// through.
     #[arg(long)]
     pub select_on: Option<flexcal::calib::SelectOn>,
+    /// Score every candidate on the extrapolating folds, also when the
+    /// ordinary scores choose (one fit per joint more for each candidate).
+    #[arg(long)]
+    pub every_extrapolation_score: bool,
     /// Predicted accuracy at the configurations of this CSV (columns
     /// q1..qn), written beside it as `<name>.accuracy.csv`.
     #[arg(long)]
@@ -376,6 +382,7 @@ fn model_flags(campaign: &mut Campaign, args: &CalibrateArgs) -> anyhow::Result<
     }
     set(&mut m.select, &args.select);
     set(&mut m.select_on, &args.select_on);
+    m.every_extrapolation_score |= args.every_extrapolation_score;
     m.strict |= args.strict;
     set(&mut m.max_se_length_mm, &args.max_se_length_mm);
     set(&mut m.max_se_angle_deg, &args.max_se_angle_deg);

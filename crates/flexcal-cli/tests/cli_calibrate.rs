@@ -920,8 +920,8 @@ fn select_on_flag_end_to_end() {
         [x + 3000.0, y - 200.0, z + 100.0]
     });
     let report = path(d, "report.json");
-    let run = |select_on: &str| {
-        flexcal(&[
+    let run_with = |select_on: &str, extra: &[&str]| {
+        let mut args = vec![
             "calibrate",
             "--robot",
             "ur10",
@@ -933,8 +933,11 @@ fn select_on_flag_end_to_end() {
             select_on,
             "--report",
             &report,
-        ])
+        ];
+        args.extend_from_slice(extra);
+        flexcal(&args)
     };
+    let run = |select_on: &str| run_with(select_on, &[]);
     let out = run("extrapolation");
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
@@ -977,6 +980,31 @@ fn select_on_flag_end_to_end() {
         read_json(&report)["selection"]["chosen_on"],
         "interpolation"
     );
+    // The ordinary scores chose: the extrapolating ones are given for the
+    // models the search moved through, every candidate's on request.
+    let has_extrapolation = |json: &serde_json::Value| -> Vec<bool> {
+        json["selection"]["candidates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["extrapolation_mean_error_mm"].is_f64())
+            .collect()
+    };
+    let path_only = has_extrapolation(&read_json(&report));
+    assert!(path_only[0], "the model with every group: {path_only:?}");
+    assert!(
+        stdout.contains("given for the models the search moved through")
+            == path_only.contains(&false),
+        "{stdout}"
+    );
+    std::fs::remove_file(&report).unwrap();
+    let out = run_with("auto", &["--every-extrapolation-score"]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let every = has_extrapolation(&read_json(&report));
+    assert!(every.iter().all(|&e| e), "{every:?}");
+    assert_eq!(every.len(), path_only.len());
+    assert!(!stdout.contains("given for the models the search moved through"));
     std::fs::remove_file(&report).unwrap();
     let out = run("sideways");
     let (stdout, stderr) = text(&out);

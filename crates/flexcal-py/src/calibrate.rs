@@ -53,6 +53,9 @@ use crate::robot::Robot;
 /// `"auto"` (default: the extrapolating folds when `region`, configurations
 /// (n, n_actuated) in rad or m where the calibrated robot is to be used,
 /// leaves the training poses' range; without `region`, the ordinary folds).
+/// `every_extrapolation_score`: every candidate scored on the extrapolating
+/// folds also when the ordinary ones choose (default: the models the search
+/// moved through only).
 /// `split_check`: identify again on odd / even and first / second halves of
 /// the poses (four more identifications; `result.split_check`), which
 /// raises the predicted 95 % bounds where the standard errors understate.
@@ -74,7 +77,7 @@ use crate::robot::Robot;
 /// Runs without the GIL; Ctrl-C returns at once with `KeyboardInterrupt`
 /// and stops the identification within one solver iteration.
 #[pyfunction]
-#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None, select_on = None, region = None, extrapolation = false, deflection = None))]
+#[pyo3(signature = (robot, data, model = "geometric", fix = Vec::new(), defer = None, method = "lm", weights = None, use_orientation = None, fixed_frame = false, fixed_target = false, target = None, max_se_length = None, max_se_angle = None, strict = false, masses = None, max_iterations = None, select = None, hold_out_stations = false, split_check = false, max_se_compliance = None, min_compliance_z = None, noise = None, select_on = None, region = None, extrapolation = false, deflection = None, every_extrapolation_score = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate<'py>(
     py: Python<'py>,
@@ -104,10 +107,12 @@ pub fn calibrate<'py>(
     region: Option<Vec<Vec<f64>>>,
     extrapolation: bool,
     deflection: Option<&str>,
+    every_extrapolation_score: bool,
 ) -> PyResult<CalibrationResult> {
     let data = AnySet::extract("data", data)?;
     let nominal = Arc::clone(&robot.model);
-    let selection = selection_keywords(select, select_on, region, data.len(), &nominal)?;
+    let mut selection = selection_keywords(select, select_on, region, data.len(), &nominal)?;
+    selection.every_extrapolation_score = every_extrapolation_score;
     let mut options = CalibrationOptions::for_model(&nominal);
     options.method = match method {
         "lm" => Method::LevenbergMarquardt,

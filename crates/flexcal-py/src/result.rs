@@ -345,6 +345,20 @@ impl CalibrationResult {
         self.calibration.solve.iterations
     }
 
+    /// Trial points of the final solve the model could not evaluate (a loop
+    /// that cannot close, an equilibrium that does not converge), each
+    /// refused as a step that raised the cost; 0 in a smooth fit.
+    #[getter]
+    fn refused_trials(&self) -> usize {
+        self.calibration.solve.refused_trials
+    }
+
+    /// The model's error at the last refused trial point, or None.
+    #[getter]
+    fn last_refusal(&self) -> Option<String> {
+        self.calibration.solve.last_refusal.clone()
+    }
+
     /// Cost 1/2 ||W r||^2 at the start and after each iteration, every solve
     /// in order (Figure 7's data), shape (k,).
     #[getter]

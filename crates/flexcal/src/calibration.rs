@@ -120,6 +120,11 @@ pub struct CalibrationConfig {
     /// training poses' range, [`calib::SelectionOptions::region`]; the
     /// validation poses never choose the model).
     pub select_on: calib::SelectOn,
+    /// Score every candidate on the extrapolating folds even when the
+    /// ordinary scores choose
+    /// ([`calib::SelectionOptions::every_extrapolation_score`]; default
+    /// `false`: the models the search moved through only).
+    pub every_extrapolation_score: bool,
     /// Configurations (CSV `q1..qn`) at which to predict the accuracy of the
     /// calibrated robot ([`CalibrationRun::accuracy_map`]).
     pub accuracy_grid: Option<PathBuf>,
@@ -155,6 +160,7 @@ impl CalibrationConfig {
             residual_inputs: Vec::new(),
             selection: None,
             select_on: calib::SelectOn::Auto,
+            every_extrapolation_score: false,
             accuracy_grid: None,
             extrapolation: false,
             targets: None,
@@ -551,6 +557,7 @@ pub fn run_calibration(
         } else {
             region_of_use(config)?
         },
+        every_extrapolation_score: config.every_extrapolation_score,
         ..Default::default()
     };
     // The options before selection, for the stations held out (each

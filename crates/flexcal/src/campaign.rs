@@ -200,6 +200,11 @@ pub struct ModelSection {
     /// range).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub select_on: Option<crate::calib::SelectOn>,
+    /// Score every candidate on the extrapolating folds, also when the
+    /// ordinary scores choose (`--every-extrapolation-score`; default: the
+    /// models the search moved through only).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub every_extrapolation_score: bool,
     /// Fail instead of freezing non-identifiable parameters (`--strict`).
     #[serde(default, skip_serializing_if = "is_false")]
     pub strict: bool,
@@ -433,6 +438,7 @@ impl Campaign {
             residual_inputs: self.checks.residual_model.clone(),
             selection: self.model.select,
             select_on: self.model.select_on.unwrap_or_default(),
+            every_extrapolation_score: self.model.every_extrapolation_score,
             accuracy_grid: self.checks.accuracy_map.clone(),
             extrapolation: self.checks.extrapolation,
             targets: self.data.targets.clone(),

@@ -54,6 +54,7 @@ fn full(dir: &Path) -> Campaign {
             target_mm: Some([1.5, -2.0, 300.25]),
             select: Some(SelectionMethod::Bic),
             select_on: Some(flexcal::calib::SelectOn::Extrapolation),
+            every_extrapolation_score: true,
             strict: true,
             max_se_length_mm: Some(4.0),
             max_se_angle_deg: Some(0.2),

@@ -504,6 +504,12 @@ class CalibrationResult:
     @property
     def iterations(self) -> int: ...
     @property
+    def refused_trials(self) -> int:
+        """Trial points of the final solve the model could not evaluate, refused as steps."""
+    @property
+    def last_refusal(self) -> Optional[str]:
+        """The model's error at the last refused trial point, or None."""
+    @property
     def cost_history(self) -> FloatArray: ...
     @property
     def position_rms_history(self) -> FloatArray:
@@ -590,6 +596,8 @@ def calibrate(
     select_on: Optional[Literal["interpolation", "extrapolation", "auto"]] = None,
     region: Optional[Sequence[Sequence[float]]] = None,
     extrapolation: bool = False,
+    deflection: Optional[Literal["one-step", "equilibrium", "auto"]] = None,
+    every_extrapolation_score: bool = False,
 ) -> CalibrationResult:
     """Identifies the robot (eqs. (7)-(12), (49)-(53)) from one target per pose or several.
     target (3,) in m (one target per pose only, as fixed_target); max_se_length in m; max_se_angle in rad.
@@ -602,7 +610,10 @@ def calibrate(
     min_compliance_z: a compliance is kept when its value is at least this many standard errors (default 2).
     noise: the instrument's noise per position axis (m); default from the file or the fit.
     select_on / region: which cross-validated score chooses, and where the robot is to be used (rad or m).
-    extrapolation: the error growth outside the training ranges, added to every predicted bound."""
+    extrapolation: the error growth outside the training ranges, added to every predicted bound.
+    deflection: the elastic deflection: one linear step, the static equilibrium, or auto (default: the mass table's, else one step).
+    every_extrapolation_score: every candidate scored on the extrapolating folds, also when the
+    ordinary ones choose (default: the models the search moved through)."""
 
 class Campaign:
     """A calibration campaign: everything one `flexcal calibrate` run takes

@@ -41,6 +41,7 @@ def test_calibrate_recovers_the_truth(ur10):
     )
     result = flexcal.calibrate(ur10, data, fixed_frame=True, fixed_target=True, select="none")
     assert result.converged, result.termination
+    assert result.refused_trials == 0 and result.last_refusal is None
     # Residual at the noise level: RMS of a 3-D error of 20 um per axis.
     assert result.after.position_rms < 1.5 * np.sqrt(3) * NOISE
     assert result.before.position_rms > 10 * NOISE
@@ -190,6 +191,17 @@ def test_model_selection_reports_what_it_chose(ur10, select):
     assert selection.lines()[-1].endswith(" + ".join(selection.chosen) or "base")
     report = json.loads(result.to_json())
     assert report["selection"]["reasons"] == selection.why
+    if select == "cv":
+        # The ordinary scores chose: the model with every group has its
+        # extrapolating score; every candidate has one on request.
+        assert selection.candidates[0].extrapolation_mean_error is not None
+        every = flexcal.calibrate(ur10, data, select="cv", every_extrapolation_score=True)
+        assert all(
+            c.extrapolation_mean_error is not None
+            for c in every.selection.candidates
+            if c.failure is None
+        )
+        assert every.selection.chosen == selection.chosen
 
 
 def test_without_selection_there_is_no_report(ur10):
