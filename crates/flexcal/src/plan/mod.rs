@@ -69,6 +69,7 @@ use crate::{Error, Result};
 
 pub(crate) mod design;
 mod html;
+pub mod noise_check;
 pub mod ipa_check;
 pub mod output;
 pub mod sight;

@@ -16,7 +16,7 @@
 use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
-use super::{Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
+use super::{CampaignPlan, Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
 use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet, MissesByRange};
 use crate::kinematics::Model;
 use crate::pose_file::Located;
@@ -91,15 +91,15 @@ impl TwinPlanCheck {
 }
 
 /// The twin's measurements: candidates, region, the model and the noise.
-struct TwinData {
-    model: Model,
-    candidates: MeasurementSet,
-    region: MeasurementSet,
-    noise_mm: f64,
-    orientation_noise_deg: [f64; 3],
+pub(super) struct TwinData {
+    pub(super) model: Model,
+    pub(super) candidates: MeasurementSet,
+    pub(super) region: MeasurementSet,
+    pub(super) noise_mm: f64,
+    pub(super) orientation_noise_deg: [f64; 3],
 }
 
-fn twin_data(seed: u64, switches: TruthSwitches) -> Result<TwinData> {
+pub(super) fn twin_data(seed: u64, switches: TruthSwitches) -> Result<TwinData> {
     let options = GeometricCampaignOptions {
         seed,
         n_validation: TWIN_CANDIDATES + TWIN_REGION,
@@ -147,7 +147,7 @@ impl TwinData {
 
     /// The errors over the region (mm) after calibrating on the measured
     /// candidates `rows`.
-    fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
+    pub(super) fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
         let set = self.candidates.subset(rows)?;
         let calibration = calib::calibrate(&self.model, &set, options)?;
         let report = calibration.validate(&self.model, &self.region, false)?;
@@ -158,19 +158,15 @@ impl TwinData {
             .collect())
     }
 
-    /// Plans `n` poses measuring full poses or positions only, calibrates
-    /// on their measurements (the same kind; `options`' orientation choice
-    /// overridden), validates.
-    fn check(
+    /// Plans `n` of the candidates for calibrating with `options`
+    /// ([`measuring`] the same), the instrument measuring full poses or
+    /// positions only; the region's points as the region.
+    pub(super) fn plan(
         &self,
         options: &CalibrationOptions,
         n: usize,
         full_poses: bool,
-    ) -> Result<(PlannedCampaignCheck, Vec<usize>)> {
-        let options = &CalibrationOptions {
-            use_orientation: Some(full_poses),
-            ..options.clone()
-        };
+    ) -> Result<CampaignPlan> {
         let mut config = PlanConfig::new(
             options.clone(),
             [self.noise_mm; 3],
@@ -180,7 +176,20 @@ impl TwinData {
         config.instrument = self.instrument(full_poses);
         config.count = Some(n);
         config.max_poses = Some(n);
-        let plan = match plan_campaign(&self.model, &config) {
+        plan_campaign(&self.model, &config)
+    }
+
+    /// Plans `n` poses measuring full poses or positions only, calibrates
+    /// on their measurements (the same kind; `options`' orientation choice
+    /// overridden), validates.
+    pub(super) fn check(
+        &self,
+        options: &CalibrationOptions,
+        n: usize,
+        full_poses: bool,
+    ) -> Result<(PlannedCampaignCheck, Vec<usize>)> {
+        let options = &measuring(options, full_poses);
+        let plan = match self.plan(options, n, full_poses) {
             Ok(plan) => plan,
             Err(e) => {
                 let refused = PlannedCampaignCheck {
@@ -216,7 +225,16 @@ impl TwinData {
     }
 }
 
-fn mean(v: &[f64]) -> f64 {
+/// `options` calibrating on full poses or positions only, as the plan's
+/// instrument measures.
+pub(super) fn measuring(options: &CalibrationOptions, full_poses: bool) -> CalibrationOptions {
+    CalibrationOptions {
+        use_orientation: Some(full_poses),
+        ..options.clone()
+    }
+}
+
+pub(super) fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
