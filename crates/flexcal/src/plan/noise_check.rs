@@ -5,8 +5,8 @@
 //! are measured without noise, then the camera's noise
 //! ([`crate::twin::truth::Photogrammetry::measure`], its own model) is
 //! drawn again and again on the same poses and the same truth; each draw
-//! is calibrated and validated over the region (the frame re-fitted, as
-//! [`super::twin_check`] validates). What the draws measure:
+//! is calibrated and validated over the region (the frame as identified,
+//! as [`super::twin_check`] validates). What the draws measure:
 //! - the coverage of the plan's 95 % bounds per draw, and its mean over the
 //!   draws (one draw's estimate is shared by every region point, so the
 //!   coverage of one campaign spreads from draw to draw);
@@ -36,14 +36,19 @@ pub struct DrawOutcome {
     /// Mean error over the region against the noisy region (mm).
     pub achieved_mean_error_mm: f64,
     /// RMS over the region of the calibrated model's error against the
-    /// noise-free region (the frame re-fitted): the estimation's own error
-    /// (mm).
+    /// noise-free region (the frame as identified): the estimation's own
+    /// error (mm).
     pub estimation_rms_mm: f64,
     /// Mean of the calibration's own 95 % bounds over the region
     /// ([`calib::Calibration::predicted_accuracy`]) (mm).
     pub calibration_mean_bound_95_mm: f64,
     /// Share of region points within the calibration's own bound.
     pub calibration_coverage: f64,
+    /// [`DrawOutcome::estimation_rms_mm`] with the frame re-fitted on the
+    /// noise-free region (positions and orientations) (mm).
+    pub estimation_rms_refitted_mm: f64,
+    /// [`estimation_rms_variants`] of this calibration over the region (mm).
+    pub predicted_variants_mm: [f64; 4],
     /// Unknowns the calibration leaves at their start (non-identifiable or
     /// poorly identifiable) that the plan identifies, and the other way
     /// round (`name: plan -> calibration`).
@@ -127,6 +132,13 @@ impl NoiseDrawCheck {
     /// The header and the row, then each draw's status differences.
     pub fn to_markdown(&self) -> String {
         let mut out = format!("{}{}", Self::MARKDOWN_HEADER, self.to_markdown_row());
+        let v = |i: usize| self.spread(|d| d.predicted_variants_mm[i].powi(2)).0.sqrt();
+        let a = self.spread(|d| d.estimation_rms_refitted_mm.powi(2)).0.sqrt();
+        let nf = self.noise_free.predicted_variants_mm;
+        out.push_str(&format!(
+            "estimation RMS (mm) predicted by the calibrations' covariance: conditioned {:.4}, marginal robot {:.4}, with the frame {:.4}, frame re-fitted {:.4} (noise-free calibration: {:.4} {:.4} {:.4} {:.4}); achieved with the frame re-fitted on the region {a:.4}\n",
+            v(0), v(1), v(2), v(3), nf[0], nf[1], nf[2], nf[3]
+        ));
         for (k, d) in self.draws.iter().enumerate() {
             if !d.status_differences.is_empty() {
                 out.push_str(&format!("draw {k}: {}\n", d.status_differences.join(", ")));
@@ -180,6 +192,71 @@ fn with_noise(
     )?)
 }
 
+/// RMS over the points of `set` (positions) of the calibrated model's
+/// error under `calibration`'s covariance, four ways (mm): the robot's
+/// unknowns conditioned on the frame's (what the bounds use), the robot's
+/// marginal, every unknown with the frame's (the frame as identified), and
+/// every unknown with the frame re-fitted on `set` (the part of the
+/// prediction's error a rigid motion of the frame cannot absorb over the
+/// points, the linearised least-squares re-fit of positions).
+pub fn estimation_rms_variants(
+    calibration: &calib::Calibration,
+    model: &crate::kinematics::Model,
+    set: &MeasurementSet,
+) -> Result<[f64; 4]> {
+    use crate::optim::{Jacobian, Residuals};
+    use nalgebra::DMatrix;
+    let fail = |reason: String| Error::InvalidParameter {
+        parameter: "calibration".into(),
+        message: reason,
+    };
+    let (problem, x) = calibration.error_model_at(model, set, false)?;
+    let mut jac = faer::Mat::<f64>::zeros(problem.n_residuals(), x.len());
+    problem
+        .jacobian(&x, jac.as_mut())
+        .map_err(|e| fail(e.to_string()))?;
+    let j = DMatrix::<f64>::from_fn(jac.nrows(), jac.ncols(), |r, c| jac[(r, c)]);
+    let cov = calibration
+        .solve
+        .covariance
+        .as_ref()
+        .ok_or_else(|| fail("no covariance".into()))?;
+    let identified = |frame: bool| -> Vec<usize> {
+        (0..x.len())
+            .filter(|&c| {
+                let u = &calibration.unknowns[c];
+                u.status == calib::UnknownStatus::Identified
+                    && u.name.starts_with("frame_") == frame
+            })
+            .collect()
+    };
+    let (r, f) = (identified(false), identified(true));
+    let all: Vec<usize> = r.iter().chain(&f).copied().collect();
+    let block = |a: &[usize], b: &[usize]| DMatrix::from_fn(a.len(), b.len(), |i, k| cov[(a[i], b[k])]);
+    let columns = |m: &DMatrix<f64>, c: &[usize]| DMatrix::from_fn(m.nrows(), c.len(), |i, k| m[(i, c[k])]);
+    let s_ff_inv = block(&f, &f)
+        .try_inverse()
+        .ok_or_else(|| fail("singular frame covariance".into()))?;
+    let conditioned = block(&r, &r) - block(&r, &f) * s_ff_inv * block(&f, &r);
+    let j_f = columns(&j, &f);
+    let p = &j_f
+        * (j_f.transpose() * &j_f)
+            .try_inverse()
+            .ok_or_else(|| fail("singular frame Jacobian".into()))?
+        * j_f.transpose();
+    let refitted = (DMatrix::identity(j.nrows(), j.nrows()) - p) * columns(&j, &all);
+    let rms = |m: DMatrix<f64>, s: DMatrix<f64>| {
+        let c = &m * s * m.transpose();
+        (c.trace() / (j.nrows() / 3) as f64).sqrt() * 1e3
+    };
+    Ok([
+        rms(columns(&j, &r), conditioned),
+        rms(columns(&j, &r), block(&r, &r)),
+        rms(columns(&j, &all), block(&all, &all)),
+        rms(refitted, block(&all, &all)),
+    ])
+}
+
 /// The unknowns a calibration leaves at their start for want of data.
 fn unestimated<S: AsRef<str>>(non: &[S], poor: &[S]) -> Vec<String> {
     non.iter()
@@ -198,16 +275,19 @@ fn outcome(
     (bounds_mm, plan_unestimated): (&[f64], &[String]),
 ) -> Result<DrawOutcome> {
     let calibration = calib::calibrate(&data.model, training, options)?;
-    let errors_mm = |set: &MeasurementSet| -> Result<Vec<f64>> {
+    let errors_refit = |set: &MeasurementSet, refit: calib::Refit| -> Result<Vec<f64>> {
         Ok(calibration
-            .validate(&data.model, set, false)?
+            .validate(&data.model, set, refit)?
             .after_per_pose
             .iter()
             .map(|e| e.position * 1e3)
             .collect())
     };
+    let errors_mm = |set: &MeasurementSet| errors_refit(set, calib::Refit::Nothing);
     let errors = errors_mm(region)?;
     let estimation = errors_mm(&data.region)?;
+    let refitted = errors_refit(&data.region, calib::Refit::Frames)?;
+    let rms = |v: &[f64]| mean(&v.iter().map(|e| e * e).collect::<Vec<_>>()).sqrt();
     let within = |bounds: &[f64]| {
         let n = errors.iter().zip(bounds).filter(|(e, b)| e <= b).count();
         n as f64 / errors.len().max(1) as f64
@@ -233,7 +313,9 @@ fn outcome(
     Ok(DrawOutcome {
         coverage: within(bounds_mm),
         achieved_mean_error_mm: mean(&errors),
-        estimation_rms_mm: mean(&estimation.iter().map(|e| e * e).collect::<Vec<_>>()).sqrt(),
+        estimation_rms_mm: rms(&estimation),
+        estimation_rms_refitted_mm: rms(&refitted),
+        predicted_variants_mm: estimation_rms_variants(&calibration, &data.model, &data.region)?,
         calibration_mean_bound_95_mm: own.mean_bound_95_mm,
         calibration_coverage: within(&own_bounds),
         status_differences,

@@ -136,21 +136,26 @@ fn located(set: &MeasurementSet) -> Vec<Located<Vec<f64>>> {
 }
 
 impl TwinData {
-    /// The camera as a plan's instrument: positions only, or full poses.
+    /// The camera as a plan's instrument: positions only, or full poses;
+    /// the region measured from the campaign's placement (the frame's
+    /// uncertainty counted).
     fn instrument(&self, full_poses: bool) -> Instrument {
         Instrument {
             noise_mm: [self.noise_mm; 3],
             orientation_noise_deg: full_poses.then_some(self.orientation_noise_deg),
+            frame: calib::FrameUncertainty::AsIdentified,
             ..Instrument::positions([self.noise_mm; 3])
         }
     }
 
     /// The errors over the region (mm) after calibrating on the measured
-    /// candidates `rows`.
+    /// candidates `rows`, the region's measurements compared with the
+    /// calibrated model through the identified camera frame (the camera
+    /// has not moved: [`calib::Refit::Nothing`]).
     pub(super) fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
         let set = self.candidates.subset(rows)?;
         let calibration = calib::calibrate(&self.model, &set, options)?;
-        let report = calibration.validate(&self.model, &self.region, false)?;
+        let report = calibration.validate(&self.model, &self.region, calib::Refit::Nothing)?;
         Ok(report
             .after_per_pose
             .iter()
