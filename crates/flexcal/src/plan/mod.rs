@@ -69,8 +69,8 @@ use crate::{Error, Result};
 
 pub(crate) mod design;
 mod html;
-pub mod noise_check;
 pub mod ipa_check;
+pub mod noise_check;
 pub mod output;
 pub mod sight;
 pub mod twin_check;

@@ -93,10 +93,7 @@ impl NoiseDrawCheck {
     pub fn to_markdown_row(&self) -> String {
         let (coverage, coverage_sd) = self.spread(|d| d.coverage);
         let (achieved, _) = self.spread(|d| d.achieved_mean_error_mm);
-        let rms = self
-            .spread(|d| d.estimation_rms_mm.powi(2))
-            .0
-            .sqrt();
+        let rms = self.spread(|d| d.estimation_rms_mm.powi(2)).0.sqrt();
         let (own_bound, _) = self.spread(|d| d.calibration_mean_bound_95_mm);
         let (own_coverage, _) = self.spread(|d| d.calibration_coverage);
         let differing = self
@@ -133,7 +130,10 @@ impl NoiseDrawCheck {
     pub fn to_markdown(&self) -> String {
         let mut out = format!("{}{}", Self::MARKDOWN_HEADER, self.to_markdown_row());
         let v = |i: usize| self.spread(|d| d.predicted_variants_mm[i].powi(2)).0.sqrt();
-        let a = self.spread(|d| d.estimation_rms_refitted_mm.powi(2)).0.sqrt();
+        let a = self
+            .spread(|d| d.estimation_rms_refitted_mm.powi(2))
+            .0
+            .sqrt();
         let nf = self.noise_free.predicted_variants_mm;
         out.push_str(&format!(
             "estimation RMS (mm) predicted by the calibrations' covariance: conditioned {:.4}, marginal robot {:.4}, with the frame {:.4}, frame re-fitted {:.4} (noise-free calibration: {:.4} {:.4} {:.4} {:.4}); achieved with the frame re-fitted on the region {a:.4}\n",
@@ -232,8 +232,10 @@ pub fn estimation_rms_variants(
     };
     let (r, f) = (identified(false), identified(true));
     let all: Vec<usize> = r.iter().chain(&f).copied().collect();
-    let block = |a: &[usize], b: &[usize]| DMatrix::from_fn(a.len(), b.len(), |i, k| cov[(a[i], b[k])]);
-    let columns = |m: &DMatrix<f64>, c: &[usize]| DMatrix::from_fn(m.nrows(), c.len(), |i, k| m[(i, c[k])]);
+    let block =
+        |a: &[usize], b: &[usize]| DMatrix::from_fn(a.len(), b.len(), |i, k| cov[(a[i], b[k])]);
+    let columns =
+        |m: &DMatrix<f64>, c: &[usize]| DMatrix::from_fn(m.nrows(), c.len(), |i, k| m[(i, c[k])]);
     let s_ff_inv = block(&f, &f)
         .try_inverse()
         .ok_or_else(|| fail("singular frame covariance".into()))?;
@@ -347,7 +349,10 @@ pub fn twin_noise_check(seed: u64, n: usize, draws: usize) -> Result<NoiseDrawCh
     let plan = data.plan(&options, n, true)?;
     let prediction = &plan.prediction;
     let bounds: Vec<f64> = prediction.map.poses.iter().map(|p| p.bound_95_mm).collect();
-    let plan_unestimated = unestimated(&prediction.non_identifiable, &prediction.poorly_identifiable);
+    let plan_unestimated = unestimated(
+        &prediction.non_identifiable,
+        &prediction.poorly_identifiable,
+    );
     let training = data.candidates.subset(&plan.selected)?;
     let camera = Photogrammetry {
         x_meas_base: nalgebra::Isometry3::identity(),

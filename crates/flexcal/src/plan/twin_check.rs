@@ -152,7 +152,11 @@ impl TwinData {
     /// candidates `rows`, the region's measurements compared with the
     /// calibrated model through the identified camera frame (the camera
     /// has not moved: [`calib::Refit::Nothing`]).
-    pub(super) fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
+    pub(super) fn achieved(
+        &self,
+        options: &CalibrationOptions,
+        rows: &[usize],
+    ) -> Result<Vec<f64>> {
         let set = self.candidates.subset(rows)?;
         let calibration = calib::calibrate(&self.model, &set, options)?;
         let report = calibration.validate(&self.model, &self.region, calib::Refit::Nothing)?;
