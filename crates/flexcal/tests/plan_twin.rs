@@ -81,7 +81,7 @@ fn planned_bounds_track_the_twins_achieved_errors() {
 /// conditioned one smaller.
 #[test]
 fn the_plan_predicts_what_each_noise_draws_covariance_says() {
-    let check = twin_noise_check(3, 27, 3).unwrap();
+    let check = twin_noise_check(3, 27, 3, false).unwrap();
     assert_eq!(check.draws.len(), 3);
     assert!(
         check.noise_free.estimation_rms_mm < 1e-3,

@@ -1,7 +1,8 @@
 //! Whether a plan's predicted bounds are short by a bias or by the spread
 //! of one noise draw ([`twin_noise_check`]): on the virtual IR-663 with
 //! every term the identified model lacks turned off (its geometric errors
-//! alone, the camera frame at the base), the planned poses and the region
+//! alone, the camera frame at the base or where the twin puts it), the
+//! planned poses and the region
 //! are measured without noise, then the camera's noise
 //! ([`crate::twin::truth::Photogrammetry::measure`], its own model) is
 //! drawn again and again on the same poses and the same truth; each draw
@@ -327,11 +328,18 @@ fn outcome(
 /// Runs the check (module docs) on the twin of `seed`: `n` planned full
 /// poses, calibrated on the noise-free measurements and on `draws` noise
 /// draws (seeded by `seed` and the draw's index), the identified model
-/// `calibrate`'s default for the IR-663 with the target fixed at the TCP.
+/// `calibrate`'s default for the IR-663 with the target fixed at the TCP;
+/// with `camera_frame` the camera stands where the twin's frame term puts
+/// it (3.5 m from the base, turned 155 deg) instead of at the base.
 ///
 /// # Errors
 /// The twin's, planning's and calibration's errors; no draw asked.
-pub fn twin_noise_check(seed: u64, n: usize, draws: usize) -> Result<NoiseDrawCheck> {
+pub fn twin_noise_check(
+    seed: u64,
+    n: usize,
+    draws: usize,
+    camera_frame: bool,
+) -> Result<NoiseDrawCheck> {
     if draws == 0 {
         return Err(Error::InvalidParameter {
             parameter: "draws".into(),
@@ -340,6 +348,7 @@ pub fn twin_noise_check(seed: u64, n: usize, draws: usize) -> Result<NoiseDrawCh
     }
     let switches = TruthSwitches {
         measurement_noise: false,
+        measurement_frame: camera_frame,
         ..super::twin_check::switches_without("all")?
     };
     let data = twin_data(seed, switches)?;
