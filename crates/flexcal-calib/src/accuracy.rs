@@ -14,7 +14,12 @@
 //!   error what is only the frame's: the lengths next to the base trade off
 //!   with the frame's translation (on the virtual IR-663 their marginal
 //!   errors are 1 to 4 mm, which made mean 95 % bounds of 1.76 mm for
-//!   errors of 0.027 mm; conditioned, 0.050 mm). The linearised covariance
+//!   errors of 0.027 mm; conditioned, 0.050 mm). That holds where the
+//!   frame is registered again ([`FrameUncertainty::Registered`], what a
+//!   validation on another series does); where the poses are measured
+//!   through the identified frame, the frame's uncertainty is counted with
+//!   the robot's ([`FrameUncertainty::AsIdentified`],
+//!   [`Calibration::predicted_accuracy_with_frame`]). The linearised covariance
 //!   assumes independent errors; where the split-half check
 //!   ([`crate::SplitCheck::prediction_ratio`]) finds the halves' predicted
 //!   positions further apart than the covariance says, every standard
