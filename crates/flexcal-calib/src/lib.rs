@@ -352,7 +352,7 @@ mod unknown_kind;
 pub mod unknowns;
 pub mod validate;
 
-pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, PoseAccuracy, bound_95};
+pub use accuracy::{AccuracyMap, BoundParts, CHI2_3_95, FrameUncertainty, PoseAccuracy, bound_95};
 pub use coupling::CouplingMatrix;
 pub use coverage::CoordinateCoverage;
 pub use cross::{CROSS_Z_WARNING, CrossCheck, CrossEstimate};

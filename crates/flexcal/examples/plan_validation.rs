@@ -12,12 +12,31 @@
 //! the twin's terms turned off one at a time
 //! ([`flexcal::plan::twin_check::twin_term_check`]): where the misses come
 //! from.
+//!
+//! `... plan_validation SEED draws N [DRAWS [frame]]` checks N planned
+//! full poses on the twin's geometric errors alone (`frame`: and its
+//! camera frame), the camera's noise drawn DRAWS times (default 50) on the
+//! same poses and truth
+//! ([`flexcal::plan::noise_check::twin_noise_check`]): the predicted
+//! bounds' coverage as a mean over draws, and the estimation's own error
+//! against the predicted one.
 
+use flexcal::plan::noise_check::twin_noise_check;
 use flexcal::plan::twin_check::{TWIN_TERMS, switches_without, twin_term_check};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let seed: u64 = args.get(1).map_or(Ok(3), |s| s.parse())?;
+    if args.get(2).map(String::as_str) == Some("draws") {
+        let n: usize = args.get(3).map_or(Ok(15), |s| s.parse())?;
+        let draws: usize = args.get(4).map_or(Ok(50), |s| s.parse())?;
+        let camera_frame = args.get(5).map(String::as_str) == Some("frame");
+        print!(
+            "{}",
+            twin_noise_check(seed, n, draws, camera_frame)?.to_markdown()
+        );
+        return Ok(());
+    }
     if args.get(2).map(String::as_str) == Some("terms") {
         let n: usize = args.get(3).map_or(Ok(15), |s| s.parse())?;
         println!(

@@ -7,6 +7,7 @@
 //! honest changes and tightly enough to catch a wrong unit or a broken
 //! covariance.
 
+use flexcal::plan::noise_check::{NoiseDrawCheck, twin_noise_check};
 use flexcal::plan::twin_check::{TWIN_REGION, twin_plan_check};
 
 #[test]
@@ -69,5 +70,34 @@ fn planned_bounds_track_the_twins_achieved_errors() {
     assert!(
         table.contains("| full poses | 15 | ") && table.contains("| O1-selected |"),
         "{table}"
+    );
+}
+
+/// The noise-draw check on the twin's geometry alone: without noise the
+/// calibration reproduces the region (no bias), every draw identifies the
+/// unknowns the plan does, and the plan's identification part with the
+/// frame counted is what each draw's own covariance (at the identified
+/// robot, computed apart from the plan) carries to the region, the
+/// conditioned one smaller.
+#[test]
+fn the_plan_predicts_what_each_noise_draws_covariance_says() {
+    let check = twin_noise_check(3, 27, 3, false).unwrap();
+    assert_eq!(check.draws.len(), 3);
+    assert!(
+        check.noise_free.estimation_rms_mm < 1e-3,
+        "{:?}",
+        check.noise_free
+    );
+    for d in check.draws.iter().chain([&check.noise_free]) {
+        assert!(d.status_differences.is_empty(), "{d:?}");
+        let [conditioned, _, with_frame, _] = d.predicted_variants_mm;
+        let ratio = with_frame / check.predicted_estimation_rms_mm;
+        assert!((ratio - 1.0).abs() < 0.05, "{d:?}: ratio {ratio}");
+        assert!(conditioned < with_frame, "{d:?}");
+    }
+    assert!(
+        check
+            .to_markdown()
+            .starts_with(NoiseDrawCheck::MARKDOWN_HEADER)
     );
 }

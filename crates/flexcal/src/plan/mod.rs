@@ -70,6 +70,7 @@ use crate::{Error, Result};
 pub(crate) mod design;
 mod html;
 pub mod ipa_check;
+pub mod noise_check;
 pub mod output;
 pub mod sight;
 pub mod twin_check;
@@ -98,6 +99,13 @@ pub struct Instrument {
     /// everywhere.
     #[serde(default)]
     pub sight: Sight,
+    /// How the measurement frame's uncertainty enters the predicted bounds:
+    /// registered again where the region is measured or used (default:
+    /// the robot's uncertainty conditioned on the frame), or kept as the
+    /// campaign identifies it (the region measured from the same
+    /// placement: the frame's uncertainty counted).
+    #[serde(default)]
+    pub frame: calib::FrameUncertainty,
 }
 
 impl Instrument {
@@ -107,6 +115,7 @@ impl Instrument {
             noise_mm,
             orientation_noise_deg: None,
             sight: Sight::default(),
+            frame: calib::FrameUncertainty::default(),
         }
     }
 
@@ -1053,7 +1062,7 @@ pub fn predict_campaign(
     let (_, calibration) =
         synthetic_calibration(model, &options, instrument, &targets, configurations)?;
     let mut map = calibration
-        .predicted_accuracy(model, region, None)
+        .predicted_accuracy_with_frame(model, region, None, instrument.frame)
         .map_err(|source| Error::CalibrationStep {
             step: "planning: predicted accuracy over the region",
             source,

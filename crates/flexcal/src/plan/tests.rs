@@ -382,3 +382,82 @@ fn the_files_of_a_plan_round_trip() {
         "the instrument"
     );
 }
+
+/// With the frame kept as identified the prediction's identification part
+/// is the variance of the planned poses' whole weighted least squares,
+/// frame included, computed here from their Jacobian (the information
+/// matrix over every identified unknown, inverted): region point by point,
+/// for positions and for full poses. The frame registered again (the
+/// robot's unknowns conditioned on the frame's) never gives more.
+#[test]
+fn the_frame_as_identified_counts_the_whole_least_squares_variance() {
+    for orientation_noise_deg in [None, Some([0.01, 0.01, 0.02])] {
+        let model = ur10();
+        let mut config = config(Some(20), 50, 15);
+        config.instrument.orientation_noise_deg = orientation_noise_deg;
+        let plan = plan_campaign(&model, &config).unwrap();
+        let pool = config.candidates.configurations(&model, "c").unwrap();
+        let planned: Vec<Vec<f64>> = plan
+            .selected
+            .iter()
+            .map(|&k| pool[k].value.clone())
+            .collect();
+        let region: Vec<Vec<f64>> = plan
+            .prediction
+            .map
+            .poses
+            .iter()
+            .map(|p| p.q.clone())
+            .collect();
+        let mut instrument = config.instrument.clone();
+        let registered = plan.prediction.map.clone();
+        instrument.frame = calib::FrameUncertainty::AsIdentified;
+        let options = plan_options(&config.options, &instrument);
+        let as_identified = predict_campaign(
+            &model,
+            &config.options,
+            &instrument,
+            None,
+            &planned,
+            &region,
+        )
+        .unwrap()
+        .map;
+        let (set, calibration) =
+            synthetic_calibration(&model, &options, &instrument, &plan.targets, &planned).unwrap();
+        let columns: Vec<usize> = (0..calibration.unknowns.len())
+            .filter(|&j| calibration.unknowns[j].status == calib::UnknownStatus::Identified)
+            .collect();
+        let blocks = jacobian_rows(
+            &model,
+            &calibration,
+            &set,
+            &columns,
+            &instrument.row_weights(),
+        )
+        .unwrap();
+        let mut information = DMatrix::<f64>::zeros(columns.len(), columns.len());
+        for b in &blocks {
+            information += b.transpose() * b;
+        }
+        let covariance = information.try_inverse().unwrap();
+        let region_set = synthetic_set(
+            &model,
+            &region,
+            &Instrument::positions(instrument.noise_mm),
+            &plan.targets,
+        )
+        .unwrap();
+        let rows = jacobian_rows(&model, &calibration, &region_set, &columns, &[1.0; 3]).unwrap();
+        for ((r, p), c) in rows.iter().zip(&as_identified.poses).zip(&registered.poses) {
+            let expected = (r * &covariance * r.transpose()).trace().sqrt() * 1e3;
+            assert!(
+                (expected - p.model_uncertainty_mm).abs() < 1e-6 * expected,
+                "{}: {expected} mm computed, {} mm predicted",
+                p.pose,
+                p.model_uncertainty_mm
+            );
+            assert!(c.model_uncertainty_mm <= p.model_uncertainty_mm * (1.0 + 1e-9));
+        }
+    }
+}

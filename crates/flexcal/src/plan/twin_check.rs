@@ -16,7 +16,7 @@
 use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
-use super::{Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
+use super::{CampaignPlan, Instrument, PlanConfig, PoseSource, plan_campaign, predict_campaign};
 use crate::calib::{self, CalibrationOptions, FrameTreatment, MeasurementSet, MissesByRange};
 use crate::kinematics::Model;
 use crate::pose_file::Located;
@@ -91,15 +91,15 @@ impl TwinPlanCheck {
 }
 
 /// The twin's measurements: candidates, region, the model and the noise.
-struct TwinData {
-    model: Model,
-    candidates: MeasurementSet,
-    region: MeasurementSet,
-    noise_mm: f64,
-    orientation_noise_deg: [f64; 3],
+pub(super) struct TwinData {
+    pub(super) model: Model,
+    pub(super) candidates: MeasurementSet,
+    pub(super) region: MeasurementSet,
+    pub(super) noise_mm: f64,
+    pub(super) orientation_noise_deg: [f64; 3],
 }
 
-fn twin_data(seed: u64, switches: TruthSwitches) -> Result<TwinData> {
+pub(super) fn twin_data(seed: u64, switches: TruthSwitches) -> Result<TwinData> {
     let options = GeometricCampaignOptions {
         seed,
         n_validation: TWIN_CANDIDATES + TWIN_REGION,
@@ -136,21 +136,30 @@ fn located(set: &MeasurementSet) -> Vec<Located<Vec<f64>>> {
 }
 
 impl TwinData {
-    /// The camera as a plan's instrument: positions only, or full poses.
+    /// The camera as a plan's instrument: positions only, or full poses;
+    /// the region measured from the campaign's placement (the frame's
+    /// uncertainty counted).
     fn instrument(&self, full_poses: bool) -> Instrument {
         Instrument {
             noise_mm: [self.noise_mm; 3],
             orientation_noise_deg: full_poses.then_some(self.orientation_noise_deg),
+            frame: calib::FrameUncertainty::AsIdentified,
             ..Instrument::positions([self.noise_mm; 3])
         }
     }
 
     /// The errors over the region (mm) after calibrating on the measured
-    /// candidates `rows`.
-    fn achieved(&self, options: &CalibrationOptions, rows: &[usize]) -> Result<Vec<f64>> {
+    /// candidates `rows`, the region's measurements compared with the
+    /// calibrated model through the identified camera frame (the camera
+    /// has not moved: [`calib::Refit::Nothing`]).
+    pub(super) fn achieved(
+        &self,
+        options: &CalibrationOptions,
+        rows: &[usize],
+    ) -> Result<Vec<f64>> {
         let set = self.candidates.subset(rows)?;
         let calibration = calib::calibrate(&self.model, &set, options)?;
-        let report = calibration.validate(&self.model, &self.region, false)?;
+        let report = calibration.validate(&self.model, &self.region, calib::Refit::Nothing)?;
         Ok(report
             .after_per_pose
             .iter()
@@ -158,19 +167,15 @@ impl TwinData {
             .collect())
     }
 
-    /// Plans `n` poses measuring full poses or positions only, calibrates
-    /// on their measurements (the same kind; `options`' orientation choice
-    /// overridden), validates.
-    fn check(
+    /// Plans `n` of the candidates for calibrating with `options`
+    /// ([`measuring`] the same), the instrument measuring full poses or
+    /// positions only; the region's points as the region.
+    pub(super) fn plan(
         &self,
         options: &CalibrationOptions,
         n: usize,
         full_poses: bool,
-    ) -> Result<(PlannedCampaignCheck, Vec<usize>)> {
-        let options = &CalibrationOptions {
-            use_orientation: Some(full_poses),
-            ..options.clone()
-        };
+    ) -> Result<CampaignPlan> {
         let mut config = PlanConfig::new(
             options.clone(),
             [self.noise_mm; 3],
@@ -180,7 +185,20 @@ impl TwinData {
         config.instrument = self.instrument(full_poses);
         config.count = Some(n);
         config.max_poses = Some(n);
-        let plan = match plan_campaign(&self.model, &config) {
+        plan_campaign(&self.model, &config)
+    }
+
+    /// Plans `n` poses measuring full poses or positions only, calibrates
+    /// on their measurements (the same kind; `options`' orientation choice
+    /// overridden), validates.
+    pub(super) fn check(
+        &self,
+        options: &CalibrationOptions,
+        n: usize,
+        full_poses: bool,
+    ) -> Result<(PlannedCampaignCheck, Vec<usize>)> {
+        let options = &measuring(options, full_poses);
+        let plan = match self.plan(options, n, full_poses) {
             Ok(plan) => plan,
             Err(e) => {
                 let refused = PlannedCampaignCheck {
@@ -216,7 +234,16 @@ impl TwinData {
     }
 }
 
-fn mean(v: &[f64]) -> f64 {
+/// `options` calibrating on full poses or positions only, as the plan's
+/// instrument measures.
+pub(super) fn measuring(options: &CalibrationOptions, full_poses: bool) -> CalibrationOptions {
+    CalibrationOptions {
+        use_orientation: Some(full_poses),
+        ..options.clone()
+    }
+}
+
+pub(super) fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
