@@ -72,7 +72,7 @@ pub fn bound_95(prediction_trace: f64, scatter_variance: f64) -> f64 {
 
 /// How the measurement frame's uncertainty enters a predicted bound.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum FrameUncertainty {
     /// The frame is registered again where the prediction is checked or
     /// used (a validation on another series re-fits it, a new tracker
@@ -88,6 +88,18 @@ pub enum FrameUncertainty {
     /// frame spread by: 0.029 mm RMS predicted, 0.029 mm achieved over 100
     /// noise draws, where the conditioned covariance says 0.024 mm.
     AsIdentified,
+}
+
+impl std::str::FromStr for FrameUncertainty {
+    type Err = String;
+    /// `registered` or `as-identified`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "registered" => Ok(Self::Registered),
+            "as-identified" => Ok(Self::AsIdentified),
+            other => Err(format!("`{other}`: expected registered or as-identified")),
+        }
+    }
 }
 
 /// Predicted accuracy at one pose.

@@ -57,6 +57,13 @@ pub struct PlanArgs {
     /// `x,y,z`. Default: positions only.
     #[arg(long, value_delimiter = ',')]
     pub orientation_noise_deg: Option<Vec<f64>>,
+    /// How the measurement frame's uncertainty enters the predicted
+    /// bounds: `registered` (default: the frame registered again where the
+    /// region is measured or used) or `as-identified` (the region measured
+    /// from the campaign's instrument placement: the frame's uncertainty
+    /// counted; docs/planning.md).
+    #[arg(long, default_value = "registered")]
+    pub frame_uncertainty: flexcal::calib::FrameUncertainty,
     /// The instrument's reach box in the robot's base frame (mm),
     /// `x_lo:x_hi,y_lo:y_hi,z_lo:z_hi`: candidates whose target lies
     /// outside are left out.
@@ -207,6 +214,7 @@ fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
     };
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
     config.instrument.orientation_noise_deg = orientation_noise_deg;
+    config.instrument.frame = args.frame_uncertainty;
     config.instrument.sight = sight(args)?;
     if let Some(path) = &args.targets {
         if args.fixed_target {

@@ -141,12 +141,17 @@ fn plan_with_full_poses() {
     let (out, report) = ur10_plan(
         dir.path(),
         ["40", "12"],
-        &["--orientation-noise-deg", "0.01,0.01,0.02"],
+        &[
+            "--orientation-noise-deg",
+            "0.01,0.01,0.02",
+            "--frame-uncertainty",
+            "as-identified",
+        ],
     );
     assert!(out.status.success(), "{}\n{}", stdout(&out), stderr(&out));
     let text = stdout(&out);
     assert!(
-        text.contains("noise 0.0200/0.0200/0.0200 mm and 0.0100/0.0100/0.0200 deg (full poses)"),
+        text.contains("noise 0.0200/0.0200/0.0200 mm and 0.0100/0.0100/0.0200 deg (full poses); frame as identified"),
         "{text}"
     );
     let json: serde_json::Value =
@@ -156,6 +161,18 @@ fn plan_with_full_poses() {
         serde_json::json!([0.01, 0.01, 0.02])
     );
     assert_eq!(json["count"], 12);
+    assert_eq!(json["instrument"]["frame"], "as-identified");
+    let (out, _) = ur10_plan(
+        dir.path(),
+        ["40", "12"],
+        &["--frame-uncertainty", "sideways"],
+    );
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("expected registered or as-identified"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 /// An instrument that sees part of the cell: the plan says how many

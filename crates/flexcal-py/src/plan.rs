@@ -83,7 +83,11 @@ fn sight(
 /// (`MeasurementSet.read_csv`'s `targets`, docs/file-formats.md):
 /// the sight is tested per target, a pose where none is seen is left out,
 /// and the curve and prediction carry `per_target` (each target's
-/// `accuracy`).
+/// `accuracy`). `frame_uncertainty`: `"registered"` (default: the
+/// measurement frame registered again where the region is measured or
+/// used) or `"as-identified"` (the region measured from the campaign's
+/// instrument placement: the frame's uncertainty counted), as
+/// `--frame-uncertainty`.
 ///
 /// Returns the plan as a dict: `configurations` (the planned poses),
 /// `selected` (candidate rows), `curve` (per count: `poses` and
@@ -91,7 +95,7 @@ fn sight(
 /// `max_bound_95_mm`), `knee`, `prediction` (`accuracy`, `map`,
 /// `identifiability_notes`, ...). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None, targets = None))]
+#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None, targets = None, frame_uncertainty = "registered"))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan<'py>(
     py: Python<'py>,
@@ -116,6 +120,7 @@ pub fn plan<'py>(
     sight_from_mm: Option<[f64; 3]>,
     max_incidence_deg: Option<f64>,
     targets: Option<PathBuf>,
+    frame_uncertainty: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let robot_model = Arc::clone(&robot.model);
     let dof = robot_model.n_actuated();
@@ -172,6 +177,9 @@ pub fn plan<'py>(
         .transpose()?;
     let mut config = PlanConfig::new(options, noise_mm, candidates, region);
     config.instrument.orientation_noise_deg = orientation_noise_deg;
+    config.instrument.frame = frame_uncertainty
+        .parse()
+        .map_err(|e: String| InputError::new_err(format!("frame_uncertainty: {e}")))?;
     config.instrument.sight = sight(reach_box_mm, sight_from_mm, max_incidence_deg)?;
     if let Some(path) = targets {
         if fixed_target {

@@ -747,8 +747,15 @@ def plan(
     fixed_target: bool = False,
     knee_tolerance: float = 0.05,
     orientation_noise_deg: Optional[Sequence[float]] = None,
+    reach_box_mm: Optional[Sequence[Sequence[float]]] = None,
+    sight_from_mm: Optional[Sequence[float]] = None,
+    max_incidence_deg: Optional[float] = None,
+    targets: Optional[str] = None,
+    frame_uncertainty: Literal["registered", "as-identified"] = "registered",
 ) -> dict:
     """Plans a campaign before measuring: noise per axis in mm (orientation_noise_deg: deg per
     axis, full poses), candidates (n, dof) and
     region (m, dof) in rad or m (else drawn in joint_box (dof, 2), default the joint
-    limits); returns the plan (configurations, selected, curve, knee, prediction)."""
+    limits); returns the plan (configurations, selected, curve, knee, prediction).
+    frame_uncertainty: "as-identified" counts the measurement frame's uncertainty in the
+    bounds (the region measured from the campaign's instrument placement)."""

@@ -70,6 +70,21 @@ def test_full_poses_never_predict_worse_than_positions():
     assert compared > 5
     with pytest.raises(flexcal.InputError, match="orientation_noise_deg: one value or three"):
         flexcal.plan(robot, [0.02], orientation_noise_deg=[0.01, 0.02], **common)
+    # The frame's uncertainty counted: on the same poses (every candidate
+    # planned), every bound at least as wide as with the frame registered
+    # again, and some wider.
+    every = dict(candidates=candidates[:25], region=region, poses=25, max_poses=25)
+    registered = flexcal.plan(robot, [0.02], **every)
+    kept = flexcal.plan(robot, [0.02], frame_uncertainty="as-identified", **every)
+    assert kept["instrument"]["frame"] == "as-identified"
+    assert registered["instrument"]["frame"] == "registered"
+    wide = [p["bound_95_mm"] for p in kept["prediction"]["map"]["poses"]]
+    narrow = [p["bound_95_mm"] for p in registered["prediction"]["map"]["poses"]]
+    assert len(wide) == len(narrow) == 15
+    assert all(a >= b * (1 - 1e-9) for a, b in zip(wide, narrow))
+    assert any(a > b * 1.001 for a, b in zip(wide, narrow))
+    with pytest.raises(flexcal.InputError, match="frame_uncertainty: `sideways`"):
+        flexcal.plan(robot, [0.02], frame_uncertainty="sideways", **common)
     with pytest.raises(flexcal.FlexcalError, match="orientation"):
         flexcal.plan(robot, [0.02], orientation_noise_deg=[0.0], **common)
 

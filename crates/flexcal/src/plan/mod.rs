@@ -130,7 +130,8 @@ impl Instrument {
     }
 
     /// `noise x/y/z mm (positions)` or `noise x/y/z mm and x/y/z deg (full
-    /// poses)`, for reports.
+    /// poses)`, with `; frame as identified` when the measurement frame's
+    /// uncertainty is counted, for reports.
     pub fn describe(&self) -> String {
         let n = self.noise_mm;
         let measured = self
@@ -138,7 +139,16 @@ impl Instrument {
             .map_or(" (positions)".to_string(), |o| {
                 format!(" and {:.4}/{:.4}/{:.4} deg (full poses)", o[0], o[1], o[2])
             });
-        format!("noise {:.4}/{:.4}/{:.4} mm{measured}", n[0], n[1], n[2])
+        let frame = match self.frame {
+            calib::FrameUncertainty::Registered => "",
+            calib::FrameUncertainty::AsIdentified => {
+                "; frame as identified (its uncertainty counted)"
+            }
+        };
+        format!(
+            "noise {:.4}/{:.4}/{:.4} mm{measured}{frame}",
+            n[0], n[1], n[2]
+        )
     }
 
     /// Whether the instrument measures orientations too.
