@@ -64,6 +64,15 @@ fn bench(c: &mut Criterion) {
     group.bench_function("ur10_series_c_2773_poses_elasto_geometric", |b| {
         b.iter(|| calibrate(&model, &set, &elastic).expect("calibration succeeds"))
     });
+    // The same on one thread: what the threaded evaluation gains.
+    let serial = CalibrationOptions {
+        threads: Some(1),
+        ..elastic.clone()
+    };
+    group.bench_function(
+        "ur10_series_c_2773_poses_elasto_geometric_one_thread",
+        |b| b.iter(|| calibrate(&model, &set, &serial).expect("calibration succeeds")),
+    );
     let mut richer = elastic.clone();
     richer.joint_terms = JointTerms {
         law: Some(JointLaw::default()),
@@ -190,6 +199,15 @@ fn bench_targets(c: &mut Criterion) {
         group.bench_function(format!("{robot}_{poses}_poses_elasto_geometric"), |b| {
             b.iter(|| calibrate(&model, &set, &options).expect("identification succeeds"))
         });
+        // The same on one thread: what the threaded evaluation gains.
+        let serial = CalibrationOptions {
+            threads: Some(1),
+            ..options.clone()
+        };
+        group.bench_function(
+            format!("{robot}_{poses}_poses_elasto_geometric_one_thread"),
+            |b| b.iter(|| calibrate(&model, &set, &serial).expect("identification succeeds")),
+        );
         group.bench_function(format!("{robot}_{poses}_poses_select_cv"), |b| {
             b.iter(|| {
                 select_model(&model, &set, &options, &SelectionOptions::default())

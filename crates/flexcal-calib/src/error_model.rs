@@ -10,6 +10,20 @@
 //! [`crate::gravity`] and [`crate::joint_law`] (both the identity without
 //! the elasto-geometric terms). A target on [`crate::TCP_FRAME`] sits after
 //! the robot's tool transform.
+//!
+//! ## Threads
+//! The residuals, the predictions and the Jacobian run pose by pose, one
+//! forward pass (and one deflection, the equilibrium's iteration included)
+//! per pose for all its targets. [`ErrorModel::with_threads`] shares the
+//! poses between threads: the observations are cut at pose boundaries into
+//! contiguous chunks of at least [`MIN_POSES_PER_THREAD`] poses, no more
+//! chunks than threads, each written by its own thread into its own rows
+//! with its own workspace (the calling thread takes the first chunk, rayon's
+//! pool the others). A pose's rows read nothing a previous pose left in a
+//! workspace, so every number is the serial evaluation's to the bit. On a
+//! machine busier than its cores, waiting for the other threads at every
+//! evaluation can cost more than it saves: `Some(1)` there, and wherever
+//! several identifications already run side by side.
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -506,9 +520,9 @@ impl<'a> ErrorModel<'a> {
 
     /// Runs `work(chunk, workspace, out)` for each chunk of
     /// [`ErrorModel::chunks`] with its output `outs[c]`: the first on the
-    /// calling thread, the others on scoped threads, each with its own
-    /// workspace. The results in chunk order, or the first chunk's error
-    /// (that of the first failing pose, as in a serial evaluation).
+    /// calling thread, the others as tasks of rayon's pool, each with its
+    /// own workspace. The results in chunk order, or the first chunk's
+    /// error (that of the first failing pose, as in a serial evaluation).
     fn on_chunks<O: Send, R: Send>(
         &self,
         chunks: &[Range<usize>],
@@ -528,22 +542,20 @@ impl<'a> ErrorModel<'a> {
         if chunks.len() == 1 {
             return Ok(vec![run(0, first)?]);
         }
-        std::thread::scope(|scope| {
-            let others: Vec<_> = outs
-                .enumerate()
-                .map(|(c, out)| {
-                    let run = &run;
-                    scope.spawn(move || run(c + 1, out))
-                })
-                .collect();
-            let mut results = vec![run(0, first)];
-            results.extend(others.into_iter().map(|handle| {
-                handle
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-            }));
-            results.into_iter().collect()
-        })
+        let mut results: Vec<Option<Result<R, CalibError>>> =
+            std::iter::repeat_with(|| None).take(chunks.len()).collect();
+        let (head, tail) = results.split_at_mut(1);
+        rayon::in_place_scope(|scope| {
+            for ((c, out), slot) in outs.enumerate().zip(tail) {
+                let run = &run;
+                scope.spawn(move |_| *slot = Some(run(c + 1, out)));
+            }
+            head[0] = Some(run(0, first));
+        });
+        results
+            .into_iter()
+            .map(|r| r.expect("every chunk ran"))
+            .collect()
     }
 
     /// The elastic terms of this model's loading with the deflection
