@@ -4,7 +4,8 @@
 //! robot (300 poses, two markers), the compliant torso (400 poses) and, when
 //! the IPA UR10 data is present, series C (2 773 poses). Per call: the wall
 //! time, the process's CPU time (every thread) and the calling thread's CPU
-//! time, which leaves out the other thread's share of the evaluations. With
+//! time (the scheduler's run times, `/proc/.../schedstat`, Linux), which
+//! leaves out the other thread's share of the evaluations. With
 //! a free core for the second thread the wall time comes close to the
 //! calling thread's CPU time; on a machine busier than its cores only the
 //! CPU times compare. Fails unless both counts identify the same
@@ -22,7 +23,7 @@ use flexcal_kinematics::{Model, RobotDescription};
 mod cpu_time;
 #[path = "../benches/support/target_set.rs"]
 mod target_set;
-use cpu_time::{cpu_seconds, load_average, thread_cpu_seconds};
+use cpu_time::{load_average, process_run_seconds, thread_run_seconds};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let repeats: usize = std::env::args()
@@ -91,11 +92,13 @@ fn compare(
                 threads: Some(threads),
                 ..options.clone()
             };
-            let (cpu, own, wall) = (cpu_seconds(), thread_cpu_seconds(), Instant::now());
+            let (cpu, own, wall) = (process_run_seconds(), thread_run_seconds(), Instant::now());
             let calibration = calibrate(model, set, &options)?;
             totals[c][0] += wall.elapsed().as_secs_f64();
-            totals[c][1] += cpu_seconds().zip(cpu).map_or(f64::NAN, |(b, a)| b - a);
-            totals[c][2] += thread_cpu_seconds()
+            totals[c][1] += process_run_seconds()
+                .zip(cpu)
+                .map_or(f64::NAN, |(b, a)| b - a);
+            totals[c][2] += thread_run_seconds()
                 .zip(own)
                 .map_or(f64::NAN, |(b, a)| b - a);
             results[c] = Some(calibration.xi);
