@@ -8,7 +8,8 @@
 //! leaves out the other thread's share of the evaluations. With
 //! a free core for the second thread the wall time comes close to the
 //! calling thread's CPU time; on a machine busier than its cores only the
-//! CPU times compare. Fails unless both counts identify the same
+//! CPU times compare. The compliant torso also with the equilibrium
+//! deflection (a tenth of the calls). Fails unless both counts identify the same
 //! parameters to the bit.
 //!
 //! `cargo run --release -p flexcal-calib --example threads_speed [-- REPEATS]`
@@ -52,6 +53,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &options,
             repeats,
         )?;
+        if compliance > 0.0 {
+            // The deflection as the static equilibrium, fewer calls.
+            let mut equilibrium = options.clone();
+            if let Some(gravity) = equilibrium.gravity.as_mut() {
+                gravity.deflection = flexcal_calib::Deflection::equilibrium();
+            }
+            let case = format!("{robot}_{poses}_poses_equilibrium");
+            compare(&case, &model, &set, &equilibrium, repeats.div_ceil(10))?;
+        }
     }
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/datasets/ipa-ur10/Series_C/measurements_random_poses.csv");
