@@ -2,7 +2,8 @@
 //! (`ErrorModel::with_threads`, `CalibrationOptions::threads`) gives the
 //! serial evaluation's numbers to the bit: the residuals, the predictions
 //! and the Jacobian of a two-armed robot with lateral compliances (with the
-//! one step and with the equilibrium deflection) and of a one-target set,
+//! one step and with the equilibrium deflection; the benchmark's set) and
+//! of a one-target set,
 //! on 1, 2 and 3 threads with pose counts that do not divide evenly; and a
 //! whole identification on 1 and 2 threads.
 
@@ -11,98 +12,41 @@ use std::borrow::Cow;
 use faer::Mat;
 use flexcal_calib::{
     CalibError, CalibrationOptions, Deflection, ErrorModel, FrameStarts, GravityCompliance,
-    JointLaw, JointTerms, LateralCompliance, MeasurementSet, TargetObservation, TargetPose,
-    calibrate, read_targets, rotation_from_vector, vector_from_rotation,
+    JointLaw, JointTerms, LateralCompliance, MeasurementSet, TargetPose, calibrate,
 };
-use flexcal_kinematics::{Data, Model, RobotDescription, actuated_forces_into, forward_frames};
+use flexcal_kinematics::{Model, RobotDescription};
 use flexcal_optim::{Jacobian, Residuals};
-use nalgebra::{Isometry3, Translation3, Vector3};
+use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 
 mod common;
+#[path = "../benches/support/target_set.rs"]
+mod target_set;
 
-fn two_arms() -> Model {
-    RobotDescription::from_toml_file(&common::data_file("two_arms.toml"))
-        .unwrap()
-        .build()
-        .unwrap()
+/// The benchmark's two-armed set (`benches/support/target_set.rs`): `n`
+/// poses, a marker on each hand, 20 um of noise.
+fn two_arms_set(gravity: &GravityCompliance, n: usize) -> (Model, MeasurementSet) {
+    target_set::target_set("two_arms", gravity, n, 0.0, 20e-6)
 }
 
-/// `n` poses of `model` within its joint limits, each target of `targets`
-/// seen on the perturbed robot deflected by 15 urad/N.m times its gravity
-/// torque, from an unknown tracker frame, with 20 um of noise per axis; the
-/// first target also with its orientation (0.005 deg of noise).
-fn simulated_set(
-    model: &Model,
-    gravity: &GravityCompliance,
-    targets: Vec<flexcal_calib::Target>,
-    n: usize,
-    rng: &mut ChaCha8Rng,
-) -> MeasurementSet {
-    let position_noise = Normal::new(0.0, 20e-6).unwrap();
-    let angle_noise = Normal::new(0.0, 0.005f64.to_radians()).unwrap();
-    let xi = common::perturbed_geometry(model, rng, 0.3e-3, 0.03f64.to_radians());
-    let tracker = Isometry3::from_parts(
-        Translation3::new(2.5, -0.4, -0.9),
-        rotation_from_vector(&Vector3::new(0.1, -0.2, 2.4)),
-    );
-    let loads = common::link_loads(model, gravity);
-    // Each target's frame and its pose on it (after the tool on the TCP).
-    let frames: Vec<(usize, Isometry3<f64>)> = targets
+/// `set` with an orientation (a rotation vector near 1 rad, rad) on every
+/// observation of its first target, so that six-row blocks are compared
+/// too.
+fn first_target_oriented(set: &MeasurementSet) -> MeasurementSet {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let poses: Vec<TargetPose> = set
+        .poses()
         .iter()
-        .map(|t| match model.frame_index(&t.frame) {
-            Some(f) => (f, t.pose()),
-            None => (model.end_frame(), model.tool() * t.pose()),
-        })
-        .collect();
-    let mut data = Data::new(model);
-    let mut tau = vec![0.0; model.n_actuated()];
-    let poses = (0..n)
-        .map(|k| {
-            let q: Vec<f64> = model
-                .actuated_limits()
-                .iter()
-                .map(|&(lo, hi)| rng.random_range(lo..hi))
-                .collect();
-            actuated_forces_into(model, &mut data, &q, &xi, &loads, &mut tau).unwrap();
-            let deflected: Vec<f64> = q.iter().zip(&tau).map(|(q, t)| q + 15e-6 * t).collect();
-            forward_frames(model, &mut data, &deflected, &xi).unwrap();
-            let observations = frames
-                .iter()
-                .enumerate()
-                .map(|(t, (frame, point))| {
-                    let x = tracker * data.frame_pose(*frame).unwrap() * point;
-                    let mut seen = TargetObservation::new(
-                        x.translation.vector + Vector3::from_fn(|_, _| position_noise.sample(rng)),
-                    );
-                    if t == 0 {
-                        let turn = Vector3::from_fn(|_, _| angle_noise.sample(rng));
-                        seen.orientation = Some(vector_from_rotation(
-                            &(rotation_from_vector(&turn) * x.rotation),
-                        ));
-                    }
-                    Some(seen)
-                })
-                .collect();
-            TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q,
-                observations,
-                wrench: None,
-                temperature_c: None,
+        .map(|pose| {
+            let mut pose = pose.clone();
+            if let Some(seen) = pose.observations[0].as_mut() {
+                seen.orientation = Some(Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)));
             }
+            pose
         })
         .collect();
-    MeasurementSet::from_poses("simulated", targets, poses).unwrap()
-}
-
-/// The two-armed robot's set of `n` poses, its targets on both hands.
-fn two_arms_set(model: &Model, gravity: &GravityCompliance, n: usize) -> MeasurementSet {
-    let targets = read_targets(&common::data_file("two_arms_targets.toml")).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(0x7468_7265);
-    simulated_set(model, gravity, targets, n, &mut rng)
+    MeasurementSet::from_poses("oriented", set.targets().to_vec(), poses).unwrap()
 }
 
 /// The unknowns of `problem` moved away from its start: lengths by up to
@@ -178,11 +122,11 @@ fn assert_same_bits_on_1_2_3_threads<'a>(
 /// step and with the equilibrium deflection.
 #[test]
 fn two_armed_robot_with_lateral_compliances_evaluates_alike_on_1_2_and_3_threads() {
-    let model = two_arms();
     let mut gravity =
         GravityCompliance::from_toml_file(&common::data_file("two_arms_masses.toml")).unwrap();
     assert_eq!(gravity.lateral, LateralCompliance::AboutX);
-    let set = two_arms_set(&model, &gravity, 100);
+    let (model, set) = two_arms_set(&gravity, 100);
+    let set = first_target_oriented(&set);
     let terms = JointTerms {
         law: Some(JointLaw::default()),
         cyclic: true,
@@ -210,13 +154,29 @@ fn two_armed_robot_with_lateral_compliances_evaluates_alike_on_1_2_and_3_threads
 fn one_target_set_evaluates_alike_on_1_2_and_3_threads() {
     let model = RobotDescription::builtin("ur10").unwrap().build().unwrap();
     let gravity = GravityCompliance::ur10_urdf(&model).unwrap();
-    let targets = vec![flexcal_calib::Target::new(
-        flexcal_calib::TCP_TARGET,
-        flexcal_calib::TCP_FRAME,
-        Vector3::new(0.01, 0.02, 0.05),
-    )];
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let set = simulated_set(&model, &gravity, targets, 61, &mut rng);
+    let xi = common::perturbed_geometry(
+        &model,
+        &mut ChaCha8Rng::seed_from_u64(11),
+        0.3e-3,
+        0.03f64.to_radians(),
+    );
+    let (frame, _) = common::generic_frame_and_target();
+    let simulation = common::GravitySimulation {
+        model: &model,
+        gravity: &gravity,
+        xi: &xi,
+        payload: (5.0, Vector3::new(0.0, 0.0, 0.1)),
+        frame,
+        noise: 20e-6,
+    };
+    let set = common::with_orientation(&simulation.measure(
+        61,
+        12,
+        "ur10",
+        common::ur10_configuration,
+        |q, tau| q.iter().zip(tau).map(|(q, t)| q + 15e-6 * t).collect(),
+    ));
+    let mut rng = ChaCha8Rng::seed_from_u64(13);
     let starts = FrameStarts::nominal(&set, Isometry3::identity(), None).unwrap();
     assert_eq!(starts.orientation, [true]);
     let build = |threads| {
@@ -234,10 +194,9 @@ fn one_target_set_evaluates_alike_on_1_2_and_3_threads() {
 /// thread and on two: the same result, every figure to the bit.
 #[test]
 fn calibration_on_two_threads_is_the_serial_one_to_the_bit() {
-    let model = two_arms();
     let gravity =
         GravityCompliance::from_toml_file(&common::data_file("two_arms_masses.toml")).unwrap();
-    let set = two_arms_set(&model, &gravity, 90);
+    let (model, set) = two_arms_set(&gravity, 90);
     let options = |threads| CalibrationOptions {
         gravity: Some(gravity.clone()),
         threads,
@@ -261,10 +220,9 @@ fn calibration_on_two_threads_is_the_serial_one_to_the_bit() {
 /// A thread count of zero is refused by name.
 #[test]
 fn zero_threads_is_refused_by_name() {
-    let model = two_arms();
     let gravity =
         GravityCompliance::from_toml_file(&common::data_file("two_arms_masses.toml")).unwrap();
-    let set = two_arms_set(&model, &gravity, 10);
+    let (model, set) = two_arms_set(&gravity, 10);
     let options = CalibrationOptions {
         threads: Some(0),
         ..CalibrationOptions::default()
