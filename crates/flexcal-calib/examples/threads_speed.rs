@@ -17,11 +17,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use flexcal_calib::{CalibrationOptions, GravityCompliance, MeasurementSet, Weighting, calibrate};
-use flexcal_kinematics::{Model, RobotDescription};
+use flexcal_calib::{CalibrationOptions, GravityCompliance, MeasurementSet, calibrate};
+use flexcal_kinematics::Model;
 
 #[path = "support/cpu_time.rs"]
 mod cpu_time;
+#[path = "support/series_c.rs"]
+mod series_c;
 #[path = "../benches/support/target_set.rs"]
 mod target_set;
 use cpu_time::{load_average, process_run_seconds, thread_run_seconds};
@@ -63,21 +65,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             compare(&case, &model, &set, &equilibrium, repeats.div_ceil(10))?;
         }
     }
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/datasets/ipa-ur10/Series_C/measurements_random_poses.csv");
-    if !path.exists() {
-        println!(
-            "IPA UR10 data absent ({}): series C skipped",
-            path.display()
-        );
+    let Some((model, set, options)) = series_c::series_c("series C skipped")? else {
         return Ok(());
-    }
-    let model = RobotDescription::builtin("ur10")?.build()?;
-    let set = MeasurementSet::read_ipa(&path)?;
-    let mut options = CalibrationOptions::for_model(&model);
-    options.use_orientation = Some(false);
-    options.weighting = Weighting::Uniform;
-    options.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
+    };
     compare("ur10_series_c_2773_poses", &model, &set, &options, repeats)
 }
 
