@@ -10,48 +10,22 @@
 //!
 //! `cargo run --release -p flexcal-calib --example ipa_speed [-- calibrate|select [REPEATS]]`
 
-use std::path::PathBuf;
 use std::time::Instant;
 
-use flexcal_calib::{
-    CalibrationOptions, GravityCompliance, JointLaw, JointTerms, MeasurementSet, SelectionOptions,
-    Weighting, calibrate, select_model,
-};
-use flexcal_kinematics::RobotDescription;
+use flexcal_calib::{JointLaw, JointTerms, SelectionOptions, calibrate, select_model};
 
-/// CPU time of this process so far (s), when the system says.
-fn cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command name (which may hold spaces) in parentheses.
-    let fields: Vec<&str> = stat
-        .get(stat.rfind(')')? + 2..)?
-        .split_whitespace()
-        .collect();
-    let ticks = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
-    // The kernel's USER_HZ, 100 on every Linux architecture in use.
-    Some(ticks / 100.0)
-}
-
-fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|_| "unknown".into())
-}
+#[path = "support/cpu_time.rs"]
+mod cpu_time;
+#[path = "support/series_c.rs"]
+mod series_c;
+use cpu_time::{cpu_seconds, load_average};
+use series_c::series_c;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/datasets/ipa-ur10/Series_C/measurements_random_poses.csv");
-    if !path.exists() {
-        println!("IPA UR10 data absent ({}): nothing to do", path.display());
+    let Some((model, set, mut options)) = series_c("nothing to do")? else {
         return Ok(());
-    }
-    let model = RobotDescription::builtin("ur10")?.build()?;
-    let set = MeasurementSet::read_ipa(&path)?;
+    };
     // The benchmark's richer model.
-    let mut options = CalibrationOptions::for_model(&model);
-    options.use_orientation = Some(false);
-    options.weighting = Weighting::Uniform;
-    options.gravity = Some(GravityCompliance::ur10_urdf(&model)?);
     options.joint_terms = JointTerms {
         law: Some(JointLaw::default()),
         cyclic: true,

@@ -68,7 +68,7 @@ impl AnalysisContext<'_> {
         let blocks = self.problem.n_observations();
         // Streamed by groups of observations of at most 320 rows: R of
         // [R_so_far; W J_group], so the whole stacked Jacobian is never held.
-        let mut r = Mat::<f64>::zeros(0, n);
+        let mut groups = Vec::new();
         let mut start = 0;
         while start < blocks {
             let first_row = self.problem.block_rows(start).start;
@@ -76,30 +76,50 @@ impl AnalysisContext<'_> {
             while end < blocks && self.problem.block_rows(end).end - first_row <= 320 {
                 end += 1;
             }
-            let m_block = self.problem.block_rows(end - 1).end - first_row;
-            let top = r.nrows();
-            let mut stacked = Mat::<f64>::zeros(top + m_block, n);
-            for j in 0..n {
-                for i in 0..top {
-                    stacked[(i, j)] = r[(i, j)];
-                }
-            }
-            self.problem
-                .jacobian_blocks(x, start..end, stacked.as_mut().subrows_mut(top, m_block))
-                .map_err(problem_error)?;
-            for j in 0..n {
-                for i in 0..m_block {
-                    stacked[(top + i, j)] *= self.weights[first_row + i];
-                }
-            }
-            let qr = stacked.qr();
-            let thin = qr.thin_R();
-            r = Mat::<f64>::from_fn(
-                thin.nrows(),
-                n,
-                |i, j| if i <= j { thin[(i, j)] } else { 0.0 },
-            );
+            groups.push(start..end);
             start = end;
+        }
+        // The Jacobian of several groups at once (one evaluation shared
+        // between the model's threads), up to 2 560 rows; each group's QR
+        // in turn, as if it had been evaluated alone.
+        let mut r = Mat::<f64>::zeros(0, n);
+        let mut g = 0;
+        while g < groups.len() {
+            let first_row = self.problem.block_rows(groups[g].start).start;
+            let mut last = g + 1;
+            while last < groups.len()
+                && self.problem.block_rows(groups[last].end - 1).end - first_row <= 2560
+            {
+                last += 1;
+            }
+            let batch_rows = self.problem.block_rows(groups[last - 1].end - 1).end - first_row;
+            let mut batch = Mat::<f64>::zeros(batch_rows, n);
+            self.problem
+                .jacobian_blocks(x, groups[g].start..groups[last - 1].end, batch.as_mut())
+                .map_err(problem_error)?;
+            for group in &groups[g..last] {
+                let group_row = self.problem.block_rows(group.start).start;
+                let m_block = self.problem.block_rows(group.end - 1).end - group_row;
+                let top = r.nrows();
+                let mut stacked = Mat::<f64>::zeros(top + m_block, n);
+                for j in 0..n {
+                    for i in 0..top {
+                        stacked[(i, j)] = r[(i, j)];
+                    }
+                    for i in 0..m_block {
+                        stacked[(top + i, j)] =
+                            batch[(group_row - first_row + i, j)] * self.weights[group_row + i];
+                    }
+                }
+                let qr = stacked.qr();
+                let thin = qr.thin_R();
+                r = Mat::<f64>::from_fn(
+                    thin.nrows(),
+                    n,
+                    |i, j| if i <= j { thin[(i, j)] } else { 0.0 },
+                );
+            }
+            g = last;
         }
         Ok(r)
     }

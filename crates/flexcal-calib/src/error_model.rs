@@ -10,9 +10,25 @@
 //! [`crate::gravity`] and [`crate::joint_law`] (both the identity without
 //! the elasto-geometric terms). A target on [`crate::TCP_FRAME`] sits after
 //! the robot's tool transform.
+//!
+//! ## Threads
+//! The residuals, the predictions and the Jacobian run pose by pose, one
+//! forward pass (and one deflection, the equilibrium's iteration included)
+//! per pose for all its targets. [`ErrorModel::with_threads`] shares the
+//! poses between threads: the observations are cut at pose boundaries into
+//! contiguous chunks of at least [`MIN_POSES_PER_THREAD`] poses, no more
+//! chunks than threads, each written by its own thread into its own rows
+//! with its own workspace (the calling thread takes the first chunk, rayon's
+//! pool the others). A pose's rows read nothing a previous pose left in a
+//! workspace, so every number is the serial evaluation's to the bit. On a
+//! machine busier than its cores, waiting for the other threads at every
+//! evaluation can cost more than it saves: `Some(1)` there, and wherever
+//! several identifications already run side by side.
 
 use std::borrow::Cow;
-use std::cell::{Cell, RefCell};
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, PoisonError, RwLock};
 
 use faer::MatMut;
 use flexcal_kinematics::{Data, Model, ParamKind, forward_frames, frame_points_jacobians_into};
@@ -175,6 +191,40 @@ struct PointJacobians {
     poses: Vec<Isometry3<f64>>,
 }
 
+/// What one thread of an evaluation writes into: the kinematics, the
+/// targets' Jacobians, the deflected joints and the elastic twists of the
+/// pose at hand. Every pose overwrites what it reads, so an observation's
+/// rows do not depend on which workspace computed them, nor on the poses
+/// it computed before.
+struct Workspace {
+    data: Data,
+    jacobians: PointJacobians,
+    deflection: JointState,
+    twists: Matrix6xX<f64>,
+}
+
+impl Workspace {
+    /// A workspace for `count` targets on `model` with `n_elastic`
+    /// elastic and joint-term unknowns.
+    fn new(model: &Model, count: usize, n_elastic: usize) -> Self {
+        Self {
+            data: Data::new(model),
+            jacobians: PointJacobians {
+                params: vec![DMatrix::zeros(6, model.n_params()); count],
+                joints: vec![Matrix6xX::zeros(model.n_actuated()); count],
+                poses: vec![Isometry3::identity(); count],
+            },
+            deflection: JointState::new(model.n_actuated()),
+            twists: Matrix6xX::zeros(n_elastic),
+        }
+    }
+}
+
+/// Fewest poses per thread of an evaluation: below, handing a share of the
+/// poses to another thread costs more than evaluating them (measured on
+/// the two-armed robot of the tests, docs/model-selection.md, Speed).
+pub const MIN_POSES_PER_THREAD: usize = 25;
+
 /// The stacked measurement model of a set of observations, as a
 /// least-squares problem in the unknowns
 /// `x = [xi; tau_1; o_1 .. o_T; tau_2 .. tau_S; elastic and joint terms]`:
@@ -213,14 +263,13 @@ pub struct ErrorModel<'a> {
     elastic_source: Option<(GravityCompliance, JointTerms)>,
     /// Per target, the lateral joints that move it.
     lateral_masks: Vec<Vec<bool>>,
-    robot_columns: Cell<bool>,
+    robot_columns: AtomicBool,
     /// Per unknown, whether the Jacobian skips its robot or elastic column
     /// (left zero); empty: none skipped.
-    frozen_columns: RefCell<Vec<bool>>,
-    data: RefCell<Data>,
-    jacobians: RefCell<PointJacobians>,
-    deflection: RefCell<JointState>,
-    twists: RefCell<Matrix6xX<f64>>,
+    frozen_columns: RwLock<Vec<bool>>,
+    /// One workspace per thread of an evaluation ([`ErrorModel::with_threads`]):
+    /// chunk `c` of the poses uses workspace `c`.
+    workspaces: Vec<Mutex<Workspace>>,
 }
 
 impl<'a> ErrorModel<'a> {
@@ -288,16 +337,9 @@ impl<'a> ErrorModel<'a> {
             elastic: ElasticTerms::none(model),
             elastic_source: None,
             lateral_masks: Vec::new(),
-            robot_columns: Cell::new(true),
-            frozen_columns: RefCell::new(Vec::new()),
-            data: RefCell::new(Data::new(model)),
-            jacobians: RefCell::new(PointJacobians {
-                params: vec![DMatrix::zeros(6, model.n_params()); count],
-                joints: vec![Matrix6xX::zeros(model.n_actuated()); count],
-                poses: vec![Isometry3::identity(); count],
-            }),
-            deflection: RefCell::new(JointState::new(model.n_actuated())),
-            twists: RefCell::new(Matrix6xX::zeros(0)),
+            robot_columns: AtomicBool::new(true),
+            frozen_columns: RwLock::new(Vec::new()),
+            workspaces: vec![Mutex::new(Workspace::new(model, count, 0))],
             set,
         })
     }
@@ -415,11 +457,105 @@ impl<'a> ErrorModel<'a> {
             .iter()
             .map(|t| elastic.lateral_mask(self.model, t.frame))
             .collect();
-        self.twists = RefCell::new(Matrix6xX::zeros(elastic.len()));
         self.elastic = elastic;
         self.elastic_source = gravity.map(|g| (g.clone(), *terms));
         self.names.extend(names);
-        Ok(self)
+        let threads = self.threads();
+        Ok(self.with_workspaces(threads))
+    }
+
+    /// Evaluates the residuals, the predictions and the Jacobian on up to
+    /// `threads` threads (`None`: [`std::thread::available_parallelism`];
+    /// `Some(0)` counts as 1; default 1, on the calling thread). The
+    /// observations are split at pose boundaries into contiguous chunks of
+    /// at least [`MIN_POSES_PER_THREAD`] poses, never more chunks than
+    /// threads; each chunk runs on its own thread with its own workspace
+    /// (the calling thread takes the first). Each observation's rows are
+    /// computed by the same code from the same inputs whatever the thread,
+    /// so the results are bit-identical to the serial evaluation.
+    pub fn with_threads(self, threads: Option<usize>) -> Self {
+        let threads = threads
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+            .max(1);
+        self.with_workspaces(threads)
+    }
+
+    /// The number of threads an evaluation may use
+    /// ([`ErrorModel::with_threads`]).
+    pub fn threads(&self) -> usize {
+        self.workspaces.len()
+    }
+
+    /// This model with `count` fresh workspaces.
+    fn with_workspaces(mut self, count: usize) -> Self {
+        let targets = self.targets.len();
+        self.workspaces = (0..count)
+            .map(|_| Mutex::new(Workspace::new(self.model, targets, self.elastic.len())))
+            .collect();
+        self
+    }
+
+    /// The observations `blocks` split at pose boundaries into at most
+    /// [`ErrorModel::threads`] contiguous chunks of at least
+    /// [`MIN_POSES_PER_THREAD`] poses each (one chunk below that).
+    fn chunks(&self, blocks: Range<usize>) -> Vec<Range<usize>> {
+        if blocks.is_empty() {
+            return vec![blocks];
+        }
+        let first_pose = self.blocks[blocks.start].pose;
+        let poses = self.blocks[blocks.end - 1].pose + 1 - first_pose;
+        let count = (poses / MIN_POSES_PER_THREAD).clamp(1, self.threads());
+        let mut chunks = Vec::with_capacity(count);
+        let mut start = blocks.start;
+        for c in 1..count {
+            // The first observation of the chunk's first pose.
+            let pose = first_pose + c * poses / count;
+            let end = start + self.blocks[start..blocks.end].partition_point(|b| b.pose < pose);
+            chunks.push(start..end);
+            start = end;
+        }
+        chunks.push(start..blocks.end);
+        chunks
+    }
+
+    /// Runs `work(chunk, workspace, out)` for each chunk of
+    /// [`ErrorModel::chunks`] with its output `outs[c]`: the first on the
+    /// calling thread, the others as tasks of rayon's pool, each with its
+    /// own workspace. The results in chunk order, or the first chunk's
+    /// error (that of the first failing pose, as in a serial evaluation).
+    fn on_chunks<O: Send, R: Send>(
+        &self,
+        chunks: &[Range<usize>],
+        outs: Vec<O>,
+        work: impl Fn(Range<usize>, &mut Workspace, O) -> Result<R, CalibError> + Sync,
+    ) -> Result<Vec<R>, CalibError> {
+        let run = |c: usize, out: O| {
+            let mut workspace = self.workspaces[c]
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner);
+            work(chunks[c].clone(), &mut workspace, out)
+        };
+        let mut outs = outs.into_iter();
+        let Some(first) = outs.next() else {
+            return Ok(Vec::new());
+        };
+        if chunks.len() == 1 {
+            return Ok(vec![run(0, first)?]);
+        }
+        let mut results: Vec<Option<Result<R, CalibError>>> =
+            std::iter::repeat_with(|| None).take(chunks.len()).collect();
+        let (head, tail) = results.split_at_mut(1);
+        rayon::in_place_scope(|scope| {
+            for ((c, out), slot) in outs.enumerate().zip(tail) {
+                let run = &run;
+                scope.spawn(move |_| *slot = Some(run(c + 1, out)));
+            }
+            head[0] = Some(run(0, first));
+        });
+        results
+            .into_iter()
+            .map(|r| r.expect("every chunk ran"))
+            .collect()
     }
 
     /// The elastic terms of this model's loading with the deflection
@@ -622,14 +758,17 @@ impl<'a> ErrorModel<'a> {
     /// elastic columns (default true). With `false` they are zeros and only
     /// the forward model runs per pose: for fits of the frames alone.
     pub fn set_robot_columns(&self, on: bool) {
-        self.robot_columns.set(on);
+        self.robot_columns.store(on, Ordering::Relaxed);
     }
     /// The unknowns whose robot-parameter or elastic column
     /// [`Jacobian::jacobian`] may leave at zero (a solver holding them
     /// fixed never reads them); empty (default): every column computed.
     /// The other columns are the same either way.
     pub fn set_frozen_columns(&self, frozen: &[bool]) {
-        let mut columns = self.frozen_columns.borrow_mut();
+        let mut columns = self
+            .frozen_columns
+            .write()
+            .unwrap_or_else(PoisonError::into_inner);
         columns.clear();
         columns.extend_from_slice(frozen);
     }
@@ -741,42 +880,66 @@ impl<'a> ErrorModel<'a> {
         elastic: &ElasticTerms,
         x: &[f64],
     ) -> Result<Vec<Isometry3<f64>>, CalibError> {
+        let frames = (self.station_frames(x), self.points(x));
+        let chunks = self.chunks(0..self.blocks.len());
+        let predicted =
+            self.on_chunks(&chunks, vec![(); chunks.len()], |blocks, workspace, ()| {
+                let mut predicted = Vec::with_capacity(blocks.len());
+                self.predict_blocks(elastic, x, &frames, blocks, workspace, |_, p| {
+                    predicted.push(p);
+                })?;
+                Ok(predicted)
+            })?;
+        Ok(predicted.concat())
+    }
+
+    /// The predicted pose `x_meas_target` of the observations `blocks` at
+    /// `x`, with the elastic terms `elastic`, each station's frame and each
+    /// target's point on its frame (`frames`), handed to `sink` with the
+    /// observation's index, in order.
+    fn predict_blocks(
+        &self,
+        elastic: &ElasticTerms,
+        x: &[f64],
+        (stations, points): &(Vec<Isometry3<f64>>, Vec<Isometry3<f64>>),
+        blocks: Range<usize>,
+        workspace: &mut Workspace,
+        mut sink: impl FnMut(usize, Isometry3<f64>),
+    ) -> Result<(), CalibError> {
         let xi = &x[..self.model.n_params()];
-        let frames = self.station_frames(x);
-        // Each target's point once per evaluation, not once per pose.
-        let points = self.points(x);
-        let mut data = self.data.borrow_mut();
-        let mut state = self.deflection.borrow_mut();
+        let Workspace {
+            data,
+            deflection: state,
+            ..
+        } = workspace;
         let mut evaluated = None;
-        self.blocks
-            .iter()
-            .map(|&Block { pose: k, target: t }| {
-                // One pass of the forward model per pose, for all its targets.
-                if evaluated != Some(k) {
-                    self.deflect(elastic, x, k, &mut state)?;
-                    forward_frames(self.model, &mut data, &state.q, xi)
-                        .map_err(self.kinematics_error(k))?;
-                    evaluated = Some(k);
+        for b in blocks {
+            let Block { pose: k, target: t } = self.blocks[b];
+            // One pass of the forward model per pose, for all its targets.
+            if evaluated != Some(k) {
+                self.deflect(elastic, x, k, state)?;
+                forward_frames(self.model, data, &state.q, xi).map_err(self.kinematics_error(k))?;
+                evaluated = Some(k);
+            }
+            let frame = data
+                .frame_pose(self.targets[t].frame)
+                .expect("a checked frame");
+            let x_base_target = frame * points[t];
+            let moved = match elastic.lateral_motion(
+                &x[self.elastic_offset..],
+                k,
+                self.lateral_mask(t),
+                state,
+            ) {
+                Some(m) => {
+                    Isometry3::from_parts(Translation3::from(m.translation), m.rotation)
+                        * x_base_target
                 }
-                let frame = data
-                    .frame_pose(self.targets[t].frame)
-                    .expect("a checked frame");
-                let x_base_target = frame * points[t];
-                let moved = match elastic.lateral_motion(
-                    &x[self.elastic_offset..],
-                    k,
-                    self.lateral_mask(t),
-                    &state,
-                ) {
-                    Some(m) => {
-                        Isometry3::from_parts(Translation3::from(m.translation), m.rotation)
-                            * x_base_target
-                    }
-                    None => x_base_target,
-                };
-                Ok(frames[self.set.station_of(k)] * moved)
-            })
-            .collect()
+                None => x_base_target,
+            };
+            sink(b, stations[self.set.station_of(k)] * moved);
+        }
+        Ok(())
     }
 
     /// The error `measured - predicted` of every observation at `x`, in the
@@ -882,15 +1045,36 @@ impl Residuals for ErrorModel<'_> {
         self.names.len()
     }
     fn residuals(&self, x: &[f64], out: &mut [f64]) -> Result<(), ProblemError> {
-        for (i, predicted) in self.predict(x)?.iter().enumerate() {
-            let measured = self.measured(i);
-            let r0 = self.block_rows[i];
-            let dp = predicted.translation.vector - measured.position;
-            out[r0..r0 + 3].copy_from_slice(dp.as_slice());
-            if self.targets[self.blocks[i].target].orientation {
-                out[r0 + 3..r0 + 6].copy_from_slice(rotation_error(predicted, measured).as_slice());
-            }
+        let frames = (self.station_frames(x), self.points(x));
+        let chunks = self.chunks(0..self.blocks.len());
+        let mut outs = Vec::with_capacity(chunks.len());
+        let mut rest = out;
+        for chunk in &chunks {
+            let rows = self.block_rows[chunk.end] - self.block_rows[chunk.start];
+            let (head, tail) = rest.split_at_mut(rows);
+            outs.push(head);
+            rest = tail;
         }
+        self.on_chunks(&chunks, outs, |blocks, workspace, out| {
+            let row0 = self.block_rows[blocks.start];
+            self.predict_blocks(
+                &self.elastic,
+                x,
+                &frames,
+                blocks,
+                workspace,
+                |i, predicted| {
+                    let measured = self.measured(i);
+                    let r0 = self.block_rows[i] - row0;
+                    let dp = predicted.translation.vector - measured.position;
+                    out[r0..r0 + 3].copy_from_slice(dp.as_slice());
+                    if self.targets[self.blocks[i].target].orientation {
+                        out[r0 + 3..r0 + 6]
+                            .copy_from_slice(rotation_error(&predicted, measured).as_slice());
+                    }
+                },
+            )
+        })?;
         Ok(())
     }
     fn parameter_name(&self, j: usize) -> String {
@@ -915,6 +1099,23 @@ struct StationTerms {
     jl_phi: Matrix3<f64>,
 }
 
+/// What the Jacobian rows of every observation of an evaluation share.
+struct JacobianSetup {
+    /// Each station's frame terms.
+    stations: Vec<StationTerms>,
+    /// Each target's point on its frame (after the tool on the TCP).
+    points: Vec<Isometry3<f64>>,
+    /// Each target's rotation in its frame.
+    rotations: Vec<UnitQuaternion<f64>>,
+    /// Whether the robot-parameter and elastic columns are computed.
+    robot_columns: bool,
+    /// Whether the joint Jacobians and elastic twists are computed.
+    with_joints: bool,
+    /// The twists whose columns are wanted (robot parameters `0..np`,
+    /// then elastic unknowns).
+    wanted: Vec<usize>,
+}
+
 /// What the Jacobian rows of one observation need beyond the model.
 struct BlockTerms<'b> {
     /// The target point's parameter and joint Jacobians and pose (before
@@ -930,18 +1131,38 @@ struct BlockTerms<'b> {
 impl ErrorModel<'_> {
     /// The Jacobian rows of the observations `blocks` (row 0 of `out` is
     /// the first row of observation `blocks.start`): for factorisations
-    /// that stream the stacked Jacobian instead of holding it whole.
+    /// that stream the stacked Jacobian instead of holding it whole. On
+    /// [`ErrorModel::threads`] threads when `blocks` spans enough poses,
+    /// with the same rows to the bit.
     ///
     /// # Errors
     /// [`CalibError::Kinematics`] naming the pose.
     pub fn jacobian_blocks(
         &self,
         x: &[f64],
-        blocks: std::ops::Range<usize>,
-        mut out: MatMut<'_, f64>,
+        blocks: Range<usize>,
+        out: MatMut<'_, f64>,
     ) -> Result<(), ProblemError> {
+        let setup = self.jacobian_setup(x);
+        let chunks = self.chunks(blocks);
+        let mut outs = Vec::with_capacity(chunks.len());
+        let mut rest = out;
+        for chunk in &chunks {
+            let rows = self.block_rows[chunk.end] - self.block_rows[chunk.start];
+            let (head, tail) = rest.split_at_row_mut(rows);
+            outs.push(head);
+            rest = tail;
+        }
+        rest.fill(0.0);
+        self.on_chunks(&chunks, outs, |blocks, workspace, out| {
+            self.jacobian_chunk(x, &setup, blocks, workspace, out)
+        })?;
+        Ok(())
+    }
+
+    /// What the Jacobian rows of every observation share at `x`.
+    fn jacobian_setup(&self, x: &[f64]) -> JacobianSetup {
         let np = self.model.n_params();
-        let xi = &x[..np];
         let stations: Vec<StationTerms> = (0..self.n_stations())
             .map(|s| {
                 let offset = self.station_frame_offset(s);
@@ -958,31 +1179,17 @@ impl ErrorModel<'_> {
                 }
             })
             .collect();
-        out.fill(0.0);
-        let robot_columns = self.robot_columns.get();
-        let mut data = self.data.borrow_mut();
-        let mut jacobians = self.jacobians.borrow_mut();
-        let PointJacobians {
-            params,
-            joints,
-            poses,
-        } = &mut *jacobians;
-        let mut state = self.deflection.borrow_mut();
-        let mut twists = self.twists.borrow_mut();
+        let robot_columns = self.robot_columns.load(Ordering::Relaxed);
         let eo = self.elastic_offset;
-        let row0 = self.block_rows[blocks.start];
-        let target_points = self.points(x);
-        // Each target's rotation in its frame: the frame's rotation is the
-        // point's times its inverse.
-        let target_rotations: Vec<UnitQuaternion<f64>> = (0..self.targets.len())
-            .map(|t| self.target_frame(x, t).rotation)
-            .collect();
-        let frozen = self.frozen_columns.borrow();
-        let elastic_columns = eo..eo + self.elastic.len();
+        let frozen = self
+            .frozen_columns
+            .read()
+            .unwrap_or_else(PoisonError::into_inner);
+        let mut elastic_columns = eo..eo + self.elastic.len();
         // Joint Jacobians and twists only when an elastic column is wanted.
         let with_joints = robot_columns
             && self.elastic.len() > 0
-            && (frozen.is_empty() || elastic_columns.into_iter().any(|j| !frozen[j]));
+            && (frozen.is_empty() || elastic_columns.any(|j| !frozen[j]));
         // The twists (robot parameters, then elastic unknowns) whose columns
         // are wanted, once for every block.
         let n_twists = if robot_columns {
@@ -993,6 +1200,45 @@ impl ErrorModel<'_> {
         let wanted: Vec<usize> = (0..n_twists)
             .filter(|&j| frozen.is_empty() || !frozen[if j < np { j } else { eo + j - np }])
             .collect();
+        JacobianSetup {
+            stations,
+            points: self.points(x),
+            // Each target's rotation in its frame: the frame's rotation is
+            // the point's times its inverse.
+            rotations: (0..self.targets.len())
+                .map(|t| self.target_frame(x, t).rotation)
+                .collect(),
+            robot_columns,
+            with_joints,
+            wanted,
+        }
+    }
+
+    /// The Jacobian rows of the observations `blocks` into `out` (its row 0
+    /// the first row of `blocks.start`), in `workspace`.
+    fn jacobian_chunk(
+        &self,
+        x: &[f64],
+        setup: &JacobianSetup,
+        blocks: Range<usize>,
+        workspace: &mut Workspace,
+        mut out: MatMut<'_, f64>,
+    ) -> Result<(), CalibError> {
+        out.fill(0.0);
+        let xi = &x[..self.model.n_params()];
+        let Workspace {
+            data,
+            jacobians:
+                PointJacobians {
+                    params,
+                    joints,
+                    poses,
+                },
+            deflection: state,
+            twists,
+        } = workspace;
+        let eo = self.elastic_offset;
+        let row0 = self.block_rows[blocks.start];
         let mut points: Vec<(usize, Isometry3<f64>)> = Vec::with_capacity(params.len());
         let mut start = blocks.start;
         // The blocks come pose by pose: one pass of the forward model for
@@ -1002,49 +1248,49 @@ impl ErrorModel<'_> {
             let end = (start..blocks.end)
                 .find(|&b| self.blocks[b].pose != k)
                 .unwrap_or(blocks.end);
-            self.deflect(&self.elastic, x, k, &mut state)?;
+            self.deflect(&self.elastic, x, k, state)?;
             points.clear();
             points.extend(
                 self.blocks[start..end]
                     .iter()
-                    .map(|b| (self.targets[b.target].frame, target_points[b.target])),
+                    .map(|b| (self.targets[b.target].frame, setup.points[b.target])),
             );
-            if robot_columns {
+            if setup.robot_columns {
                 // Joint Jacobians only for the elastic terms.
-                let joints: &mut [Matrix6xX<f64>] = if with_joints { joints } else { &mut [] };
+                let joints: &mut [Matrix6xX<f64>] =
+                    if setup.with_joints { joints } else { &mut [] };
                 frame_points_jacobians_into(
-                    self.model, &mut data, &state.q, xi, &points, params, joints, poses,
+                    self.model, data, &state.q, xi, &points, params, joints, poses,
                 )
                 .map_err(self.kinematics_error(k))?;
             } else {
-                forward_frames(self.model, &mut data, &state.q, xi)
-                    .map_err(self.kinematics_error(k))?;
+                forward_frames(self.model, data, &state.q, xi).map_err(self.kinematics_error(k))?;
                 for (i, (frame, point)) in points.iter().enumerate() {
                     poses[i] = data.frame_pose(*frame).expect("a checked frame") * point;
                 }
             }
-            let station = stations[self.set.station_of(k)];
+            let station = setup.stations[self.set.station_of(k)];
             for (i, b) in (start..end).enumerate() {
                 let t = self.blocks[b].target;
                 let motion = self
                     .elastic
-                    .lateral_motion(&x[eo..], k, self.lateral_mask(t), &state);
-                if with_joints {
+                    .lateral_motion(&x[eo..], k, self.lateral_mask(t), state);
+                if setup.with_joints {
                     self.elastic.twists(
                         &x[eo..],
                         k,
                         self.lateral_mask(t),
-                        &state,
+                        state,
                         &joints[i],
                         motion.as_ref(),
                         &poses[i].translation.vector,
-                        &mut twists,
+                        twists,
                     );
                 }
-                let r_frame = poses[i].rotation * target_rotations[t].inverse();
+                let r_frame = poses[i].rotation * setup.rotations[t].inverse();
                 let terms = BlockTerms {
                     jac: &params[i],
-                    twists: &twists,
+                    twists,
                     x_base_point: poses[i],
                     r_frame: r_frame.to_rotation_matrix().into_inner(),
                     station,
@@ -1053,7 +1299,7 @@ impl ErrorModel<'_> {
                 let r0 = rows.start - row0;
                 self.block_jacobian(
                     x,
-                    (b, &wanted),
+                    (b, &setup.wanted),
                     &terms,
                     motion.as_ref(),
                     out.as_mut().subrows_mut(r0, rows.len()),
@@ -1299,6 +1545,77 @@ mod tests {
         }
         frozen_columns_are_skipped(&problem, &x, &analytic);
         frames_move_their_own_station(&problem, &set, &analytic);
+    }
+
+    /// The chunks of a threaded evaluation: contiguous, covering the
+    /// observations, cut at pose boundaries (a pose whose second target is
+    /// missing included), as many as the threads when every chunk keeps
+    /// [`MIN_POSES_PER_THREAD`] poses, one below.
+    #[test]
+    fn chunks_cut_at_pose_boundaries_and_keep_enough_poses() {
+        let model = RobotDescription::from_toml_file(&data_file("two_arms.toml"))
+            .unwrap()
+            .build()
+            .unwrap();
+        let targets = read_targets(&data_file("two_arms_targets.toml")).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let poses: Vec<TargetPose> = (0..17)
+            .flat_map(|_| random_poses(&model, targets.len(), &mut rng))
+            .take(100)
+            .enumerate()
+            .map(|(k, mut pose)| {
+                if k % 7 == 3 {
+                    pose.observations[1] = None;
+                }
+                pose
+            })
+            .collect();
+        let set = MeasurementSet::from_poses("chunks", targets, poses).unwrap();
+        let starts = FrameStarts::nominal(&set, Isometry3::identity(), None).unwrap();
+        let problem = |threads| {
+            ErrorModel::new(&model, Cow::Borrowed(&set), &starts)
+                .unwrap()
+                .with_threads(Some(threads))
+        };
+        let n = problem(1).n_observations();
+        for (threads, range, poses_per_chunk) in [
+            (1, 0..n, vec![100]),
+            (3, 0..n, vec![33, 33, 34]),
+            (8, 0..n, vec![25, 25, 25, 25]),
+        ] {
+            let problem = problem(threads);
+            let chunks = problem.chunks(range.clone());
+            assert_eq!(chunks.first().unwrap().start, range.start);
+            assert_eq!(chunks.last().unwrap().end, range.end);
+            for pair in chunks.windows(2) {
+                assert_eq!(pair[0].end, pair[1].start);
+                assert_ne!(
+                    problem.observation(pair[0].end - 1).0,
+                    problem.observation(pair[1].start).0
+                );
+            }
+            let counts: Vec<usize> = chunks
+                .iter()
+                .map(|c| problem.observation(c.end - 1).0 + 1 - problem.observation(c.start).0)
+                .collect();
+            assert_eq!(counts, poses_per_chunk, "{threads} threads over {range:?}");
+        }
+        // Part of the observations, starting inside a pose: the poses
+        // spanned, shared as evenly as whole poses allow.
+        for (threads, range) in [(3, 11..60), (2, 11..n - 3), (3, 11..n - 3)] {
+            let problem = problem(threads);
+            let mut spanned: Vec<usize> = range.clone().map(|i| problem.observation(i).0).collect();
+            spanned.dedup();
+            let chunks = problem.chunks(range.clone());
+            let expected = (spanned.len() / MIN_POSES_PER_THREAD).clamp(1, threads);
+            assert_eq!(chunks.len(), expected, "{threads} threads over {range:?}");
+            let counts: Vec<usize> = chunks
+                .iter()
+                .map(|c| problem.observation(c.end - 1).0 + 1 - problem.observation(c.start).0)
+                .collect();
+            assert_eq!(counts.iter().sum::<usize>(), spanned.len());
+            assert!(counts.iter().max().unwrap() - counts.iter().min().unwrap() <= 1);
+        }
     }
 
     /// Six random poses of `model`, `n_targets` observations each, the

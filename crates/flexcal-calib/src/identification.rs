@@ -386,8 +386,9 @@ fn error_model<'a>(
     starts: &FrameStarts,
     options: &CalibrationOptions,
 ) -> Result<ErrorModel<'a>, CalibError> {
-    ErrorModel::new(model, set, starts)?
-        .with_elastic(options.gravity.as_ref(), &options.joint_terms)
+    Ok(ErrorModel::new(model, set, starts)?
+        .with_elastic(options.gravity.as_ref(), &options.joint_terms)?
+        .with_threads(options.threads))
 }
 
 /// Identifies `model` from `set` under `options`: the steps of the module

@@ -56,7 +56,10 @@
 //!    [`MeasurementSet`].
 //! 3. **Measurement model** ([`error_model`]): [`ErrorModel`], the stacked
 //!    residuals and their exact Jacobian, with the elasto-geometric terms
-//!    ([`gravity`], [`joint_law`]).
+//!    ([`gravity`], [`joint_law`]). Both are evaluated over the poses on
+//!    [`CalibrationOptions::threads`] threads ([`ErrorModel::with_threads`]):
+//!    contiguous chunks of whole poses, each thread with its own
+//!    workspace, the same numbers to the bit as on one.
 //! 4. **Starting frames** ([`start`]): each station's measurement frame
 //!    registered in closed form, each target's orientation from the data.
 //! 5. **Identification** ([`identification`]): the unknowns laid out, the

@@ -165,6 +165,15 @@ pub struct CalibrationOptions {
     /// and returns [`CalibError::Cancelled`] (default `None`: runs to the
     /// end). Model selection passes it to every fit it runs.
     pub cancel: Option<CancelToken>,
+    /// Threads that evaluate the residuals and the Jacobian over the poses
+    /// ([`crate::ErrorModel::with_threads`]; default `None`:
+    /// [`std::thread::available_parallelism`]; `Some(1)`: serial, on the
+    /// calling thread; `>= 1`). Fewer are used for small sets (at least
+    /// [`crate::error_model::MIN_POSES_PER_THREAD`] poses per thread). The
+    /// results are the same to the bit whatever the count; callers that
+    /// run several identifications at once on their own threads (model
+    /// selection's folds) pass `Some(1)`.
+    pub threads: Option<usize>,
 }
 
 impl Default for CalibrationOptions {
@@ -199,6 +208,7 @@ impl Default for CalibrationOptions {
             max_iterations: 100,
             cost_tolerance: 1e-6,
             cancel: None,
+            threads: None,
         }
     }
 }
@@ -284,6 +294,12 @@ impl CalibrationOptions {
             return Err(CalibError::InvalidOption {
                 name: "cost_tolerance",
                 reason: format!("must be finite and >= 0, found {}", self.cost_tolerance),
+            });
+        }
+        if self.threads == Some(0) {
+            return Err(CalibError::InvalidOption {
+                name: "threads",
+                reason: "must be >= 1 (or unset: as many as the machine has)".into(),
             });
         }
         if self.max_iterations == 0 {

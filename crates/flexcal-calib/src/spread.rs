@@ -131,7 +131,8 @@ pub(crate) fn spread_ratios(
             (0..count).map(|k| k % stations).collect(),
         )?;
     let problem = ErrorModel::new(model, Cow::Owned(spread), starts)?
-        .with_elastic(options.gravity.as_ref(), &options.joint_terms)?;
+        .with_elastic(options.gravity.as_ref(), &options.joint_terms)?
+        .with_threads(options.threads);
     let weights: Vec<f64> = (0..problem.n_observations())
         .flat_map(|i| weight[..problem.block_rows(i).len()].to_vec())
         .collect();
