@@ -1129,6 +1129,8 @@ impl Scorer<'_> {
         // scores the cost itself).
         options.spread_reference = false;
         options.prediction_only = self.ordinary.is_some();
+        // The fits of a step run side by side ([`run_fits`]): one thread each.
+        options.threads = Some(1);
         options
     }
 }
