@@ -1285,13 +1285,11 @@ impl MeasurementSet {
                 }
                 station_of.push(station_index(&mut stations, name));
             }
-            poses.push(TargetPose {
-                pose_id: pose_id.map(|c| table.cell(row, c).to_string()),
+            poses.push(TargetPose::new(
+                pose_id.map(|c| table.cell(row, c).to_string()),
                 q,
                 observations,
-                wrench: None,
-                temperature_c: None,
-            });
+            ));
         }
         let set = Self::from_poses(&source, targets.to_vec(), poses)?;
         if station.is_some() {

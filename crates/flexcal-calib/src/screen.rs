@@ -567,13 +567,11 @@ mod tests {
         let o = |p: [f64; 3]| Some(TargetObservation::new(Vector3::from(p)));
         let pose = |k: usize| {
             let a = if k == 2 { 0.0 } else { k as f64 };
-            TargetPose {
-                pose_id: None,
-                q: vec![0.1 * k as f64, 0.0],
-                observations: vec![o([1.0 + a, 0.0, 0.0]), o([2.0 + k as f64, 0.0, 0.0])],
-                wrench: None,
-                temperature_c: None,
-            }
+            TargetPose::new(
+                None,
+                vec![0.1 * k as f64, 0.0],
+                vec![o([1.0 + a, 0.0, 0.0]), o([2.0 + k as f64, 0.0, 0.0])],
+            )
         };
         MeasurementSet::from_poses(
             "m.csv",

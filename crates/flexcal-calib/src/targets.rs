@@ -129,6 +129,23 @@ pub struct TargetPose {
 }
 
 impl TargetPose {
+    /// The pose at the actuated coordinates `q` (rad, m) with one
+    /// observation per target of its set (`None` where a target was not
+    /// seen), named `pose_id`; no wrench and no temperature recorded.
+    pub fn new(
+        pose_id: Option<String>,
+        q: Vec<f64>,
+        observations: Vec<Option<TargetObservation>>,
+    ) -> Self {
+        Self {
+            pose_id,
+            q,
+            observations,
+            wrench: None,
+            temperature_c: None,
+        }
+    }
+
     /// The pose identifier, or `#k` from its index.
     pub fn label(&self, index: usize) -> String {
         self.pose_id.clone().unwrap_or_else(|| format!("#{index}"))

@@ -406,13 +406,7 @@ impl Truth {
                         ))
                     })
                     .collect();
-                TargetPose {
-                    pose_id: Some(format!("p{k}")),
-                    q,
-                    observations,
-                    wrench: None,
-                    temperature_c: None,
-                }
+                TargetPose::new(Some(format!("p{k}")), q, observations)
             })
             .collect();
         MeasurementSet::from_poses("compliant torso (simulated)", targets, poses).unwrap()

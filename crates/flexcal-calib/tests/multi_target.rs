@@ -146,13 +146,7 @@ fn measure_with(
                     })
                 })
                 .collect();
-            TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q,
-                observations,
-                wrench: None,
-                temperature_c: None,
-            }
+            TargetPose::new(Some(format!("p{k}")), q, observations)
         })
         .collect();
     MeasurementSet::from_poses("simulated", targets.to_vec(), poses).unwrap()

@@ -181,13 +181,7 @@ fn measure(
                     Some(TargetObservation::new(p))
                 })
                 .collect();
-            TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q,
-                observations,
-                wrench: None,
-                temperature_c: None,
-            }
+            TargetPose::new(Some(format!("p{k}")), q, observations)
         })
         .collect();
     MeasurementSet::from_poses("simulated, elastic", targets.to_vec(), poses).unwrap()

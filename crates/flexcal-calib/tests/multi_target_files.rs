@@ -29,13 +29,11 @@ fn sample() -> MeasurementSet {
                 orientation_std: Some(Vector3::new(1e-4, 1e-4, 2e-4)),
             };
             let right = TargetObservation::new(Vector3::new(0.9, 0.1 * t, -0.05));
-            TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q: vec![0.1 * t, -0.2, 0.3, 1.0 / 3.0, 0.5, -0.6, 0.7, 0.8, -0.9],
-                observations: vec![(k != 2).then_some(left), (k != 4).then_some(right)],
-                wrench: None,
-                temperature_c: None,
-            }
+            TargetPose::new(
+                Some(format!("p{k}")),
+                vec![0.1 * t, -0.2, 0.3, 1.0 / 3.0, 0.5, -0.6, 0.7, 0.8, -0.9],
+                vec![(k != 2).then_some(left), (k != 4).then_some(right)],
+            )
         })
         .collect();
     MeasurementSet::from_poses("sample", targets(), poses).unwrap()

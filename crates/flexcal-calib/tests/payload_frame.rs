@@ -119,12 +119,12 @@ fn a_payload_on_a_link_deflects_both_hands_as_that_link_would() {
     let targets = flexcal_calib::read_targets(&data_file("two_arms_targets.toml")).unwrap();
     let poses = configurations(&model, 12)
         .into_iter()
-        .map(|q| TargetPose {
-            pose_id: None,
-            q,
-            observations: vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
-            wrench: None,
-            temperature_c: None,
+        .map(|q| {
+            TargetPose::new(
+                None,
+                q,
+                vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
+            )
         })
         .collect();
     let set = MeasurementSet::from_poses("poses", targets, poses).unwrap();

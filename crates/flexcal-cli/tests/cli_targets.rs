@@ -70,13 +70,7 @@ fn simulate(targets: &[Target], first: usize, poses: usize) -> MeasurementSet {
                     Some(TargetObservation::new((x_meas_base * x).translation.vector))
                 })
                 .collect();
-            TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q,
-                observations,
-                wrench: None,
-                temperature_c: None,
-            }
+            TargetPose::new(Some(format!("p{k}")), q, observations)
         })
         .collect();
     MeasurementSet::from_poses("simulated", targets.to_vec(), poses).unwrap()

@@ -106,13 +106,11 @@ pub(crate) fn set_from_arrays<'py>(
             };
             observations.push(observation);
         }
-        poses.push(TargetPose {
-            pose_id: pose_ids.as_ref().map(|ids| ids[k].clone()),
-            q: q[k * dof..(k + 1) * dof].to_vec(),
+        poses.push(TargetPose::new(
+            pose_ids.as_ref().map(|ids| ids[k].clone()),
+            q[k * dof..(k + 1) * dof].to_vec(),
             observations,
-            wrench: None,
-            temperature_c: None,
-        });
+        ));
     }
     Set::from_poses(source, described, poses).map_err(|e| calib_error(&e))
 }

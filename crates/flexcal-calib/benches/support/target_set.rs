@@ -82,13 +82,7 @@ pub fn target_set(
                     Some(TargetObservation::new(p))
                 })
                 .collect();
-            TargetPose {
-                pose_id: Some(format!("p{k}")),
-                q,
-                observations,
-                wrench: None,
-                temperature_c: None,
-            }
+            TargetPose::new(Some(format!("p{k}")), q, observations)
         })
         .collect();
     let set = MeasurementSet::from_poses("bench", targets, poses).expect("a valid set");

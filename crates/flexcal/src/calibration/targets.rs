@@ -483,13 +483,7 @@ mod tests {
                         })
                     })
                     .collect();
-                TargetPose {
-                    pose_id: None,
-                    q,
-                    observations,
-                    wrench: None,
-                    temperature_c: None,
-                }
+                TargetPose::new(None, q, observations)
             })
             .collect();
         let measurements = dir.join("markers.csv");

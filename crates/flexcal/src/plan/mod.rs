@@ -857,12 +857,12 @@ fn nominal_target_poses(
 ) -> Result<Vec<Vec<Isometry3<f64>>>> {
     let poses = configurations
         .iter()
-        .map(|q| TargetPose {
-            pose_id: None,
-            q: q.clone(),
-            observations: vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
-            wrench: None,
-            temperature_c: None,
+        .map(|q| {
+            TargetPose::new(
+                None,
+                q.clone(),
+                vec![Some(TargetObservation::new(Vector3::zeros())); targets.len()],
+            )
         })
         .collect();
     let set = MeasurementSet::from_poses("targets", targets.to_vec(), poses)?;
