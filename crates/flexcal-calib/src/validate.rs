@@ -4,9 +4,7 @@
 use std::borrow::Cow;
 
 use flexcal_kinematics::Model;
-use flexcal_optim::{
-    ColumnScaling, Control, IterationState, LevenbergMarquardt, ProblemSetup, Residuals,
-};
+use flexcal_optim::{LevenbergMarquardt, ProblemSetup};
 use nalgebra::Isometry3;
 use serde::Serialize;
 
@@ -83,66 +81,106 @@ pub fn evaluate_errors_with_terms(
     set: &MeasurementSet,
     xi: &[f64],
     elastic: Option<(&GravityCompliance, &[f64])>,
-    joint_terms: (&JointTerms, &[f64]),
+    joint: (&JointTerms, &[f64]),
     x_tcp_target: &Isometry3<f64>,
     policy: FramePolicy,
     use_orientation: bool,
 ) -> Result<(Vec<PoseError>, Isometry3<f64>), CalibError> {
-    let (problem, x) = one_target_model(
-        model,
-        set,
+    let mut targets = set.targets().to_vec();
+    if let Some(first) = targets.first_mut() {
+        first.offset = x_tcp_target.translation.vector;
+        first.rotation = x_tcp_target.rotation;
+    }
+    let robot = Robot {
         xi,
         elastic,
-        joint_terms,
-        x_tcp_target,
-        (policy, &[]),
-        use_orientation,
-    )?;
+        joint,
+        targets,
+    };
+    let (problem, x) = evaluation_model(model, set, robot, (policy, &[]), use_orientation)?;
     Ok((problem.errors(&x)?, first_station_frame(&problem, &x)))
 }
 
-/// The model of [`evaluate_errors_with_terms`] with its unknowns: the
-/// robot at `xi`, the target at `x_tcp_target`, the measurement frames
-/// taken or re-fitted according to `policy` (a fixed first frame comes
-/// with the fixed frames of the later stations of `set`: a calibration's
-/// [`Calibration::station_frames`]).
-#[allow(clippy::too_many_arguments)]
-fn one_target_model<'a>(
+/// The robot a set is evaluated with: its parameters, its elastic and
+/// joint terms with their values, and its targets (the offsets to use).
+struct Robot<'c> {
+    /// Robot parameters.
+    xi: &'c [f64],
+    /// The gravity model and its unknowns' values, when the robot deflects.
+    elastic: Option<(&'c GravityCompliance, &'c [f64])>,
+    /// Joint terms and their values.
+    joint: (&'c JointTerms, &'c [f64]),
+    /// The targets, by the set's names, with their offsets.
+    targets: Vec<Target>,
+}
+
+impl Calibration {
+    /// The calibrated robot.
+    fn calibrated(&self) -> Robot<'_> {
+        Robot {
+            xi: &self.xi,
+            elastic: self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
+            joint: (&self.joint_terms, &self.joint_term_values),
+            targets: self.targets.clone(),
+        }
+    }
+
+    /// The nominal robot with the target offsets fitted for it (rigid, no
+    /// joint terms): the "before" of a validation.
+    fn nominal(&self) -> Robot<'_> {
+        Robot {
+            xi: &self.nominal_xi,
+            elastic: None,
+            joint: (&NO_JOINT_TERMS, &[]),
+            targets: self.targets_nominal_robot.clone(),
+        }
+    }
+}
+
+/// No joint terms.
+static NO_JOINT_TERMS: JointTerms = JointTerms {
+    law: None,
+    cyclic: false,
+};
+
+/// The model of `robot` on `set` with its unknowns: the targets at the
+/// robot's offsets (re-fitted with the frames for
+/// `FramePolicy::Refit { refit_target: true }`), the measurement frames
+/// taken (`later_stations` after the first for a set of several stations)
+/// or re-fitted according to `policy`; orientations fitted where
+/// `orientation` and the targets carry them. The one model every
+/// validation, fold score and loaded-pose check evaluates.
+fn evaluation_model<'a>(
     model: &'a Model,
     set: &MeasurementSet,
-    xi: &[f64],
-    elastic: Option<(&GravityCompliance, &[f64])>,
-    (joint_terms, joint_values): (&JointTerms, &[f64]),
-    x_tcp_target: &Isometry3<f64>,
-    (policy, fixed_stations): (FramePolicy, &[Isometry3<f64>]),
-    use_orientation: bool,
+    robot: Robot<'_>,
+    (policy, later_stations): (FramePolicy, &[Isometry3<f64>]),
+    orientation: bool,
 ) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
-    let use_orientation = use_orientation && set.has_orientation();
-    let targets = set.clone();
-    let mut starts = FrameStarts::nominal(&targets, Isometry3::identity(), Some(use_orientation))?;
-    starts.targets[0] = *x_tcp_target;
-    let refit_target = match policy {
-        FramePolicy::Fixed(x_meas_base) => {
-            if fixed_stations.len() + 1 < set.n_stations() {
-                return Err(CalibError::InvalidOption {
-                    name: "frame_policy",
-                    reason: format!(
-                        "one fixed measurement frame for the {} stations of {}: re-fit them",
-                        set.n_stations(),
-                        set.source
-                    ),
-                });
-            }
-            starts.stations = std::iter::once(x_meas_base)
-                .chain(fixed_stations.iter().copied())
-                .collect();
+    let refit_target = matches!(policy, FramePolicy::Refit { refit_target: true });
+    let treatment = if refit_target {
+        FrameTreatment::Identify
+    } else {
+        FrameTreatment::Fixed
+    };
+    let targets = robot
+        .targets
+        .into_iter()
+        .map(|t| Target { treatment, ..t })
+        .collect();
+    let set = set.with_targets(targets)?;
+    let mut starts =
+        FrameStarts::nominal(&set, Isometry3::identity(), (!orientation).then_some(false))?;
+    let registered = match policy {
+        FramePolicy::Fixed(first) => {
+            starts.stations = fixed_stations(&set, first, later_stations)?;
             None
         }
-        FramePolicy::Refit { refit_target } => {
+        FramePolicy::Refit { .. } => {
             // Each station's frame from its own poses; a station a subset
             // left without poses keeps a placeholder that moves nothing.
-            let frames = target_frames(model, &targets, xi)?;
-            let registered = register_stations(&targets, &frames, &starts.targets)?;
+            let frames = target_frames(model, &set, robot.xi)?;
+            let registered = register_stations(&set, &frames, &starts.targets)?;
             let placeholder = registered
                 .iter()
                 .flatten()
@@ -153,53 +191,105 @@ fn one_target_model<'a>(
                 .iter()
                 .map(|r| r.unwrap_or(placeholder))
                 .collect();
-            Some((refit_target, registered))
+            Some(registered)
         }
     };
-    let problem = ErrorModel::new(model, Cow::Owned(targets), &starts)?
-        .with_elastic(elastic.map(|(g, _)| g), joint_terms)?;
+    let problem = ErrorModel::new(model, Cow::Owned(set), &starts)?
+        .with_elastic(robot.elastic.map(|(g, _)| g), robot.joint.0)?;
     let mut x = problem.initial_unknowns();
-    x[..model.n_params()].copy_from_slice(xi);
-    set_elastic_values(&problem, &mut x, elastic.map(|(_, v)| v), joint_values)?;
-    if let Some((refit_target, registered)) = refit_target {
-        let n = problem.n_unknowns();
-        let to = problem.target_offset(0);
-        let mut fixed = vec![true; n];
-        for (s, start) in registered.iter().enumerate() {
-            if start.is_some() {
-                let o = problem.station_frame_offset(s);
-                fixed[o..o + 6].fill(false);
-            }
-        }
-        if refit_target {
-            fixed[to..to + 3].fill(false);
-            if use_orientation {
-                fixed[to + 3..to + 6].fill(false);
-            }
-        }
-        let mut weights = Vec::with_capacity(problem.n_residuals());
-        for _ in 0..set.len() {
-            weights.extend([1.0; 3]);
-            if use_orientation {
-                // 0.01 deg weighs like 50 um, as in the identification defaults.
-                weights.extend([50e-6 / 0.01f64.to_radians(); 3]);
-            }
-        }
-        let setup = ProblemSetup {
-            row_weights: Some(weights),
-            fixed,
-            ..ProblemSetup::default()
-        };
-        // The robot is frozen: its parameter Jacobian is not needed.
-        problem.set_robot_columns(false);
-        x = LevenbergMarquardt::params()
-            .solve(&problem, &x, &setup, &mut ())
-            .map_err(CalibError::optim(
-                "validation re-fit of the measurement frame",
-            ))?
-            .x;
+    x[..model.n_params()].copy_from_slice(robot.xi);
+    set_elastic_values(
+        &problem,
+        &mut x,
+        robot.elastic.map(|(_, v)| v),
+        robot.joint.1,
+    )?;
+    if let Some(registered) = registered {
+        let free_stations: Vec<bool> = registered.iter().map(Option::is_some).collect();
+        x = refit_frames(&problem, x, &free_stations, refit_target)?;
     }
     Ok((problem, x))
+}
+
+/// The fixed measurement frame of every station of `set`: `first` for
+/// the first, `later` for the next ones.
+///
+/// # Errors
+/// [`CalibError::InvalidOption`] (`frame_policy`) when `set` has more
+/// stations than frames are known.
+fn fixed_stations(
+    set: &MeasurementSet,
+    first: Isometry3<f64>,
+    later: &[Isometry3<f64>],
+) -> Result<Vec<Isometry3<f64>>, CalibError> {
+    let n = set.n_stations();
+    if n > later.len() + 1 {
+        return Err(CalibError::InvalidOption {
+            name: "frame_policy",
+            reason: format!(
+                "{} measurement frames known for the {n} stations of {}: re-fit them",
+                later.len() + 1,
+                set.source
+            ),
+        });
+    }
+    Ok(std::iter::once(first)
+        .chain(later.iter().copied())
+        .take(n)
+        .collect())
+}
+
+/// The unknowns `x` of `problem` with the measurement frame of every
+/// station where `free_stations` fitted again (and the first target's
+/// offset when `refit_target`), everything else frozen. Orientation rows
+/// weigh 0.01 deg like 50 um, as in the identification defaults.
+///
+/// # Errors
+/// A failing solver.
+fn refit_frames(
+    problem: &ErrorModel<'_>,
+    x: Vec<f64>,
+    free_stations: &[bool],
+    refit_target: bool,
+) -> Result<Vec<f64>, CalibError> {
+    let mut fixed = vec![true; x.len()];
+    for (s, _) in free_stations.iter().enumerate().filter(|(_, free)| **free) {
+        let o = problem.station_frame_offset(s);
+        fixed[o..o + 6].fill(false);
+    }
+    if refit_target {
+        let to = problem.target_offset(0);
+        let n = if problem.uses_orientation(0) {
+            problem.target_unknowns(0)
+        } else {
+            3
+        };
+        fixed[to..to + n].fill(false);
+    }
+    let weights = (0..problem.n_observations())
+        .flat_map(|i| {
+            problem.block_rows(i).enumerate().map(|(r, _)| {
+                if r < 3 {
+                    1.0
+                } else {
+                    50e-6 / 0.01f64.to_radians()
+                }
+            })
+        })
+        .collect();
+    let setup = ProblemSetup {
+        row_weights: Some(weights),
+        fixed,
+        ..ProblemSetup::default()
+    };
+    // The robot is frozen: its parameter Jacobian is not needed.
+    problem.set_robot_columns(false);
+    Ok(LevenbergMarquardt::params()
+        .solve(problem, &x, &setup, &mut ())
+        .map_err(CalibError::optim(
+            "validation re-fit of the measurement frame",
+        ))?
+        .x)
 }
 
 /// The measurement frame `x_meas_base` at `x` of the first station the
@@ -259,8 +349,7 @@ pub enum Refit {
     /// for a validation set measured from the same tracker placement.
     Nothing,
     /// The measurement frames, as when the tracker was moved between the
-    /// series. With one target per pose they stay fixed when the
-    /// identification fixed them.
+    /// series. They stay fixed when the identification fixed them.
     Frames,
     /// The measurement frames and the offset of the one target of a set of
     /// one target per pose (not offered with several targets).
@@ -396,37 +485,37 @@ impl Calibration {
         Ok((problem.errors(&x)?, first_station_frame(&problem, &x)))
     }
 
-    /// The model of the calibrated robot on a set of one target per pose,
-    /// the frames taken or re-fitted according to `policy`.
+    /// The model of the calibrated robot on `set`, the frames taken or
+    /// re-fitted according to `policy`.
     fn after_model<'a>(
         &self,
         model: &'a Model,
         set: &MeasurementSet,
         policy: FramePolicy,
     ) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
-        one_target_model(
+        evaluation_model(
             model,
             set,
-            &self.xi,
-            self.elastic.as_ref().map(|(g, v)| (g, v.as_slice())),
-            (&self.joint_terms, &self.joint_term_values),
-            &self.x_tcp_target(),
+            self.calibrated(),
             (policy, &self.station_frames),
             self.use_orientation,
         )
     }
 
-    /// How validation of a set of one target per pose treats the
-    /// measurement frame, and that in words: the identification's frame
-    /// when it was fixed or `refit` is [`Refit::Nothing`], else re-fitted
-    /// (with the target position for [`Refit::FramesAndTarget`]). The
-    /// policy of the "before" comes first, then that of the "after".
+    /// How validation treats the measurement frames, and that in words:
+    /// the identification's frames when they were fixed or `refit` is
+    /// [`Refit::Nothing`], else re-fitted (with the target position for
+    /// [`Refit::FramesAndTarget`]). The policy of the "before" comes first,
+    /// then that of the "after".
     pub(crate) fn validation_policy(&self, refit: Refit) -> ([FramePolicy; 2], String) {
         let refit_target = refit == Refit::FramesAndTarget;
+        // A calibration of several targets speaks of its frames and
+        // offsets in the plural.
+        let s = if self.targets.len() > 1 { "s" } else { "" };
         if self.measurement_frame_fixed {
             (
                 [FramePolicy::Fixed(self.x_meas_base); 2],
-                "measurement frame fixed (as in the identification); nothing re-fitted".to_string(),
+                format!("measurement frame{s} fixed (as in the identification); nothing re-fitted"),
             )
         } else if refit == Refit::Nothing {
             (
@@ -434,24 +523,20 @@ impl Calibration {
                     FramePolicy::Fixed(self.x_meas_base_nominal_robot),
                     FramePolicy::Fixed(self.x_meas_base),
                 ],
-                "measurement frame as identified (same tracker placement); nothing re-fitted"
-                    .to_string(),
+                format!(
+                    "measurement frame{s} as identified (same tracker placement); nothing re-fitted"
+                ),
             )
         } else {
+            let (with, frozen) = if refit_target {
+                (" and target offset", "")
+            } else {
+                ("", " and target offset")
+            };
             (
                 [FramePolicy::Refit { refit_target }; 2],
                 format!(
-                    "measurement frame (tracker -> base){} re-fitted on the validation data; robot parameters{} frozen",
-                    if refit_target {
-                        " and target offset"
-                    } else {
-                        ""
-                    },
-                    if refit_target {
-                        ""
-                    } else {
-                        " and target offset"
-                    }
+                    "measurement frame{s} (tracker -> base){with} re-fitted on the validation data; robot parameters{frozen}{s} frozen"
                 ),
             )
         }
@@ -476,12 +561,28 @@ impl Calibration {
         refit: impl Into<Refit>,
     ) -> Result<ValidationReport, CalibError> {
         let refit = refit.into();
-        let (before, after, frame_refitted, frame_note) =
-            if set.is_one_target() && self.has_implicit_target() {
-                self.validate_one_target(model, set, refit)?
-            } else {
-                self.validate_several(model, set, refit)?
-            };
+        if refit == Refit::FramesAndTarget && self.targets.len() > 1 {
+            return Err(CalibError::InvalidOption {
+                name: "refit",
+                reason: format!(
+                    "the target offsets are re-fitted on a set of one target per pose only; {} has {} targets",
+                    set.source,
+                    set.targets().len()
+                ),
+            });
+        }
+        let ([before_policy, after_policy], frame_note) = self.validation_policy(refit);
+        let (problem, x) = evaluation_model(
+            model,
+            set,
+            self.nominal(),
+            (before_policy, &self.station_frames),
+            self.use_orientation,
+        )?;
+        let before = Evaluation::of(&problem, &x)?;
+        let (problem, x) = self.after_model(model, set, after_policy)?;
+        let after = Evaluation::of(&problem, &x)?;
+        let frame_refitted = matches!(after_policy, FramePolicy::Refit { .. });
         Ok(ValidationReport {
             before: error_statistics(&before.errors),
             after: error_statistics(&after.errors),
@@ -507,151 +608,6 @@ impl Calibration {
             ),
         })
     }
-
-    /// [`Calibration::validate`] on a set of one target per pose: the
-    /// measurement frame registered in closed form and refined, the target
-    /// offset with it when asked. Before, after, whether the frame was
-    /// re-fitted, and how in words.
-    fn validate_one_target(
-        &self,
-        model: &Model,
-        set: &MeasurementSet,
-        refit: Refit,
-    ) -> Result<(Evaluation, Evaluation, bool, String), CalibError> {
-        let ([before_policy, after_policy], note) = self.validation_policy(refit);
-        let (problem, x) = one_target_model(
-            model,
-            set,
-            &self.nominal_xi,
-            None,
-            (&JointTerms::default(), &[]),
-            &self.x_tcp_target_nominal_robot(),
-            (before_policy, &[]),
-            self.use_orientation,
-        )?;
-        let before = Evaluation::of(&problem, &x)?;
-        let (problem, x) = self.after_model(model, set, after_policy)?;
-        let after = Evaluation::of(&problem, &x)?;
-        let refitted = matches!(after_policy, FramePolicy::Refit { .. });
-        Ok((before, after, refitted, note))
-    }
-
-    /// [`Calibration::validate`] on a set of several targets: the target
-    /// offsets kept, the measurement frames of every station fitted again
-    /// unless `refit` is [`Refit::Nothing`].
-    fn validate_several(
-        &self,
-        model: &Model,
-        set: &MeasurementSet,
-        refit: Refit,
-    ) -> Result<(Evaluation, Evaluation, bool, String), CalibError> {
-        if refit == Refit::FramesAndTarget {
-            return Err(CalibError::InvalidOption {
-                name: "refit",
-                reason: format!(
-                    "the target offsets are re-fitted on a set of one target per pose only; {} has {} targets",
-                    set.source,
-                    set.targets().len()
-                ),
-            });
-        }
-        let refit_frame = refit == Refit::Frames;
-        let nominal = set.with_targets(fixed_offsets(&self.targets_nominal_robot))?;
-        let calibrated = set.with_targets(fixed_offsets(&self.targets))?;
-        let evaluate = |set: &MeasurementSet, robot: (&[f64], bool), x_meas_base| {
-            let (problem, mut x) = fitted_model(model, self, set, robot, x_meas_base, true)?;
-            if refit_frame {
-                x = refit_frames(&problem, x)?;
-            }
-            Evaluation::of(&problem, &x)
-        };
-        let before = evaluate(
-            &nominal,
-            (&self.nominal_xi, false),
-            self.x_meas_base_nominal_robot,
-        )?;
-        let after = evaluate(&calibrated, (&self.xi, true), self.x_meas_base)?;
-        let note = if refit_frame {
-            "measurement frames (tracker -> base) re-fitted on the validation data; robot parameters and target offsets frozen"
-        } else {
-            "measurement frames as identified (same tracker placement); nothing re-fitted"
-        };
-        Ok((before, after, refit_frame, note.to_string()))
-    }
-}
-
-/// The unknowns `x` of `problem` with the measurement frame of every
-/// station fitted again, everything else frozen.
-///
-/// # Errors
-/// A failing solver.
-fn refit_frames(problem: &ErrorModel<'_>, x: Vec<f64>) -> Result<Vec<f64>, CalibError> {
-    let mut frozen = vec![true; x.len()];
-    for s in 0..problem.n_stations() {
-        let o = problem.station_frame_offset(s);
-        frozen[o..o + 6].fill(false);
-    }
-    // 0.01 deg weighs like 50 um, as in the identification defaults.
-    let weights = (0..problem.n_observations())
-        .flat_map(|i| {
-            let rows = problem.block_rows(i).len();
-            (0..rows).map(|r| {
-                if r < 3 {
-                    1.0
-                } else {
-                    50e-6 / 0.01f64.to_radians()
-                }
-            })
-        })
-        .collect();
-    let setup = ProblemSetup {
-        row_weights: Some(weights),
-        weights_are_absolute: false,
-        fixed: frozen,
-        column_scaling: ColumnScaling::ColumnNorm,
-    };
-    let mut observer = |_: &IterationState| Control::Continue;
-    problem.set_robot_columns(false);
-    Ok(LevenbergMarquardt::params()
-        .max_iterations(100)
-        .solve(problem, &x, &setup, &mut observer)
-        .map_err(CalibError::optim("validation frame fit"))?
-        .x)
-}
-
-/// The model of `calibration` on `set` (whose targets carry the offsets to
-/// use), with the unknowns of the robot `xi`, the measurement frames
-/// (`first` for the first station: the calibration's other stations'
-/// frames when `set` has its stations, else `first` for every station of
-/// `set`) and the identified elastic and joint unknowns (`identified`), or
-/// their starting values (the model the identification started from).
-/// Orientations are fitted where `orientation` and the targets carry them.
-fn fitted_model<'a>(
-    model: &'a Model,
-    calibration: &Calibration,
-    set: &'a MeasurementSet,
-    (xi, identified): (&[f64], bool),
-    first: Isometry3<f64>,
-    orientation: bool,
-) -> Result<(ErrorModel<'a>, Vec<f64>), CalibError> {
-    let gravity = calibration.elastic.as_ref().map(|(g, _)| g);
-    let mut starts = FrameStarts::nominal(set, first, (!orientation).then_some(false))?;
-    if set.n_stations() == 1 + calibration.station_frames.len() {
-        starts.stations[1..].copy_from_slice(&calibration.station_frames);
-    }
-    let problem = ErrorModel::new(model, Cow::Borrowed(set), &starts)?
-        .with_elastic(gravity, &calibration.joint_terms)?;
-    let mut x = problem.initial_unknowns();
-    x[..xi.len()].copy_from_slice(xi);
-    if identified {
-        let mut values = calibration
-            .elastic
-            .as_ref()
-            .map_or_else(Vec::new, |(_, v)| v.clone());
-        values.extend(&calibration.joint_term_values);
-        x[problem.frames_end()..].copy_from_slice(&values);
-    }
-    Ok((problem, x))
 }
 
 /// The position error (m) of every observation of `set` (same targets by
@@ -668,25 +624,15 @@ pub fn target_position_errors(
     calibration: &Calibration,
     set: &MeasurementSet,
 ) -> Result<Vec<f64>, CalibError> {
-    let calibrated = set.with_targets(fixed_offsets(&calibration.targets))?;
-    let (problem, x) = fitted_model(
+    let (problem, x) = evaluation_model(
         model,
-        calibration,
-        &calibrated,
-        (&calibration.xi, true),
-        calibration.x_meas_base,
+        set,
+        calibration.calibrated(),
+        (
+            FramePolicy::Fixed(calibration.x_meas_base),
+            &calibration.station_frames,
+        ),
         false,
     )?;
     Ok(problem.errors(&x)?.iter().map(|e| e.position).collect())
-}
-
-/// The targets with their offsets fixed at their values.
-fn fixed_offsets(targets: &[Target]) -> Vec<Target> {
-    targets
-        .iter()
-        .map(|t| Target {
-            treatment: FrameTreatment::Fixed,
-            ..t.clone()
-        })
-        .collect()
 }
