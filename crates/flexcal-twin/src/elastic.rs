@@ -75,9 +75,10 @@ use crate::truth::{
 /// Errors of the elastic twin.
 #[derive(Debug, thiserror::Error)]
 pub enum ElasticTwinError {
-    /// A measurement file could not be written.
-    #[error(transparent)]
-    Elastic(#[from] flexcal_elastic::ElasticError),
+    /// A measurement file could not be written (the writer's message,
+    /// naming the file).
+    #[error("{0}")]
+    Write(String),
     /// The robot geometry failed (a grid point out of reach, ...).
     #[error("robot geometry: {0}")]
     Kinematics(#[from] flexcal_kinematics::KinematicsError),
@@ -580,7 +581,8 @@ pub fn write_elastic_campaign(
             "q1..q6 = theta1 (rad), r'2 (m), r'8 (m), theta4, theta5, theta7 (rad); positions of the TCP in R0".into(),
             "each pose_id appears unloaded (zero wrench) and loaded; deflection = loaded - unloaded".into(),
         ];
-        write_position_rows(&path, rows, &comments)?;
+        write_position_rows(&path, rows, &comments)
+            .map_err(|e| ElasticTwinError::Write(e.to_string()))?;
         data_files.push(path);
     }
     let norms = range(
@@ -752,7 +754,8 @@ pub fn write_held_out_campaign(
         ),
         "q1..q6 = theta1 (rad), r'2 (m), r'8 (m), theta4, theta5, theta7 (rad); positions of the TCP in R0".into(),
     ];
-    write_position_rows(&path, &rows, &comments)?;
+    write_position_rows(&path, &rows, &comments)
+        .map_err(|e| ElasticTwinError::Write(e.to_string()))?;
     Ok(path)
 }
 

@@ -48,6 +48,12 @@ use crate::truth::{
     FormingTruth, Photogrammetry, TruthError, TruthSwitches, TwinRobot, TwinTerms, twin_terms,
 };
 
+/// The format's error (a measurement set that cannot be formed or
+/// written) in words: the twin keeps no error type of the crates it tests.
+fn format_error(e: impl std::fmt::Display) -> GeometricTwinError {
+    GeometricTwinError::Format(e.to_string())
+}
+
 /// Errors of the geometric twin.
 #[derive(Debug, thiserror::Error)]
 pub enum GeometricTwinError {
@@ -60,9 +66,10 @@ pub enum GeometricTwinError {
         #[source]
         source: KinematicsError,
     },
-    /// A measurement set could not be formed or written.
-    #[error(transparent)]
-    Calib(#[from] flexcal_calib::CalibError),
+    /// A measurement set could not be formed or written (the format's
+    /// message, naming the set or the file).
+    #[error("{0}")]
+    Format(String),
     /// A file could not be written.
     #[error(transparent)]
     Io(#[from] flexcal_io::IoError),
@@ -442,7 +449,7 @@ fn measure(
         m.orientation_std = Some(orientation_std.map(|s| s.max(f64::MIN_POSITIVE)));
         measurements.push(m);
     }
-    Ok(MeasurementSet::new(name, measurements)?)
+    MeasurementSet::new(name, measurements).map_err(format_error)
 }
 
 /// Writes a campaign into `dir`: `identification.csv`, `validation.csv`,
@@ -458,16 +465,14 @@ pub fn write_geometric_campaign(
     campaign: &GeometricCampaign,
     dir: &Path,
 ) -> Result<(), GeometricTwinError> {
-    campaign
-        .identification
-        .write_csv(&dir.join("identification.csv"))?;
-    campaign.validation.write_csv(&dir.join("validation.csv"))?;
-    campaign
-        .validation_outside
-        .write_csv(&dir.join("validation_outside.csv"))?;
-    campaign
-        .validation_loaded
-        .write_csv(&dir.join("validation_loaded.csv"))?;
+    for (set, file) in [
+        (&campaign.identification, "identification.csv"),
+        (&campaign.validation, "validation.csv"),
+        (&campaign.validation_outside, "validation_outside.csv"),
+        (&campaign.validation_loaded, "validation_loaded.csv"),
+    ] {
+        set.write_csv(&dir.join(file)).map_err(format_error)?;
+    }
     flexcal_io::write_atomic(
         dir.join("truth.toml"),
         campaign.true_description.to_toml_string(),
