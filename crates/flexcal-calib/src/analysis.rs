@@ -32,7 +32,8 @@ pub(crate) fn analysis_index(
     names.iter().position(|n| n == name).unwrap_or(0)
 }
 
-fn problem_error(e: flexcal_optim::ProblemError) -> CalibError {
+/// The error model's own error back from the solver's problem error.
+pub(crate) fn problem_error(e: flexcal_optim::ProblemError) -> CalibError {
     match e.downcast::<CalibError>() {
         Ok(calib) => *calib,
         Err(other) => CalibError::BadMeasurement {

@@ -24,13 +24,14 @@ use std::cell::RefCell;
 use flexcal_kinematics::Model;
 use flexcal_optim::{
     CancelToken, ColumnScaling, Control, Diagnosis, GaussNewton, IdentifiabilityReport,
-    IterationState, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport, Termination,
+    IterationState, Jacobian, LevenbergMarquardt, ProblemSetup, Residuals, SolveReport,
+    Termination,
 };
 use nalgebra::Vector3;
 
 use crate::analysis::{
     AnalysisContext, NoiseAt, Rounds, RoundsOutcome, UnknownFlags, analysis_index, noise_level,
-    unknown_estimates,
+    problem_error, unknown_estimates,
 };
 use crate::coverage::CoordinateCoverage;
 use crate::error::CalibError;
@@ -43,7 +44,7 @@ use crate::options::{
 use crate::significance::{JudgeUpdate, NoiseSource, barely_loaded};
 use crate::spread::{SpreadReference, spread_ratios};
 use crate::start::frame_starts;
-use crate::unknowns::{Combination, UnknownEstimate};
+use crate::unknowns::{Combination, UnknownEstimate, UnknownStatus};
 
 /// Unweighted residual norms at one iterate of the identification (Figure 7
 /// plots these, position and orientation separately).
@@ -90,6 +91,9 @@ pub(crate) struct Identification<'a> {
     pub actuated_ranges: Vec<CoordinateCoverage>,
     /// Span of each actuated coordinate's gravity torque.
     pub torque_ranges: Vec<CoordinateCoverage>,
+    /// The degrees of freedom of the position residuals when orientation
+    /// rows were fitted too ([`position_residual_dof`]).
+    pub position_residual_dof: Option<f64>,
 }
 
 /// Step 3: the layout of the unknowns of `problem` under `options`.
@@ -502,6 +506,8 @@ pub(crate) fn identify<'a>(
     let (unknowns, combinations, noise) = statistics.of(model, &outcome, &noise_at)?;
     let errors_before = problem.errors(&x_start)?;
     let errors_after = problem.errors(&outcome.report.x)?;
+    let position_residual_dof =
+        position_residual_dof(&problem, &outcome.report.x, &weights, &unknowns)?;
     let Solver {
         cost_history,
         residual_history,
@@ -522,8 +528,58 @@ pub(crate) fn identify<'a>(
         noise,
         actuated_ranges,
         torque_ranges,
+        position_residual_dof,
         problem,
     })
+}
+
+/// The degrees of freedom the position rows of the weighted fit of
+/// `problem` at `x` keep when it fits orientation rows too, `3 N -
+/// tr(H_pp)`; `None` without orientation rows (`3 N - p` then). `H = J_w
+/// (J_w^T J_w)^-1 J_w^T` is the hat matrix of the fit on its identified
+/// columns (`J_w` the Jacobian's rows scaled by `weights`), `H_pp` its
+/// block of the position rows; its diagonal is the squared row norms of
+/// the thin `Q` of `J_w`. The orientation rows carry part of the fit, so
+/// the position residuals keep more than `3 N - p`.
+///
+/// # Errors
+/// A model failure at a pose.
+fn position_residual_dof(
+    problem: &ErrorModel<'_>,
+    x: &[f64],
+    weights: &[f64],
+    unknowns: &[UnknownEstimate],
+) -> Result<Option<f64>, CalibError> {
+    let n = problem.n_observations();
+    if problem.n_residuals() == 3 * n {
+        return Ok(None);
+    }
+    let identified: Vec<usize> = (0..unknowns.len())
+        .filter(|&j| unknowns[j].status == UnknownStatus::Identified)
+        .collect();
+    let m = problem.n_residuals();
+    let mut jacobian = faer::Mat::<f64>::zeros(m, x.len());
+    problem
+        .jacobian(x, jacobian.as_mut())
+        .map_err(problem_error)?;
+    let mut weighted = nalgebra::DMatrix::<f64>::zeros(m, identified.len());
+    for (c, &j) in identified.iter().enumerate() {
+        for i in 0..m {
+            weighted[(i, c)] = weights[i] * jacobian[(i, j)];
+        }
+        // Unit columns: lengths and angles on one footing for the factor
+        // (the hat matrix does not change).
+        let norm = weighted.column(c).norm();
+        if norm > 0.0 {
+            weighted.column_mut(c).unscale_mut(norm);
+        }
+    }
+    let q = weighted.qr().q();
+    let trace: f64 = (0..n)
+        .flat_map(|i| problem.block_rows(i).take(3))
+        .map(|r| q.row(r).norm_squared())
+        .sum();
+    Ok(Some(3.0 * n as f64 - trace))
 }
 
 /// Step 5: the frames alone (the measurement frames and the targets'

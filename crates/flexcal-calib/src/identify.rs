@@ -136,6 +136,12 @@ pub struct Calibration {
     pub n_poses: usize,
     /// Number of (pose, target) observations used (`n_poses` for one target).
     pub n_observations: usize,
+    /// The degrees of freedom the position residuals keep when orientation
+    /// rows were fitted too: `3 N - tr(H_pp)`, the trace of the weighted
+    /// fit's hat matrix over the position rows (the orientation rows carry
+    /// part of the fit); `None` without orientation rows, where it is
+    /// `3 N - p` ([`Calibration::residual_scatter`]).
+    pub position_residual_dof: Option<f64>,
     /// Names of the robot's actuated coordinates, in the order of
     /// [`Calibration::actuated_ranges`] and [`Calibration::torque_ranges`].
     pub actuated_names: Vec<String>,
@@ -740,6 +746,7 @@ fn packed(
         noise,
         actuated_ranges,
         torque_ranges,
+        position_residual_dof,
         ..
     } = found;
     let norms: Vec<f64> = errors_after.iter().map(|e| e.position).collect();
@@ -783,6 +790,7 @@ fn packed(
         noise,
         n_poses: set.len(),
         n_observations: errors_after.len(),
+        position_residual_dof,
         actuated_names: model.actuated_names().to_vec(),
         actuated_ranges,
         torque_ranges,

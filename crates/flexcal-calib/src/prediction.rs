@@ -92,23 +92,23 @@ impl MeasurementSet {
     }
 }
 
-/// `SSR / (3 N - p)` from the RMS of the position errors of `n`
-/// observations and `p` identified unknowns (m^2).
-fn residual_variance(position_rms: f64, n: usize, p: usize) -> f64 {
+/// `SSR / dof` from the RMS of the position errors of `n` observations
+/// and the degrees of freedom `dof` the position rows keep (m^2).
+fn residual_variance(position_rms: f64, n: usize, dof: f64) -> f64 {
     let ssr = position_rms.powi(2) * n as f64;
-    ssr / ((3 * n).saturating_sub(p).max(1)) as f64
+    ssr / dof.max(1.0)
 }
 
 impl Calibration {
     /// The per-axis scatter of the training residuals, squared:
-    /// `SSR / (3 N - p)` with N observations and p identified unknowns
-    /// (m^2).
+    /// `SSR / (3 N - p)` with N observations and p identified unknowns, or
+    /// `SSR / (3 N - tr(H_pp))` when orientation rows were fitted too
+    /// ([`Calibration::position_residual_dof`]) (m^2).
     pub(crate) fn residual_variance(&self) -> f64 {
-        residual_variance(
-            self.training_after.position_rms,
-            self.n_observations,
-            self.rank(),
-        )
+        let dof = self
+            .position_residual_dof
+            .unwrap_or_else(|| (3 * self.n_observations).saturating_sub(self.rank()).max(1) as f64);
+        residual_variance(self.training_after.position_rms, self.n_observations, dof)
     }
 
     /// The per-axis scatter of the training residuals (m), `s = sqrt(SSR /
