@@ -27,9 +27,11 @@
 //!   Scaling each unknown by its own split ratio would break the
 //!   correlations that make combinations of unknowns well known;
 //! - what the model leaves: the scatter of the training residuals, per
-//!   axis `s^2 = SSR / (3 N - p)` (positions; p identified unknowns), which
-//!   holds measurement noise and every effect the model lacks, taken as
-//!   isotropic and the same at every pose.
+//!   axis `s^2 = SSR / (3 N - p)` (positions; p identified unknowns; with
+//!   orientation rows fitted too, `SSR / (3 N - tr(H_pp))`, the degrees of
+//!   freedom the position rows keep: [`Calibration::position_residual_dof`]),
+//!   which holds measurement noise and every effect the model lacks, taken
+//!   as isotropic and the same at every pose.
 //!
 //! The 95 % bound on the position error is `sqrt(chi2_3(0.95) (tr
 //! Sigma_pred / 3 + s^2))` with `chi2_3(0.95) = 7.815`: exact for an

@@ -112,7 +112,8 @@ impl Calibration {
     }
 
     /// The per-axis scatter of the training residuals (m), `s = sqrt(SSR /
-    /// (3 N - p))` with N observations and p identified unknowns: what the
+    /// (3 N - p))` with N observations and p identified unknowns (`3 N -
+    /// tr(H_pp)` with orientation rows: [`Calibration::position_residual_dof`]): what the
     /// model leaves at the training poses, noise and every effect it lacks.
     /// An earlier campaign's value is the floor a plan of the same robot
     /// and model should state as its noise (`flexcal plan --noise-mm`),

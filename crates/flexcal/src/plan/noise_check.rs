@@ -40,8 +40,10 @@ pub struct DrawOutcome {
     /// noise-free region (the frame as identified): the estimation's own
     /// error (mm).
     pub estimation_rms_mm: f64,
-    /// Mean of the calibration's own 95 % bounds over the region
-    /// ([`calib::Calibration::predicted_accuracy`]) (mm).
+    /// Mean of the calibration's own 95 % bounds over the region, the
+    /// frame's uncertainty counted as the plan's
+    /// ([`calib::Calibration::predicted_accuracy_with_frame`],
+    /// [`calib::FrameUncertainty::AsIdentified`]) (mm).
     pub calibration_mean_bound_95_mm: f64,
     /// Share of region points within the calibration's own bound.
     pub calibration_coverage: f64,
@@ -296,7 +298,14 @@ fn outcome(
         n as f64 / errors.len().max(1) as f64
     };
     let region_q: Vec<Vec<f64>> = region.poses().iter().map(|p| p.q.clone()).collect();
-    let own = calibration.predicted_accuracy(&data.model, &region_q, None)?;
+    // The region is measured through the identified frame, as the plan's
+    // bound counts it: the calibration's own bound counts it too.
+    let own = calibration.predicted_accuracy_with_frame(
+        &data.model,
+        &region_q,
+        None,
+        calib::FrameUncertainty::AsIdentified,
+    )?;
     let own_bounds: Vec<f64> = own.poses.iter().map(|p| p.bound_95_mm).collect();
     let calibrated = unestimated(
         &calibration.non_identifiable(),
