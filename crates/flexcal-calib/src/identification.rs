@@ -605,15 +605,37 @@ fn fit_frames(
     problem.set_robot_columns(false);
     let reduced = context.reduced(&x_start);
     problem.set_robot_columns(true);
-    let analysis = context.analyse(&reduced?, Some(sigma), &|j| !frame_unknowns.contains(&j))?;
-    let mut frozen = vec![true; layout.names.len()];
-    for &j in &analysis.base {
-        frozen[analysis_index(&analysis, j, &layout.names)] = false;
+    let reduced = reduced?;
+    let outside = |j: usize| !frame_unknowns.contains(&j);
+    let mut analysis = context.analyse(&reduced, Some(sigma), &outside)?;
+    // A start far from the data (a tool offset not given) inflates the
+    // residual scatter the noise level is taken from, and with it every
+    // frame unknown's standard error, so that the frames would stay where
+    // the poor start put them. When the noise level keeps out frame
+    // unknowns the exact rank identifies, those are fitted first and the
+    // noise level taken again where that fit ends.
+    let exact = context.analyse(&reduced, None, &outside)?;
+    if analysis.base.len() < exact.base.len() {
+        let fitted = solver
+            .solve(&x_start, &frozen_outside(&exact, &layout.names))?
+            .x;
+        let sigma = noise_at(&fitted, frame_unknowns.len())?;
+        analysis = context.analyse(&reduced, Some(sigma), &outside)?;
     }
+    let frozen = frozen_outside(&analysis, &layout.names);
     if frozen.iter().all(|f| *f) {
         return Ok(x_start);
     }
     Ok(solver.solve(&x_start, &frozen)?.x)
+}
+
+/// Every unknown of `names` frozen but those of the base set of `analysis`.
+fn frozen_outside(analysis: &IdentifiabilityReport, names: &[String]) -> Vec<bool> {
+    let mut frozen = vec![true; names.len()];
+    for &j in &analysis.base {
+        frozen[analysis_index(analysis, j, names)] = false;
+    }
+    frozen
 }
 
 /// The unknowns left at their start before any fit: cyclic errors of a
