@@ -96,8 +96,8 @@ pub fn ipa_plan_check(
         &options,
         &instrument,
         None,
-        &q(&train),
-        &q(&validate),
+        (&q(&train), &q(&validate)),
+        None,
     )?;
     options.weighting = Weighting::Uniform;
     let calibration = calib::calibrate(model, &train, &options)?;

@@ -72,10 +72,12 @@ mod html;
 pub mod ipa_check;
 pub mod noise_check;
 pub mod output;
+pub mod prior;
 pub mod sight;
 pub mod twin_check;
 
 use design::Design;
+pub use prior::{Prior, PriorUse};
 pub use sight::{LineOfSight, OutOfSight, Sight, SightFilter};
 
 /// The instrument of the campaign: what it measures (positions, or full
@@ -434,6 +436,14 @@ pub struct PlanConfig {
     /// [`CalibrationOptions::target_value`]. Each target's offset is
     /// identified or kept as its description says.
     pub targets: Option<Vec<calib::Target>>,
+    /// An earlier calibration of the same robot ([`prior`]): its chosen
+    /// groups of unknowns are identified, its residual scatter is the
+    /// noise floor where larger than the instrument's, its split-half
+    /// inflation raises the identification part of every bound, and its
+    /// extrapolation growth (when it has one) widens the bounds of region
+    /// points outside the planned poses' ranges. `None`: the instrument's
+    /// noise alone, the model as `options` says.
+    pub prior: Option<Prior>,
     /// Number of poses to plan (`None`: the knee of the curve).
     pub count: Option<usize>,
     /// Largest number of poses on the curve (`None`: the larger of the
@@ -465,6 +475,7 @@ impl PlanConfig {
             candidates,
             region,
             targets: None,
+            prior: None,
             count: None,
             max_poses: None,
             knee_tolerance: 0.05,
@@ -678,6 +689,10 @@ pub struct CampaignPlan {
     pub exchanges: usize,
     /// The prediction for the planned poses.
     pub prediction: CampaignPrediction,
+    /// How the plan used an earlier calibration of the robot
+    /// ([`PlanConfig::prior`]; absent without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<PriorUse>,
 }
 
 /// Plans a campaign (module docs).
@@ -691,9 +706,15 @@ pub struct CampaignPlan {
 /// cannot determine the unknowns with all its poses.
 pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan> {
     config.instrument.check()?;
+    let prior = config.prior.as_ref();
+    if let Some(prior) = prior {
+        prior.check(model)?;
+    }
+    let instrument = with_floor(&config.instrument, prior);
     let offered = config.candidates.configurations(model, "candidates")?;
     let region = config.region.configurations(model, "region")?;
-    let options = plan_options(&config.options, &config.instrument);
+    let base = prior.map_or_else(|| config.options.clone(), |p| p.options(model, &config.options));
+    let options = plan_options(&base, &instrument);
     let targets = planned_targets(&options, config.targets.as_deref());
     let offered_q: Vec<Vec<f64>> = offered.iter().map(|c| c.value.clone()).collect();
     let sight = config
@@ -707,7 +728,7 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
     let (design, design_unknowns) = pool_design(
         model,
         &options,
-        &config.instrument,
+        &instrument,
         &targets,
         &pool_q,
         &region_q,
@@ -716,10 +737,11 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         parameter: "candidates".into(),
         message: "the greedy selection's information is not positive definite".into(),
     })?;
+    let inflation = prior.map_or(1.0, Prior::inflation);
     let curve = curve_of(
         &design,
         &order,
-        config.instrument.scatter_variance(),
+        (instrument.scatter_variance(), inflation),
         &targets,
     );
     let knee = knee_of(&curve, config.knee_tolerance);
@@ -739,8 +761,8 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         &options,
         &config.instrument,
         config.targets.as_deref(),
-        &configurations,
-        &region_q,
+        (&configurations, &region_q),
+        prior,
     )?;
     Ok(CampaignPlan {
         robot: model.name().to_string(),
@@ -762,16 +784,45 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         configurations,
         exchanges,
         prediction,
+        prior: prior.map(|p| prior_use(p, &config.instrument, &instrument)),
     })
+}
+
+/// `instrument` with its noise raised, axis by axis, to `prior`'s residual
+/// scatter where that is larger ([`Prior::floor`]).
+fn with_floor(instrument: &Instrument, prior: Option<&Prior>) -> Instrument {
+    let mut floored = instrument.clone();
+    if let Some(prior) = prior {
+        floored.noise_mm = prior.floor(instrument.noise_mm).0;
+    }
+    floored
+}
+
+/// How the plan used `prior`: the floor of `floored` against the stated
+/// `instrument`'s noise, the inflation, the extrapolation.
+fn prior_use(prior: &Prior, instrument: &Instrument, floored: &Instrument) -> PriorUse {
+    let floor_source = if floored.noise_mm == instrument.noise_mm {
+        "the instrument's noise (at least the prior's residual scatter)"
+    } else {
+        "the prior's residual scatter (above the instrument's noise)"
+    };
+    PriorUse {
+        prior: prior.clone(),
+        floor_mm: floored.noise_mm,
+        floor_source: floor_source.into(),
+        inflation: prior.inflation(),
+        extrapolation: prior.extrapolation.is_some(),
+    }
 }
 
 /// The predicted accuracy over the region of every prefix of the greedy
 /// `order` whose information is non-singular, `s2` the scatter's variance
-/// per axis (m^2); the design's region rows point-major over `targets`.
+/// per axis (m^2), every identification variance raised by `inflation`
+/// squared (1: none); the design's region rows point-major over `targets`.
 fn curve_of(
     design: &Design,
     order: &[usize],
-    s2: f64,
+    (s2, inflation): (f64, f64),
     targets: &[calib::Target],
 ) -> Vec<CurvePoint> {
     (1..=order.len())
@@ -780,7 +831,10 @@ fn curve_of(
             let bounds: Vec<(usize, f64)> = variances
                 .iter()
                 .enumerate()
-                .map(|(i, v)| (i % targets.len(), calib::bound_95(*v, s2) * 1e3))
+                .map(|(i, v)| {
+                    let v = v * inflation * inflation;
+                    (i % targets.len(), calib::bound_95(v, s2) * 1e3)
+                })
                 .collect();
             let (accuracy, per_target) = accuracy_per_target(targets, &bounds);
             Some(CurvePoint {
@@ -1053,7 +1107,13 @@ fn jacobian_rows(
 /// identifiability notes and combinations, and its accuracy map over the
 /// region, every target at every point, with the instrument's noise as
 /// the scatter (the map's bounds recomputed with it; the synthetic
-/// residuals are zero).
+/// residuals are zero). With a `prior` ([`PlanConfig::prior`]; its groups
+/// of unknowns already in `options`) the noise is floored at its residual
+/// scatter, the identification part raised by its split-half inflation,
+/// and its growth outside the training ranges added at the region points
+/// outside the planned poses' ranges; the map's
+/// [`calib::PoseAccuracy::parts`] say which part of each bound comes
+/// from where.
 ///
 /// # Errors
 /// The identification's errors (too few poses for the unknowns, a model
@@ -1064,9 +1124,10 @@ pub fn predict_campaign(
     options: &CalibrationOptions,
     instrument: &Instrument,
     targets: Option<&[calib::Target]>,
-    configurations: &[Vec<f64>],
-    region: &[Vec<f64>],
+    (configurations, region): (&[Vec<f64>], &[Vec<f64>]),
+    prior: Option<&Prior>,
 ) -> Result<CampaignPrediction> {
+    let instrument = &with_floor(instrument, prior);
     let options = plan_options(options, instrument);
     let targets = planned_targets(&options, targets);
     let (_, calibration) =
@@ -1078,11 +1139,28 @@ pub fn predict_campaign(
             source,
         })?;
     let s2 = instrument.scatter_variance();
+    let inflation = prior.map_or(1.0, Prior::inflation);
     for p in &mut map.poses {
+        p.model_uncertainty_mm *= inflation;
         let trace = (p.model_uncertainty_mm * 1e-3).powi(2);
+        p.parts = calib::BoundParts {
+            scatter_mm: calib::bound_95(0.0, s2) * 1e3,
+            parameters_mm: calib::bound_95(trace, 0.0) * 1e3,
+            extrapolation_mm: 0.0,
+        };
         p.bound_95_mm = calib::bound_95(trace, s2) * 1e3;
     }
     map.residual_scatter_mm = s2.sqrt() * 1e3;
+    map.inflation = inflation;
+    if let Some(growth) = prior.and_then(|p| p.extrapolation.as_ref()) {
+        // The prior's growth per unit of distance, outside the planned
+        // poses' ranges (not the prior's own).
+        let planned = calib::ExtrapolationModel {
+            ranges: calibration.actuated_ranges.clone(),
+            ..growth.clone()
+        };
+        map = map.with_extrapolation(&planned);
+    }
     let bounds: Vec<(usize, f64)> = map
         .poses
         .iter()
@@ -1212,11 +1290,40 @@ impl CampaignPlan {
                 );
             }
         }
+        if let Some(prior) = &self.prior {
+            let _ = writeln!(out, "{}", prior.describe());
+            let _ = writeln!(out, "{}", parts_line(&self.prediction.map));
+        }
         for note in &self.prediction.identifiability_notes {
             let _ = writeln!(out, "note: {note}");
         }
         out
     }
+}
+
+/// `bound parts over the region (mean of each, mm): ...`: the mean of
+/// every part of the region's bounds ([`calib::BoundParts`]) and the
+/// number of points each part dominates.
+fn parts_line(map: &AccuracyMap) -> String {
+    let n = map.poses.len().max(1) as f64;
+    let mean = |f: fn(&calib::BoundParts) -> f64| {
+        map.poses.iter().map(|p| f(&p.parts)).sum::<f64>() / n
+    };
+    let dominated = |part: &str| {
+        map.poses
+            .iter()
+            .filter(|p| p.parts.dominant() == part)
+            .count()
+    };
+    format!(
+        "bound parts over the region (mean, mm): scatter {:.4}, parameters {:.4}, extrapolation {:.4}; dominant at {} / {} / {} points",
+        mean(|p| p.scatter_mm),
+        mean(|p| p.parameters_mm),
+        mean(|p| p.extrapolation_mm),
+        dominated("scatter"),
+        dominated("parameters"),
+        dominated("extrapolation")
+    )
 }
 
 #[cfg(test)]
