@@ -135,7 +135,12 @@ fn planned_bounds_with_series_d_as_prior() {
         growth
             .growth
             .iter()
-            .map(|g| format!("{} {:.4} mm/deg", g.coordinate, g.growth * 1e3 * 1f64.to_radians()))
+            .map(|g| format!(
+                "{} {:.4} mm/deg (measured to {:.1} deg out)",
+                g.coordinate,
+                g.growth * 1e3 * 1f64.to_radians(),
+                g.max_distance.to_degrees()
+            ))
             .collect::<Vec<_>>()
             .join(", ")
     );

@@ -1327,6 +1327,8 @@ fn parts_line(map: &AccuracyMap) -> String {
 }
 
 #[cfg(test)]
+mod prior_tests;
+#[cfg(test)]
 mod target_tests;
 #[cfg(test)]
 mod tests;
