@@ -164,9 +164,8 @@ pub fn plan<'py>(
         None => drawn(region_count, seed.wrapping_add(1)),
     };
     let prior = prior
-        .map(|path| flexcal::plan::Prior::read(&path))
-        .transpose()
-        .map_err(|e| crate::errors::facade_error(&e))?;
+        .map(|path| flexcal::plan::Prior::read(&path).map_err(|e| crate::errors::facade_error(&e)))
+        .transpose()?;
     let model = model.unwrap_or(match &prior {
         Some(p) if p.model == "elasto-geometric" => "elasto-geometric",
         _ => "geometric",

@@ -47,7 +47,11 @@ fn check_accounting(check: &IpaPlanCheck) {
     let p = &check.misses;
     assert!(p.all.entries > 0);
     let parts = check.mean_parts_mm;
-    for part in [parts.scatter_mm, parts.parameters_mm, parts.extrapolation_mm] {
+    for part in [
+        parts.scatter_mm,
+        parts.parameters_mm,
+        parts.extrapolation_mm,
+    ] {
         assert!(part <= check.predicted_mean_bound_95_mm + 1e-9, "{check:?}");
     }
 }
@@ -89,14 +93,8 @@ fn planned_bounds_on_the_ipa_pairs() {
     for (pair, train, validate) in [("C -> B", &c, &b), ("B -> C", &b, &c)] {
         let files = (train.as_path(), validate.as_path());
         let stated = ipa_plan_check(&model, pair, files, TRACKER_NOISE_MM, "tracker").unwrap();
-        let floor = ipa_plan_check(
-            &model,
-            pair,
-            files,
-            floor_mm,
-            "series D's residual scatter",
-        )
-        .unwrap();
+        let floor =
+            ipa_plan_check(&model, pair, files, floor_mm, "series D's residual scatter").unwrap();
         // For reference, the training series' own scatter: known only after
         // measuring it, what `calibrate`'s own bound starts from.
         let own_mm = prior_residual_scatter_mm(&model, train).unwrap();
@@ -173,7 +171,10 @@ fn planned_bounds_with_series_d_as_prior() {
         // One calibration for every row; each part of the prior can only
         // widen the bounds, so covers at least as many poses.
         for pair in rows.windows(2) {
-            assert_eq!(pair[0].achieved_mean_error_mm, pair[1].achieved_mean_error_mm);
+            assert_eq!(
+                pair[0].achieved_mean_error_mm,
+                pair[1].achieved_mean_error_mm
+            );
             assert!(pair[1].predicted_mean_bound_95_mm >= pair[0].predicted_mean_bound_95_mm);
             assert!(pair[1].coverage >= pair[0].coverage);
         }

@@ -177,8 +177,8 @@ def test_plan_with_an_earlier_calibration_as_prior(tmp_path):
     common = dict(joint_box=BOX, candidate_count=40, region_count=15, poses=20, max_poses=20)
     plan = flexcal.plan(robot, [scatter_mm / 4], prior=str(prior), **common)
     used = plan["prior"]
-    assert used["floor_mm"] == [scatter_mm] * 3
-    assert used["inflation"] == max(ratio, 1.0)
+    assert used["floor_mm"] == pytest.approx([scatter_mm] * 3, rel=1e-12)
+    assert used["inflation"] == pytest.approx(max(ratio, 1.0), rel=1e-12)
     chi = np.sqrt(7.814727903251178)
     for point in plan["prediction"]["map"]["poses"]:
         parts = point["parts"]

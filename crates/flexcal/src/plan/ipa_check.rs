@@ -99,7 +99,14 @@ pub fn ipa_plan_check(
     );
     let options = ipa_options(model, &sets.0);
     let instrument = Instrument::positions([noise_mm; 3]);
-    check_pair(model, pair, &sets, &options, (&instrument, noise_source), None)
+    check_pair(
+        model,
+        pair,
+        &sets,
+        &options,
+        (&instrument, noise_source),
+        None,
+    )
 }
 
 /// The tracker's stated noise per axis on the IPA data (mm).
@@ -124,8 +131,7 @@ pub fn ipa_prior(model: &Model, prior: &Path) -> Result<Prior> {
         select_on: calib::SelectOn::Interpolation,
         ..Default::default()
     };
-    let (calibration, chosen, options) =
-        calib::calibrate_selected(model, &set, &base, &selection)?;
+    let (calibration, chosen, options) = calib::calibrate_selected(model, &set, &base, &selection)?;
     let mut report = calib::CalibrationReportJson::new(model.name(), &calibration, None);
     report.split_check = Some(calib::SplitCheck::new(model, &set, &options, &calibration)?);
     report.selection = chosen;

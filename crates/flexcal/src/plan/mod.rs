@@ -713,7 +713,10 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
     let instrument = with_floor(&config.instrument, prior);
     let offered = config.candidates.configurations(model, "candidates")?;
     let region = config.region.configurations(model, "region")?;
-    let base = prior.map_or_else(|| config.options.clone(), |p| p.options(model, &config.options));
+    let base = prior.map_or_else(
+        || config.options.clone(),
+        |p| p.options(model, &config.options),
+    );
     let options = plan_options(&base, &instrument);
     let targets = planned_targets(&options, config.targets.as_deref());
     let offered_q: Vec<Vec<f64>> = offered.iter().map(|c| c.value.clone()).collect();
@@ -725,14 +728,8 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
     let end = config.curve_end(candidates.len(), &sight)?;
     let pool_q: Vec<Vec<f64>> = candidates.iter().map(|c| c.value.clone()).collect();
     let region_q: Vec<Vec<f64>> = region.iter().map(|c| c.value.clone()).collect();
-    let (design, design_unknowns) = pool_design(
-        model,
-        &options,
-        &instrument,
-        &targets,
-        &pool_q,
-        &region_q,
-    )?;
+    let (design, design_unknowns) =
+        pool_design(model, &options, &instrument, &targets, &pool_q, &region_q)?;
     let order = design.greedy(end).ok_or_else(|| Error::InvalidParameter {
         parameter: "candidates".into(),
         message: "the greedy selection's information is not positive definite".into(),
@@ -1306,9 +1303,8 @@ impl CampaignPlan {
 /// number of points each part dominates.
 fn parts_line(map: &AccuracyMap) -> String {
     let n = map.poses.len().max(1) as f64;
-    let mean = |f: fn(&calib::BoundParts) -> f64| {
-        map.poses.iter().map(|p| f(&p.parts)).sum::<f64>() / n
-    };
+    let mean =
+        |f: fn(&calib::BoundParts) -> f64| map.poses.iter().map(|p| f(&p.parts)).sum::<f64>() / n;
     let dominated = |part: &str| {
         map.poses
             .iter()

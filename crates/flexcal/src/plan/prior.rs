@@ -123,7 +123,10 @@ impl Prior {
             .split_check
             .and_then(|s| s.prediction_ratio)
             .ok_or_else(|| {
-                invalid("no split_check.prediction_ratio: calibrate the prior with --split-check".into())
+                invalid(
+                    "no split_check.prediction_ratio: calibrate the prior with --split-check"
+                        .into(),
+                )
             })?;
         for (name, v) in [
             ("identification.residual_scatter_mm", scatter),
