@@ -6,7 +6,10 @@
 //! sorted by the training ranges they leave ([`MissesByRange`]). The
 //! plan's noise is stated: the tracker's, or the residual scatter of an
 //! earlier campaign of the robot ([`prior_residual_scatter_mm`]), the
-//! floor of what a calibration of this model leaves.
+//! floor of what a calibration of this model leaves; or the plan takes
+//! that earlier campaign's calibration as its prior ([`ipa_prior`],
+//! [`ipa_prior_check`]: its model, floor, split-half inflation and
+//! growth outside the training ranges, as `plan --prior`).
 
 use std::path::Path;
 

@@ -36,19 +36,23 @@
 //!    calibration of the planned poses on the same noise-free positions,
 //!    its identifiability notes (what the campaign cannot determine, in
 //!    `calibrate`'s words), its combinations and its accuracy map over
-//!    the region ([`predict_campaign`]).
+//!    the region ([`predict_campaign`]), with a prior's floor, inflation
+//!    and growth outside the planned poses' ranges ([`prior`]).
 //!
 //! ## Limitations
 //! - The region's accuracy is that of the targets' positions, also when
 //!   the instrument measures full poses.
 //! - The sight is tested on the nominal robot, the target alone: the
 //!   robot's own links hiding the target are not modelled.
-//! - The prediction is that of a model that holds: what the identified
-//!   model lacks (non-geometric errors, temperature, unmodelled
-//!   elasticity) is not in the bound unless the stated noise includes it
-//!   (an earlier campaign's [`calib::Calibration::residual_scatter`]), and
-//!   region points outside the planned poses' joint ranges are flagged
-//!   ([`calib::PoseAccuracy::outside_training_range`]), not widened.
+//! - Without a prior the prediction is that of a model that holds: what
+//!   the identified model lacks (non-geometric errors, temperature,
+//!   unmodelled elasticity) is not in the bound unless the stated noise
+//!   includes it, and region points outside the planned poses' joint
+//!   ranges are flagged ([`calib::PoseAccuracy::outside_training_range`]),
+//!   not widened. An earlier calibration of the robot as
+//!   [`PlanConfig::prior`] ([`prior`]) brings its residual scatter as the
+//!   floor, its split-half inflation and its growth outside the training
+//!   ranges, all measured on its own poses.
 //! - The linearisation is at the nominal robot; errors of millimetres
 //!   change the Jacobian to second order only.
 //! - The greedy criterion is the mean predicted variance; the curve
