@@ -408,8 +408,8 @@ pub use screen::{
 pub use select::{CalibrationPoseSelection, select_calibration_poses};
 pub use selection::{
     CandidateScore, MIN_POSES_FOR_CROSS_VALIDATION, SelectOn, SelectionMethod, SelectionOptions,
-    SelectionReport, TermGroup, calibrate_selected, default_method, default_method_for,
-    select_model,
+    SelectionReport, TermGroup, calibrate_selected, candidate_options, default_method,
+    default_method_for, select_model,
 };
 pub use significance::{InstrumentNoise, NoiseSource, ScaleJudgement, ScaleOutcome};
 pub use split::{SPLIT_RATIO_WARNING, SplitCheck, SplitEstimate};

@@ -270,6 +270,11 @@ pub struct IdentificationJson {
     pub after: StatisticsJson,
     /// Same figures with the nominal robot (frames registered).
     pub before: StatisticsJson,
+    /// Per-axis scatter of the training residuals, `s = sqrt(SSR / (3 N -
+    /// p))` (mm; [`Calibration::residual_scatter`]): what the model leaves
+    /// at the training poses, the floor a later plan of the same robot
+    /// reads from this report (`flexcal plan --prior`).
+    pub residual_scatter_mm: f64,
     /// Identified unknowns.
     pub rank: usize,
     /// Unknowns in the model (robot + 6 frame + 6 target, 6 more per further
@@ -619,6 +624,7 @@ impl CalibrationReportJson {
         let identification = IdentificationJson {
             after,
             before: StatisticsJson::from(&calibration.training_before),
+            residual_scatter_mm: calibration.residual_scatter() * 1e3,
             rank: calibration.rank(),
             n_unknowns: calibration.unknowns.len(),
             n_free: calibration.identifiability.names.len(),

@@ -515,8 +515,10 @@ impl SelectionReport {
 type Score = (f64, Vec<f64>, f64);
 
 /// The options of the candidate with `groups` on, from `base` (whose
-/// `gravity` and `joint_terms` say what is available).
-fn candidate_options(
+/// `gravity` and `joint_terms` say what is available): the model a
+/// selection that chose `groups` identifies ([`SelectionReport::chosen`]),
+/// as a later plan of the same robot reads it from the report.
+pub fn candidate_options(
     model: &Model,
     base: &CalibrationOptions,
     groups: &[TermGroup],

@@ -23,9 +23,19 @@ pub struct PlanArgs {
     pub robot: String,
     #[command(flatten)]
     pub robot_file: crate::robot_arg::RobotFileArgs,
-    /// Identification model, as for `calibrate`.
-    #[arg(long, value_parser = crate::cmd_calibrate::model_kind(), default_value = "geometric")]
-    pub model: ModelKind,
+    /// Identification model, as for `calibrate` (default: the --prior's
+    /// model, else geometric).
+    #[arg(long, value_parser = crate::cmd_calibrate::model_kind())]
+    pub model: Option<ModelKind>,
+    /// An earlier calibration of the same robot: its JSON report
+    /// (`calibrate --report`, made with --split-check, and --extrapolation
+    /// for its growth outside the training ranges). The plan identifies
+    /// its model (its chosen groups), floors the noise at its residual
+    /// scatter, raises the identification part of the bounds by its
+    /// split-half inflation and adds its growth outside the planned poses'
+    /// ranges (docs/planning.md).
+    #[arg(long)]
+    pub prior: Option<PathBuf>,
     /// Mass table of the elasto-geometric model (TOML); default: a URDF
     /// robot's inertials, else the robot's built-in table (ur10).
     #[arg(long)]
@@ -178,7 +188,17 @@ fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
     if args.fixed_target {
         options.target = FrameTreatment::Fixed;
     }
-    if args.model == ModelKind::ElastoGeometric {
+    let prior = args
+        .prior
+        .as_deref()
+        .map(flexcal::plan::Prior::read)
+        .transpose()?;
+    let model_kind = match (args.model, &prior) {
+        (Some(kind), _) => kind,
+        (None, Some(p)) if p.model == "elasto-geometric" => ModelKind::ElastoGeometric,
+        _ => ModelKind::Geometric,
+    };
+    if model_kind == ModelKind::ElastoGeometric {
         options.gravity = Some(
             flexcal::RobotSpec::parse(&args.robot)?
                 .mass_table(&args.robot_file.options(), model, args.masses.as_deref())
@@ -224,6 +244,7 @@ fn config(args: &PlanArgs, model: &Model) -> anyhow::Result<PlanConfig> {
         }
         config.targets = Some(flexcal::calib::read_targets(path)?);
     }
+    config.prior = prior;
     config.count = args.poses;
     config.max_poses = args.max_poses;
     config.knee_tolerance = args.knee_tolerance;

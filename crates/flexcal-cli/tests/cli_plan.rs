@@ -505,3 +505,145 @@ fn plan_with_a_target_on_each_hand() {
     );
     assert!(!std::path::Path::new(&p("wrong.csv")).exists());
 }
+
+/// `plan --prior`: an earlier calibration's report (`calibrate
+/// --split-check --extrapolation`) floors the plan's noise at its
+/// residual scatter, raises the identification part by its split-half
+/// inflation and adds its growth outside the planned poses' ranges; each
+/// part of every region point's bound is recomputed here from the
+/// report's figures. A prior of another robot, an unreadable file and a
+/// report without the split-half check are refused by name.
+#[test]
+fn plan_with_an_earlier_calibration_as_prior() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = |name: &str| d.join(name).display().to_string();
+    let out = flexcal(&["twin", "geometric", "--out", &p(""), "--seed", "7"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = flexcal(&[
+        "calibrate",
+        "--robot",
+        "ir663",
+        "--data",
+        &p("identification.csv"),
+        "--validate",
+        &p("validation.csv"),
+        "--fixed-target",
+        "--split-check",
+        "--extrapolation",
+        "--report",
+        &p("prior.json"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p(name)).unwrap()).unwrap()
+    };
+    let prior = read("prior.json");
+    let scatter_mm = prior["identification"]["residual_scatter_mm"]
+        .as_f64()
+        .unwrap();
+    let ratio = prior["split_check"]["prediction_ratio"].as_f64().unwrap();
+    // A noise below the prior's scatter: the prior's is the floor.
+    let noise_mm = 0.5 * scatter_mm;
+    let plan = |robot: &str, prior: &str| {
+        flexcal(&[
+            "plan",
+            "--robot",
+            robot,
+            "--fixed-target",
+            "--noise-mm",
+            &noise_mm.to_string(),
+            "--prior",
+            prior,
+            "--candidate-count",
+            "60",
+            "--region-count",
+            "40",
+            "--poses",
+            "20",
+            "--max-poses",
+            "20",
+            "--out",
+            &p("poses.csv"),
+            "--report",
+            &p("plan.json"),
+        ])
+    };
+    let out = plan("ir663", &p("prior.json"));
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("the prior's residual scatter"),
+        "{}",
+        stdout(&out)
+    );
+    let json = read("plan.json");
+    let used = &json["prior"];
+    // JSON numbers read back within an ulp or two.
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+    assert!(
+        close(used["floor_mm"][0].as_f64().unwrap(), scatter_mm),
+        "{used}"
+    );
+    let inflation = ratio.max(1.0);
+    assert!(
+        close(used["inflation"].as_f64().unwrap(), inflation),
+        "{used}"
+    );
+    assert_eq!(used["extrapolation"], true, "{used}");
+    // The parts, point by point: the scatter part of the floor, the
+    // parameters part the inflated identification's, the extrapolation
+    // part zero inside every planned range, the bound their root sum of
+    // squares.
+    let chi = 7.814_727_903_251_178f64.sqrt();
+    let mut outside = 0;
+    for point in json["prediction"]["map"]["poses"].as_array().unwrap() {
+        let parts = &point["parts"];
+        let part = |name: &str| parts[name].as_f64().unwrap();
+        assert!(
+            (part("scatter_mm") - chi * scatter_mm).abs() < 1e-9,
+            "{point}"
+        );
+        let trace_mm = point["model_uncertainty_mm"].as_f64().unwrap();
+        assert!((part("parameters_mm") - chi * trace_mm / 3f64.sqrt()).abs() < 1e-9);
+        let root = (part("scatter_mm").powi(2)
+            + part("parameters_mm").powi(2)
+            + part("extrapolation_mm").powi(2))
+        .sqrt();
+        assert!((point["bound_95_mm"].as_f64().unwrap() - root).abs() < 1e-9);
+        if point["outside_training_range"]
+            .as_array()
+            .unwrap()
+            .is_empty()
+        {
+            assert_eq!(part("extrapolation_mm"), 0.0, "{point}");
+        } else {
+            outside += 1;
+        }
+    }
+    assert!(outside > 0, "no region point outside the planned ranges");
+    let mut no_split = prior.clone();
+    no_split.as_object_mut().unwrap().remove("split_check");
+    std::fs::write(p("no_split.json"), no_split.to_string()).unwrap();
+    for (robot, file, expected) in [
+        (
+            "ur10",
+            p("prior.json"),
+            "a calibration of 'ir663', not of 'ur10'",
+        ),
+        ("ir663", p("missing.json"), "missing.json"),
+        (
+            "ir663",
+            p("no_split.json"),
+            "calibrate the prior with --split-check",
+        ),
+        ("ir663", p("identification.csv"), "not a calibration report"),
+    ] {
+        let _ = std::fs::remove_file(p("plan.json"));
+        let out = plan(robot, &file);
+        assert!(!out.status.success(), "{file} succeeded");
+        let err = stderr(&out);
+        assert!(err.contains(expected), "{file}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!d.join("plan.json").exists(), "{file} wrote the plan");
+    }
+}

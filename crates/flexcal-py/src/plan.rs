@@ -87,7 +87,13 @@ fn sight(
 /// measurement frame registered again where the region is measured or
 /// used) or `"as-identified"` (the region measured from the campaign's
 /// instrument placement: the frame's uncertainty counted), as
-/// `--frame-uncertainty`.
+/// `--frame-uncertainty`. `prior`: an earlier calibration of the same
+/// robot, the JSON report of `calibrate --report` made with
+/// `--split-check` (and `--extrapolation` for its growth), as `plan
+/// --prior`: its model (the default of `model`) and chosen groups, its
+/// residual scatter as the noise floor, its split-half inflation, its
+/// growth outside the planned poses' ranges (`prior` in the result says
+/// what was used; each map point's `parts` split its bound).
 ///
 /// Returns the plan as a dict: `configurations` (the planned poses),
 /// `selected` (candidate rows), `curve` (per count: `poses` and
@@ -95,7 +101,7 @@ fn sight(
 /// `max_bound_95_mm`), `knee`, `prediction` (`accuracy`, `map`,
 /// `identifiability_notes`, ...). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = "geometric", masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None, targets = None, frame_uncertainty = "registered"))]
+#[pyo3(signature = (robot, noise_mm, candidates = None, region = None, joint_box = None, candidate_count = 200, region_count = 200, seed = 1, poses = None, max_poses = None, model = None, masses = None, fix = Vec::new(), fixed_frame = false, fixed_target = false, knee_tolerance = 0.05, orientation_noise_deg = None, reach_box_mm = None, sight_from_mm = None, max_incidence_deg = None, targets = None, frame_uncertainty = "registered", prior = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan<'py>(
     py: Python<'py>,
@@ -109,7 +115,7 @@ pub fn plan<'py>(
     seed: u64,
     poses: Option<usize>,
     max_poses: Option<usize>,
-    model: &str,
+    model: Option<&str>,
     masses: Option<PathBuf>,
     fix: Vec<String>,
     fixed_frame: bool,
@@ -121,6 +127,7 @@ pub fn plan<'py>(
     max_incidence_deg: Option<f64>,
     targets: Option<PathBuf>,
     frame_uncertainty: &str,
+    prior: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let robot_model = Arc::clone(&robot.model);
     let dof = robot_model.n_actuated();
@@ -156,6 +163,13 @@ pub fn plan<'py>(
         Some(r) => configurations("region", &r, dof)?,
         None => drawn(region_count, seed.wrapping_add(1)),
     };
+    let prior = prior
+        .map(|path| flexcal::plan::Prior::read(&path).map_err(|e| crate::errors::facade_error(&e)))
+        .transpose()?;
+    let model = model.unwrap_or(match &prior {
+        Some(p) if p.model == "elasto-geometric" => "elasto-geometric",
+        _ => "geometric",
+    });
     let mut options = CalibrationOptions::for_model(&robot_model);
     options.gravity = gravity_option(model, masses, &robot_model)?;
     options.fixed = fix;
@@ -190,6 +204,7 @@ pub fn plan<'py>(
         config.targets =
             Some(flexcal::calib::read_targets(&path).map_err(|e| crate::errors::calib_error(&e))?);
     }
+    config.prior = prior;
     config.count = poses;
     config.max_poses = max_poses;
     config.knee_tolerance = knee_tolerance;

@@ -689,6 +689,10 @@ impl CalibrationResult {
             validation.as_deref(),
         );
         report.selection = self.selection.as_deref().cloned();
+        // As `calibrate --report` writes them: a later plan reads them as
+        // its prior (`plan(..., prior=)`).
+        report.split_check = self.split.as_deref().cloned();
+        report.extrapolation = self.extrapolation.as_deref().cloned();
         report.station_hold_out = self
             .station_hold_out
             .iter()

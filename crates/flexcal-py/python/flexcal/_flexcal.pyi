@@ -740,7 +740,7 @@ def plan(
     seed: int = 1,
     poses: Optional[int] = None,
     max_poses: Optional[int] = None,
-    model: str = "geometric",
+    model: Optional[Literal["geometric", "elasto-geometric"]] = None,
     masses: Optional[str] = None,
     fix: Sequence[str] = (),
     fixed_frame: bool = False,
@@ -752,10 +752,13 @@ def plan(
     max_incidence_deg: Optional[float] = None,
     targets: Optional[str] = None,
     frame_uncertainty: Literal["registered", "as-identified"] = "registered",
+    prior: Optional[str] = None,
 ) -> dict:
     """Plans a campaign before measuring: noise per axis in mm (orientation_noise_deg: deg per
     axis, full poses), candidates (n, dof) and
     region (m, dof) in rad or m (else drawn in joint_box (dof, 2), default the joint
     limits); returns the plan (configurations, selected, curve, knee, prediction).
     frame_uncertainty: "as-identified" counts the measurement frame's uncertainty in the
-    bounds (the region measured from the campaign's instrument placement)."""
+    bounds (the region measured from the campaign's instrument placement).
+    prior: an earlier calibration's report (calibrate --report --split-check [--extrapolation]):
+    its model (model's default), noise floor, inflation and growth, as plan --prior."""

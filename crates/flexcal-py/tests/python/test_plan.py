@@ -1,5 +1,7 @@
 """Campaign planning from Python: flexcal.plan returns the plan."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -153,3 +155,38 @@ def test_plan_with_a_target_on_each_hand(tmp_path):
     wrong.write_text(targets.read_text().replace('"RH"', '"RX"'))
     with pytest.raises(flexcal.FlexcalError, match="no frame `RX`"):
         flexcal.plan(robot, [0.02], targets=wrong, candidate_count=30, region_count=5)
+
+
+def test_plan_with_an_earlier_calibration_as_prior(tmp_path):
+    """`prior=` reads an earlier calibration's report (`to_json` of a
+    calibration with `split_check=True`): its residual scatter floors the
+    noise, its split-half ratio raises the identification part, and every
+    region point's bound is the root sum of squares of its parts. A
+    report without the split-half check is refused by name."""
+    robot = flexcal.Robot.builtin("ur10")
+    rng = np.random.default_rng(6)
+    q = rng.uniform(BOX[:, 0], BOX[:, 1], size=(60, 6))
+    positions = robot.fk(q)[:, :3, 3] + rng.normal(0.0, 0.1e-3, size=(60, 3))
+    data = flexcal.MeasurementSet.from_arrays(q, positions)
+    earlier = flexcal.calibrate(robot, data, select="none", split_check=True)
+    report = json.loads(earlier.to_json())
+    prior = tmp_path / "prior.json"
+    prior.write_text(json.dumps(report))
+    scatter_mm = report["identification"]["residual_scatter_mm"]
+    ratio = report["split_check"]["prediction_ratio"]
+    common = dict(joint_box=BOX, candidate_count=40, region_count=15, poses=20, max_poses=20)
+    plan = flexcal.plan(robot, [scatter_mm / 4], prior=str(prior), **common)
+    used = plan["prior"]
+    assert used["floor_mm"] == pytest.approx([scatter_mm] * 3, rel=1e-12)
+    assert used["inflation"] == pytest.approx(max(ratio, 1.0), rel=1e-12)
+    chi = np.sqrt(7.814727903251178)
+    for point in plan["prediction"]["map"]["poses"]:
+        parts = point["parts"]
+        assert parts["scatter_mm"] == pytest.approx(chi * scatter_mm)
+        assert parts["extrapolation_mm"] == 0.0  # no --extrapolation growth
+        root = np.hypot(parts["scatter_mm"], parts["parameters_mm"])
+        assert point["bound_95_mm"] == pytest.approx(root)
+    del report["split_check"]
+    prior.write_text(json.dumps(report))
+    with pytest.raises(flexcal.FlexcalError, match="calibrate the prior with --split-check"):
+        flexcal.plan(robot, [0.02], prior=str(prior), **common)

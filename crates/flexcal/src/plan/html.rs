@@ -27,9 +27,20 @@ impl CampaignPlan {
         report.push(self.poses_section());
         report.push(self.identifiability_section());
         let mut map = map_section(&self.prediction.map);
-        map.paragraph(
-            "The scatter of a plan is the instrument's noise: the bound of a measured campaign uses the scatter of its own residuals, which also holds what the model lacks.",
-        );
+        match &self.prior {
+            Some(prior) => {
+                map.paragraph(format!(
+                    "{}. {}.",
+                    prior.describe(),
+                    super::parts_line(&self.prediction.map)
+                ));
+            }
+            None => {
+                map.paragraph(
+                    "The scatter of a plan is the instrument's noise: the bound of a measured campaign uses the scatter of its own residuals, which also holds what the model lacks.",
+                );
+            }
+        }
         report.push(map);
         report
     }

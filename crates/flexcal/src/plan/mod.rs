@@ -36,19 +36,23 @@
 //!    calibration of the planned poses on the same noise-free positions,
 //!    its identifiability notes (what the campaign cannot determine, in
 //!    `calibrate`'s words), its combinations and its accuracy map over
-//!    the region ([`predict_campaign`]).
+//!    the region ([`predict_campaign`]), with a prior's floor, inflation
+//!    and growth outside the planned poses' ranges ([`prior`]).
 //!
 //! ## Limitations
 //! - The region's accuracy is that of the targets' positions, also when
 //!   the instrument measures full poses.
 //! - The sight is tested on the nominal robot, the target alone: the
 //!   robot's own links hiding the target are not modelled.
-//! - The prediction is that of a model that holds: what the identified
-//!   model lacks (non-geometric errors, temperature, unmodelled
-//!   elasticity) is not in the bound unless the stated noise includes it
-//!   (an earlier campaign's [`calib::Calibration::residual_scatter`]), and
-//!   region points outside the planned poses' joint ranges are flagged
-//!   ([`calib::PoseAccuracy::outside_training_range`]), not widened.
+//! - Without a prior the prediction is that of a model that holds: what
+//!   the identified model lacks (non-geometric errors, temperature,
+//!   unmodelled elasticity) is not in the bound unless the stated noise
+//!   includes it, and region points outside the planned poses' joint
+//!   ranges are flagged ([`calib::PoseAccuracy::outside_training_range`]),
+//!   not widened. An earlier calibration of the robot as
+//!   [`PlanConfig::prior`] ([`prior`]) brings its residual scatter as the
+//!   floor, its split-half inflation and its growth outside the training
+//!   ranges, all measured on its own poses.
 //! - The linearisation is at the nominal robot; errors of millimetres
 //!   change the Jacobian to second order only.
 //! - The greedy criterion is the mean predicted variance; the curve
@@ -72,10 +76,12 @@ mod html;
 pub mod ipa_check;
 pub mod noise_check;
 pub mod output;
+pub mod prior;
 pub mod sight;
 pub mod twin_check;
 
 use design::Design;
+pub use prior::{Prior, PriorUse};
 pub use sight::{LineOfSight, OutOfSight, Sight, SightFilter};
 
 /// The instrument of the campaign: what it measures (positions, or full
@@ -434,6 +440,14 @@ pub struct PlanConfig {
     /// [`CalibrationOptions::target_value`]. Each target's offset is
     /// identified or kept as its description says.
     pub targets: Option<Vec<calib::Target>>,
+    /// An earlier calibration of the same robot ([`prior`]): its chosen
+    /// groups of unknowns are identified, its residual scatter is the
+    /// noise floor where larger than the instrument's, its split-half
+    /// inflation raises the identification part of every bound, and its
+    /// extrapolation growth (when it has one) widens the bounds of region
+    /// points outside the planned poses' ranges. `None`: the instrument's
+    /// noise alone, the model as `options` says.
+    pub prior: Option<Prior>,
     /// Number of poses to plan (`None`: the knee of the curve).
     pub count: Option<usize>,
     /// Largest number of poses on the curve (`None`: the larger of the
@@ -465,6 +479,7 @@ impl PlanConfig {
             candidates,
             region,
             targets: None,
+            prior: None,
             count: None,
             max_poses: None,
             knee_tolerance: 0.05,
@@ -678,6 +693,10 @@ pub struct CampaignPlan {
     pub exchanges: usize,
     /// The prediction for the planned poses.
     pub prediction: CampaignPrediction,
+    /// How the plan used an earlier calibration of the robot
+    /// ([`PlanConfig::prior`]; absent without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<PriorUse>,
 }
 
 /// Plans a campaign (module docs).
@@ -691,9 +710,18 @@ pub struct CampaignPlan {
 /// cannot determine the unknowns with all its poses.
 pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan> {
     config.instrument.check()?;
+    let prior = config.prior.as_ref();
+    if let Some(prior) = prior {
+        prior.check(model)?;
+    }
+    let instrument = with_floor(&config.instrument, prior);
     let offered = config.candidates.configurations(model, "candidates")?;
     let region = config.region.configurations(model, "region")?;
-    let options = plan_options(&config.options, &config.instrument);
+    let base = prior.map_or_else(
+        || config.options.clone(),
+        |p| p.options(model, &config.options),
+    );
+    let options = plan_options(&base, &instrument);
     let targets = planned_targets(&options, config.targets.as_deref());
     let offered_q: Vec<Vec<f64>> = offered.iter().map(|c| c.value.clone()).collect();
     let sight = config
@@ -704,22 +732,17 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
     let end = config.curve_end(candidates.len(), &sight)?;
     let pool_q: Vec<Vec<f64>> = candidates.iter().map(|c| c.value.clone()).collect();
     let region_q: Vec<Vec<f64>> = region.iter().map(|c| c.value.clone()).collect();
-    let (design, design_unknowns) = pool_design(
-        model,
-        &options,
-        &config.instrument,
-        &targets,
-        &pool_q,
-        &region_q,
-    )?;
+    let (design, design_unknowns) =
+        pool_design(model, &options, &instrument, &targets, &pool_q, &region_q)?;
     let order = design.greedy(end).ok_or_else(|| Error::InvalidParameter {
         parameter: "candidates".into(),
         message: "the greedy selection's information is not positive definite".into(),
     })?;
+    let inflation = prior.map_or(1.0, Prior::inflation);
     let curve = curve_of(
         &design,
         &order,
-        config.instrument.scatter_variance(),
+        (instrument.scatter_variance(), inflation),
         &targets,
     );
     let knee = knee_of(&curve, config.knee_tolerance);
@@ -739,8 +762,8 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         &options,
         &config.instrument,
         config.targets.as_deref(),
-        &configurations,
-        &region_q,
+        (&configurations, &region_q),
+        prior,
     )?;
     Ok(CampaignPlan {
         robot: model.name().to_string(),
@@ -762,16 +785,45 @@ pub fn plan_campaign(model: &Model, config: &PlanConfig) -> Result<CampaignPlan>
         configurations,
         exchanges,
         prediction,
+        prior: prior.map(|p| prior_use(p, &config.instrument, &instrument)),
     })
+}
+
+/// `instrument` with its noise raised, axis by axis, to `prior`'s residual
+/// scatter where that is larger ([`Prior::floor`]).
+fn with_floor(instrument: &Instrument, prior: Option<&Prior>) -> Instrument {
+    let mut floored = instrument.clone();
+    if let Some(prior) = prior {
+        floored.noise_mm = prior.floor(instrument.noise_mm).0;
+    }
+    floored
+}
+
+/// How the plan used `prior`: the floor of `floored` against the stated
+/// `instrument`'s noise, the inflation, the extrapolation.
+fn prior_use(prior: &Prior, instrument: &Instrument, floored: &Instrument) -> PriorUse {
+    let floor_source = if floored.noise_mm == instrument.noise_mm {
+        "the instrument's noise (at least the prior's residual scatter)"
+    } else {
+        "the prior's residual scatter (above the instrument's noise)"
+    };
+    PriorUse {
+        prior: prior.clone(),
+        floor_mm: floored.noise_mm,
+        floor_source: floor_source.into(),
+        inflation: prior.inflation(),
+        extrapolation: prior.extrapolation.is_some(),
+    }
 }
 
 /// The predicted accuracy over the region of every prefix of the greedy
 /// `order` whose information is non-singular, `s2` the scatter's variance
-/// per axis (m^2); the design's region rows point-major over `targets`.
+/// per axis (m^2), every identification variance raised by `inflation`
+/// squared (1: none); the design's region rows point-major over `targets`.
 fn curve_of(
     design: &Design,
     order: &[usize],
-    s2: f64,
+    (s2, inflation): (f64, f64),
     targets: &[calib::Target],
 ) -> Vec<CurvePoint> {
     (1..=order.len())
@@ -780,7 +832,10 @@ fn curve_of(
             let bounds: Vec<(usize, f64)> = variances
                 .iter()
                 .enumerate()
-                .map(|(i, v)| (i % targets.len(), calib::bound_95(*v, s2) * 1e3))
+                .map(|(i, v)| {
+                    let v = v * inflation * inflation;
+                    (i % targets.len(), calib::bound_95(v, s2) * 1e3)
+                })
                 .collect();
             let (accuracy, per_target) = accuracy_per_target(targets, &bounds);
             Some(CurvePoint {
@@ -1053,7 +1108,13 @@ fn jacobian_rows(
 /// identifiability notes and combinations, and its accuracy map over the
 /// region, every target at every point, with the instrument's noise as
 /// the scatter (the map's bounds recomputed with it; the synthetic
-/// residuals are zero).
+/// residuals are zero). With a `prior` ([`PlanConfig::prior`]; its groups
+/// of unknowns already in `options`) the noise is floored at its residual
+/// scatter, the identification part raised by its split-half inflation,
+/// and its growth outside the training ranges added at the region points
+/// outside the planned poses' ranges; the map's
+/// [`calib::PoseAccuracy::parts`] say which part of each bound comes
+/// from where.
 ///
 /// # Errors
 /// The identification's errors (too few poses for the unknowns, a model
@@ -1064,9 +1125,10 @@ pub fn predict_campaign(
     options: &CalibrationOptions,
     instrument: &Instrument,
     targets: Option<&[calib::Target]>,
-    configurations: &[Vec<f64>],
-    region: &[Vec<f64>],
+    (configurations, region): (&[Vec<f64>], &[Vec<f64>]),
+    prior: Option<&Prior>,
 ) -> Result<CampaignPrediction> {
+    let instrument = &with_floor(instrument, prior);
     let options = plan_options(options, instrument);
     let targets = planned_targets(&options, targets);
     let (_, calibration) =
@@ -1078,11 +1140,28 @@ pub fn predict_campaign(
             source,
         })?;
     let s2 = instrument.scatter_variance();
+    let inflation = prior.map_or(1.0, Prior::inflation);
     for p in &mut map.poses {
+        p.model_uncertainty_mm *= inflation;
         let trace = (p.model_uncertainty_mm * 1e-3).powi(2);
+        p.parts = calib::BoundParts {
+            scatter_mm: calib::bound_95(0.0, s2) * 1e3,
+            parameters_mm: calib::bound_95(trace, 0.0) * 1e3,
+            extrapolation_mm: 0.0,
+        };
         p.bound_95_mm = calib::bound_95(trace, s2) * 1e3;
     }
     map.residual_scatter_mm = s2.sqrt() * 1e3;
+    map.inflation = inflation;
+    if let Some(growth) = prior.and_then(|p| p.extrapolation.as_ref()) {
+        // The prior's growth per unit of distance, outside the planned
+        // poses' ranges (not the prior's own).
+        let planned = calib::ExtrapolationModel {
+            ranges: calibration.actuated_ranges.clone(),
+            ..growth.clone()
+        };
+        map = map.with_extrapolation(&planned);
+    }
     let bounds: Vec<(usize, f64)> = map
         .poses
         .iter()
@@ -1212,6 +1291,10 @@ impl CampaignPlan {
                 );
             }
         }
+        if let Some(prior) = &self.prior {
+            let _ = writeln!(out, "{}", prior.describe());
+            let _ = writeln!(out, "{}", parts_line(&self.prediction.map));
+        }
         for note in &self.prediction.identifiability_notes {
             let _ = writeln!(out, "note: {note}");
         }
@@ -1219,6 +1302,32 @@ impl CampaignPlan {
     }
 }
 
+/// `bound parts over the region (mean of each, mm): ...`: the mean of
+/// every part of the region's bounds ([`calib::BoundParts`]) and the
+/// number of points each part dominates.
+fn parts_line(map: &AccuracyMap) -> String {
+    let n = map.poses.len().max(1) as f64;
+    let mean =
+        |f: fn(&calib::BoundParts) -> f64| map.poses.iter().map(|p| f(&p.parts)).sum::<f64>() / n;
+    let dominated = |part: &str| {
+        map.poses
+            .iter()
+            .filter(|p| p.parts.dominant() == part)
+            .count()
+    };
+    format!(
+        "bound parts over the region (mean, mm): scatter {:.4}, parameters {:.4}, extrapolation {:.4}; dominant at {} / {} / {} points",
+        mean(|p| p.scatter_mm),
+        mean(|p| p.parameters_mm),
+        mean(|p| p.extrapolation_mm),
+        dominated("scatter"),
+        dominated("parameters"),
+        dominated("extrapolation")
+    )
+}
+
+#[cfg(test)]
+mod prior_tests;
 #[cfg(test)]
 mod target_tests;
 #[cfg(test)]

@@ -115,8 +115,8 @@ fn both_targets_beat_one_target_on_the_other_hands_error() {
         &c.options,
         &c.instrument,
         Some(&hands()),
-        &left.configurations,
-        &region,
+        (&left.configurations, &region),
+        None,
     )
     .unwrap();
     let right = |p: &CampaignPrediction| p.per_target[1].accuracy.mean_bound_95_mm;

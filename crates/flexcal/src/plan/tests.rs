@@ -418,8 +418,8 @@ fn the_frame_as_identified_counts_the_whole_least_squares_variance() {
             &config.options,
             &instrument,
             None,
-            &planned,
-            &region,
+            (&planned, &region),
+            None,
         )
         .unwrap()
         .map;

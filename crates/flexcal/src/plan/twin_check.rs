@@ -312,8 +312,8 @@ pub fn twin_plan_check(
         &options,
         &data.instrument(true),
         None,
-        &o1_q,
-        &region_q,
+        (&o1_q, &region_q),
+        None,
     )?;
     Ok(TwinPlanCheck {
         seed,
