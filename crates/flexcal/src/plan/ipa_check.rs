@@ -96,10 +96,7 @@ pub fn ipa_plan_check(
     noise_mm: f64,
     noise_source: &str,
 ) -> Result<IpaPlanCheck> {
-    let sets = (
-        MeasurementSet::read_ipa(train)?,
-        MeasurementSet::read_ipa(validate)?,
-    );
+    let sets = read_pair(train, validate)?;
     let options = ipa_options(model, &sets.0);
     let instrument = Instrument::positions([noise_mm; 3]);
     check_pair(
@@ -110,6 +107,18 @@ pub fn ipa_plan_check(
         (&instrument, noise_source),
         None,
     )
+}
+
+/// The training and validation series of a pair, read from their IPA
+/// export files.
+///
+/// # Errors
+/// Unreadable files.
+fn read_pair(train: &Path, validate: &Path) -> Result<(MeasurementSet, MeasurementSet)> {
+    Ok((
+        MeasurementSet::read_ipa(train)?,
+        MeasurementSet::read_ipa(validate)?,
+    ))
 }
 
 /// The tracker's stated noise per axis on the IPA data (mm).
@@ -173,10 +182,7 @@ pub fn ipa_prior_check(
     prior: &Prior,
     noise_source: &str,
 ) -> Result<IpaPlanCheck> {
-    let sets = (
-        MeasurementSet::read_ipa(train)?,
-        MeasurementSet::read_ipa(validate)?,
-    );
+    let sets = read_pair(train, validate)?;
     let options = prior.options(model, &elastic_options(model, &sets.0)?);
     let instrument = Instrument::positions([TRACKER_NOISE_MM; 3]);
     check_pair(
