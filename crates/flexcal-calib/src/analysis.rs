@@ -427,25 +427,7 @@ impl AnalysisContext<'_> {
             sigma = noise_at(&report.x, analysis.rank)?;
             previous = Some((base, report, frozen));
         };
-        let (mut report, mut frozen) = (report, frozen);
-        for _ in 0..3 {
-            let beyond: Vec<usize> = (r.joint_start..n)
-                .filter(|&j| {
-                    !frozen[j]
-                        && report.standard_errors[j]
-                            .is_none_or(|se| se.is_nan() || se > self.limits[j])
-                })
-                .collect();
-            if beyond.is_empty() {
-                break;
-            }
-            let mut x0 = report.x.clone();
-            for &j in &beyond {
-                frozen[j] = true;
-                x0[j] = r.x_start[j];
-            }
-            report = solve(&x0, &frozen)?;
-        }
+        let (report, frozen) = self.hold_joint_terms_within_limits(r, (report, frozen), solve)?;
         let compliance: Vec<bool> = r
             .kinds
             .iter()
@@ -485,5 +467,38 @@ impl AnalysisContext<'_> {
             numerical,
             judgements,
         })
+    }
+
+    /// The joint terms (from `r.joint_start` on) whose standard error
+    /// exceeds their limit, or is unknown, frozen at their start and the
+    /// fit solved again; up to three times.
+    ///
+    /// # Errors
+    /// What `solve` returns.
+    fn hold_joint_terms_within_limits(
+        &self,
+        r: &Rounds<'_>,
+        (mut report, mut frozen): (SolveReport, Vec<bool>),
+        solve: &mut Solve<'_>,
+    ) -> Result<(SolveReport, Vec<bool>), CalibError> {
+        for _ in 0..3 {
+            let beyond: Vec<usize> = (r.joint_start..self.names.len())
+                .filter(|&j| {
+                    !frozen[j]
+                        && report.standard_errors[j]
+                            .is_none_or(|se| se.is_nan() || se > self.limits[j])
+                })
+                .collect();
+            if beyond.is_empty() {
+                break;
+            }
+            let mut x0 = report.x.clone();
+            for &j in &beyond {
+                frozen[j] = true;
+                x0[j] = r.x_start[j];
+            }
+            report = solve(&x0, &frozen)?;
+        }
+        Ok((report, frozen))
     }
 }

@@ -395,16 +395,19 @@ fn error_model<'a>(
         .with_threads(options.threads))
 }
 
-/// Identifies `model` from `set` under `options`: the steps of the module
-/// docs.
+/// Steps 1 to 4: the options checked, the unknowns laid out on the model
+/// of the nominal starts (too few poses told before a registration that
+/// would fail on them for a less helpful reason), then the model started
+/// where the registration puts its frames. The model, its layout, the
+/// number of free unknowns and the frames' starts.
 ///
 /// # Errors
-/// As [`crate::calibrate`].
-pub(crate) fn identify<'a>(
+/// As [`identify`].
+fn set_up<'a>(
     model: &'a Model,
     set: Cow<'a, MeasurementSet>,
     options: &CalibrationOptions,
-) -> Result<Identification<'a>, CalibError> {
+) -> Result<(ErrorModel<'a>, Layout, usize, FrameStarts), CalibError> {
     options.check()?;
     if options
         .cancel
@@ -413,10 +416,6 @@ pub(crate) fn identify<'a>(
     {
         return Err(CalibError::Cancelled);
     }
-    // Too few poses is the first thing to tell (before a registration that
-    // would fail on them for a less helpful reason): the model laid out
-    // from the nominal starts, then started where the registration puts
-    // its frames.
     let nominal = FrameStarts::nominal(
         &set,
         nalgebra::Isometry3::identity(),
@@ -427,6 +426,20 @@ pub(crate) fn identify<'a>(
     let free_count = check_counts(&laid_out, &layout)?;
     let starts = frame_starts(model, laid_out.set(), options)?;
     let problem = laid_out.restarted(&starts)?;
+    Ok((problem, layout, free_count, starts))
+}
+
+/// Identifies `model` from `set` under `options`: the steps of the module
+/// docs.
+///
+/// # Errors
+/// As [`crate::calibrate`].
+pub(crate) fn identify<'a>(
+    model: &'a Model,
+    set: Cow<'a, MeasurementSet>,
+    options: &CalibrationOptions,
+) -> Result<Identification<'a>, CalibError> {
+    let (problem, layout, free_count, starts) = set_up(model, set, options)?;
     let (weights, absolute) = row_weights(&problem, options)?;
     let limits: Vec<f64> = layout
         .kinds
