@@ -4,24 +4,8 @@
 
 use rand::{Rng, SeedableRng};
 
+use super::tests::{ur10, ur10_box};
 use super::*;
-
-fn ur10() -> Model {
-    crate::load_robot("ur10").unwrap()
-}
-
-fn ur10_box() -> JointBox {
-    JointBox {
-        ranges: vec![
-            (-1.5, 1.5),
-            (-2.2, -0.6),
-            (0.5, 2.2),
-            (-2.5, 0.5),
-            (0.5, 2.6),
-            (-3.0, 3.0),
-        ],
-    }
-}
 
 fn options(model: &Model) -> CalibrationOptions {
     let mut options = CalibrationOptions::for_model(model);

@@ -1,11 +1,11 @@
 use super::*;
 
-fn ur10() -> Model {
+pub(super) fn ur10() -> Model {
     crate::load_robot("ur10").unwrap()
 }
 
 /// A box of the UR10's workspace away from its singular configurations.
-fn ur10_box() -> JointBox {
+pub(super) fn ur10_box() -> JointBox {
     JointBox {
         ranges: vec![
             (-1.5, 1.5),
