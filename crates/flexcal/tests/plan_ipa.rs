@@ -76,13 +76,18 @@ fn print(check: &IpaPlanCheck) {
     );
 }
 
+/// Series B, C and D's files, or `None` (each absent one said) when the
+/// data is not there.
+fn series_b_c_d() -> Option<(PathBuf, PathBuf, PathBuf)> {
+    let b = series("Series_B", "measurements_joint_configurations.csv");
+    let c = series("Series_C", "measurements_random_poses.csv");
+    let d = series("Series_D", "measurements_iso_cubes.csv");
+    Some((b?, c?, d?))
+}
+
 #[test]
 fn planned_bounds_on_the_ipa_pairs() {
-    let (Some(b), Some(c), Some(d)) = (
-        series("Series_B", "measurements_joint_configurations.csv"),
-        series("Series_C", "measurements_random_poses.csv"),
-        series("Series_D", "measurements_iso_cubes.csv"),
-    ) else {
+    let Some((b, c, d)) = series_b_c_d() else {
         return;
     };
     let model = flexcal::load_robot("ur10").unwrap();
@@ -113,11 +118,7 @@ fn planned_bounds_on_the_ipa_pairs() {
 
 #[test]
 fn planned_bounds_with_series_d_as_prior() {
-    let (Some(b), Some(c), Some(d)) = (
-        series("Series_B", "measurements_joint_configurations.csv"),
-        series("Series_C", "measurements_random_poses.csv"),
-        series("Series_D", "measurements_iso_cubes.csv"),
-    ) else {
+    let Some((b, c, d)) = series_b_c_d() else {
         return;
     };
     let model = flexcal::load_robot("ur10").unwrap();
